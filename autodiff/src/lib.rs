@@ -1,1 +1,27 @@
-//! placeholder, filled by its issue
+//! Small dense tensors and a reverse-mode tape whose batched row functions are differentiated
+//! generically.
+//!
+//! - [`Real`]: the scalar algebra (`f64`, and nesting forward-mode [`Dual`] numbers) every
+//!   differentiable function is written against, once;
+//! - [`Tensor`]: dense row-major `f64`, 1-D or 2-D;
+//! - [`Tape`] + [`Var`]: tensor-level reverse mode, with the batched local-function op
+//!   ([`Tape::map_rows`]) and the in-place Gauss–Seidel row update ([`Tape::update_rows`]) that
+//!   record a whole batch of rows as one node;
+//! - [`RowFn`]: a user function applied per row, whose vector–Jacobian product the engine derives.
+//!
+//! The crate knows nothing about cloth.
+
+pub mod dual;
+pub mod index;
+pub mod real;
+pub mod rowfn;
+pub mod tape;
+pub mod tensor;
+pub mod update;
+
+pub use dual::Dual;
+pub use index::RowIndex;
+pub use real::Real;
+pub use rowfn::{vjp_by_duals, DynRowFn, RowFn};
+pub use tape::{Gradients, Tape, Var};
+pub use tensor::Tensor;
