@@ -112,30 +112,17 @@ impl GridMesh {
         edges
     }
 
-    /// Maps every triangle edge `(i<j)` to the list of `(triangle index, opposite vertex)`, in triangle order.
-    fn edge_opposites(&self) -> HashMap<[usize; 2], Vec<(usize, usize)>> {
-        let mut map: HashMap<[usize; 2], Vec<(usize, usize)>> =
+    /// Maps every triangle edge `[i, j]` (`i < j`) to the vertices opposite it, in triangle order.
+    fn edge_opposites(&self) -> HashMap<[usize; 2], Vec<usize>> {
+        let mut map: HashMap<[usize; 2], Vec<usize>> =
             HashMap::with_capacity(3 * self.triangles.len());
-        for (t, tri) in self.triangles.iter().enumerate() {
+        for tri in &self.triangles {
             for k in 0..3 {
                 let (i, j, o) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
-                map.entry([i.min(j), i.max(j)]).or_default().push((t, o));
+                map.entry([i.min(j), i.max(j)]).or_default().push(o);
             }
         }
         map
-    }
-
-    /// The interior edges (shared by two triangles) in canonical edge order, each with its
-    /// `(triangle, opposite vertex)` pairs in increasing triangle index.
-    fn interior_edges(&self) -> Vec<([usize; 2], [(usize, usize); 2])> {
-        let opp = self.edge_opposites();
-        self.stretch_edges()
-            .into_iter()
-            .filter_map(|e| match opp.get(&e).map(Vec::as_slice) {
-                Some(&[first, second]) => Some((e, [first, second])),
-                _ => None,
-            })
-            .collect()
     }
 
     /// The paper's distance-type bending pairs: for each interior edge, in the order of
@@ -143,20 +130,24 @@ impl GridMesh {
     ///
     /// Count: `(rows−2)·(cols−1) + (rows−1)·(cols−2) + (rows−1)·(cols−1)` (225 for `10 × 10`).
     pub fn bending_pairs(&self) -> Vec<[usize; 2]> {
-        self.interior_edges()
+        self.dihedral_quads()
             .into_iter()
-            .map(|(_, [(_, o0), (_, o1)])| [o0.min(o1), o0.max(o1)])
+            .map(|[_, _, o0, o1]| [o0.min(o1), o0.max(o1)])
             .collect()
     }
 
-    /// Dihedral-bending stencils, one per interior edge in the order of [`GridMesh::stretch_edges`]:
-    /// `[e0, e1, o0, o1]` where `e0 < e1` are the shared edge's vertices, `o0` is the vertex opposite the
-    /// edge in the triangle that comes **first** in [`GridMesh::triangles`] and `o1` the one opposite it in
-    /// the later triangle. (`o0`, `o1` are not sorted.)
+    /// Dihedral-bending stencils, one per interior edge (an edge shared by two triangles) in the order of
+    /// [`GridMesh::stretch_edges`]: `[e0, e1, o0, o1]` where `e0 < e1` are the shared edge's vertices, `o0`
+    /// is the vertex opposite the edge in the triangle that comes **first** in [`GridMesh::triangles`] and
+    /// `o1` the one opposite it in the later triangle (`o0`, `o1` are not sorted).
     pub fn dihedral_quads(&self) -> Vec<[usize; 4]> {
-        self.interior_edges()
+        let opp = self.edge_opposites();
+        self.stretch_edges()
             .into_iter()
-            .map(|([e0, e1], [(_, o0), (_, o1)])| [e0, e1, o0, o1])
+            .filter_map(|e| match opp.get(&e).map(Vec::as_slice) {
+                Some(&[o0, o1]) => Some([e[0], e[1], o0, o1]),
+                _ => None,
+            })
             .collect()
     }
 }
