@@ -700,13 +700,13 @@ impl Scene {
 
     /// Checks every value; the first problem found is returned as [`SceneError::Invalid`] naming the field.
     ///
-    /// Rejects: non-finite numbers anywhere; `rows`/`cols` of 0 or more than [`MAX_PARTICLES`] particles;
-    /// a zero `right` (when `cols > 1`) or `down` (when `rows > 1`), or parallel `right` and `down`;
-    /// `particle_mass ≤ 0`; non-positive stiffness; `dt ≤ 0`; `iterations = 0`; control particles out of
-    /// range or repeated; sphere sets that are empty, whose radii and centres differ in number, or a radius `≤ 0`;
-    /// a zero plane normal; `horizon` of 0 or above [`MAX_HORIZON`]; no targets, a target out of range or
-    /// repeated; negative `alpha`, `beta`, `delta`; initial controls of the wrong shape. No control
-    /// particles at all is allowed.
+    /// Rejects: non-finite numbers anywhere; `rows`/`cols` of 0 or more than [`MAX_PARTICLES`]
+    /// particles; a zero `right` (when `cols > 1`) or `down` (when `rows > 1`), or parallel `right` and
+    /// `down`; `particle_mass ≤ 0`; non-positive stiffness; `dt ≤ 0`; `iterations = 0`; control particles
+    /// out of range or repeated; sphere sets that are empty, whose radii and centres differ in number, or
+    /// with a radius `≤ 0`; a zero plane normal; `horizon` of 0 or above [`MAX_HORIZON`]; no targets, a
+    /// target out of range or repeated; negative `alpha`, `beta`, `delta`; initial controls of the wrong
+    /// shape. No control particles at all is allowed.
     pub fn validate(&self) -> Result<(), SceneError> {
         self.validate_cloth()?;
         self.validate_material()?;
