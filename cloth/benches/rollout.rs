@@ -1,0 +1,34 @@
+//! Forward and forward + gradient of a whole rollout of `u_obstacle` (T = 10, 100 iterations) at
+//! mesh sizes n = 10, 20, 40. Run: `cargo bench -p cloth --bench rollout`.
+
+use autodiff::Tensor;
+use cloth::{Model, Scene};
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use std::hint::black_box;
+
+fn setup(n: usize) -> (Model, Tensor, f64) {
+    let base = Scene::builtin("u_obstacle").expect("built-in scene");
+    let scene = base.refined(n, n).expect("refined scene");
+    let model = Model::from_scene(&scene).expect("model");
+    let u = scene.initial_controls_array();
+    let u = Tensor::new(u.len(), 3 * scene.controls.len(), u.into_iter().flatten().flatten().collect());
+    (model, u, scene.task.delta)
+}
+
+fn rollout(c: &mut Criterion) {
+    let mut group = c.benchmark_group("u_obstacle");
+    group.sample_size(10);
+    for n in [10, 20, 40] {
+        let (model, u, delta) = setup(n);
+        group.bench_with_input(BenchmarkId::new("forward", n), &n, |b, _| {
+            b.iter(|| black_box(model.evaluate(&u, delta, false).expect("finite")))
+        });
+        group.bench_with_input(BenchmarkId::new("forward_gradient", n), &n, |b, _| {
+            b.iter(|| black_box(model.evaluate(&u, delta, true).expect("finite")))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, rollout);
+criterion_main!(benches);

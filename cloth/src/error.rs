@@ -1,0 +1,32 @@
+//! The cloth crate's errors.
+
+use crate::scene::SceneError;
+
+/// Everything that can go wrong building or running a cloth model.
+#[derive(Debug, thiserror::Error)]
+pub enum ClothError {
+    /// The scene was rejected (malformed, or a field out of range).
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// A constraint set could not be added.
+    #[error("constraint group `{name}`: {reason}")]
+    InvalidConstraint {
+        /// The group's name.
+        name: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The controls do not match the scene.
+    #[error("controls: {0}")]
+    Controls(String),
+    /// The simulation produced a non-finite position.
+    #[error("simulation diverged at step {step}: particle {particle} is at {position:?}")]
+    Diverged {
+        /// Time step (1-based) whose result is not finite.
+        step: usize,
+        /// First particle with a non-finite coordinate.
+        particle: usize,
+        /// Its position.
+        position: [f64; 3],
+    },
+}

@@ -1,0 +1,148 @@
+//! Whole-rollout evaluation: metrics, and gradients with respect to the controls by reverse mode
+//! with per-step checkpointing (peak tape memory is one time step, whatever the horizon).
+
+use crate::cost::trajectory_irregularity;
+use crate::error::ClothError;
+use crate::model::Model;
+use crate::sim::Controls;
+use autodiff::{Tape, Tensor, Var};
+
+/// A scalar function of a rollout that is a sum of per-step terms `Σ_t f(t, x^(t))`.
+///
+/// `f` records its term for step `t` (1-based) on the tape from the state `x`, or returns `None`
+/// when it has no term at that step.
+pub type StepCost<'a> = &'a (dyn Fn(&mut Tape, usize, Var) -> Option<Var> + Sync);
+
+/// The paper's metrics of one rollout.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Metrics {
+    /// Target error `G`.
+    #[serde(rename = "G")]
+    pub g: f64,
+    /// Trajectory irregularity `T` (unscaled).
+    #[serde(rename = "T")]
+    pub t: f64,
+    /// Elastic energy `E` summed over steps 1..T (unscaled).
+    #[serde(rename = "E")]
+    pub e: f64,
+    /// `α·T`.
+    pub alpha_t: f64,
+    /// `β·E`.
+    pub beta_e: f64,
+    /// Safety `C = −Σ_t Σ_i relu(δ − SDF)` (0 without safety obstacles).
+    #[serde(rename = "C")]
+    pub c: f64,
+    /// Smallest signed distance of any particle at any step 1..T (∞ without safety obstacles).
+    pub min_sdf: f64,
+    /// `L = G + αT + βE`.
+    #[serde(rename = "L")]
+    pub l: f64,
+}
+
+/// Metrics, states and (optionally) gradients of `L` and `C` with respect to the controls.
+#[derive(Clone, Debug)]
+pub struct Evaluation {
+    /// The metrics.
+    pub metrics: Metrics,
+    /// `T + 1` states, the first the rest state.
+    pub states: Vec<Tensor>,
+    /// `dL/dU`, shaped like the controls.
+    pub grad_l: Option<Tensor>,
+    /// `dC/dU`, shaped like the controls.
+    pub grad_c: Option<Tensor>,
+}
+
+impl Model {
+    /// Simulates `controls` and evaluates the paper's metrics with safety margin `delta`;
+    /// with `gradients`, also `dL/dU` and `dC/dU`.
+    pub fn evaluate(&self, controls: &Controls, delta: f64, gradients: bool) -> Result<Evaluation, ClothError> {
+        let states = self.simulate(controls)?;
+        let mut m = Metrics {
+            min_sdf: f64::INFINITY,
+            ..Metrics::default()
+        };
+        let mut tape = Tape::new();
+        for (t, x) in states.iter().enumerate().skip(1) {
+            tape.clear();
+            let xv = tape.leaf(x.clone());
+            if let Some(e) = self.record_energy(&mut tape, xv) {
+                m.e += tape.value(e).item();
+            }
+            if let Some(sdf) = self.record_sdf(&mut tape, xv) {
+                m.min_sdf = m.min_sdf.min(tape.value(sdf).data().iter().copied().fold(f64::INFINITY, f64::min));
+            }
+            if let Some(c) = self.record_safety(&mut tape, xv, delta) {
+                m.c += tape.value(c).item();
+            }
+            if t == self.task.horizon {
+                let g = self.record_target_error(&mut tape, xv);
+                m.g = tape.value(g).item();
+            }
+        }
+        let (t_cost, t_grad) = trajectory_irregularity(controls);
+        m.t = t_cost;
+        m.alpha_t = self.task.alpha * t_cost;
+        m.beta_e = self.task.beta * m.e;
+        m.l = m.g + m.alpha_t + m.beta_e;
+        let (mut grad_l, mut grad_c) = (None, None);
+        if gradients {
+            let beta = self.task.beta;
+            let horizon = self.task.horizon;
+            let loss = |tape: &mut Tape, t: usize, x: Var| {
+                let e = self.record_energy(tape, x).map(|e| tape.scale(e, beta));
+                let g = (t == horizon).then(|| self.record_target_error(tape, x));
+                match (e, g) {
+                    (Some(e), Some(g)) => Some(tape.add(e, g)),
+                    (e, g) => e.or(g),
+                }
+            };
+            let safety = |tape: &mut Tape, _t: usize, x: Var| self.record_safety(tape, x, delta);
+            let mut grads = self.gradients(&states, controls, &[&loss, &safety]);
+            let mut gl = grads.remove(0);
+            for (a, b) in gl.data_mut().iter_mut().zip(t_grad.data()) {
+                *a += self.task.alpha * b;
+            }
+            grad_l = Some(gl);
+            grad_c = Some(grads.remove(0));
+        }
+        Ok(Evaluation {
+            metrics: m,
+            states,
+            grad_l,
+            grad_c,
+        })
+    }
+
+    /// Gradients of several per-step costs with respect to the controls, by reverse mode over the
+    /// rollout `states` (from [`Model::simulate`]): each step is re-recorded from its checkpoint,
+    /// pulled back once per cost, and dropped.
+    pub fn gradients(&self, states: &[Tensor], controls: &Controls, costs: &[StepCost<'_>]) -> Vec<Tensor> {
+        let horizon = self.task.horizon;
+        let mut grads: Vec<Tensor> = costs.iter().map(|_| self.zero_controls()).collect();
+        let mut adjoints: Vec<Option<Tensor>> = costs.iter().map(|_| None).collect();
+        let mut tape = Tape::new();
+        for t in (1..=horizon).rev() {
+            tape.clear();
+            let x_prev = tape.leaf(states[t - 1].clone());
+            let u = tape.leaf(self.step_controls(controls, t - 1));
+            let x = self.record_step(&mut tape, x_prev, u);
+            let terms: Vec<Option<Var>> = costs.iter().map(|f| f(&mut tape, t, x)).collect();
+            for (i, term) in terms.iter().enumerate() {
+                let mut seeds = Vec::with_capacity(2);
+                if let Some(adj) = adjoints[i].take() {
+                    seeds.push((x, adj));
+                }
+                if let Some(c) = term {
+                    seeds.push((*c, Tensor::scalar(1.0)));
+                }
+                if seeds.is_empty() {
+                    continue;
+                }
+                let g = tape.vjp(&seeds);
+                grads[i].row_mut(t - 1).copy_from_slice(g.wrt(u).data());
+                adjoints[i] = Some(g.wrt(x_prev));
+            }
+        }
+        grads
+    }
+}

@@ -1,0 +1,160 @@
+//! The XPBD projection of one colour set of constraints, as an `autodiff` row function.
+//!
+//! Row `k` holds the positions of constraint `k`'s particles and its multiplier `λ`:
+//! `Δλ = (−C − α̃λ) / (Σᵢ wᵢ|∇ᵢC|² + α̃)`, `λ ← λ + Δλ`, `pᵢ ← pᵢ + wᵢ ∇ᵢC Δλ`.
+//! Inequality constraints are projected only while `C < 0`.
+//!
+//! The forward pass takes `∇C` from forward duals on the generic `C`. The vector–Jacobian product
+//! is the adjoint of the update formula above, with `∇C` and the Hessian–vector product `∇²C·v` again
+//! from duals (nested for the second derivative), so it serves every [`Constraint`] unchanged; a
+//! test checks it against the engine's generic dual-derived VJP.
+
+use crate::constraint::{value_and_gradient, Constraint, MAX_ARITY};
+use autodiff::{Dual, Real, RowFn};
+use nalgebra::Vector3;
+use std::sync::Arc;
+
+const MAX_D: usize = 3 * MAX_ARITY;
+
+/// The Gauss–Seidel projection of a set of constraints that share no particle.
+pub struct Projection<C> {
+    constraint: Arc<C>,
+    /// Constraint instance of each row.
+    instances: Vec<usize>,
+    /// Inverse mass of each row's particles (`rows × ARITY`).
+    inv_mass: Vec<f64>,
+    /// `α̃ = 1/(k Δt²)`; 0 for a rigid constraint.
+    compliance: f64,
+}
+
+impl<C: Constraint> Projection<C> {
+    /// A projection over `instances` of `constraint`, with per-row particle inverse masses.
+    ///
+    /// # Panics
+    /// If `inv_mass.len() != instances.len() · ARITY` or `compliance` is negative or not finite.
+    pub fn new(constraint: Arc<C>, instances: Vec<usize>, inv_mass: Vec<f64>, compliance: f64) -> Self {
+        assert_eq!(inv_mass.len(), instances.len() * C::ARITY, "Projection: one inverse mass per particle per row");
+        assert!(compliance >= 0.0 && compliance.is_finite(), "Projection: compliance must be finite and ≥ 0");
+        Projection {
+            constraint,
+            instances,
+            inv_mass,
+            compliance,
+        }
+    }
+
+    /// Number of rows (constraints) in the set.
+    pub fn rows(&self) -> usize {
+        self.instances.len()
+    }
+
+    /// Σᵢ wᵢ|gᵢ|² for row `row`.
+    #[inline(always)]
+    fn weighted_sq<R: Real>(&self, row: usize, g: &[R]) -> R {
+        let w = &self.inv_mass[row * C::ARITY..(row + 1) * C::ARITY];
+        let mut s = R::zero();
+        for (i, &wi) in w.iter().enumerate() {
+            let gi = &g[3 * i..3 * i + 3];
+            s += (gi[0] * gi[0] + gi[1] * gi[1] + gi[2] * gi[2]) * wi;
+        }
+        s
+    }
+}
+
+impl<C: Constraint> RowFn for Projection<C> {
+    fn n_in(&self) -> usize {
+        3 * C::ARITY + 1
+    }
+    fn n_out(&self) -> usize {
+        3 * C::ARITY + 1
+    }
+
+    #[inline]
+    fn eval<R: Real>(&self, row: usize, input: &[R], out: &mut [R]) {
+        let d = 3 * C::ARITY;
+        out.copy_from_slice(input);
+        let mut g = [R::zero(); MAX_D];
+        let c = value_and_gradient(self.constraint.as_ref(), self.instances[row], &input[..d], &mut g);
+        if C::INEQUALITY && c.value() >= 0.0 {
+            return;
+        }
+        let denom = self.weighted_sq(row, &g) + self.compliance;
+        if denom.value() == 0.0 {
+            return;
+        }
+        let lambda = input[d];
+        let dlambda = (-c - lambda * self.compliance) / denom;
+        let w = &self.inv_mass[row * C::ARITY..(row + 1) * C::ARITY];
+        for j in 0..d {
+            out[j] = input[j] + g[j] * w[j / 3] * dlambda;
+        }
+        out[d] = lambda + dlambda;
+    }
+
+    fn vjp(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+        let d = 3 * C::ARITY;
+        // The identity part of the update.
+        for (a, o) in in_adj.iter_mut().zip(out_adj) {
+            *a += o;
+        }
+        let inst = self.instances[row];
+        let mut g = [0.0; MAX_D];
+        let c = value_and_gradient(self.constraint.as_ref(), inst, &input[..d], &mut g);
+        if C::INEQUALITY && c >= 0.0 {
+            return;
+        }
+        let denom = self.weighted_sq(row, &g) + self.compliance;
+        if denom == 0.0 {
+            return;
+        }
+        let w = &self.inv_mass[row * C::ARITY..(row + 1) * C::ARITY];
+        let dlambda = (-c - input[d] * self.compliance) / denom;
+        // Adjoint of Δλ, then of its numerator and denominator.
+        let mut a_dl = out_adj[d];
+        for j in 0..d {
+            a_dl += w[j / 3] * g[j] * out_adj[j];
+        }
+        let a_num = a_dl / denom;
+        let a_den = -a_dl * dlambda / denom;
+        in_adj[d] -= self.compliance * a_num;
+        // Adjoint of ∇C: from pᵢ += wᵢ∇ᵢC Δλ and from the denominator Σ wᵢ|∇ᵢC|².
+        let mut a_g = [0.0; MAX_D];
+        for j in 0..d {
+            a_g[j] = w[j / 3] * (dlambda * out_adj[j] + 2.0 * a_den * g[j]);
+        }
+        // Positions: −a_num·∇C (through C) + ∇²C·a_g (through ∇C).
+        let hv = hessian_vector(self.constraint.as_ref(), inst, &input[..d], &a_g[..d]);
+        for j in 0..d {
+            in_adj[j] += -a_num * g[j] + hv[j];
+        }
+    }
+}
+
+/// `∇²C(x)·v` for one instance, by forward-over-forward duals.
+pub fn hessian_vector<C: Constraint>(c: &C, instance: usize, x: &[f64], v: &[f64]) -> [f64; MAX_D] {
+    match C::ARITY {
+        1 => hessian_vector_n::<C, 3>(c, instance, x, v),
+        2 => hessian_vector_n::<C, 6>(c, instance, x, v),
+        3 => hessian_vector_n::<C, 9>(c, instance, x, v),
+        4 => hessian_vector_n::<C, 12>(c, instance, x, v),
+        a => panic!("constraint arity {a} is not supported (1 to {MAX_ARITY})"),
+    }
+}
+
+#[inline(always)]
+fn hessian_vector_n<C: Constraint, const D: usize>(c: &C, instance: usize, x: &[f64], v: &[f64]) -> [f64; MAX_D] {
+    type Inner = Dual<f64, 1>;
+    let mut p = [Vector3::<Dual<Inner, D>>::zeros(); MAX_ARITY];
+    for (i, pi) in p.iter_mut().take(C::ARITY).enumerate() {
+        for k in 0..3 {
+            let j = 3 * i + k;
+            pi[k] = Dual::variable(Inner { re: x[j], eps: [v[j]] }, j);
+        }
+    }
+    let r = c.c(instance, &p[..C::ARITY]);
+    let mut hv = [0.0; MAX_D];
+    for j in 0..D {
+        hv[j] = r.eps[j].eps[0];
+    }
+    hv
+}

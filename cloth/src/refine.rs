@@ -1,0 +1,34 @@
+//! The same scene at another mesh resolution, for convergence and scaling studies.
+
+use crate::scene::{Scene, SceneError};
+
+/// The particle of a `to`-point axis nearest to particle `i` of a `from`-point axis, by fractional
+/// position along the axis.
+fn map_axis(i: usize, from: usize, to: usize) -> usize {
+    if from <= 1 || to <= 1 {
+        return 0;
+    }
+    ((i as f64) * (to - 1) as f64 / (from - 1) as f64).round() as usize
+}
+
+impl Scene {
+    /// This scene with a `rows × cols` cloth of the same size and placement.
+    ///
+    /// Control and target particles move to the particle at the nearest fractional grid position
+    /// (corners stay corners); target positions are unchanged, so `G` measures the same material
+    /// points.
+    pub fn refined(&self, rows: usize, cols: usize) -> Result<Scene, SceneError> {
+        let (r0, c0) = (self.cloth.rows, self.cloth.cols);
+        let map = |[r, c]: [usize; 2]| [map_axis(r, r0, rows), map_axis(c, c0, cols)];
+        let mut scene = self.clone();
+        scene.cloth.rows = rows;
+        scene.cloth.cols = cols;
+        scene.controls = self.controls.iter().copied().map(map).collect();
+        for t in &mut scene.task.targets {
+            t.particle = map(t.particle);
+        }
+        scene.name = format!("{}@{rows}x{cols}", self.name);
+        scene.validate()?;
+        Ok(scene)
+    }
+}

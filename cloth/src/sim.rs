@@ -1,0 +1,144 @@
+//! Quasi-static XPBD time stepping: a plain `f64` path and a recorded path, bitwise equal.
+//!
+//! One step (the paper's Algorithm 1): every particle `x ← x_prev + ½gΔt²`; control particles
+//! `x_k ← x_prev_k + u_k`; `λ ← 0`; then `iterations` Gauss–Seidel sweeps over the colour sets of
+//! every constraint group in order. Both paths run the same [`autodiff::update::update_rows`]
+//! kernel on the same inputs, so their states agree bit for bit.
+
+use crate::error::ClothError;
+use crate::model::Model;
+use autodiff::update::update_rows;
+use autodiff::{Tape, Tensor, Var};
+
+/// Controls: one row per time step, `3 × n_controls` displacements per row.
+pub type Controls = Tensor;
+
+/// Reusable buffers of the plain path.
+#[derive(Default)]
+pub struct StepScratch {
+    lambdas: Vec<Tensor>,
+    inputs: Vec<f64>,
+    outputs: Vec<f64>,
+}
+
+impl Model {
+    /// Checks that `controls` has one row of `3 × n_controls` finite values per time step.
+    pub fn check_controls(&self, controls: &Controls) -> Result<(), ClothError> {
+        let (t, k) = (self.task.horizon, self.n_controls());
+        if controls.shape() != (t, 3 * k) {
+            return Err(ClothError::Controls(format!(
+                "expected {t} steps × {k} control points × 3, got {} steps × {} values",
+                controls.rows(),
+                controls.cols()
+            )));
+        }
+        if let Some(i) = controls.data().iter().position(|v| !v.is_finite()) {
+            return Err(ClothError::Controls(format!(
+                "step {} control {} component {} is not finite",
+                i / (3 * k),
+                (i % (3 * k)) / 3,
+                i % 3
+            )));
+        }
+        Ok(())
+    }
+
+    /// Zero controls for the model's horizon.
+    pub fn zero_controls(&self) -> Controls {
+        Tensor::zeros(self.task.horizon, 3 * self.n_controls())
+    }
+
+    /// The controls of step `t` as an `n_controls × 3` tensor.
+    pub fn step_controls(&self, controls: &Controls, t: usize) -> Tensor {
+        Tensor::new(self.n_controls(), 3, controls.row(t).to_vec())
+    }
+
+    /// One time step on plain `f64` data.
+    pub fn step(&self, x_prev: &Tensor, u: &Tensor, scratch: &mut StepScratch) -> Tensor {
+        let mut x = x_prev.clone();
+        if let Some(g) = self.gravity_step {
+            for row in x.data_mut().chunks_exact_mut(3) {
+                for k in 0..3 {
+                    row[k] += g[k];
+                }
+            }
+        }
+        for (k, &p) in self.controls.as_slice().iter().enumerate() {
+            for j in 0..3 {
+                x.row_mut(p)[j] = x_prev.get(p, j) + u.get(k, j);
+            }
+        }
+        let sets = self.groups.iter().flat_map(|g| &g.sets);
+        scratch.lambdas.clear();
+        scratch.lambdas.extend(sets.clone().map(|s| Tensor::zeros(s.index.rows(), 1)));
+        for _ in 0..self.iterations {
+            for (set, lambda) in sets.clone().zip(scratch.lambdas.iter_mut()) {
+                update_rows(
+                    set.projection.as_ref(),
+                    &set.index,
+                    &mut x,
+                    lambda,
+                    &mut scratch.inputs,
+                    &mut scratch.outputs,
+                );
+            }
+        }
+        x
+    }
+
+    /// Records one time step on `tape` from the state `x_prev` and controls `u` (`n_controls × 3`).
+    pub fn record_step(&self, tape: &mut Tape, x_prev: Var, u: Var) -> Var {
+        let mut x = match self.gravity_step {
+            Some(g) => {
+                let g = tape.leaf(Tensor::new(1, 3, g.to_vec()));
+                tape.add(x_prev, g)
+            }
+            None => x_prev,
+        };
+        if self.n_controls() > 0 {
+            let held = tape.gather(x_prev, &self.controls);
+            let moved = tape.add(held, u);
+            x = tape.assign_rows(x, &self.controls, moved);
+        }
+        let sets: Vec<_> = self.groups.iter().flat_map(|g| &g.sets).collect();
+        let mut lambdas: Vec<Var> = sets.iter().map(|s| tape.leaf(Tensor::zeros(s.index.rows(), 1))).collect();
+        for _ in 0..self.iterations {
+            for (set, lambda) in sets.iter().zip(lambdas.iter_mut()) {
+                let (nx, nl) = tape.update_rows(&set.projection, &set.index, x, *lambda);
+                x = nx;
+                *lambda = nl;
+            }
+        }
+        x
+    }
+
+    /// Simulates `controls` from the rest state: `T + 1` states, the first the rest state.
+    ///
+    /// # Errors
+    /// If the controls do not fit the model, or a state stops being finite (naming the step and
+    /// particle).
+    pub fn simulate(&self, controls: &Controls) -> Result<Vec<Tensor>, ClothError> {
+        self.check_controls(controls)?;
+        let mut states = Vec::with_capacity(self.task.horizon + 1);
+        states.push(self.rest.clone());
+        let mut scratch = StepScratch::default();
+        for t in 0..self.task.horizon {
+            let x = self.step(&states[t], &self.step_controls(controls, t), &mut scratch);
+            check_finite(&x, t + 1)?;
+            states.push(x);
+        }
+        Ok(states)
+    }
+}
+
+/// Reports the first non-finite particle of a state.
+pub fn check_finite(x: &Tensor, step: usize) -> Result<(), ClothError> {
+    match (0..x.rows()).find(|&p| x.row(p).iter().any(|v| !v.is_finite())) {
+        None => Ok(()),
+        Some(p) => Err(ClothError::Diverged {
+            step,
+            particle: p,
+            position: [x.get(p, 0), x.get(p, 1), x.get(p, 2)],
+        }),
+    }
+}
