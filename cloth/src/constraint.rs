@@ -27,7 +27,12 @@ pub trait Constraint: Send + Sync + 'static {
 
 /// `C` and `∇C` of one instance: `grad[3·i + k] = ∂C/∂pᵢₖ`. `x` holds `3·ARITY` coordinates.
 #[inline]
-pub fn value_and_gradient<C: Constraint, R: Real>(c: &C, instance: usize, x: &[R], grad: &mut [R]) -> R {
+pub fn value_and_gradient<C: Constraint, R: Real>(
+    c: &C,
+    instance: usize,
+    x: &[R],
+    grad: &mut [R],
+) -> R {
     match C::ARITY {
         1 => value_and_gradient_n::<C, R, 3>(c, instance, x, grad),
         2 => value_and_gradient_n::<C, R, 6>(c, instance, x, grad),
@@ -38,7 +43,12 @@ pub fn value_and_gradient<C: Constraint, R: Real>(c: &C, instance: usize, x: &[R
 }
 
 #[inline(always)]
-fn value_and_gradient_n<C: Constraint, R: Real, const D: usize>(c: &C, instance: usize, x: &[R], grad: &mut [R]) -> R {
+fn value_and_gradient_n<C: Constraint, R: Real, const D: usize>(
+    c: &C,
+    instance: usize,
+    x: &[R],
+    grad: &mut [R],
+) -> R {
     let mut p = [Vector3::<Dual<R, D>>::zeros(); MAX_ARITY];
     for (i, pi) in p.iter_mut().take(C::ARITY).enumerate() {
         for k in 0..3 {

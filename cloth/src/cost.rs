@@ -63,7 +63,12 @@ pub fn trajectory_irregularity(controls: &Controls) -> (f64, Tensor) {
     let mut grad = Tensor::zeros(steps, width);
     let mut total = 0.0;
     for t in 1..steps {
-        let diff: Vec<f64> = controls.row(t).iter().zip(controls.row(t - 1)).map(|(a, b)| a - b).collect();
+        let diff: Vec<f64> = controls
+            .row(t)
+            .iter()
+            .zip(controls.row(t - 1))
+            .map(|(a, b)| a - b)
+            .collect();
         let norm = diff.iter().map(|d| d * d).sum::<f64>().sqrt();
         total += norm;
         if norm > 0.0 {

@@ -55,7 +55,12 @@ pub struct Evaluation {
 impl Model {
     /// Simulates `controls` and evaluates the paper's metrics with safety margin `delta`;
     /// with `gradients`, also `dL/dU` and `dC/dU`.
-    pub fn evaluate(&self, controls: &Controls, delta: f64, gradients: bool) -> Result<Evaluation, ClothError> {
+    pub fn evaluate(
+        &self,
+        controls: &Controls,
+        delta: f64,
+        gradients: bool,
+    ) -> Result<Evaluation, ClothError> {
         let states = self.simulate(controls)?;
         let mut m = Metrics {
             min_sdf: f64::INFINITY,
@@ -69,7 +74,13 @@ impl Model {
                 m.e += tape.value(e).item();
             }
             if let Some(sdf) = self.record_sdf(&mut tape, xv) {
-                m.min_sdf = m.min_sdf.min(tape.value(sdf).data().iter().copied().fold(f64::INFINITY, f64::min));
+                m.min_sdf = m.min_sdf.min(
+                    tape.value(sdf)
+                        .data()
+                        .iter()
+                        .copied()
+                        .fold(f64::INFINITY, f64::min),
+                );
             }
             if let Some(c) = self.record_safety(&mut tape, xv, delta) {
                 m.c += tape.value(c).item();
@@ -116,7 +127,12 @@ impl Model {
     /// Gradients of several per-step costs with respect to the controls, by reverse mode over the
     /// rollout `states` (from [`Model::simulate`]): each step is re-recorded from its checkpoint,
     /// pulled back once per cost, and dropped.
-    pub fn gradients(&self, states: &[Tensor], controls: &Controls, costs: &[StepCost<'_>]) -> Vec<Tensor> {
+    pub fn gradients(
+        &self,
+        states: &[Tensor],
+        controls: &Controls,
+        costs: &[StepCost<'_>],
+    ) -> Vec<Tensor> {
         let horizon = self.task.horizon;
         let mut grads: Vec<Tensor> = costs.iter().map(|_| self.zero_controls()).collect();
         let mut adjoints: Vec<Option<Tensor>> = costs.iter().map(|_| None).collect();

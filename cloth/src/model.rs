@@ -157,14 +157,25 @@ impl Model {
         };
 
         let edges = mesh.stretch_edges();
-        let rest = edges.iter().map(|&[i, j]| model.rest_distance(i, j)).collect();
-        model.add_constraints("stretch", Distance { rest }, flatten(&edges), scene.material.stretch.value())?;
+        let rest = edges
+            .iter()
+            .map(|&[i, j]| model.rest_distance(i, j))
+            .collect();
+        model.add_constraints(
+            "stretch",
+            Distance { rest },
+            flatten(&edges),
+            scene.material.stretch.value(),
+        )?;
         if let Some(bending) = &scene.material.bending {
             let k = bending.stiffness.value();
             match bending.model {
                 BendingModel::Distance => {
                     let pairs = mesh.bending_pairs();
-                    let rest = pairs.iter().map(|&[i, j]| model.rest_distance(i, j)).collect();
+                    let rest = pairs
+                        .iter()
+                        .map(|&[i, j]| model.rest_distance(i, j))
+                        .collect();
                     model.add_constraints("bending", Distance { rest }, flatten(&pairs), k)?;
                 }
                 BendingModel::Dihedral => {
@@ -173,17 +184,29 @@ impl Model {
                         .iter()
                         .map(|q| DihedralBending::angle(&q.map(|p| model.rest_point(p))))
                         .collect();
-                    model.add_constraints("bending", DihedralBending { rest }, flatten(&quads), k)?;
+                    model.add_constraints(
+                        "bending",
+                        DihedralBending { rest },
+                        flatten(&quads),
+                        k,
+                    )?;
                 }
             }
         }
         let (colliders, safety) = split_obstacles(&scene.obstacles);
         if !colliders.is_empty() {
             let free: Vec<usize> = (0..n).filter(|&p| model.inv_mass[p] > 0.0).collect();
-            model.add_constraints("collider", Collision { sdf: colliders }, free, f64::INFINITY)?;
+            model.add_constraints(
+                "collider",
+                Collision { sdf: colliders },
+                free,
+                f64::INFINITY,
+            )?;
         }
         if !safety.is_empty() {
-            model.safety = Some(Arc::new(ParticleSdf { sdf: safety.clone() }));
+            model.safety = Some(Arc::new(ParticleSdf {
+                sdf: safety.clone(),
+            }));
             model.safety_obstacles = safety;
         }
         Ok(model)
@@ -225,32 +248,50 @@ impl Model {
             reason,
         };
         if !(1..=MAX_ARITY).contains(&C::ARITY) {
-            return Err(invalid(format!("arity {} is outside 1..={MAX_ARITY}", C::ARITY)));
+            return Err(invalid(format!(
+                "arity {} is outside 1..={MAX_ARITY}",
+                C::ARITY
+            )));
         }
         if particles.len() % C::ARITY != 0 {
-            return Err(invalid(format!("{} particle indices do not form groups of {}", particles.len(), C::ARITY)));
+            return Err(invalid(format!(
+                "{} particle indices do not form groups of {}",
+                particles.len(),
+                C::ARITY
+            )));
         }
         if let Some(&p) = particles.iter().find(|&&p| p >= self.n_particles()) {
-            return Err(invalid(format!("particle {p} out of range ({} particles)", self.n_particles())));
+            return Err(invalid(format!(
+                "particle {p} out of range ({} particles)",
+                self.n_particles()
+            )));
         }
         if stiffness.is_nan() || stiffness <= 0.0 {
-            return Err(invalid(format!("stiffness must be positive, got {stiffness}")));
+            return Err(invalid(format!(
+                "stiffness must be positive, got {stiffness}"
+            )));
         }
         let rows: Vec<&[usize]> = particles.chunks_exact(C::ARITY).collect();
-        if let Some(k) = rows.iter().position(|r| (1..r.len()).any(|i| r[..i].contains(&r[i]))) {
+        if let Some(k) = rows
+            .iter()
+            .position(|r| (1..r.len()).any(|i| r[..i].contains(&r[i])))
+        {
             return Err(invalid(format!("constraint {k} names a particle twice")));
         }
         let compliance = if stiffness.is_infinite() {
             0.0
         } else {
-            1.0 / (stiffness * self.dt * self.dt)
+            (1.0 / stiffness) / (self.dt * self.dt)
         };
         let constraint = Arc::new(constraint);
         let colors = greedy_coloring(&rows, self.n_particles());
         let sets = independent_sets(&colors)
             .into_iter()
             .map(|members| {
-                let idx: Vec<usize> = members.iter().flat_map(|&k| rows[k].iter().copied()).collect();
+                let idx: Vec<usize> = members
+                    .iter()
+                    .flat_map(|&k| rows[k].iter().copied())
+                    .collect();
                 let w = idx.iter().map(|&p| self.inv_mass[p]).collect();
                 let projection = Projection::new(constraint.clone(), members, w, compliance);
                 ProjectionSet {
@@ -295,7 +336,14 @@ impl Model {
         let mut parts: Vec<String> = self
             .groups
             .iter()
-            .map(|g| format!("{} ({} constraints, {} sets)", g.name, g.count, g.sets.len()))
+            .map(|g| {
+                format!(
+                    "{} ({} constraints, {} sets)",
+                    g.name,
+                    g.count,
+                    g.sets.len()
+                )
+            })
             .collect();
         if self.gravity_step.is_some() {
             parts.push("gravity".into());

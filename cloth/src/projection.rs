@@ -32,9 +32,21 @@ impl<C: Constraint> Projection<C> {
     ///
     /// # Panics
     /// If `inv_mass.len() != instances.len() · ARITY` or `compliance` is negative or not finite.
-    pub fn new(constraint: Arc<C>, instances: Vec<usize>, inv_mass: Vec<f64>, compliance: f64) -> Self {
-        assert_eq!(inv_mass.len(), instances.len() * C::ARITY, "Projection: one inverse mass per particle per row");
-        assert!(compliance >= 0.0 && compliance.is_finite(), "Projection: compliance must be finite and ≥ 0");
+    pub fn new(
+        constraint: Arc<C>,
+        instances: Vec<usize>,
+        inv_mass: Vec<f64>,
+        compliance: f64,
+    ) -> Self {
+        assert_eq!(
+            inv_mass.len(),
+            instances.len() * C::ARITY,
+            "Projection: one inverse mass per particle per row"
+        );
+        assert!(
+            compliance >= 0.0 && compliance.is_finite(),
+            "Projection: compliance must be finite and ≥ 0"
+        );
         Projection {
             constraint,
             instances,
@@ -74,7 +86,12 @@ impl<C: Constraint> RowFn for Projection<C> {
         let d = 3 * C::ARITY;
         out.copy_from_slice(input);
         let mut g = [R::zero(); MAX_D];
-        let c = value_and_gradient(self.constraint.as_ref(), self.instances[row], &input[..d], &mut g);
+        let c = value_and_gradient(
+            self.constraint.as_ref(),
+            self.instances[row],
+            &input[..d],
+            &mut g,
+        );
         if C::INEQUALITY && c.value() >= 0.0 {
             return;
         }
@@ -142,13 +159,24 @@ pub fn hessian_vector<C: Constraint>(c: &C, instance: usize, x: &[f64], v: &[f64
 }
 
 #[inline(always)]
-fn hessian_vector_n<C: Constraint, const D: usize>(c: &C, instance: usize, x: &[f64], v: &[f64]) -> [f64; MAX_D] {
+fn hessian_vector_n<C: Constraint, const D: usize>(
+    c: &C,
+    instance: usize,
+    x: &[f64],
+    v: &[f64],
+) -> [f64; MAX_D] {
     type Inner = Dual<f64, 1>;
     let mut p = [Vector3::<Dual<Inner, D>>::zeros(); MAX_ARITY];
     for (i, pi) in p.iter_mut().take(C::ARITY).enumerate() {
         for k in 0..3 {
             let j = 3 * i + k;
-            pi[k] = Dual::variable(Inner { re: x[j], eps: [v[j]] }, j);
+            pi[k] = Dual::variable(
+                Inner {
+                    re: x[j],
+                    eps: [v[j]],
+                },
+                j,
+            );
         }
     }
     let r = c.c(instance, &p[..C::ARITY]);

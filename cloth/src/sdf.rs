@@ -50,7 +50,9 @@ pub struct Plane {
 impl SignedDistance for Plane {
     fn distance<R: Real>(&self, p: &Vector3<R>) -> R {
         let n = self.normal;
-        (p[0] - self.point[0]) * n[0] + (p[1] - self.point[1]) * n[1] + (p[2] - self.point[2]) * n[2]
+        (p[0] - self.point[0]) * n[0]
+            + (p[1] - self.point[1]) * n[1]
+            + (p[2] - self.point[2]) * n[2]
     }
 }
 

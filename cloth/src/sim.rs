@@ -70,7 +70,9 @@ impl Model {
         }
         let sets = self.groups.iter().flat_map(|g| &g.sets);
         scratch.lambdas.clear();
-        scratch.lambdas.extend(sets.clone().map(|s| Tensor::zeros(s.index.rows(), 1)));
+        scratch
+            .lambdas
+            .extend(sets.clone().map(|s| Tensor::zeros(s.index.rows(), 1)));
         for _ in 0..self.iterations {
             for (set, lambda) in sets.clone().zip(scratch.lambdas.iter_mut()) {
                 update_rows(
@@ -101,7 +103,10 @@ impl Model {
             x = tape.assign_rows(x, &self.controls, moved);
         }
         let sets: Vec<_> = self.groups.iter().flat_map(|g| &g.sets).collect();
-        let mut lambdas: Vec<Var> = sets.iter().map(|s| tape.leaf(Tensor::zeros(s.index.rows(), 1))).collect();
+        let mut lambdas: Vec<Var> = sets
+            .iter()
+            .map(|s| tape.leaf(Tensor::zeros(s.index.rows(), 1)))
+            .collect();
         for _ in 0..self.iterations {
             for (set, lambda) in sets.iter().zip(lambdas.iter_mut()) {
                 let (nx, nl) = tape.update_rows(&set.projection, &set.index, x, *lambda);

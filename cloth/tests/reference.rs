@@ -6,14 +6,20 @@ use cloth::{Model, Scene};
 
 fn initial(scene: &Scene) -> Tensor {
     let u = scene.initial_controls_array();
-    Tensor::new(u.len(), 3 * scene.controls.len(), u.into_iter().flatten().flatten().collect())
+    Tensor::new(
+        u.len(),
+        3 * scene.controls.len(),
+        u.into_iter().flatten().flatten().collect(),
+    )
 }
 
 #[test]
 fn u_obstacle_initial_guess_matches_reference() {
     let scene = Scene::builtin("u_obstacle").unwrap();
     let model = Model::from_scene(&scene).unwrap();
-    let ev = model.evaluate(&initial(&scene), scene.task.delta, false).unwrap();
+    let ev = model
+        .evaluate(&initial(&scene), scene.task.delta, false)
+        .unwrap();
     let m = ev.metrics;
     println!("{m:?}");
     assert!((m.l - 4.680198820574).abs() < 1e-11, "L = {}", m.l);
@@ -63,7 +69,13 @@ fn u_obstacle_gradient_matches_central_differences_along_random_directions() {
         let an_l: f64 = gl.data().iter().zip(&d).map(|(g, di)| g * di).sum();
         let an_c: f64 = gc.data().iter().zip(&d).map(|(g, di)| g * di).sum();
         println!("dir {seed}: dL {an_l:.10} vs FD {fd_l:.10}; dC {an_c:.10} vs FD {fd_c:.10}");
-        assert!((an_l - fd_l).abs() <= 1e-6 * fd_l.abs().max(1.0), "dL: {an_l} vs {fd_l}");
-        assert!((an_c - fd_c).abs() <= 1e-6 * fd_c.abs().max(1.0), "dC: {an_c} vs {fd_c}");
+        assert!(
+            (an_l - fd_l).abs() <= 1e-6 * fd_l.abs().max(1.0),
+            "dL: {an_l} vs {fd_l}"
+        );
+        assert!(
+            (an_c - fd_c).abs() <= 1e-6 * fd_c.abs().max(1.0),
+            "dC: {an_c} vs {fd_c}"
+        );
     }
 }
