@@ -6,7 +6,10 @@
 //! and signed distances are recorded: one tape node for a whole batch of rows.
 
 use crate::dual::Dual;
+use crate::index::RowIndex;
 use crate::real::Real;
+use crate::tensor::Tensor;
+use crate::update::{gather_update_inputs, scatter_update_outputs};
 use rayon::prelude::*;
 
 /// Tangent width used when the engine derives a vector–Jacobian product with duals.
@@ -69,15 +72,28 @@ pub fn vjp_by_duals<F: RowFn>(
 }
 
 /// Object-safe face of a [`RowFn`], so the tape can store any of them.
+///
+/// Its methods work on whole batches, so the blanket implementation monomorphises the row loop
+/// and inlines the user's `eval` (no dynamic dispatch per row).
 pub trait DynRowFn: Send + Sync {
     /// Inputs per row.
     fn n_in(&self) -> usize;
     /// Outputs per row.
     fn n_out(&self) -> usize;
-    /// `f64` evaluation of one row.
-    fn eval_f64(&self, row: usize, inputs: &[f64], outputs: &mut [f64]);
-    /// `in_adj += Jᵀ out_adj` for one row.
-    fn vjp_f64(&self, row: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64]);
+    /// Applies the function to each row of `input` (`rows × n_in`), writing `rows × n_out`.
+    fn eval_batch(&self, input: &[f64], output: &mut [f64]);
+    /// For each row, accumulates `in_adj[row] += Jᵀ out_adj[row]`.
+    fn vjp_batch(&self, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]);
+    /// For each batch row `k`, replaces the state rows `index.row(k)` and carry row `k` by the
+    /// function of (those rows, carry row), in place. With `saved`, the gathered inputs
+    /// (`rows × n_in`) are left there for a backward pass. The index must be disjoint.
+    fn update_batch(
+        &self,
+        index: &RowIndex,
+        state: &mut Tensor,
+        carry: &mut Tensor,
+        saved: Option<&mut Vec<f64>>,
+    );
 }
 
 impl<F: RowFn> DynRowFn for F {
@@ -87,13 +103,99 @@ impl<F: RowFn> DynRowFn for F {
     fn n_out(&self) -> usize {
         RowFn::n_out(self)
     }
-    fn eval_f64(&self, row: usize, inputs: &[f64], outputs: &mut [f64]) {
-        self.eval(row, inputs, outputs);
+    fn eval_batch(&self, input: &[f64], output: &mut [f64]) {
+        let (n_in, n_out) = (RowFn::n_in(self), RowFn::n_out(self));
+        if n_out == 0 {
+            return;
+        }
+        let run = |first: usize, out: &mut [f64]| {
+            for (k, o) in out.chunks_exact_mut(n_out).enumerate() {
+                let r = first + k;
+                self.eval(r, &input[r * n_in..(r + 1) * n_in], o);
+            }
+        };
+        if output.len() / n_out < PARALLEL_MIN_ROWS {
+            run(0, output);
+        } else {
+            output
+                .par_chunks_mut(ROWS_PER_TASK * n_out)
+                .enumerate()
+                .for_each(|(t, out)| run(t * ROWS_PER_TASK, out));
+        }
     }
-    fn vjp_f64(&self, row: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
-        self.vjp(row, inputs, out_adj, in_adj);
+    fn vjp_batch(&self, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+        let (n_in, n_out) = (RowFn::n_in(self), RowFn::n_out(self));
+        if n_in == 0 {
+            return;
+        }
+        let run = |first: usize, ia: &mut [f64]| {
+            for (k, a) in ia.chunks_exact_mut(n_in).enumerate() {
+                let r = first + k;
+                self.vjp(
+                    r,
+                    &input[r * n_in..(r + 1) * n_in],
+                    &out_adj[r * n_out..(r + 1) * n_out],
+                    a,
+                );
+            }
+        };
+        if in_adj.len() / n_in < PARALLEL_MIN_ROWS {
+            run(0, in_adj);
+        } else {
+            in_adj
+                .par_chunks_mut(ROWS_PER_TASK * n_in)
+                .enumerate()
+                .for_each(|(t, ia)| run(t * ROWS_PER_TASK, ia));
+        }
+    }
+    fn update_batch(
+        &self,
+        index: &RowIndex,
+        state: &mut Tensor,
+        carry: &mut Tensor,
+        saved: Option<&mut Vec<f64>>,
+    ) {
+        let rows = index.rows();
+        if rows >= PARALLEL_MIN_ROWS || saved.is_some() {
+            // Gather, evaluate (in parallel when large), scatter.
+            let mut local = Vec::new();
+            let inputs = saved.unwrap_or(&mut local);
+            gather_update_inputs(index, state, carry, inputs);
+            let mut outputs = vec![0.0; inputs.len()];
+            self.eval_batch(inputs, &mut outputs);
+            scatter_update_outputs(index, &outputs, state, carry);
+            return;
+        }
+        // Small batch: one row at a time through a stack buffer, no allocation.
+        let (sc, cc, arity) = (state.cols(), carry.cols(), index.arity());
+        let width = arity * sc + cc;
+        let mut buf_in = [0.0; STACK_ROW];
+        let mut buf_out = [0.0; STACK_ROW];
+        let (mut heap_in, mut heap_out) = (Vec::new(), Vec::new());
+        let (x, y): (&mut [f64], &mut [f64]) = if width <= STACK_ROW {
+            (&mut buf_in[..width], &mut buf_out[..width])
+        } else {
+            heap_in.resize(width, 0.0);
+            heap_out.resize(width, 0.0);
+            (&mut heap_in, &mut heap_out)
+        };
+        for k in 0..rows {
+            let idx = index.row(k);
+            for (j, &p) in idx.iter().enumerate() {
+                x[j * sc..(j + 1) * sc].copy_from_slice(state.row(p));
+            }
+            x[arity * sc..].copy_from_slice(carry.row(k));
+            self.eval(k, x, y);
+            for (j, &p) in idx.iter().enumerate() {
+                state.row_mut(p).copy_from_slice(&y[j * sc..(j + 1) * sc]);
+            }
+            carry.row_mut(k).copy_from_slice(&y[arity * sc..]);
+        }
     }
 }
+
+/// Row widths up to this go through stack buffers in [`DynRowFn::update_batch`].
+const STACK_ROW: usize = 32;
 
 /// Batches with fewer rows than this run on the calling thread; larger ones are split across the
 /// rayon pool. Rows are independent, so the result is bitwise the same either way.
@@ -104,63 +206,10 @@ const ROWS_PER_TASK: usize = 256;
 
 /// Applies `f` to each row of `input` (`rows × n_in`, row-major), writing `rows × n_out` into `output`.
 pub fn eval_rows(f: &dyn DynRowFn, input: &[f64], output: &mut [f64]) {
-    let (n_in, n_out) = (f.n_in(), f.n_out());
-    let rows = if n_in == 0 {
-        output.len() / n_out.max(1)
-    } else {
-        input.len() / n_in
-    };
-    let run = |first: usize, inp: &[f64], out: &mut [f64]| {
-        for k in 0..out.len() / n_out.max(1) {
-            f.eval_f64(
-                first + k,
-                &inp[k * n_in..(k + 1) * n_in],
-                &mut out[k * n_out..(k + 1) * n_out],
-            );
-        }
-    };
-    if rows < PARALLEL_MIN_ROWS || n_out == 0 {
-        run(0, input, output);
-    } else {
-        output
-            .par_chunks_mut(ROWS_PER_TASK * n_out)
-            .enumerate()
-            .for_each(|(t, out)| {
-                let first = t * ROWS_PER_TASK;
-                let rows_here = out.len() / n_out;
-                run(first, &input[first * n_in..(first + rows_here) * n_in], out);
-            });
-    }
+    f.eval_batch(input, output);
 }
 
 /// For each row, accumulates `in_adj[row] += Jᵀ out_adj[row]`.
 pub fn vjp_rows(f: &dyn DynRowFn, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
-    let (n_in, n_out) = (f.n_in(), f.n_out());
-    if n_in == 0 {
-        return;
-    }
-    let rows = input.len() / n_in;
-    let run = |first: usize, inp: &[f64], ia: &mut [f64]| {
-        for k in 0..ia.len() / n_in {
-            let r = first + k;
-            f.vjp_f64(
-                r,
-                &inp[k * n_in..(k + 1) * n_in],
-                &out_adj[r * n_out..(r + 1) * n_out],
-                &mut ia[k * n_in..(k + 1) * n_in],
-            );
-        }
-    };
-    if rows < PARALLEL_MIN_ROWS {
-        run(0, input, in_adj);
-    } else {
-        in_adj
-            .par_chunks_mut(ROWS_PER_TASK * n_in)
-            .enumerate()
-            .for_each(|(t, ia)| {
-                let first = t * ROWS_PER_TASK;
-                let rows_here = ia.len() / n_in;
-                run(first, &input[first * n_in..(first + rows_here) * n_in], ia);
-            });
-    }
+    f.vjp_batch(input, out_adj, in_adj);
 }

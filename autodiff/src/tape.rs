@@ -12,7 +12,7 @@
 use crate::index::RowIndex;
 use crate::rowfn::{eval_rows, vjp_rows, DynRowFn};
 use crate::tensor::Tensor;
-use crate::update::{check_update, gather_update_inputs, scatter_update_outputs};
+use crate::update::{gather_update_inputs, scatter_update_outputs, update_rows};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -134,7 +134,6 @@ pub struct Tape {
     nodes: Vec<Node>,
     epoch: u64,
     pool: Vec<Vec<f64>>,
-    scratch: Vec<f64>,
 }
 
 impl Default for Tape {
@@ -208,7 +207,6 @@ impl Tape {
             nodes: Vec::new(),
             epoch: new_epoch(),
             pool: Vec::new(),
-            scratch: Vec::new(),
         }
     }
 
@@ -670,15 +668,8 @@ impl Tape {
         let (is, ic) = (self.check(state), self.check(carry));
         let mut st = self.take_or_copy(is);
         let mut ca = self.take_or_copy(ic);
-        check_update(f.as_ref(), index, &st, &ca);
         let mut inputs = self.pool.pop().unwrap_or_default();
-        gather_update_inputs(index, &st, &ca, &mut inputs);
-        let mut outputs = std::mem::take(&mut self.scratch);
-        outputs.clear();
-        outputs.resize(inputs.len(), 0.0);
-        eval_rows(f.as_ref(), &inputs, &mut outputs);
-        scatter_update_outputs(index, &outputs, &mut st, &mut ca);
-        self.scratch = outputs;
+        update_rows(f.as_ref(), index, &mut st, &mut ca, Some(&mut inputs));
         let op = Op::UpdateRows {
             f: f.clone(),
             index: index.clone(),

@@ -4,7 +4,7 @@
 //! forward values agree bit for bit.
 
 use crate::index::RowIndex;
-use crate::rowfn::{eval_rows, DynRowFn};
+use crate::rowfn::DynRowFn;
 use crate::tensor::Tensor;
 
 /// Checks that `f`, `index`, `state` and `carry` fit together for [`update_rows`].
@@ -79,20 +79,18 @@ pub fn scatter_update_outputs(
 }
 
 /// Replaces, for every batch row `k`, the state rows `index.row(k)` and carry row `k` by
-/// `f(those rows, carry row)`. The inputs are left in `inputs` (what a recording keeps for the
-/// backward pass); `outputs` is scratch.
+/// `f(those rows, carry row)`. With `saved`, the gathered inputs (`rows × n_in`) are left there,
+/// which is what a recording keeps for the backward pass.
+///
+/// # Panics
+/// If the shapes do not fit (see [`check_update`]).
 pub fn update_rows(
     f: &dyn DynRowFn,
     index: &RowIndex,
     state: &mut Tensor,
     carry: &mut Tensor,
-    inputs: &mut Vec<f64>,
-    outputs: &mut Vec<f64>,
+    saved: Option<&mut Vec<f64>>,
 ) {
     check_update(f, index, state, carry);
-    gather_update_inputs(index, state, carry, inputs);
-    outputs.clear();
-    outputs.resize(inputs.len(), 0.0);
-    eval_rows(f, inputs, outputs);
-    scatter_update_outputs(index, outputs, state, carry);
+    f.update_batch(index, state, carry, saved);
 }

@@ -34,28 +34,29 @@ pub fn value_and_gradient<C: Constraint, R: Real>(
     grad: &mut [R],
 ) -> R {
     match C::ARITY {
-        1 => value_and_gradient_n::<C, R, 3>(c, instance, x, grad),
-        2 => value_and_gradient_n::<C, R, 6>(c, instance, x, grad),
-        3 => value_and_gradient_n::<C, R, 9>(c, instance, x, grad),
-        4 => value_and_gradient_n::<C, R, 12>(c, instance, x, grad),
+        1 => value_and_gradient_n::<C, R, 3, 1>(c, instance, x, grad),
+        2 => value_and_gradient_n::<C, R, 6, 2>(c, instance, x, grad),
+        3 => value_and_gradient_n::<C, R, 9, 3>(c, instance, x, grad),
+        4 => value_and_gradient_n::<C, R, 12, 4>(c, instance, x, grad),
         a => panic!("constraint arity {a} is not supported (1 to {MAX_ARITY})"),
     }
 }
 
 #[inline(always)]
-fn value_and_gradient_n<C: Constraint, R: Real, const D: usize>(
+fn value_and_gradient_n<C: Constraint, R: Real, const D: usize, const A: usize>(
     c: &C,
     instance: usize,
     x: &[R],
     grad: &mut [R],
 ) -> R {
-    let mut p = [Vector3::<Dual<R, D>>::zeros(); MAX_ARITY];
-    for (i, pi) in p.iter_mut().take(C::ARITY).enumerate() {
-        for k in 0..3 {
-            pi[k] = Dual::variable(x[3 * i + k], 3 * i + k);
-        }
-    }
-    let v = c.c(instance, &p[..C::ARITY]);
+    let p: [Vector3<Dual<R, D>>; A] = std::array::from_fn(|i| {
+        Vector3::new(
+            Dual::variable(x[3 * i], 3 * i),
+            Dual::variable(x[3 * i + 1], 3 * i + 1),
+            Dual::variable(x[3 * i + 2], 3 * i + 2),
+        )
+    });
+    let v = c.c(instance, &p);
     grad[..D].copy_from_slice(&v.eps);
     v.re
 }

@@ -150,36 +150,34 @@ impl<C: Constraint> RowFn for Projection<C> {
 /// `∇²C(x)·v` for one instance, by forward-over-forward duals.
 pub fn hessian_vector<C: Constraint>(c: &C, instance: usize, x: &[f64], v: &[f64]) -> [f64; MAX_D] {
     match C::ARITY {
-        1 => hessian_vector_n::<C, 3>(c, instance, x, v),
-        2 => hessian_vector_n::<C, 6>(c, instance, x, v),
-        3 => hessian_vector_n::<C, 9>(c, instance, x, v),
-        4 => hessian_vector_n::<C, 12>(c, instance, x, v),
+        1 => hessian_vector_n::<C, 3, 1>(c, instance, x, v),
+        2 => hessian_vector_n::<C, 6, 2>(c, instance, x, v),
+        3 => hessian_vector_n::<C, 9, 3>(c, instance, x, v),
+        4 => hessian_vector_n::<C, 12, 4>(c, instance, x, v),
         a => panic!("constraint arity {a} is not supported (1 to {MAX_ARITY})"),
     }
 }
 
 #[inline(always)]
-fn hessian_vector_n<C: Constraint, const D: usize>(
+fn hessian_vector_n<C: Constraint, const D: usize, const A: usize>(
     c: &C,
     instance: usize,
     x: &[f64],
     v: &[f64],
 ) -> [f64; MAX_D] {
     type Inner = Dual<f64, 1>;
-    let mut p = [Vector3::<Dual<Inner, D>>::zeros(); MAX_ARITY];
-    for (i, pi) in p.iter_mut().take(C::ARITY).enumerate() {
-        for k in 0..3 {
-            let j = 3 * i + k;
-            pi[k] = Dual::variable(
-                Inner {
-                    re: x[j],
-                    eps: [v[j]],
-                },
-                j,
-            );
-        }
-    }
-    let r = c.c(instance, &p[..C::ARITY]);
+    let seed = |j: usize| {
+        Dual::variable(
+            Inner {
+                re: x[j],
+                eps: [v[j]],
+            },
+            j,
+        )
+    };
+    let p: [Vector3<Dual<Inner, D>>; A] =
+        std::array::from_fn(|i| Vector3::new(seed(3 * i), seed(3 * i + 1), seed(3 * i + 2)));
+    let r = c.c(instance, &p);
     let mut hv = [0.0; MAX_D];
     for j in 0..D {
         hv[j] = r.eps[j].eps[0];

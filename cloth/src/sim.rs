@@ -17,8 +17,6 @@ pub type Controls = Tensor;
 #[derive(Default)]
 pub struct StepScratch {
     lambdas: Vec<Tensor>,
-    inputs: Vec<f64>,
-    outputs: Vec<f64>,
 }
 
 impl Model {
@@ -75,14 +73,7 @@ impl Model {
             .extend(sets.clone().map(|s| Tensor::zeros(s.index.rows(), 1)));
         for _ in 0..self.iterations {
             for (set, lambda) in sets.clone().zip(scratch.lambdas.iter_mut()) {
-                update_rows(
-                    set.projection.as_ref(),
-                    &set.index,
-                    &mut x,
-                    lambda,
-                    &mut scratch.inputs,
-                    &mut scratch.outputs,
-                );
+                update_rows(set.projection.as_ref(), &set.index, &mut x, lambda, None);
             }
         }
         x
