@@ -97,6 +97,10 @@ enum Op {
         a: usize,
         arg: Vec<usize>,
     },
+    SoftMin {
+        a: usize,
+        kappa: f64,
+    },
     ConcatRows {
         parts: Vec<usize>,
     },
@@ -596,6 +600,25 @@ impl Tape {
         self.row_arg(a, |x, best| x > best)
     }
 
+    /// Smooth minimum of all elements, `−(1/κ) log Σᵢ exp(−κ aᵢ)` (`1 × 1`), computed stably.
+    ///
+    /// It never exceeds the true minimum and lies within `ln(count)/κ` of it; its gradient is the
+    /// softmax weights `exp(−κ(aᵢ − result))`, summing to 1.
+    ///
+    /// # Panics
+    /// If `a` is empty or `kappa` is not positive and finite.
+    pub fn soft_min(&mut self, a: Var, kappa: f64) -> Var {
+        let ia = self.check(a);
+        assert!(
+            kappa > 0.0 && kappa.is_finite(),
+            "soft_min: kappa must be positive and finite"
+        );
+        let v = self.nodes[ia].value.data();
+        assert!(!v.is_empty(), "soft_min of an empty tensor");
+        let s = soft_min_value(v, kappa);
+        self.push(Op::SoftMin { a: ia, kappa }, Tensor::scalar(s))
+    }
+
     /// Stacks tensors with equal column counts on top of each other.
     pub fn concat_rows(&mut self, parts: &[Var]) -> Var {
         let ids: Vec<usize> = parts.iter().map(|&p| self.check(p)).collect();
@@ -906,6 +929,16 @@ impl Tape {
                 }
                 accumulate(&mut adj[*a], out);
             }
+            Op::SoftMin { a, kappa } => {
+                let x = val(*a);
+                let s = soft_min_value(x.data(), *kappa);
+                let w = x
+                    .data()
+                    .iter()
+                    .map(|&xi| g.item() * (-kappa * (xi - s)).exp())
+                    .collect();
+                accumulate(&mut adj[*a], Tensor::new(x.rows(), x.cols(), w));
+            }
             Op::ConcatRows { parts } => {
                 let mut offset = 0;
                 for &p in parts {
@@ -960,6 +993,13 @@ impl Tape {
     }
 }
 
+/// `−(1/κ) log Σ exp(−κ xᵢ)`, shifted by the minimum so no exponential overflows.
+fn soft_min_value(x: &[f64], kappa: f64) -> f64 {
+    let m = x.iter().copied().fold(f64::INFINITY, f64::min);
+    let sum: f64 = x.iter().map(|&xi| (-kappa * (xi - m)).exp()).sum();
+    m - sum.ln() / kappa
+}
+
 /// Adds `g` into an adjoint slot, or fills an empty one.
 fn accumulate(slot: &mut Option<Tensor>, g: Tensor) {
     match slot {
@@ -980,7 +1020,8 @@ fn op_inputs(op: &Op) -> Vec<usize> {
         | Op::Sum { a }
         | Op::RowSum { a }
         | Op::RowNorm { a }
-        | Op::RowArg { a, .. } => vec![*a],
+        | Op::RowArg { a, .. }
+        | Op::SoftMin { a, .. } => vec![*a],
         Op::ConcatRows { parts } | Op::ConcatCols { parts } => parts.clone(),
         Op::MapRows { input, .. } => vec![*input],
         Op::UpdateRows { state, carry, .. } => vec![*state, *carry],

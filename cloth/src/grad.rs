@@ -9,9 +9,9 @@ use autodiff::{Tape, Tensor, Var};
 
 /// A scalar function of a rollout that is a sum of per-step terms `Σ_t f(t, x^(t))`.
 ///
-/// `f` records its term for step `t` (1-based) on the tape from the state `x`, or returns `None`
-/// when it has no term at that step.
-pub type StepCost<'a> = &'a (dyn Fn(&mut Tape, usize, Var) -> Option<Var> + Sync);
+/// `f(tape, t, x_prev, x)` records its term for step `t` (1-based) from the states before and after
+/// the step (`x^(t−1)`, `x^(t)`), or returns `None` when it has no term at that step.
+pub type StepCost<'a> = &'a (dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync);
 
 /// The paper's metrics of one rollout.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -34,6 +34,9 @@ pub struct Metrics {
     pub c: f64,
     /// Smallest signed distance of any particle at any step 1..T (∞ without safety obstacles).
     pub min_sdf: f64,
+    /// Smallest signed distance along the straight path of every particle between consecutive
+    /// steps 0..T, exact for sphere sets and planes (∞ without safety obstacles).
+    pub min_sdf_swept: f64,
     /// `L = G + αT + βE`.
     #[serde(rename = "L")]
     pub l: f64,
@@ -53,17 +56,11 @@ pub struct Evaluation {
 }
 
 impl Model {
-    /// Simulates `controls` and evaluates the paper's metrics with safety margin `delta`;
-    /// with `gradients`, also `dL/dU` and `dC/dU`.
-    pub fn evaluate(
-        &self,
-        controls: &Controls,
-        delta: f64,
-        gradients: bool,
-    ) -> Result<Evaluation, ClothError> {
-        let states = self.simulate(controls)?;
+    /// The paper's metrics of a simulated rollout (`states` from [`Model::simulate`]).
+    pub fn metrics(&self, states: &[Tensor], controls: &Controls, delta: f64) -> Metrics {
         let mut m = Metrics {
             min_sdf: f64::INFINITY,
+            min_sdf_swept: f64::INFINITY,
             ..Metrics::default()
         };
         let mut tape = Tape::new();
@@ -81,6 +78,7 @@ impl Model {
                         .copied()
                         .fold(f64::INFINITY, f64::min),
                 );
+                m.min_sdf_swept = m.min_sdf_swept.min(self.min_sdf_between(&states[t - 1], x));
             }
             if let Some(c) = self.record_safety(&mut tape, xv, delta) {
                 m.c += tape.value(c).item();
@@ -90,26 +88,34 @@ impl Model {
                 m.g = tape.value(g).item();
             }
         }
-        let (t_cost, t_grad) = trajectory_irregularity(controls);
+        let (t_cost, _) = trajectory_irregularity(controls);
         m.t = t_cost;
         m.alpha_t = self.task.alpha * t_cost;
         m.beta_e = self.task.beta * m.e;
         m.l = m.g + m.alpha_t + m.beta_e;
+        m
+    }
+
+    /// Simulates `controls` and evaluates the paper's metrics with safety margin `delta`;
+    /// with `gradients`, also `dL/dU` and `dC/dU`.
+    pub fn evaluate(
+        &self,
+        controls: &Controls,
+        delta: f64,
+        gradients: bool,
+    ) -> Result<Evaluation, ClothError> {
+        let states = self.simulate(controls)?;
+        let metrics = self.metrics(&states, controls, delta);
         let (mut grad_l, mut grad_c) = (None, None);
         if gradients {
             let beta = self.task.beta;
-            let horizon = self.task.horizon;
-            let loss = |tape: &mut Tape, t: usize, x: Var| {
-                let e = self.record_energy(tape, x).map(|e| tape.scale(e, beta));
-                let g = (t == horizon).then(|| self.record_target_error(tape, x));
-                match (e, g) {
-                    (Some(e), Some(g)) => Some(tape.add(e, g)),
-                    (e, g) => e.or(g),
-                }
-            };
-            let safety = |tape: &mut Tape, _t: usize, x: Var| self.record_safety(tape, x, delta);
+            let loss =
+                |tape: &mut Tape, t: usize, _: Var, x: Var| self.record_loss(tape, t, x, beta);
+            let safety =
+                |tape: &mut Tape, _: usize, _: Var, x: Var| self.record_safety(tape, x, delta);
             let mut grads = self.gradients(&states, controls, &[&loss, &safety]);
             let mut gl = grads.remove(0);
+            let (_, t_grad) = trajectory_irregularity(controls);
             for (a, b) in gl.data_mut().iter_mut().zip(t_grad.data()) {
                 *a += self.task.alpha * b;
             }
@@ -117,11 +123,42 @@ impl Model {
             grad_c = Some(grads.remove(0));
         }
         Ok(Evaluation {
-            metrics: m,
+            metrics,
             states,
             grad_l,
             grad_c,
         })
+    }
+
+    /// Records the state part of the loss at step `t`: `β·E(x)`, plus `G` at the last step.
+    pub fn record_loss(&self, tape: &mut Tape, t: usize, x: Var, beta: f64) -> Option<Var> {
+        let e = if beta != 0.0 {
+            self.record_energy(tape, x).map(|e| tape.scale(e, beta))
+        } else {
+            None
+        };
+        let g = (t == self.task.horizon).then(|| self.record_target_error(tape, x));
+        match (e, g) {
+            (Some(e), Some(g)) => Some(tape.add(e, g)),
+            (e, g) => e.or(g),
+        }
+    }
+
+    /// The smallest signed distance to the safety obstacles along every particle's straight path
+    /// from `a` to `b` (∞ without safety obstacles).
+    pub fn min_sdf_between(&self, a: &Tensor, b: &Tensor) -> f64 {
+        use crate::sdf::SignedDistance;
+        use nalgebra::Vector3;
+        if self.safety_obstacles.is_empty() {
+            return f64::INFINITY;
+        }
+        let point = |x: &Tensor, p: usize| Vector3::new(x.get(p, 0), x.get(p, 1), x.get(p, 2));
+        (0..a.rows())
+            .map(|p| {
+                self.safety_obstacles
+                    .min_along_segment(&point(a, p), &point(b, p))
+            })
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Gradients of several per-step costs with respect to the controls, by reverse mode over the
@@ -142,7 +179,8 @@ impl Model {
             let x_prev = tape.leaf(states[t - 1].clone());
             let u = tape.leaf(self.step_controls(controls, t - 1));
             let x = self.record_step(&mut tape, x_prev, u);
-            let terms: Vec<Option<Var>> = costs.iter().map(|f| f(&mut tape, t, x)).collect();
+            let terms: Vec<Option<Var>> =
+                costs.iter().map(|f| f(&mut tape, t, x_prev, x)).collect();
             for (i, term) in terms.iter().enumerate() {
                 let mut seeds = Vec::with_capacity(2);
                 if let Some(adj) = adjoints[i].take() {

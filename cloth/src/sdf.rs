@@ -12,6 +12,15 @@ use nalgebra::Vector3;
 pub trait SignedDistance: Send + Sync + 'static {
     /// Signed distance of `p` (negative inside).
     fn distance<R: Real>(&self, p: &Vector3<R>) -> R;
+
+    /// The smallest signed distance along the straight segment `a → b` (`f64` only).
+    ///
+    /// The default samples 65 points; sphere sets and planes answer exactly.
+    fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+        (0..=64)
+            .map(|k| self.distance(&(a + (b - a) * (k as f64 / 64.0))))
+            .fold(f64::INFINITY, f64::min)
+    }
 }
 
 /// A union of spheres: `min_s (|p − c_s| − r_s)`.
@@ -36,6 +45,24 @@ impl SignedDistance for SphereSet {
         }
         best.unwrap_or_else(|| R::cst(f64::INFINITY))
     }
+
+    fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+        let ab = b - a;
+        let len2 = ab.norm_squared();
+        self.centers
+            .iter()
+            .zip(&self.radii)
+            .map(|(c, &r)| {
+                let c = Vector3::new(c[0], c[1], c[2]);
+                let s = if len2 > 0.0 {
+                    ((c - a).dot(&ab) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                (a + ab * s - c).norm() - r
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
 }
 
 /// A half-space boundary `n·(p − q) = 0` with unit normal `n` pointing to the free side.
@@ -53,6 +80,10 @@ impl SignedDistance for Plane {
         (p[0] - self.point[0]) * n[0]
             + (p[1] - self.point[1]) * n[1]
             + (p[2] - self.point[2]) * n[2]
+    }
+
+    fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+        self.distance(a).min(self.distance(b))
     }
 }
 
@@ -88,5 +119,11 @@ impl SignedDistance for Union {
             take(pl.distance(p));
         }
         best.unwrap_or_else(|| R::cst(f64::INFINITY))
+    }
+
+    fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+        let spheres = self.spheres.iter().map(|s| s.min_along_segment(a, b));
+        let planes = self.planes.iter().map(|p| p.min_along_segment(a, b));
+        spheres.chain(planes).fold(f64::INFINITY, f64::min)
     }
 }
