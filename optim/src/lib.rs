@@ -33,6 +33,7 @@ mod qp;
 mod settings;
 mod sqp;
 mod status;
+pub mod test_problems;
 
 pub use error::{EvalError, OptimError};
 pub use lbfgs::LbfgsSolver;
