@@ -69,7 +69,9 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
     pub(crate) fn new(problem: &'p mut P, x0: &[f64]) -> Result<Self, OptimError> {
         let n = problem.num_variables();
         if n == 0 {
-            return Err(OptimError::InvalidProblem("the problem has no variables".into()));
+            return Err(OptimError::InvalidProblem(
+                "the problem has no variables".into(),
+            ));
         }
         if x0.len() != n {
             return Err(OptimError::InvalidStartingPoint(format!(

@@ -13,8 +13,8 @@
 
 use crate::error::{EvalError, OptimError};
 use crate::eval::Evaluator;
-use crate::line_search::{strong_wolfe, Trial, WolfeOutcome, WolfeParams};
 use crate::linalg::{axpy, dot, norm2, norm_inf};
+use crate::line_search::{strong_wolfe, Trial, WolfeOutcome, WolfeParams};
 use crate::problem::Problem;
 use crate::settings::LbfgsSettings;
 use crate::status::{IterationInfo, Multipliers, Solution, Status};
@@ -245,7 +245,10 @@ impl LbfgsSolver {
                     c2: st.wolfe_c2,
                     max_evaluations: st
                         .max_line_search_evaluations
-                        .min(st.max_function_evaluations.saturating_sub(ev.function_evaluations))
+                        .min(
+                            st.max_function_evaluations
+                                .saturating_sub(ev.function_evaluations),
+                        )
                         .max(1),
                     alpha_max: 1e10,
                 };
@@ -253,8 +256,7 @@ impl LbfgsSolver {
                 let dc = d.clone();
                 let outcome = strong_wolfe(
                     |alpha| {
-                        let xt: Vec<f64> =
-                            xc.iter().zip(&dc).map(|(a, b)| a + alpha * b).collect();
+                        let xt: Vec<f64> = xc.iter().zip(&dc).map(|(a, b)| a + alpha * b).collect();
                         let (ft, gt) = evaluate(&mut ev, &xt)?;
                         Ok(Trial {
                             alpha,

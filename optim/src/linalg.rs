@@ -61,13 +61,19 @@ impl DenseMatrix {
 
     /// Entry `(i, j)`. Panics if out of range (an index bug, not a data error).
     pub fn get(&self, i: usize, j: usize) -> f64 {
-        assert!(i < self.rows && j < self.cols, "DenseMatrix index out of range");
+        assert!(
+            i < self.rows && j < self.cols,
+            "DenseMatrix index out of range"
+        );
         self.data[i * self.cols + j]
     }
 
     /// Sets entry `(i, j)`. Panics if out of range (an index bug, not a data error).
     pub fn set(&mut self, i: usize, j: usize, value: f64) {
-        assert!(i < self.rows && j < self.cols, "DenseMatrix index out of range");
+        assert!(
+            i < self.rows && j < self.cols,
+            "DenseMatrix index out of range"
+        );
         self.data[i * self.cols + j] = value;
     }
 
@@ -285,7 +291,6 @@ impl Jacobian {
             }
         }
     }
-
 }
 
 /// `xᵀy`.

@@ -23,7 +23,10 @@ pub(crate) enum WolfeOutcome {
     /// Only sufficient decrease holds (evaluation budget or interval exhausted).
     Armijo(Trial),
     /// No acceptable point found.
-    Failed { evaluation_failures: usize, trials: usize },
+    Failed {
+        evaluation_failures: usize,
+        trials: usize,
+    },
 }
 
 /// Parameters of the search.

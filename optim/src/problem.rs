@@ -60,7 +60,9 @@ impl Bounds {
         }
         for (i, (&l, &u)) in self.lower.iter().zip(&self.upper).enumerate() {
             if l.is_nan() || u.is_nan() {
-                return Err(OptimError::InvalidProblem(format!("bound of x[{i}] is NaN")));
+                return Err(OptimError::InvalidProblem(format!(
+                    "bound of x[{i}] is NaN"
+                )));
             }
             if l > u || l == f64::INFINITY || u == f64::NEG_INFINITY {
                 return Err(OptimError::InvalidProblem(format!(
@@ -217,7 +219,9 @@ pub trait Problem {
         if jac.nrows() == 0 {
             Ok(())
         } else {
-            Err(EvalError::new("Problem::equality_jacobian is not implemented"))
+            Err(EvalError::new(
+                "Problem::equality_jacobian is not implemented",
+            ))
         }
     }
 }

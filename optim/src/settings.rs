@@ -155,7 +155,11 @@ impl SqpSettings {
             "must be in (0, 1)",
         )?;
         positive(self.qp_tolerance, "qp_tolerance")?;
-        check(self.qp_max_iterations > 0, "qp_max_iterations", "must be > 0")
+        check(
+            self.qp_max_iterations > 0,
+            "qp_max_iterations",
+            "must be > 0",
+        )
     }
 }
 

@@ -95,15 +95,14 @@ enum Search {
 fn linearized_violation(pt: &PointValues, dv: &PointDerivatives, d: &[f64]) -> f64 {
     let mut jd = vec![0.0; pt.c.len()];
     dv.jc.mul_vec(d, &mut jd);
-    let mut v: f64 = pt
-        .c
-        .iter()
-        .zip(&jd)
-        .map(|(c, a)| (-(c + a)).max(0.0))
-        .sum();
+    let mut v: f64 = pt.c.iter().zip(&jd).map(|(c, a)| (-(c + a)).max(0.0)).sum();
     let mut hd = vec![0.0; pt.h.len()];
     dv.jh.mul_vec(d, &mut hd);
-    v += pt.h.iter().zip(&hd).map(|(h, a)| (h + a).abs()).sum::<f64>();
+    v +=
+        pt.h.iter()
+            .zip(&hd)
+            .map(|(h, a)| (h + a).abs())
+            .sum::<f64>();
     v
 }
 
@@ -242,7 +241,11 @@ impl SqpSolver {
                     return Err(OptimError::DimensionMismatch {
                         what: "initial Hessian rows/columns".into(),
                         expected: n,
-                        got: if b0.nrows() != n { b0.nrows() } else { b0.ncols() },
+                        got: if b0.nrows() != n {
+                            b0.nrows()
+                        } else {
+                            b0.ncols()
+                        },
                     });
                 }
                 let data = b0.as_slice();
@@ -331,7 +334,10 @@ impl SqpSolver {
                         bfgs.reset();
                         continue;
                     }
-                    break (Status::Stalled, format!("QP subproblem could not be set up: {msg}"));
+                    break (
+                        Status::Stalled,
+                        format!("QP subproblem could not be set up: {msg}"),
+                    );
                 }
             };
             let qp_usable = step.sol.outcome.is_usable();
@@ -424,9 +430,8 @@ impl SqpSolver {
                     alpha,
                 } => {
                     let s_vec: Vec<f64> = values.x.iter().zip(&x).map(|(a, b)| a - b).collect();
-                    let step_mult = extract_multipliers(
-                        &step.sol, &x, &ev.lower, &ev.upper, delta, &ev.norms,
-                    );
+                    let step_mult =
+                        extract_multipliers(&step.sol, &x, &ev.lower, &ev.upper, delta, &ev.norms);
                     let gl_old = lagrangian_gradient(&dv, &step_mult);
                     let gl_new = lagrangian_gradient(&derivatives, &step_mult);
                     let y: Vec<f64> = gl_new.iter().zip(&gl_old).map(|(a, b)| a - b).collect();
@@ -513,9 +518,13 @@ impl SqpSolver {
         let scale = 1.0 + norm_inf(&pt.c).max(norm_inf(&pt.h));
         let lin_tol = s.tol_feasibility.max(10.0 * s.qp_tolerance * scale);
         if sol.outcome.is_usable() && lin_violation > lin_tol {
-            let mut fqp =
-                QpSubproblem::new(data, QpMode::Feasibility, s.qp_tolerance, s.qp_max_iterations)
-                    .map_err(|e| e.0)?;
+            let mut fqp = QpSubproblem::new(
+                data,
+                QpMode::Feasibility,
+                s.qp_tolerance,
+                s.qp_max_iterations,
+            )
+            .map_err(|e| e.0)?;
             let fsol = fqp.solve();
             let lv_min = if fsol.outcome.is_usable() {
                 let v = linearized_violation(pt, dv, &fsol.d);
