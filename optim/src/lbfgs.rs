@@ -224,7 +224,8 @@ impl LbfgsSolver {
                     d[i] = -gamma * g[i];
                 }
             }
-            if !(dot(&d, &masked) < 0.0) && norm_inf(&masked) > 0.0 {
+            let descent = dot(&d, &masked) < 0.0;
+            if !descent && norm_inf(&masked) > 0.0 {
                 pairs.clear();
                 fresh_memory = true;
                 d = g.iter().map(|gi| -gamma * gi).collect();

@@ -254,10 +254,10 @@ impl QpSubproblem {
         let mut b = vec![0.0; nrows];
         // Zero cone: J_h d − p + r = −h
         data.eq_jac.for_each_nonzero(|i, j, v| a.push(i, j, v));
-        for i in 0..q {
+        for (i, (bi, hi)) in b.iter_mut().zip(data.eq).enumerate() {
             a.push(i, col_p + i, -1.0);
             a.push(i, col_r + i, 1.0);
-            b[i] = -data.eq[i];
+            *bi = -hi;
         }
         // Inequalities: −J_c d − t ≤ c
         data.ineq_jac

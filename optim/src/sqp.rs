@@ -170,8 +170,8 @@ fn kkt_residual(
     for (k, nd) in norms.iter().enumerate() {
         nd.tmul_add(&mult.norm_terms[k], &mut gl);
     }
-    for j in 0..gl.len() {
-        gl[j] += mult.upper_bound[j] - mult.lower_bound[j];
+    for ((gj, zu), zl) in gl.iter_mut().zip(&mult.upper_bound).zip(&mult.lower_bound) {
+        *gj += zu - zl;
     }
     let stationarity = norm_inf(&gl) / norm_inf(&dv.g).max(1.0);
     let mut compl = 0.0_f64;
@@ -397,7 +397,8 @@ impl SqpSolver {
                 .collect();
             let pred = predicted_reduction(&pt, &dv, &bfgs, &ev.norms, &d, step.penalty);
             let negligible = norm_inf(&d) <= s.tol_step * (1.0 + xinf);
-            if !qp_usable || negligible || !(pred > 0.0) || d.iter().any(|v| !v.is_finite()) {
+            let descent = pred > 0.0;
+            if !qp_usable || negligible || !descent || d.iter().any(|v| !v.is_finite()) {
                 if !bfgs.is_fresh() {
                     bfgs.reset();
                     continue;

@@ -62,9 +62,15 @@ impl Problem for BoundedRosenbrock {
 
 #[test]
 fn bounded_rosenbrock() {
-    let sol = solver().solve(&mut BoundedRosenbrock, &[-1.2, 1.0]).unwrap();
+    let sol = solver()
+        .solve(&mut BoundedRosenbrock, &[-1.2, 1.0])
+        .unwrap();
     assert_eq!(sol.status, Status::Converged, "{}", sol.message);
-    assert!((sol.x[0] - 0.5).abs() < 1e-7 && (sol.x[1] - 0.25).abs() < 1e-6, "{:?}", sol.x);
+    assert!(
+        (sol.x[0] - 0.5).abs() < 1e-7 && (sol.x[1] - 0.25).abs() < 1e-6,
+        "{:?}",
+        sol.x
+    );
     assert!((sol.objective - 0.25).abs() < 1e-9);
     assert!((sol.multipliers.upper_bound[0] - 1.0).abs() < 1e-5);
 }

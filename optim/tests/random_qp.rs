@@ -40,8 +40,8 @@ impl Problem for RandomQp {
     }
     fn gradient(&mut self, x: &[f64], grad: &mut [f64]) -> Result<(), EvalError> {
         let n = self.n;
-        for i in 0..n {
-            grad[i] = self.g[i] + (0..n).map(|j| self.q[i * n + j] * x[j]).sum::<f64>();
+        for (i, gi) in grad.iter_mut().enumerate() {
+            *gi = self.g[i] + (0..n).map(|j| self.q[i * n + j] * x[j]).sum::<f64>();
         }
         Ok(())
     }

@@ -71,7 +71,11 @@ fn locally_infeasible_problem_is_reported_infeasible() {
         }
         other => panic!("expected Infeasible, got {other:?}: {}", sol.message),
     }
-    assert!((sol.x[0] - 1.5).abs() < 1e-3 && sol.x[1].abs() < 1e-3, "{:?}", sol.x);
+    assert!(
+        (sol.x[0] - 1.5).abs() < 1e-3 && sol.x[1].abs() < 1e-3,
+        "{:?}",
+        sol.x
+    );
     assert!(!sol.status.is_converged());
 }
 
@@ -126,7 +130,11 @@ fn inconsistent_first_linearization_is_solved_anyway() {
         infos[0]
     );
     assert_eq!(sol.status, Status::Converged, "{}", sol.message);
-    assert!((sol.x[0] - 1.0).abs() < 1e-6 && sol.x[1].abs() < 1e-6, "{:?}", sol.x);
+    assert!(
+        (sol.x[0] - 1.0).abs() < 1e-6 && sol.x[1].abs() < 1e-6,
+        "{:?}",
+        sol.x
+    );
     assert!((sol.objective - 0.49).abs() < 1e-6);
 }
 
@@ -149,7 +157,11 @@ impl Problem for ShrinkToward {
         )]
     }
     fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
-        Ok(0.5 * x.iter().zip(&self.a).map(|(x, a)| (x - a).powi(2)).sum::<f64>())
+        Ok(0.5
+            * x.iter()
+                .zip(&self.a)
+                .map(|(x, a)| (x - a).powi(2))
+                .sum::<f64>())
     }
     fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
         for ((g, x), a) in g.iter_mut().zip(x).zip(&self.a) {
@@ -163,7 +175,10 @@ impl Problem for ShrinkToward {
 fn norm_term_optimum_on_the_kink_is_found_exactly() {
     let a = vec![0.3, -0.2, 0.1];
     let na = a.iter().map(|v| v * v).sum::<f64>().sqrt();
-    let mut p = ShrinkToward { a: a.clone(), w: 1.0 };
+    let mut p = ShrinkToward {
+        a: a.clone(),
+        w: 1.0,
+    };
     let sol = solver().solve(&mut p, &[2.0, 1.0, -1.0]).unwrap();
     assert_eq!(sol.status, Status::Converged, "{}", sol.message);
     let nx = sol.x.iter().map(|v| v * v).sum::<f64>().sqrt();
