@@ -1,0 +1,321 @@
+//! The [`Problem`] trait and its building blocks: [`Bounds`] and [`NormTerm`].
+//!
+//! A problem is
+//!
+//! ```text
+//! minimize    f(x) + Σ_k w_k ‖A_k x + b_k‖₂
+//! subject to  c(x) ≥ 0          (m inequalities)
+//!             h(x) = 0          (p equalities)
+//!             l ≤ x ≤ u         (bounds, ±∞ allowed)
+//! ```
+//!
+//! `f`, `c`, `h` are smooth and supplied with derivatives; the norm terms are declared as data
+//! ([`Problem::norm_terms`]) so the SQP can treat their kinks exactly.
+
+use crate::error::{EvalError, OptimError};
+use crate::linalg::{DenseMatrix, Jacobian, SparseMatrix};
+use serde::{Deserialize, Serialize};
+
+/// Box bounds `lower ≤ x ≤ upper`; use `f64::NEG_INFINITY` / `f64::INFINITY` for free sides.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Bounds {
+    /// Lower bounds, one per variable.
+    pub lower: Vec<f64>,
+    /// Upper bounds, one per variable.
+    pub upper: Vec<f64>,
+}
+
+impl Bounds {
+    /// Bounds from explicit vectors.
+    pub fn new(lower: Vec<f64>, upper: Vec<f64>) -> Self {
+        Self { lower, upper }
+    }
+
+    /// No bounds on `n` variables.
+    pub fn unbounded(n: usize) -> Self {
+        Self {
+            lower: vec![f64::NEG_INFINITY; n],
+            upper: vec![f64::INFINITY; n],
+        }
+    }
+
+    /// Every variable in `[lower, upper]`.
+    pub fn uniform(n: usize, lower: f64, upper: f64) -> Self {
+        Self {
+            lower: vec![lower; n],
+            upper: vec![upper; n],
+        }
+    }
+
+    /// Checks lengths, NaNs and `lower ≤ upper`.
+    pub(crate) fn validate(&self, n: usize) -> Result<(), OptimError> {
+        for (what, v) in [("lower bounds", &self.lower), ("upper bounds", &self.upper)] {
+            if v.len() != n {
+                return Err(OptimError::DimensionMismatch {
+                    what: what.into(),
+                    expected: n,
+                    got: v.len(),
+                });
+            }
+        }
+        for (i, (&l, &u)) in self.lower.iter().zip(&self.upper).enumerate() {
+            if l.is_nan() || u.is_nan() {
+                return Err(OptimError::InvalidProblem(format!(
+                    "bound of x[{i}] is NaN"
+                )));
+            }
+            if l > u || l == f64::INFINITY || u == f64::NEG_INFINITY {
+                return Err(OptimError::InvalidProblem(format!(
+                    "empty bounds for x[{i}]: [{l}, {u}]"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether any side is finite.
+    pub(crate) fn is_active(&self) -> bool {
+        self.lower.iter().any(|l| l.is_finite()) || self.upper.iter().any(|u| u.is_finite())
+    }
+}
+
+/// An objective term `weight · ‖A x + b‖₂`, non-smooth where `A x + b = 0`.
+///
+/// The SQP models it exactly with an epigraph variable `s ≥ ‖A(x+d) + b‖` in a second-order cone,
+/// so iterates may sit exactly on the kink. L-BFGS, which has no such machinery, adds it to the
+/// smooth objective with the subgradient convention `0` at the kink.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NormTerm {
+    /// Non-negative weight `w`.
+    pub weight: f64,
+    /// The `p × n` matrix `A` (triplets; duplicates summed).
+    pub matrix: SparseMatrix,
+    /// The offset `b` (length `p`).
+    pub offset: Vec<f64>,
+}
+
+impl NormTerm {
+    /// `weight · ‖matrix · x + offset‖`.
+    pub fn new(weight: f64, matrix: SparseMatrix, offset: Vec<f64>) -> Self {
+        Self {
+            weight,
+            matrix,
+            offset,
+        }
+    }
+
+    /// `weight · ‖matrix · x + offset‖` from a dense matrix.
+    pub fn from_dense(weight: f64, matrix: &DenseMatrix, offset: Vec<f64>) -> Self {
+        let mut a = SparseMatrix::new(matrix.nrows(), matrix.ncols());
+        for i in 0..matrix.nrows() {
+            for (j, &v) in matrix.row(i).iter().enumerate() {
+                if v != 0.0 {
+                    a.push(i, j, v);
+                }
+            }
+        }
+        Self::new(weight, a, offset)
+    }
+
+    /// `weight · ‖x[first] − x[second]‖` for index lists of equal length, in `n` variables
+    /// (e.g. the difference of two consecutive controls `u_t − u_{t−1}`).
+    pub fn difference(weight: f64, n: usize, first: &[usize], second: &[usize]) -> Self {
+        let mut a = SparseMatrix::new(first.len().max(second.len()), n);
+        for (r, &j) in first.iter().enumerate() {
+            a.push(r, j, 1.0);
+        }
+        for (r, &j) in second.iter().enumerate() {
+            a.push(r, j, -1.0);
+        }
+        Self::new(weight, a, vec![0.0; first.len().max(second.len())])
+    }
+
+    /// `weight · ‖x[indices] − center‖` in `n` variables.
+    pub fn distance_to(weight: f64, n: usize, indices: &[usize], center: &[f64]) -> Self {
+        let mut a = SparseMatrix::new(indices.len(), n);
+        for (r, &j) in indices.iter().enumerate() {
+            a.push(r, j, 1.0);
+        }
+        Self::new(weight, a, center.iter().map(|c| -c).collect())
+    }
+}
+
+/// A smooth, possibly constrained, minimization problem (see the [module docs](self)).
+///
+/// Only [`num_variables`](Problem::num_variables), [`objective`](Problem::objective) and
+/// [`gradient`](Problem::gradient) are required. Methods take `&mut self` so an implementation may cache
+/// work shared between calls at the same `x` (the solvers evaluate the objective and the constraints at a
+/// trial point first, and their derivatives only once that point is accepted).
+///
+/// Any evaluation may fail with an [`EvalError`]; non-finite values count as failures too.
+pub trait Problem {
+    /// Number of variables `n`.
+    fn num_variables(&self) -> usize;
+
+    /// Number of inequality constraints `c(x) ≥ 0` (default 0).
+    fn num_inequalities(&self) -> usize {
+        0
+    }
+
+    /// Number of equality constraints `h(x) = 0` (default 0).
+    fn num_equalities(&self) -> usize {
+        0
+    }
+
+    /// Box bounds on the variables (default: none).
+    fn bounds(&self) -> Option<Bounds> {
+        None
+    }
+
+    /// Declared Euclidean-norm objective terms, excluded from [`objective`](Problem::objective) and
+    /// [`gradient`](Problem::gradient) (default: none).
+    fn norm_terms(&self) -> Vec<NormTerm> {
+        Vec::new()
+    }
+
+    /// An initial approximation of the Hessian of the Lagrangian of the smooth part, symmetric positive
+    /// definite `n × n` (default: none, the SQP starts from the identity and rescales after its first step).
+    fn initial_hessian(&self) -> Option<DenseMatrix> {
+        None
+    }
+
+    /// The smooth objective `f(x)`.
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError>;
+
+    /// Writes `∇f(x)` into `grad` (length `n`).
+    fn gradient(&mut self, x: &[f64], grad: &mut [f64]) -> Result<(), EvalError>;
+
+    /// Writes `c(x)` into `c` (length `m`).
+    fn inequalities(&mut self, _x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        if c.is_empty() {
+            Ok(())
+        } else {
+            Err(EvalError::new("Problem::inequalities is not implemented"))
+        }
+    }
+
+    /// Fills the `m × n` Jacobian of `c` (handed over zeroed, dense; may be replaced by a sparse one).
+    fn inequality_jacobian(&mut self, _x: &[f64], jac: &mut Jacobian) -> Result<(), EvalError> {
+        if jac.nrows() == 0 {
+            Ok(())
+        } else {
+            Err(EvalError::new(
+                "Problem::inequality_jacobian is not implemented",
+            ))
+        }
+    }
+
+    /// Writes `h(x)` into `h` (length `p`).
+    fn equalities(&mut self, _x: &[f64], h: &mut [f64]) -> Result<(), EvalError> {
+        if h.is_empty() {
+            Ok(())
+        } else {
+            Err(EvalError::new("Problem::equalities is not implemented"))
+        }
+    }
+
+    /// Fills the `p × n` Jacobian of `h` (handed over zeroed, dense; may be replaced by a sparse one).
+    fn equality_jacobian(&mut self, _x: &[f64], jac: &mut Jacobian) -> Result<(), EvalError> {
+        if jac.nrows() == 0 {
+            Ok(())
+        } else {
+            Err(EvalError::new(
+                "Problem::equality_jacobian is not implemented",
+            ))
+        }
+    }
+}
+
+/// A validated norm term in row-compressed form, ready for fast residual evaluation.
+#[derive(Clone, Debug)]
+pub(crate) struct NormData {
+    pub weight: f64,
+    /// Rows of `A`: `(column, value)` lists, duplicates merged.
+    pub rows: Vec<Vec<(usize, f64)>>,
+    pub offset: Vec<f64>,
+}
+
+impl NormData {
+    pub(crate) fn from_terms(terms: &[NormTerm], n: usize) -> Result<Vec<NormData>, OptimError> {
+        terms
+            .iter()
+            .enumerate()
+            .map(|(k, t)| {
+                if !(t.weight.is_finite() && t.weight >= 0.0) {
+                    return Err(OptimError::InvalidProblem(format!(
+                        "norm term {k} has weight {}, expected a finite value ≥ 0",
+                        t.weight
+                    )));
+                }
+                if t.matrix.ncols() != n {
+                    return Err(OptimError::DimensionMismatch {
+                        what: format!("columns of norm term {k}"),
+                        expected: n,
+                        got: t.matrix.ncols(),
+                    });
+                }
+                let p = t.matrix.nrows();
+                if t.offset.len() != p {
+                    return Err(OptimError::DimensionMismatch {
+                        what: format!("offset of norm term {k}"),
+                        expected: p,
+                        got: t.offset.len(),
+                    });
+                }
+                if p == 0 {
+                    return Err(OptimError::InvalidProblem(format!(
+                        "norm term {k} has no rows"
+                    )));
+                }
+                if t.offset.iter().any(|v| !v.is_finite()) {
+                    return Err(OptimError::InvalidProblem(format!(
+                        "norm term {k} has a non-finite offset"
+                    )));
+                }
+                let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); p];
+                for &(i, j, v) in t.matrix.entries() {
+                    if i >= p || j >= n || !v.is_finite() {
+                        return Err(OptimError::InvalidProblem(format!(
+                            "norm term {k} has an invalid entry ({i}, {j}, {v})"
+                        )));
+                    }
+                    rows[i].push((j, v));
+                }
+                for row in &mut rows {
+                    row.sort_by_key(|e| e.0);
+                    row.dedup_by(|later, earlier| {
+                        if later.0 == earlier.0 {
+                            earlier.1 += later.1;
+                            true
+                        } else {
+                            false
+                        }
+                    });
+                }
+                Ok(NormData {
+                    weight: t.weight,
+                    rows,
+                    offset: t.offset.clone(),
+                })
+            })
+            .collect()
+    }
+
+    /// `r = A x + b`.
+    pub(crate) fn residual(&self, x: &[f64]) -> Vec<f64> {
+        self.rows
+            .iter()
+            .zip(&self.offset)
+            .map(|(row, b)| b + row.iter().map(|&(j, v)| v * x[j]).sum::<f64>())
+            .collect()
+    }
+
+    /// `out += Aᵀ y`.
+    pub(crate) fn tmul_add(&self, y: &[f64], out: &mut [f64]) {
+        for (row, &yi) in self.rows.iter().zip(y) {
+            for &(j, v) in row {
+                out[j] += v * yi;
+            }
+        }
+    }
+}

@@ -1,0 +1,469 @@
+//! The QP subproblem of the SQP, assembled in Clarabel's conic form and solved by Clarabel.
+//!
+//! Variables `z = [d (n) | s (K) | t (m) | p (q) | r (q)]`: the step, one epigraph variable per norm
+//! term, elastic slacks of the inequalities, and the positive/negative elastic parts of the equalities.
+//!
+//! ```text
+//! minimize   ½ dᵀBd + gᵀd + Σ w_k s_k + ν (Σ t + Σ p + Σ r)
+//! subject to h + J_h d − p + r = 0                      zero cone        (q rows)
+//!            c + J_c d + t ≥ 0                          nonnegative cone (m rows)
+//!            t, p, r ≥ 0                                nonnegative cone (m + 2q rows)
+//!            d ≤ d_up,  −d ≤ −d_lo                      nonnegative cone (2n rows: bounds ∩ step box)
+//!            (s_k, A_k d + A_k x + b_k) ∈ SOC           one second-order cone per norm term
+//! ```
+//!
+//! The feasibility variant drops the objective's `B`, `g` and norm terms and minimizes `Σ t + Σ p + Σ r`
+//! (the smallest linearized ℓ1 violation reachable inside the step box). `d = 0`, `t = max(0, −c)`, … is
+//! always feasible, so neither problem can be infeasible; Clarabel's infeasibility verdicts are treated
+//! as numerical failures by the caller.
+//!
+//! Clarabel has no warm start, but it can re-solve after a data update with the same sparsity: the
+//! penalty `ν` lives only in `q` ([`QpSubproblem::update_penalty`]) and a second-order correction only
+//! changes `b` ([`QpSubproblem::update_constraint_values`]), so both reuse the factorization structure.
+
+use crate::linalg::Jacobian;
+use crate::problem::NormData;
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+};
+
+/// The data of one subproblem, borrowed from the SQP state.
+pub(crate) struct QpData<'a> {
+    pub n: usize,
+    /// Row-major `n × n` Hessian approximation (symmetric positive definite).
+    pub hessian: &'a [f64],
+    pub gradient: &'a [f64],
+    pub ineq: &'a [f64],
+    pub ineq_jac: &'a Jacobian,
+    pub eq: &'a [f64],
+    pub eq_jac: &'a Jacobian,
+    pub norms: &'a [NormData],
+    /// `A_k x + b_k` at the current point.
+    pub norm_residuals: &'a [Vec<f64>],
+    /// Box on the step: bounds of the variables intersected with the step bound.
+    pub step_lower: &'a [f64],
+    pub step_upper: &'a [f64],
+}
+
+/// Which problem to build.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum QpMode {
+    /// The elastic SQP subproblem with penalty `ν`.
+    Optimality { penalty: f64 },
+    /// Minimize the linearized ℓ1 violation only.
+    Feasibility,
+}
+
+/// How Clarabel finished.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum QpOutcome {
+    Solved,
+    AlmostSolved,
+    Failed(SolverStatus),
+}
+
+impl QpOutcome {
+    pub(crate) fn is_usable(&self) -> bool {
+        matches!(self, QpOutcome::Solved | QpOutcome::AlmostSolved)
+    }
+}
+
+/// A subproblem solution in the SQP's sign conventions.
+#[derive(Clone, Debug)]
+pub(crate) struct QpSolution {
+    pub outcome: QpOutcome,
+    pub d: Vec<f64>,
+    /// Inequality multipliers (`∇f + … = Jᵀλ`), raw from the cone duals.
+    pub lambda: Vec<f64>,
+    /// Equality multipliers.
+    pub mu: Vec<f64>,
+    /// Duals of the lower/upper step-box rows.
+    pub box_lower: Vec<f64>,
+    pub box_upper: Vec<f64>,
+    /// Norm-term subgradients `y_k` (raw; `‖y_k‖ ≤ w_k` up to solver accuracy).
+    pub norm_duals: Vec<Vec<f64>>,
+}
+
+/// Error building the subproblem (a bug or a Clarabel rejection, never user-data dependent in a way
+/// the caller cannot handle).
+#[derive(Debug, Clone)]
+pub(crate) struct QpBuildError(pub String);
+
+/// Row/column offsets of the blocks.
+#[derive(Clone, Copy, Debug)]
+struct Layout {
+    n: usize,
+    k: usize,
+    m: usize,
+    q: usize,
+    nvar: usize,
+    row_ineq: usize,
+    row_box_up: usize,
+    row_box_lo: usize,
+    row_soc: usize,
+}
+
+/// A built subproblem owning its Clarabel solver.
+pub(crate) struct QpSubproblem {
+    solver: DefaultSolver<f64>,
+    layout: Layout,
+    mode: QpMode,
+    norm_dims: Vec<usize>,
+}
+
+/// Triplets pushed in increasing row order, compressed to CSC by a stable counting sort on columns
+/// (so rows stay sorted within a column); duplicates are merged.
+struct TripletBuilder {
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    vals: Vec<f64>,
+}
+
+impl TripletBuilder {
+    fn with_capacity(cap: usize) -> Self {
+        Self {
+            rows: Vec::with_capacity(cap),
+            cols: Vec::with_capacity(cap),
+            vals: Vec::with_capacity(cap),
+        }
+    }
+
+    fn push(&mut self, r: usize, c: usize, v: f64) {
+        self.rows.push(r);
+        self.cols.push(c);
+        self.vals.push(v);
+    }
+
+    fn into_csc(self, m: usize, n: usize) -> CscMatrix<f64> {
+        let nnz = self.vals.len();
+        let mut colptr = vec![0usize; n + 1];
+        for &c in &self.cols {
+            colptr[c + 1] += 1;
+        }
+        for j in 0..n {
+            colptr[j + 1] += colptr[j];
+        }
+        let mut next = colptr.clone();
+        let mut rowval = vec![0usize; nnz];
+        let mut nzval = vec![0.0; nnz];
+        for idx in 0..nnz {
+            let c = self.cols[idx];
+            let dst = next[c];
+            rowval[dst] = self.rows[idx];
+            nzval[dst] = self.vals[idx];
+            next[c] += 1;
+        }
+        // Sort within columns if needed (sparse user input may be out of order) and merge duplicates.
+        let mut out_colptr = vec![0usize; n + 1];
+        let mut out_rows = Vec::with_capacity(nnz);
+        let mut out_vals = Vec::with_capacity(nnz);
+        for j in 0..n {
+            let (a, b) = (colptr[j], colptr[j + 1]);
+            let mut seg: Vec<(usize, f64)> = (a..b).map(|i| (rowval[i], nzval[i])).collect();
+            if !seg.windows(2).all(|w| w[0].0 < w[1].0) {
+                seg.sort_by_key(|e| e.0);
+            }
+            for (r, v) in seg {
+                if out_rows.len() > out_colptr[j] && out_rows.last() == Some(&r) {
+                    if let Some(last) = out_vals.last_mut() {
+                        *last += v;
+                    }
+                } else {
+                    out_rows.push(r);
+                    out_vals.push(v);
+                }
+            }
+            out_colptr[j + 1] = out_rows.len();
+        }
+        CscMatrix::new(m, n, out_colptr, out_rows, out_vals)
+    }
+}
+
+impl QpSubproblem {
+    /// Assembles `P, q, A, b` and the cones, and sets up Clarabel.
+    pub(crate) fn new(
+        data: &QpData<'_>,
+        mode: QpMode,
+        tolerance: f64,
+        max_iterations: u32,
+    ) -> Result<Self, QpBuildError> {
+        let n = data.n;
+        let m = data.ineq.len();
+        let q = data.eq.len();
+        let with_norms = matches!(mode, QpMode::Optimality { .. });
+        let k = if with_norms { data.norms.len() } else { 0 };
+        let norm_dims: Vec<usize> = if with_norms {
+            data.norms.iter().map(|nd| nd.rows.len()).collect()
+        } else {
+            Vec::new()
+        };
+        let nvar = n + k + m + 2 * q;
+        let row_ineq = q;
+        let row_slack = row_ineq + m;
+        let row_box_up = row_slack + m + 2 * q;
+        let row_box_lo = row_box_up + n;
+        let row_soc = row_box_lo + n;
+        let nrows = row_soc + norm_dims.iter().map(|p| p + 1).sum::<usize>();
+        let layout = Layout {
+            n,
+            k,
+            m,
+            q,
+            nvar,
+            row_ineq,
+            row_box_up,
+            row_box_lo,
+            row_soc,
+        };
+        let (col_s, col_t, col_p, col_r) = (n, n + k, n + k + m, n + k + m + q);
+
+        // P: upper triangle of B (optimality mode only).
+        let mut p_trip = TripletBuilder::with_capacity(n * (n + 1) / 2);
+        if with_norms {
+            for i in 0..n {
+                for j in i..n {
+                    let v = data.hessian[i * n + j];
+                    if v != 0.0 {
+                        p_trip.push(i, j, v);
+                    }
+                }
+            }
+        }
+        let p_mat = p_trip.into_csc(nvar, nvar);
+
+        // q
+        let mut qv = vec![0.0; nvar];
+        let penalty = match mode {
+            QpMode::Optimality { penalty } => {
+                qv[..n].copy_from_slice(data.gradient);
+                for (kk, nd) in data.norms.iter().enumerate() {
+                    qv[col_s + kk] = nd.weight;
+                }
+                penalty
+            }
+            QpMode::Feasibility => 1.0,
+        };
+        for v in &mut qv[col_t..] {
+            *v = penalty;
+        }
+
+        // A, b (rows pushed in increasing order)
+        let jac_nnz_hint = n * (m + q);
+        let mut a = TripletBuilder::with_capacity(jac_nnz_hint + 3 * m + 6 * q + 2 * n);
+        let mut b = vec![0.0; nrows];
+        // Zero cone: J_h d − p + r = −h
+        data.eq_jac.for_each_nonzero(|i, j, v| a.push(i, j, v));
+        for (i, (bi, hi)) in b.iter_mut().zip(data.eq).enumerate() {
+            a.push(i, col_p + i, -1.0);
+            a.push(i, col_r + i, 1.0);
+            *bi = -hi;
+        }
+        // Inequalities: −J_c d − t ≤ c
+        data.ineq_jac
+            .for_each_nonzero(|i, j, v| a.push(row_ineq + i, j, -v));
+        for i in 0..m {
+            a.push(row_ineq + i, col_t + i, -1.0);
+            b[row_ineq + i] = data.ineq[i];
+        }
+        // Slacks ≥ 0
+        for i in 0..m + 2 * q {
+            a.push(row_slack + i, col_t + i, -1.0);
+        }
+        // Step box
+        for j in 0..n {
+            a.push(row_box_up + j, j, 1.0);
+            b[row_box_up + j] = data.step_upper[j];
+        }
+        for j in 0..n {
+            a.push(row_box_lo + j, j, -1.0);
+            b[row_box_lo + j] = -data.step_lower[j];
+        }
+        // Second-order cones: (s_k, A_k d + r_k)
+        let mut row = row_soc;
+        for (kk, nd) in data.norms.iter().enumerate().take(k) {
+            a.push(row, col_s + kk, -1.0);
+            row += 1;
+            for (i, arow) in nd.rows.iter().enumerate() {
+                for &(j, v) in arow {
+                    a.push(row, j, -v);
+                }
+                b[row] = data.norm_residuals[kk][i];
+                row += 1;
+            }
+        }
+        // The row-major Jacobian loop pushes rows in order per block, but the zero-cone block of a
+        // sparse Jacobian may be unordered; `into_csc` sorts within columns where needed.
+        let a_mat = a.into_csc(nrows, nvar);
+
+        let mut cones = Vec::with_capacity(2 + k);
+        if q > 0 {
+            cones.push(SupportedConeT::ZeroConeT(q));
+        }
+        cones.push(SupportedConeT::NonnegativeConeT(m + m + 2 * q + 2 * n));
+        for &p in &norm_dims {
+            cones.push(SupportedConeT::SecondOrderConeT(p + 1));
+        }
+
+        let settings = DefaultSettingsBuilder::<f64>::default()
+            .verbose(false)
+            .presolve_enable(false)
+            .max_iter(max_iterations)
+            .tol_gap_abs(tolerance)
+            .tol_gap_rel(tolerance)
+            .tol_feas(tolerance)
+            .build()
+            .map_err(|e| QpBuildError(format!("Clarabel settings: {e}")))?;
+        let solver = DefaultSolver::new(&p_mat, &qv, &a_mat, &b, &cones, settings)
+            .map_err(|e| QpBuildError(format!("Clarabel setup: {e}")))?;
+        Ok(Self {
+            solver,
+            layout,
+            mode,
+            norm_dims,
+        })
+    }
+
+    /// Changes the elastic weight `ν` (optimality mode) keeping everything else.
+    pub(crate) fn update_penalty(
+        &mut self,
+        data: &QpData<'_>,
+        penalty: f64,
+    ) -> Result<(), QpBuildError> {
+        let l = self.layout;
+        let mut qv = vec![0.0; l.nvar];
+        qv[..l.n].copy_from_slice(data.gradient);
+        for (kk, nd) in data.norms.iter().enumerate().take(l.k) {
+            qv[l.n + kk] = nd.weight;
+        }
+        for v in &mut qv[l.n + l.k..] {
+            *v = penalty;
+        }
+        self.mode = QpMode::Optimality { penalty };
+        self.solver
+            .update_q(&qv)
+            .map_err(|e| QpBuildError(format!("Clarabel update_q: {e}")))
+    }
+
+    /// Replaces the constraint values `c`, `h` in the right-hand side (second-order correction:
+    /// `c(x+d) − J d`, `h(x+d) − J_h d`), keeping the matrices.
+    pub(crate) fn update_constraint_values(
+        &mut self,
+        data: &QpData<'_>,
+        ineq: &[f64],
+        eq: &[f64],
+    ) -> Result<(), QpBuildError> {
+        let l = self.layout;
+        let nrows = l.row_soc + self.norm_dims.iter().map(|p| p + 1).sum::<usize>();
+        let mut b = vec![0.0; nrows];
+        for i in 0..l.q {
+            b[i] = -eq[i];
+        }
+        b[l.row_ineq..l.row_ineq + l.m].copy_from_slice(ineq);
+        for j in 0..l.n {
+            b[l.row_box_up + j] = data.step_upper[j];
+            b[l.row_box_lo + j] = -data.step_lower[j];
+        }
+        let mut row = l.row_soc;
+        for (kk, &p) in self.norm_dims.iter().enumerate() {
+            row += 1;
+            b[row..row + p].copy_from_slice(&data.norm_residuals[kk]);
+            row += p;
+        }
+        self.solver
+            .update_b(&b)
+            .map_err(|e| QpBuildError(format!("Clarabel update_b: {e}")))
+    }
+
+    /// Runs Clarabel and extracts the solution.
+    pub(crate) fn solve(&mut self) -> QpSolution {
+        self.solver.solve();
+        let sol = &self.solver.solution;
+        let l = self.layout;
+        let outcome = match sol.status {
+            SolverStatus::Solved => QpOutcome::Solved,
+            SolverStatus::AlmostSolved => QpOutcome::AlmostSolved,
+            other => QpOutcome::Failed(other),
+        };
+        let x = &sol.x;
+        let z = &sol.z;
+        let d = x[..l.n].to_vec();
+        let lambda = z[l.row_ineq..l.row_ineq + l.m].to_vec();
+        let mu = z[..l.q].iter().map(|v| -v).collect();
+        let box_upper = z[l.row_box_up..l.row_box_up + l.n].to_vec();
+        let box_lower = z[l.row_box_lo..l.row_box_lo + l.n].to_vec();
+        let mut norm_duals = Vec::with_capacity(l.k);
+        let mut row = l.row_soc;
+        for &p in &self.norm_dims {
+            norm_duals.push(z[row + 1..row + 1 + p].iter().map(|v| -v).collect());
+            row += p + 1;
+        }
+        QpSolution {
+            outcome,
+            d,
+            lambda,
+            mu,
+            box_lower,
+            box_upper,
+            norm_duals,
+        }
+    }
+
+    /// The mode this subproblem was built (or last updated) for.
+    #[allow(dead_code)]
+    pub(crate) fn mode(&self) -> QpMode {
+        self.mode
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::linalg::DenseMatrix;
+
+    #[test]
+    fn triplets_compress_sorted_and_merged() {
+        let mut t = TripletBuilder::with_capacity(4);
+        t.push(2, 0, 1.0);
+        t.push(0, 0, 2.0);
+        t.push(0, 0, 3.0);
+        t.push(1, 1, 4.0);
+        let c = t.into_csc(3, 2);
+        assert_eq!(c.colptr, vec![0, 2, 3]);
+        assert_eq!(c.rowval, vec![0, 2, 1]);
+        assert_eq!(c.nzval, vec![5.0, 1.0, 4.0]);
+        assert!(c.check_format().is_ok());
+    }
+
+    #[test]
+    fn box_constrained_qp_matches_closed_form() {
+        // min ½‖d‖² + gᵀd, d ∈ [-1, 1]², c: d0 + d1 ≥ 0.5 − 0 (c = −0.5, J = [1, 1])
+        let g = [1.0, -3.0];
+        let h = [1.0, 0.0, 0.0, 1.0];
+        let jc = Jacobian::Dense(DenseMatrix::from_rows(&[vec![1.0, 1.0]]).unwrap());
+        let je = Jacobian::dense(0, 2);
+        let data = QpData {
+            n: 2,
+            hessian: &h,
+            gradient: &g,
+            ineq: &[-0.5],
+            ineq_jac: &jc,
+            eq: &[],
+            eq_jac: &je,
+            norms: &[],
+            norm_residuals: &[],
+            step_lower: &[-1.0, -1.0],
+            step_upper: &[1.0, 1.0],
+        };
+        let mut qp = QpSubproblem::new(&data, QpMode::Optimality { penalty: 100.0 }, 1e-9, 100)
+            .expect("build");
+        let s = qp.solve();
+        assert!(s.outcome.is_usable());
+        // Unconstrained minimizer (-1, 3) clipped: d1 = 1 (upper bound), d0 = -1, d0 + d1 = 0 ≥ 0.5? No:
+        // the linear constraint is active: d0 + d1 = 0.5 with d1 = 1 → d0 = -0.5.
+        assert!((s.d[0] + 0.5).abs() < 1e-6, "{:?}", s.d);
+        assert!((s.d[1] - 1.0).abs() < 1e-6, "{:?}", s.d);
+        // Stationarity in d0: d0 + g0 = λ → λ = 0.5
+        assert!((s.lambda[0] - 0.5).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,718 @@
+//! The SQP solver: damped-BFGS quasi-Newton SQP with elastic ℓ1 QP subproblems solved by Clarabel,
+//! exact second-order-cone modelling of declared norm terms, and an ℓ1 merit line search with a
+//! second-order correction.
+//!
+//! One iteration at `x`:
+//!
+//! 1. Build the elastic QP ([`crate::qp`]) with the current `B`, `∇f`, `c`, `J`, norm residuals, and
+//!    the step box `max(l−x, −Δ) ≤ d ≤ min(u−x, Δ)`, `Δ = step_bound_scale · max(1, ‖x‖∞)`.
+//! 2. Steering of the penalty `ν` (Byrd–Nocedal–Waltz): if the step leaves linearized violation, solve the
+//!    feasibility LP for the best reachable violation and raise `ν` until the step achieves a fair share
+//!    of it (all of it if the linearization is consistent). If even the LP cannot reduce the violation,
+//!    `x` is a stationary point of the violation: locally infeasible.
+//! 3. The KKT residual at `x` is computed *explicitly* from the problem's gradients and the QP's
+//!    multipliers; `Converged` is reported only if it and the violation are within tolerance.
+//! 4. Backtracking on the ℓ1 merit `φ = f + Σw‖Ax+b‖ + ν‖viol‖₁` with the Armijo condition on the QP's
+//!    predicted reduction; if the full step is rejected, one second-order correction is tried. A failed
+//!    evaluation counts as a rejected trial and halves the step.
+//! 5. Damped BFGS update with `y = ∇ₓL(x⁺, λ) − ∇ₓL(x, λ)` of the smooth part.
+
+use crate::bfgs::DampedBfgs;
+use crate::error::OptimError;
+use crate::eval::{Evaluator, PointDerivatives, PointValues};
+use crate::linalg::{dot, is_positive_definite, norm2, norm_inf, symv};
+use crate::problem::{NormData, Problem};
+use crate::qp::{QpData, QpMode, QpSolution, QpSubproblem};
+use crate::settings::SqpSettings;
+use crate::status::{IterationInfo, Multipliers, Solution, Status};
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+/// The SQP solver. Create it with settings, then [`solve`](SqpSolver::solve) any number of problems.
+///
+/// ```
+/// use optim::{Problem, EvalError, Jacobian, SqpSolver, SqpSettings, Status};
+///
+/// /// min x² + y²  s.t.  x + y ≥ 1
+/// struct Tiny;
+/// impl Problem for Tiny {
+///     fn num_variables(&self) -> usize { 2 }
+///     fn num_inequalities(&self) -> usize { 1 }
+///     fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> { Ok(x[0] * x[0] + x[1] * x[1]) }
+///     fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+///         g[0] = 2.0 * x[0];
+///         g[1] = 2.0 * x[1];
+///         Ok(())
+///     }
+///     fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+///         c[0] = x[0] + x[1] - 1.0;
+///         Ok(())
+///     }
+///     fn inequality_jacobian(&mut self, _x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
+///         j.set(0, 0, 1.0);
+///         j.set(0, 1, 1.0);
+///         Ok(())
+///     }
+/// }
+///
+/// let solver = SqpSolver::new(SqpSettings::default()).unwrap();
+/// let sol = solver.solve(&mut Tiny, &[3.0, -1.0]).unwrap();
+/// assert_eq!(sol.status, Status::Converged);
+/// assert!((sol.x[0] - 0.5).abs() < 1e-6 && (sol.x[1] - 0.5).abs() < 1e-6);
+/// ```
+#[derive(Clone, Debug, Default)]
+pub struct SqpSolver {
+    settings: SqpSettings,
+}
+
+/// The QP step at one iterate, after penalty steering.
+struct Step {
+    qp: QpSubproblem,
+    sol: QpSolution,
+    /// Penalty the solution was computed with.
+    penalty: f64,
+    /// Linearized ℓ1 violation left by `sol.d`.
+    lin_violation: f64,
+    /// The feasibility LP could not reduce the linearized violation.
+    infeasible_stationary: bool,
+}
+
+/// Outcome of the merit line search.
+enum Search {
+    Accepted {
+        values: Box<PointValues>,
+        derivatives: Box<PointDerivatives>,
+        alpha: f64,
+    },
+    Failed {
+        all_evaluations_failed: bool,
+        last_error: Option<String>,
+    },
+    Budget,
+}
+
+/// `Σ max(0, −(c + J d)) + Σ |h + J_h d|`.
+fn linearized_violation(pt: &PointValues, dv: &PointDerivatives, d: &[f64]) -> f64 {
+    let mut jd = vec![0.0; pt.c.len()];
+    dv.jc.mul_vec(d, &mut jd);
+    let mut v: f64 = pt.c.iter().zip(&jd).map(|(c, a)| (-(c + a)).max(0.0)).sum();
+    let mut hd = vec![0.0; pt.h.len()];
+    dv.jh.mul_vec(d, &mut hd);
+    v +=
+        pt.h.iter()
+            .zip(&hd)
+            .map(|(h, a)| (h + a).abs())
+            .sum::<f64>();
+    v
+}
+
+/// `∇f − J_cᵀλ − J_hᵀμ` (smooth part of the Lagrangian).
+fn lagrangian_gradient(dv: &PointDerivatives, mult: &Multipliers) -> Vec<f64> {
+    let mut gl = dv.g.clone();
+    dv.jc.tmul_add(&mult.inequality, -1.0, &mut gl);
+    dv.jh.tmul_add(&mult.equality, -1.0, &mut gl);
+    gl
+}
+
+/// Multipliers in the problem's conventions from a QP solution: `λ ≥ 0`, bound duals only where the
+/// variable bound (not the step bound) defines the box side, norm subgradients projected onto `‖y‖ ≤ w`.
+fn extract_multipliers(
+    sol: &QpSolution,
+    x: &[f64],
+    lower: &[f64],
+    upper: &[f64],
+    delta: f64,
+    norms: &[NormData],
+) -> Multipliers {
+    let n = x.len();
+    let mut lower_bound = vec![0.0; n];
+    let mut upper_bound = vec![0.0; n];
+    for j in 0..n {
+        if lower[j].is_finite() && lower[j] - x[j] >= -delta {
+            lower_bound[j] = sol.box_lower[j].max(0.0);
+        }
+        if upper[j].is_finite() && upper[j] - x[j] <= delta {
+            upper_bound[j] = sol.box_upper[j].max(0.0);
+        }
+    }
+    let norm_terms = sol
+        .norm_duals
+        .iter()
+        .zip(norms)
+        .map(|(y, nd)| {
+            let ny = norm2(y);
+            if ny > nd.weight && ny > 0.0 {
+                y.iter().map(|v| v * nd.weight / ny).collect()
+            } else {
+                y.clone()
+            }
+        })
+        .collect();
+    Multipliers {
+        inequality: sol.lambda.iter().map(|v| v.max(0.0)).collect(),
+        equality: sol.mu.clone(),
+        lower_bound,
+        upper_bound,
+        norm_terms,
+    }
+}
+
+/// Scaled KKT residual: `max(‖∇ₓL‖∞ / max(1, ‖∇f‖∞), complementarity / max(1, |f|))`.
+fn kkt_residual(
+    pt: &PointValues,
+    dv: &PointDerivatives,
+    mult: &Multipliers,
+    norms: &[NormData],
+    lower: &[f64],
+    upper: &[f64],
+) -> f64 {
+    let mut gl = lagrangian_gradient(dv, mult);
+    for (k, nd) in norms.iter().enumerate() {
+        nd.tmul_add(&mult.norm_terms[k], &mut gl);
+    }
+    for ((gj, zu), zl) in gl.iter_mut().zip(&mult.upper_bound).zip(&mult.lower_bound) {
+        *gj += zu - zl;
+    }
+    let stationarity = norm_inf(&gl) / norm_inf(&dv.g).max(1.0);
+    let mut compl = 0.0_f64;
+    for (l, c) in mult.inequality.iter().zip(&pt.c) {
+        compl = compl.max((l * c).abs());
+    }
+    for j in 0..pt.x.len() {
+        if mult.lower_bound[j] > 0.0 {
+            compl = compl.max(mult.lower_bound[j] * (pt.x[j] - lower[j]));
+        }
+        if mult.upper_bound[j] > 0.0 {
+            compl = compl.max(mult.upper_bound[j] * (upper[j] - pt.x[j]));
+        }
+    }
+    for ((nd, r), y) in norms.iter().zip(&pt.residuals).zip(&mult.norm_terms) {
+        compl = compl.max(nd.weight * norm2(r) - dot(y, r));
+    }
+    let complementarity = compl / pt.objective().abs().max(1.0);
+    stationarity.max(complementarity)
+}
+
+impl SqpSolver {
+    /// A solver with validated settings.
+    pub fn new(settings: SqpSettings) -> Result<Self, OptimError> {
+        settings.validate()?;
+        Ok(Self { settings })
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &SqpSettings {
+        &self.settings
+    }
+
+    /// Minimizes `problem` from `x0` (projected onto the bounds first).
+    ///
+    /// `Err` only for invalid input (dimensions, bounds, starting point, initial Hessian); everything
+    /// that happens during the iterations is reported in [`Solution::status`].
+    pub fn solve<P: Problem + ?Sized>(
+        &self,
+        problem: &mut P,
+        x0: &[f64],
+    ) -> Result<Solution, OptimError> {
+        self.solve_with_callback(problem, x0, |_| ControlFlow::Continue(()))
+    }
+
+    /// Like [`solve`](SqpSolver::solve), calling `callback` once per iteration; returning
+    /// `ControlFlow::Break(())` stops the run with [`Status::Interrupted`].
+    pub fn solve_with_callback<P, F>(
+        &self,
+        problem: &mut P,
+        x0: &[f64],
+        mut callback: F,
+    ) -> Result<Solution, OptimError>
+    where
+        P: Problem + ?Sized,
+        F: FnMut(&IterationInfo) -> ControlFlow<()>,
+    {
+        let start = Instant::now();
+        let s = &self.settings;
+        s.validate()?;
+        let mut ev = Evaluator::new(problem, x0)?;
+        let n = ev.n;
+        let initial_hessian = match ev.problem.initial_hessian() {
+            None => None,
+            Some(b0) => {
+                if b0.nrows() != n || b0.ncols() != n {
+                    return Err(OptimError::DimensionMismatch {
+                        what: "initial Hessian rows/columns".into(),
+                        expected: n,
+                        got: if b0.nrows() != n {
+                            b0.nrows()
+                        } else {
+                            b0.ncols()
+                        },
+                    });
+                }
+                let data = b0.as_slice();
+                let scale = norm_inf(data).max(1.0);
+                let symmetric = (0..n).all(|i| {
+                    (0..n).all(|j| (data[i * n + j] - data[j * n + i]).abs() <= 1e-12 * scale)
+                });
+                if !symmetric || !is_positive_definite(data, n) {
+                    return Err(OptimError::InvalidProblem(
+                        "initial Hessian must be symmetric positive definite".into(),
+                    ));
+                }
+                Some(data.to_vec())
+            }
+        };
+        let mut bfgs = DampedBfgs::new(n, initial_hessian, s.bfgs_damping);
+        let norms = ev.norms.clone();
+
+        let mut x = x0.to_vec();
+        ev.project(&mut x);
+        let empty_mult = Multipliers {
+            inequality: vec![0.0; ev.m],
+            equality: vec![0.0; ev.q],
+            lower_bound: vec![0.0; n],
+            upper_bound: vec![0.0; n],
+            norm_terms: ev.norms.iter().map(|nd| vec![0.0; nd.rows.len()]).collect(),
+        };
+        let failed_start = |ev: &Evaluator<'_, P>, msg: String, x: Vec<f64>| Solution {
+            status: Status::EvaluationFailed,
+            message: msg,
+            x,
+            objective: f64::NAN,
+            constraint_violation: f64::NAN,
+            kkt_residual: f64::NAN,
+            iterations: 0,
+            function_evaluations: ev.function_evaluations,
+            gradient_evaluations: ev.gradient_evaluations,
+            multipliers: empty_mult.clone(),
+            solve_time: start.elapsed().as_secs_f64(),
+        };
+        let mut pt = match ev.values(&x) {
+            Ok(v) => v,
+            Err(e) => {
+                let msg = format!("evaluation failed at the starting point: {e}");
+                return Ok(failed_start(&ev, msg, x));
+            }
+        };
+        let mut dv = match ev.derivatives(&x) {
+            Ok(v) => v,
+            Err(e) => {
+                let msg = format!("derivative evaluation failed at the starting point: {e}");
+                return Ok(failed_start(&ev, msg, x));
+            }
+        };
+
+        let mut penalty = s.elastic_weight;
+        let mut iterations = 0usize;
+        let mut last_step_norm = 0.0;
+        let mut last_alpha = 0.0;
+        let mut best_violation = pt.violation_inf();
+        let mut mult = empty_mult.clone();
+        let mut kkt = f64::INFINITY;
+
+        let (status, message) = loop {
+            let xinf = norm_inf(&x);
+            let delta = s.step_bound_scale * xinf.max(1.0);
+            let step_lower: Vec<f64> = (0..n).map(|j| (ev.lower[j] - x[j]).max(-delta)).collect();
+            let step_upper: Vec<f64> = (0..n).map(|j| (ev.upper[j] - x[j]).min(delta)).collect();
+            let data = QpData {
+                n,
+                hessian: bfgs.matrix(),
+                gradient: &dv.g,
+                ineq: &pt.c,
+                ineq_jac: &dv.jc,
+                eq: &pt.h,
+                eq_jac: &dv.jh,
+                norms: &norms,
+                norm_residuals: &pt.residuals,
+                step_lower: &step_lower,
+                step_upper: &step_upper,
+            };
+            let mut step = match self.compute_step(&data, &pt, &dv, &mut penalty) {
+                Ok(step) => step,
+                Err(msg) => {
+                    if !bfgs.is_fresh() {
+                        bfgs.reset();
+                        continue;
+                    }
+                    break (
+                        Status::Stalled,
+                        format!("QP subproblem could not be set up: {msg}"),
+                    );
+                }
+            };
+            let qp_usable = step.sol.outcome.is_usable();
+            if qp_usable {
+                mult = extract_multipliers(&step.sol, &x, &ev.lower, &ev.upper, delta, &ev.norms);
+                kkt = kkt_residual(&pt, &dv, &mult, &ev.norms, &ev.lower, &ev.upper);
+            }
+            let viol = pt.violation_inf();
+            best_violation = best_violation.min(viol);
+            let info = IterationInfo {
+                iteration: iterations,
+                objective: pt.objective(),
+                constraint_violation: viol,
+                kkt_residual: kkt,
+                step_norm: last_step_norm,
+                step_length: last_alpha,
+                penalty: step.penalty,
+                linearized_violation: step.lin_violation,
+                function_evaluations: ev.function_evaluations,
+                gradient_evaluations: ev.gradient_evaluations,
+            };
+            if callback(&info).is_break() {
+                break (Status::Interrupted, "stopped by the callback".into());
+            }
+            if viol <= s.tol_feasibility && kkt <= s.tol_optimality {
+                break (
+                    Status::Converged,
+                    format!("KKT residual {kkt:.2e} and violation {viol:.2e} within tolerance"),
+                );
+            }
+            if qp_usable && viol > s.tol_feasibility && step.infeasible_stationary {
+                break (
+                    Status::Infeasible { best_violation },
+                    format!(
+                        "no step can reduce the linearized violation {:.3e}: locally infeasible",
+                        pt.violation_l1()
+                    ),
+                );
+            }
+            if iterations >= s.max_iterations {
+                break (Status::IterationLimit, format!("{iterations} iterations"));
+            }
+            if ev.function_evaluations >= s.max_function_evaluations {
+                break (
+                    Status::IterationLimit,
+                    format!("{} function evaluations", ev.function_evaluations),
+                );
+            }
+
+            // The step and its predicted merit reduction.
+            let d: Vec<f64> = step
+                .sol
+                .d
+                .iter()
+                .zip(step_lower.iter().zip(&step_upper))
+                .map(|(v, (l, u))| v.clamp(*l, *u))
+                .collect();
+            let pred = predicted_reduction(&pt, &dv, &bfgs, &ev.norms, &d, step.penalty);
+            let negligible = norm_inf(&d) <= s.tol_step * (1.0 + xinf);
+            let descent = pred > 0.0;
+            if !qp_usable || negligible || !descent || d.iter().any(|v| !v.is_finite()) {
+                if !bfgs.is_fresh() {
+                    bfgs.reset();
+                    continue;
+                }
+                let why = if !qp_usable {
+                    format!("QP subproblem failed ({:?})", step.sol.outcome)
+                } else {
+                    format!(
+                        "negligible step (‖d‖∞ = {:.2e}, predicted reduction {pred:.2e})",
+                        norm_inf(&d)
+                    )
+                };
+                break (Status::Stalled, why);
+            }
+
+            let search = self.line_search(
+                &mut ev,
+                &pt,
+                &dv,
+                &d,
+                pred,
+                step.penalty,
+                &mut step.qp,
+                &data,
+            );
+            match search {
+                Search::Accepted {
+                    values,
+                    derivatives,
+                    alpha,
+                } => {
+                    let s_vec: Vec<f64> = values.x.iter().zip(&x).map(|(a, b)| a - b).collect();
+                    let step_mult =
+                        extract_multipliers(&step.sol, &x, &ev.lower, &ev.upper, delta, &ev.norms);
+                    let gl_old = lagrangian_gradient(&dv, &step_mult);
+                    let gl_new = lagrangian_gradient(&derivatives, &step_mult);
+                    let y: Vec<f64> = gl_new.iter().zip(&gl_old).map(|(a, b)| a - b).collect();
+                    bfgs.update(&s_vec, &y);
+                    last_step_norm = norm_inf(&s_vec);
+                    last_alpha = alpha;
+                    x = values.x.clone();
+                    pt = *values;
+                    dv = *derivatives;
+                    iterations += 1;
+                    // Multipliers/KKT of the new point come from its own QP next iteration.
+                    kkt = f64::INFINITY;
+                }
+                Search::Budget => {
+                    break (
+                        Status::IterationLimit,
+                        format!(
+                            "{} function evaluations (during a line search)",
+                            ev.function_evaluations
+                        ),
+                    );
+                }
+                Search::Failed {
+                    all_evaluations_failed,
+                    last_error,
+                } => {
+                    if !bfgs.is_fresh() {
+                        bfgs.reset();
+                        continue;
+                    }
+                    if all_evaluations_failed {
+                        break (
+                            Status::EvaluationFailed,
+                            format!(
+                                "no evaluable point along the step: {}",
+                                last_error.unwrap_or_default()
+                            ),
+                        );
+                    }
+                    break (
+                        Status::Stalled,
+                        "line search failed even after a Hessian reset".into(),
+                    );
+                }
+            }
+        };
+
+        Ok(Solution {
+            status,
+            message,
+            objective: pt.objective(),
+            constraint_violation: pt.violation_inf(),
+            kkt_residual: kkt,
+            x,
+            iterations,
+            function_evaluations: ev.function_evaluations,
+            gradient_evaluations: ev.gradient_evaluations,
+            multipliers: mult,
+            solve_time: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Solves the elastic QP and steers the penalty.
+    fn compute_step(
+        &self,
+        data: &QpData<'_>,
+        pt: &PointValues,
+        dv: &PointDerivatives,
+        penalty: &mut f64,
+    ) -> Result<Step, String> {
+        let s = &self.settings;
+        let mut qp = QpSubproblem::new(
+            data,
+            QpMode::Optimality { penalty: *penalty },
+            s.qp_tolerance,
+            s.qp_max_iterations,
+        )
+        .map_err(|e| e.0)?;
+        let mut sol = qp.solve();
+        let mut lin_violation = linearized_violation(pt, dv, &sol.d);
+        let mut step_penalty = *penalty;
+        let mut infeasible_stationary = false;
+        let lv0 = pt.violation_l1();
+        let scale = 1.0 + norm_inf(&pt.c).max(norm_inf(&pt.h));
+        let lin_tol = s.tol_feasibility.max(10.0 * s.qp_tolerance * scale);
+        if sol.outcome.is_usable() && lin_violation > lin_tol {
+            let mut fqp = QpSubproblem::new(
+                data,
+                QpMode::Feasibility,
+                s.qp_tolerance,
+                s.qp_max_iterations,
+            )
+            .map_err(|e| e.0)?;
+            let fsol = fqp.solve();
+            let lv_min = if fsol.outcome.is_usable() {
+                let v = linearized_violation(pt, dv, &fsol.d);
+                infeasible_stationary = lv0 - v <= s.tol_optimality * lv0.max(1.0);
+                v.min(lin_violation)
+            } else {
+                0.0
+            };
+            let good_enough = |lv: f64| {
+                if lv_min <= lin_tol {
+                    lv <= lin_tol
+                } else {
+                    lv0 - lv >= 0.1 * (lv0 - lv_min)
+                }
+            };
+            while !good_enough(lin_violation) && *penalty < s.elastic_weight_max {
+                let next = (*penalty * s.elastic_weight_growth).min(s.elastic_weight_max);
+                if qp.update_penalty(data, next).is_err() {
+                    break;
+                }
+                let trial = qp.solve();
+                if !trial.outcome.is_usable() {
+                    // Keep the last usable step; restore the QP to its penalty for a consistent SOC.
+                    let _ = qp.update_penalty(data, step_penalty);
+                    *penalty = next;
+                    break;
+                }
+                *penalty = next;
+                step_penalty = next;
+                lin_violation = linearized_violation(pt, dv, &trial.d);
+                sol = trial;
+            }
+        }
+        Ok(Step {
+            qp,
+            sol,
+            penalty: step_penalty,
+            lin_violation,
+            infeasible_stationary,
+        })
+    }
+
+    /// Backtracking on the ℓ1 merit with one second-order correction.
+    #[allow(clippy::too_many_arguments)]
+    fn line_search<P: Problem + ?Sized>(
+        &self,
+        ev: &mut Evaluator<'_, P>,
+        pt: &PointValues,
+        dv: &PointDerivatives,
+        d: &[f64],
+        pred: f64,
+        penalty: f64,
+        qp: &mut QpSubproblem,
+        data: &QpData<'_>,
+    ) -> Search {
+        let s = &self.settings;
+        let phi0 = pt.merit(penalty);
+        let noise = 10.0 * f64::EPSILON * phi0.abs().max(1.0);
+        let mut alpha = 1.0_f64;
+        let mut trials = 0usize;
+        let mut failures = 0usize;
+        let mut last_error = None;
+        let mut tried_soc = false;
+        while alpha >= s.min_step_length {
+            if ev.function_evaluations >= s.max_function_evaluations {
+                return Search::Budget;
+            }
+            trials += 1;
+            let mut xt: Vec<f64> = pt.x.iter().zip(d).map(|(x, di)| x + alpha * di).collect();
+            ev.project(&mut xt);
+            let vt = match ev.values(&xt) {
+                Ok(v) => v,
+                Err(e) => {
+                    failures += 1;
+                    last_error = Some(e.to_string());
+                    alpha *= 0.5;
+                    continue;
+                }
+            };
+            let phit = vt.merit(penalty);
+            if phit <= phi0 - s.armijo * alpha * pred + noise {
+                match ev.derivatives(&xt) {
+                    Ok(dt) => {
+                        return Search::Accepted {
+                            values: Box::new(vt),
+                            derivatives: Box::new(dt),
+                            alpha,
+                        }
+                    }
+                    Err(e) => {
+                        failures += 1;
+                        last_error = Some(e.to_string());
+                        alpha *= 0.5;
+                        continue;
+                    }
+                }
+            }
+            // Second-order correction after a rejected full step.
+            if alpha == 1.0
+                && !tried_soc
+                && s.second_order_correction
+                && (ev.m + ev.q) > 0
+                && ev.function_evaluations < s.max_function_evaluations
+            {
+                tried_soc = true;
+                if let Some(accepted) =
+                    self.second_order_correction(ev, pt, dv, d, vt.clone(), pred, penalty, qp, data)
+                {
+                    return accepted;
+                }
+            }
+            // Quadratic interpolation of the merit along the step, safeguarded to [0.1α, 0.5α].
+            let denom = 2.0 * (phit - phi0 + alpha * pred);
+            let interp = if denom > 0.0 {
+                pred * alpha * alpha / denom
+            } else {
+                0.5 * alpha
+            };
+            alpha = interp.clamp(0.1 * alpha, 0.5 * alpha);
+        }
+        Search::Failed {
+            all_evaluations_failed: trials > 0 && failures == trials,
+            last_error,
+        }
+    }
+
+    /// Re-solves the QP with the constraint values at the trial point: `c(x+d) + J(x)(d̂ − d) ≥ 0`.
+    #[allow(clippy::too_many_arguments)]
+    fn second_order_correction<P: Problem + ?Sized>(
+        &self,
+        ev: &mut Evaluator<'_, P>,
+        pt: &PointValues,
+        dv: &PointDerivatives,
+        d: &[f64],
+        trial: PointValues,
+        pred: f64,
+        penalty: f64,
+        qp: &mut QpSubproblem,
+        data: &QpData<'_>,
+    ) -> Option<Search> {
+        let s = &self.settings;
+        let mut jd = vec![0.0; ev.m];
+        dv.jc.mul_vec(d, &mut jd);
+        let c_hat: Vec<f64> = trial.c.iter().zip(&jd).map(|(c, a)| c - a).collect();
+        let mut hd = vec![0.0; ev.q];
+        dv.jh.mul_vec(d, &mut hd);
+        let h_hat: Vec<f64> = trial.h.iter().zip(&hd).map(|(h, a)| h - a).collect();
+        qp.update_constraint_values(data, &c_hat, &h_hat).ok()?;
+        let sol = qp.solve();
+        if !sol.outcome.is_usable() || sol.d.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let mut xs: Vec<f64> = pt.x.iter().zip(&sol.d).map(|(x, di)| x + di).collect();
+        ev.project(&mut xs);
+        let vs = ev.values(&xs).ok()?;
+        let phi0 = pt.merit(penalty);
+        let noise = 10.0 * f64::EPSILON * phi0.abs().max(1.0);
+        if vs.merit(penalty) <= phi0 - s.armijo * pred + noise {
+            let ds = ev.derivatives(&xs).ok()?;
+            return Some(Search::Accepted {
+                values: Box::new(vs),
+                derivatives: Box::new(ds),
+                alpha: 1.0,
+            });
+        }
+        None
+    }
+}
+
+/// `m(0) − m(d)` for the ℓ1 model `f + gᵀd + ½dᵀBd + Σw‖r + Ad‖ + ν·linviol(d)`.
+fn predicted_reduction(
+    pt: &PointValues,
+    dv: &PointDerivatives,
+    bfgs: &DampedBfgs,
+    norms: &[NormData],
+    d: &[f64],
+    penalty: f64,
+) -> f64 {
+    let n = d.len();
+    let mut bd = vec![0.0; n];
+    symv(bfgs.matrix(), n, d, &mut bd);
+    let quad = dot(&dv.g, d) + 0.5 * dot(d, &bd);
+    let xd: Vec<f64> = pt.x.iter().zip(d).map(|(a, b)| a + b).collect();
+    let norms_new: f64 = norms
+        .iter()
+        .map(|nd| nd.weight * norm2(&nd.residual(&xd)))
+        .sum();
+    let lin = linearized_violation(pt, dv, d);
+    -quad + (pt.f_norms - norms_new) + penalty * (pt.violation_l1() - lin)
+}

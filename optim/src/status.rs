@@ -1,0 +1,128 @@
+//! What a run reports: the [`Status`], per-iteration [`IterationInfo`] and the final [`Solution`].
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// How a run ended. Only [`Status::Converged`] means the tolerances were met.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Status {
+    /// The KKT residual and the constraint violation are both within their tolerances at the returned point.
+    Converged,
+    /// Locally infeasible: the iterates reached a stationary point of the constraint violation that
+    /// does not satisfy the constraints. `best_violation` is the smallest max-norm violation reached.
+    Infeasible {
+        /// Smallest max-norm constraint violation over all iterates.
+        best_violation: f64,
+    },
+    /// The iteration or function-evaluation limit was reached first.
+    IterationLimit,
+    /// No further progress was possible (line search failed even after a Hessian reset, or the step
+    /// became negligible) before the tolerances were met.
+    Stalled,
+    /// The problem could not be evaluated at the starting point, or no evaluable point was found along
+    /// the search direction.
+    EvaluationFailed,
+    /// The per-iteration callback asked to stop.
+    Interrupted,
+}
+
+impl Status {
+    /// `true` only for [`Status::Converged`].
+    pub fn is_converged(&self) -> bool {
+        matches!(self, Status::Converged)
+    }
+
+    /// A short lowercase name (`"converged"`, `"infeasible"`, …) for tables and logs.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Status::Converged => "converged",
+            Status::Infeasible { .. } => "infeasible",
+            Status::IterationLimit => "iteration_limit",
+            Status::Stalled => "stalled",
+            Status::EvaluationFailed => "evaluation_failed",
+            Status::Interrupted => "interrupted",
+        }
+    }
+}
+
+impl fmt::Display for Status {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Status::Infeasible { best_violation } => {
+                write!(f, "infeasible (best violation {best_violation:.3e})")
+            }
+            other => f.write_str(other.name()),
+        }
+    }
+}
+
+/// A snapshot handed to the per-iteration callback (after the convergence measures of the current
+/// iterate are known, before the step is taken).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IterationInfo {
+    /// Iteration number, 0 for the starting point.
+    pub iteration: usize,
+    /// Total objective (smooth part plus norm terms) at the current iterate.
+    pub objective: f64,
+    /// Max-norm constraint violation at the current iterate (0 for unconstrained problems).
+    pub constraint_violation: f64,
+    /// Scaled KKT residual at the current iterate (L-BFGS: ∞-norm of the projected gradient).
+    pub kkt_residual: f64,
+    /// ∞-norm of the step that led to this iterate (0 at iteration 0).
+    pub step_norm: f64,
+    /// Line-search step length of that step (0 at iteration 0).
+    pub step_length: f64,
+    /// Current ℓ1 penalty / elastic weight (SQP; 0 for L-BFGS).
+    pub penalty: f64,
+    /// Linearized ℓ1 constraint violation left by the QP step from this iterate (SQP; 0 for L-BFGS).
+    /// Positive means the linearization was inconsistent and the elastic slacks were used.
+    pub linearized_violation: f64,
+    /// Objective (and constraint) evaluations so far.
+    pub function_evaluations: usize,
+    /// Gradient (and Jacobian) evaluations so far.
+    pub gradient_evaluations: usize,
+}
+
+/// Lagrange multipliers at the returned point (SQP: from the last QP subproblem; L-BFGS: bound
+/// multipliers from the gradient).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Multipliers {
+    /// One per inequality, `≥ 0`, with `∇f = Σ λᵢ ∇cᵢ + …` at a KKT point.
+    pub inequality: Vec<f64>,
+    /// One per equality.
+    pub equality: Vec<f64>,
+    /// One per variable, `≥ 0`, for active lower bounds.
+    pub lower_bound: Vec<f64>,
+    /// One per variable, `≥ 0`, for active upper bounds.
+    pub upper_bound: Vec<f64>,
+    /// For each norm term, the subgradient vector `y` with `‖y‖ ≤ w` and `Aᵀy` its contribution
+    /// to the gradient of the objective.
+    pub norm_terms: Vec<Vec<f64>>,
+}
+
+/// The outcome of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Solution {
+    /// How the run ended.
+    pub status: Status,
+    /// A one-line explanation of the status.
+    pub message: String,
+    /// The returned point: the final iterate, or for [`Status::Infeasible`] the least-violating iterate.
+    pub x: Vec<f64>,
+    /// Total objective at `x` (smooth part plus norm terms).
+    pub objective: f64,
+    /// Max-norm constraint violation at `x`.
+    pub constraint_violation: f64,
+    /// Scaled KKT residual at `x` (see the crate docs for its definition).
+    pub kkt_residual: f64,
+    /// Steps taken.
+    pub iterations: usize,
+    /// Objective (and constraint) evaluations.
+    pub function_evaluations: usize,
+    /// Gradient (and Jacobian) evaluations.
+    pub gradient_evaluations: usize,
+    /// Lagrange multipliers at `x`.
+    pub multipliers: Multipliers,
+    /// Wall-clock time of the run in seconds.
+    pub solve_time: f64,
+}

@@ -1,0 +1,470 @@
+//! SQP behaviour on problems with known solutions.
+
+use optim::test_problems::hock_schittkowski;
+use optim::{
+    Bounds, ControlFlow, DenseMatrix, EvalError, Jacobian, NormTerm, OptimError, Problem,
+    SparseMatrix, SqpSettings, SqpSolver, Status,
+};
+
+fn solver() -> SqpSolver {
+    SqpSolver::new(SqpSettings::default()).expect("default settings are valid")
+}
+
+#[test]
+fn hock_schittkowski_problems_reach_the_published_optimum() {
+    let problems = hock_schittkowski();
+    assert!(problems.len() >= 10);
+    for mut p in problems {
+        let x0 = p.x0.clone();
+        let sol = solver().solve(&mut p, &x0).expect("valid problem");
+        assert_eq!(sol.status, Status::Converged, "{}: {}", p.name, sol.message);
+        assert!(
+            p.error(sol.objective) <= 1e-6,
+            "{}: objective {} vs published {}",
+            p.name,
+            sol.objective,
+            p.f_star
+        );
+        assert!(sol.kkt_residual <= 1e-6 && sol.constraint_violation <= 1e-8);
+        assert!(sol.function_evaluations >= sol.iterations);
+    }
+}
+
+/// Two disjoint unit disks: `1 − ‖x‖² ≥ 0` and `1 − ‖x − (3,0)‖² ≥ 0`. The ℓ1 violation is
+/// stationary at (1.5, 0) with max violation 1.25.
+struct TwoDisks;
+
+impl Problem for TwoDisks {
+    fn num_variables(&self) -> usize {
+        2
+    }
+    fn num_inequalities(&self) -> usize {
+        2
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        Ok(x[0] + x[1])
+    }
+    fn gradient(&mut self, _x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        g.copy_from_slice(&[1.0, 1.0]);
+        Ok(())
+    }
+    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        c[0] = 1.0 - x[0] * x[0] - x[1] * x[1];
+        c[1] = 1.0 - (x[0] - 3.0).powi(2) - x[1] * x[1];
+        Ok(())
+    }
+    fn inequality_jacobian(&mut self, x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
+        j.set(0, 0, -2.0 * x[0]);
+        j.set(0, 1, -2.0 * x[1]);
+        j.set(1, 0, -2.0 * (x[0] - 3.0));
+        j.set(1, 1, -2.0 * x[1]);
+        Ok(())
+    }
+}
+
+#[test]
+fn locally_infeasible_problem_is_reported_infeasible() {
+    let sol = solver().solve(&mut TwoDisks, &[0.2, 0.7]).unwrap();
+    match sol.status {
+        Status::Infeasible { best_violation } => {
+            assert!((best_violation - 1.25).abs() < 1e-4, "{best_violation}");
+        }
+        other => panic!("expected Infeasible, got {other:?}: {}", sol.message),
+    }
+    assert!(
+        (sol.x[0] - 1.5).abs() < 1e-3 && sol.x[1].abs() < 1e-3,
+        "{:?}",
+        sol.x
+    );
+    assert!(!sol.status.is_converged());
+}
+
+/// `min (x₀ − 0.3)² + x₁²  s.t.  x₀² + x₁² ≥ 1,  x₀ ≤ 2`, from (0.1, 0): the linearization
+/// `−0.99 + 0.2 d₀ ≥ 0` needs `d₀ ≥ 4.95` but the bound allows `d₀ ≤ 1.9`.
+struct OutsideDisk;
+
+impl Problem for OutsideDisk {
+    fn num_variables(&self) -> usize {
+        2
+    }
+    fn num_inequalities(&self) -> usize {
+        1
+    }
+    fn bounds(&self) -> Option<Bounds> {
+        Some(Bounds::new(
+            vec![f64::NEG_INFINITY; 2],
+            vec![2.0, f64::INFINITY],
+        ))
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        Ok((x[0] - 0.3).powi(2) + x[1] * x[1])
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        g[0] = 2.0 * (x[0] - 0.3);
+        g[1] = 2.0 * x[1];
+        Ok(())
+    }
+    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        c[0] = x[0] * x[0] + x[1] * x[1] - 1.0;
+        Ok(())
+    }
+    fn inequality_jacobian(&mut self, x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
+        j.set(0, 0, 2.0 * x[0]);
+        j.set(0, 1, 2.0 * x[1]);
+        Ok(())
+    }
+}
+
+#[test]
+fn inconsistent_first_linearization_is_solved_anyway() {
+    let mut infos = Vec::new();
+    let sol = solver()
+        .solve_with_callback(&mut OutsideDisk, &[0.1, 0.0], |info| {
+            infos.push(info.clone());
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+    assert!(
+        infos[0].linearized_violation > 0.1,
+        "the first QP must need its elastic slack: {:?}",
+        infos[0]
+    );
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    assert!(
+        (sol.x[0] - 1.0).abs() < 1e-6 && sol.x[1].abs() < 1e-6,
+        "{:?}",
+        sol.x
+    );
+    assert!((sol.objective - 0.49).abs() < 1e-6);
+}
+
+/// `min ½‖x − a‖² + w‖x‖`: `x* = 0` if `‖a‖ ≤ w`, else `x* = a (1 − w/‖a‖)`.
+struct ShrinkToward {
+    a: Vec<f64>,
+    w: f64,
+}
+
+impl Problem for ShrinkToward {
+    fn num_variables(&self) -> usize {
+        self.a.len()
+    }
+    fn norm_terms(&self) -> Vec<NormTerm> {
+        let n = self.a.len();
+        vec![NormTerm::from_dense(
+            self.w,
+            &DenseMatrix::identity(n),
+            vec![0.0; n],
+        )]
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        Ok(0.5
+            * x.iter()
+                .zip(&self.a)
+                .map(|(x, a)| (x - a).powi(2))
+                .sum::<f64>())
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        for ((g, x), a) in g.iter_mut().zip(x).zip(&self.a) {
+            *g = x - a;
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn norm_term_optimum_on_the_kink_is_found_exactly() {
+    let a = vec![0.3, -0.2, 0.1];
+    let na = a.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let mut p = ShrinkToward {
+        a: a.clone(),
+        w: 1.0,
+    };
+    let sol = solver().solve(&mut p, &[2.0, 1.0, -1.0]).unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    let nx = sol.x.iter().map(|v| v * v).sum::<f64>().sqrt();
+    assert!(nx < 1e-7, "x = {:?}", sol.x);
+    assert!((sol.objective - 0.5 * na * na).abs() < 1e-9);
+    // The subgradient multiplier certifies optimality: y = a, ‖y‖ ≤ w.
+    let y = &sol.multipliers.norm_terms[0];
+    for (yi, ai) in y.iter().zip(&a) {
+        assert!((yi - ai).abs() < 1e-6, "{y:?}");
+    }
+}
+
+#[test]
+fn norm_term_optimum_off_the_kink_matches_closed_form() {
+    let a = vec![3.0, -2.0, 1.0];
+    let w = 1.0;
+    let na = a.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let mut p = ShrinkToward { a: a.clone(), w };
+    // Start exactly on the kink, where a smooth quasi-Newton method has no gradient.
+    let sol = solver().solve(&mut p, &[0.0, 0.0, 0.0]).unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    for (x, a) in sol.x.iter().zip(&a) {
+        assert!((x - a * (1.0 - w / na)).abs() < 1e-6, "{:?}", sol.x);
+    }
+    let expected = 0.5 * w * w + w * (na - w);
+    assert!((sol.objective - expected).abs() < 1e-9);
+}
+
+/// A trajectory: `u₁…u_T ∈ ℝ²`, `u₀ = 0`, minimize `½ Σ ‖u_t − p‖² + w Σ ‖u_t − u_{t−1}‖`.
+/// With `T‖p‖ > w` the optimum keeps all controls equal, `u_t = p (1 − w/(T‖p‖))`: every difference but
+/// the first sits on its kink, with subgradients `y_t = (T − t + 1)(w/T) p̂` strictly inside the ball.
+/// Started from all zeros, where every norm term is on its kink.
+struct Trajectory {
+    steps: usize,
+    target: [f64; 2],
+    weight: f64,
+}
+
+impl Problem for Trajectory {
+    fn num_variables(&self) -> usize {
+        2 * self.steps
+    }
+    fn norm_terms(&self) -> Vec<NormTerm> {
+        let n = self.num_variables();
+        let mut terms = vec![NormTerm::distance_to(self.weight, n, &[0, 1], &[0.0, 0.0])];
+        for t in 1..self.steps {
+            terms.push(NormTerm::difference(
+                self.weight,
+                n,
+                &[2 * t, 2 * t + 1],
+                &[2 * t - 2, 2 * t - 1],
+            ));
+        }
+        terms
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        Ok(x.chunks(2)
+            .map(|u| 0.5 * ((u[0] - self.target[0]).powi(2) + (u[1] - self.target[1]).powi(2)))
+            .sum())
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        for (gi, (xi, k)) in g.iter_mut().zip(x.iter().zip((0..2).cycle())) {
+            *gi = xi - self.target[k];
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn trajectory_of_norm_terms_from_an_all_zero_start() {
+    let target = [0.6, -0.8];
+    let (steps, weight) = (5, 1.0);
+    let mut p = Trajectory {
+        steps,
+        target,
+        weight,
+    };
+    let sol = solver().solve(&mut p, &vec![0.0; 2 * steps]).unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    let shrink = 1.0 - weight / steps as f64; // ‖p‖ = 1
+    for u in sol.x.chunks(2) {
+        assert!((u[0] - shrink * target[0]).abs() < 1e-6, "{:?}", sol.x);
+        assert!((u[1] - shrink * target[1]).abs() < 1e-6, "{:?}", sol.x);
+    }
+    let expected = 0.5 * steps as f64 * (1.0 - shrink).powi(2) + weight * shrink;
+    assert!((sol.objective - expected).abs() < 1e-7);
+}
+
+/// `min (x − 3)²  s.t.  4 − x² ≥ 0`, whose objective cannot be evaluated for `x > 2.5`.
+struct Domain;
+
+impl Problem for Domain {
+    fn num_variables(&self) -> usize {
+        1
+    }
+    fn num_inequalities(&self) -> usize {
+        1
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        if x[0] > 2.5 {
+            return Err(EvalError::new("outside the simulation's domain"));
+        }
+        Ok((x[0] - 3.0).powi(2))
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        g[0] = 2.0 * (x[0] - 3.0);
+        Ok(())
+    }
+    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        c[0] = 4.0 - x[0] * x[0];
+        Ok(())
+    }
+    fn inequality_jacobian(&mut self, x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
+        j.set(0, 0, -2.0 * x[0]);
+        Ok(())
+    }
+}
+
+#[test]
+fn failed_evaluations_shorten_the_step() {
+    // From x = 0 the Jacobian vanishes and the first step (−∇f = 6) lands outside the domain.
+    let sol = solver().solve(&mut Domain, &[0.0]).unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    assert!((sol.x[0] - 2.0).abs() < 1e-7);
+    assert!((sol.objective - 1.0).abs() < 1e-7);
+}
+
+struct Broken;
+
+impl Problem for Broken {
+    fn num_variables(&self) -> usize {
+        2
+    }
+    fn objective(&mut self, _x: &[f64]) -> Result<f64, EvalError> {
+        Ok(f64::NAN)
+    }
+    fn gradient(&mut self, _x: &[f64], _g: &mut [f64]) -> Result<(), EvalError> {
+        Ok(())
+    }
+}
+
+#[test]
+fn evaluation_failure_at_the_start_is_reported() {
+    let sol = solver().solve(&mut Broken, &[0.0, 0.0]).unwrap();
+    assert_eq!(sol.status, Status::EvaluationFailed);
+    assert!(sol.message.contains("starting point"), "{}", sol.message);
+}
+
+#[test]
+fn limits_and_callback_stop_are_reported_honestly() {
+    let mut p = hock_schittkowski()
+        .into_iter()
+        .find(|p| p.name == "HS100")
+        .unwrap();
+    let x0 = p.x0.clone();
+    let s = SqpSolver::new(SqpSettings::builder().max_iterations(3).build().unwrap()).unwrap();
+    let sol = s.solve(&mut p, &x0).unwrap();
+    assert_eq!(sol.status, Status::IterationLimit);
+    assert_eq!(sol.iterations, 3);
+
+    let mut seen = Vec::new();
+    let sol = solver()
+        .solve_with_callback(&mut p, &x0, |info| {
+            seen.push((info.iteration, info.function_evaluations));
+            if info.iteration == 2 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        })
+        .unwrap();
+    assert_eq!(sol.status, Status::Interrupted);
+    assert_eq!(seen.iter().map(|s| s.0).collect::<Vec<_>>(), vec![0, 1, 2]);
+    assert!(seen.windows(2).all(|w| w[1].1 > w[0].1));
+}
+
+/// A non-smooth objective hidden in the smooth part (`|x|`) cannot satisfy the KKT test at the kink
+/// from a quasi-Newton model: the run must not claim convergence unless the residual really is small.
+struct HiddenKink;
+
+impl Problem for HiddenKink {
+    fn num_variables(&self) -> usize {
+        1
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        Ok(x[0].abs() + 0.01 * x[0])
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        g[0] = x[0].signum() + 0.01;
+        Ok(())
+    }
+}
+
+#[test]
+fn never_claims_convergence_at_a_hidden_kink() {
+    let sol = solver().solve(&mut HiddenKink, &[1.0]).unwrap();
+    // |g| ≥ 0.99 everywhere, so the KKT residual can never drop below tolerance.
+    assert_ne!(sol.status, Status::Converged, "{sol:?}");
+    assert!(sol.kkt_residual > 0.5 || sol.kkt_residual.is_infinite());
+}
+
+/// HS43 with a sparse Jacobian gives the same answer as with the dense one.
+struct SparseHs43(optim::test_problems::TestProblem);
+
+impl Problem for SparseHs43 {
+    fn num_variables(&self) -> usize {
+        4
+    }
+    fn num_inequalities(&self) -> usize {
+        3
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        self.0.objective(x)
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        self.0.gradient(x, g)
+    }
+    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        self.0.inequalities(x, c)
+    }
+    fn inequality_jacobian(&mut self, x: &[f64], jac: &mut Jacobian) -> Result<(), EvalError> {
+        let mut dense = Jacobian::dense(3, 4);
+        self.0.inequality_jacobian(x, &mut dense)?;
+        let mut s = SparseMatrix::new(3, 4);
+        // Push in reverse order, split into duplicates, to exercise the CSC assembly.
+        for i in (0..3).rev() {
+            for j in (0..4).rev() {
+                if let Jacobian::Dense(d) = &dense {
+                    s.push(i, j, 0.5 * d.get(i, j));
+                    s.push(i, j, 0.5 * d.get(i, j));
+                }
+            }
+        }
+        *jac = Jacobian::Sparse(s);
+        Ok(())
+    }
+}
+
+#[test]
+fn sparse_jacobians_are_supported() {
+    let p = hock_schittkowski()
+        .into_iter()
+        .find(|p| p.name == "HS43")
+        .unwrap();
+    let mut sp = SparseHs43(p);
+    let sol = solver().solve(&mut sp, &[0.0; 4]).unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    assert!((sol.objective + 44.0).abs() < 1e-6);
+}
+
+#[test]
+fn invalid_input_is_an_error_not_a_status() {
+    let mut p = hock_schittkowski()
+        .into_iter()
+        .find(|p| p.name == "HS21")
+        .unwrap();
+    assert!(matches!(
+        solver().solve(&mut p, &[1.0]),
+        Err(OptimError::InvalidStartingPoint(_))
+    ));
+    assert!(matches!(
+        solver().solve(&mut p, &[f64::NAN, 0.0]),
+        Err(OptimError::InvalidStartingPoint(_))
+    ));
+    p.bounds = Some(Bounds::new(vec![1.0, 0.0], vec![0.0, 1.0]));
+    assert!(matches!(
+        solver().solve(&mut p, &[0.5, 0.5]),
+        Err(OptimError::InvalidProblem(_))
+    ));
+    assert!(SqpSolver::new(SqpSettings {
+        elastic_weight: 0.0,
+        ..SqpSettings::default()
+    })
+    .is_err());
+}
+
+#[test]
+fn solution_serializes_to_json() {
+    let mut p = hock_schittkowski()
+        .into_iter()
+        .find(|p| p.name == "HS35")
+        .unwrap();
+    let x0 = p.x0.clone();
+    let sol = solver().solve(&mut p, &x0).unwrap();
+    let json = serde_json::to_string(&sol).unwrap();
+    let back: optim::Solution = serde_json::from_str(&json).unwrap();
+    assert_eq!(back.status, Status::Converged);
+    assert_eq!(back.iterations, sol.iterations);
+}
