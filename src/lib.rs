@@ -1,1 +1,7 @@
-//! clothopt
+//! clothopt: safe, physics-aware cloth manipulation planning.
+//!
+//! Glue between the `cloth` simulator and the `optim` solvers: [`problem::TrajectoryProblem`]
+//! casts a cloth task as an optimization problem; [`plan`] runs it and packages the result.
+
+pub mod plan;
+pub mod problem;

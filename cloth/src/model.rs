@@ -75,6 +75,8 @@ pub struct Model {
     pub safety: Option<Arc<dyn DynRowFn>>,
     /// The safety obstacles themselves (empty without any).
     pub safety_obstacles: Union,
+    /// The physical colliders (empty without any), projected as the `collider` group.
+    pub colliders: Union,
     /// The task.
     pub task: TaskSpec,
 }
@@ -146,6 +148,7 @@ impl Model {
             groups: Vec::new(),
             safety: None,
             safety_obstacles: Union::default(),
+            colliders: Union::default(),
             task: TaskSpec {
                 horizon: task.horizon,
                 targets: Arc::new(RowIndex::single(scene.target_indices())),

@@ -1,0 +1,224 @@
+//! Running a cloth task through an optimizer and packaging the result.
+
+use crate::problem::{TaskOptions, TrajectoryProblem};
+use autodiff::Tensor;
+use cloth::{Controls, Metrics, Model, Scene};
+use optim::{
+    ControlFlow, IterationInfo, LbfgsSettings, LbfgsSolver, Problem, SqpSettings, SqpSolver, Status,
+};
+use serde::Serialize;
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+/// Which solver runs the problem.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverKind {
+    /// SQP on Clarabel: constraints, and the trajectory term's kinks as second-order cones.
+    Sqp,
+    /// L-BFGS: unconstrained only; the trajectory term's kinks get the sub-gradient 0.
+    Lbfgs,
+}
+
+/// Everything a planning run needs besides the model.
+#[derive(Clone, Debug)]
+pub struct PlanOptions {
+    /// The task's weights, margin and safety form.
+    pub task: TaskOptions,
+    /// Iteration limit of the solver.
+    pub iterations: usize,
+    /// The solver.
+    pub solver: SolverKind,
+    /// SQP step bound: `‖d‖∞ ≤ scale · max(1, ‖U‖∞)`, in control units (a control is a
+    /// displacement per step; 0.5 is half a cloth width).
+    pub step_bound: f64,
+}
+
+impl PlanOptions {
+    /// Defaults for `model`: its own task, SQP, 200 iterations, step bound 0.5.
+    pub fn for_model(model: &Model) -> Self {
+        PlanOptions {
+            task: TaskOptions::for_model(model),
+            iterations: 200,
+            solver: SolverKind::Sqp,
+            step_bound: 0.5,
+        }
+    }
+}
+
+/// A planning run's outcome: what the result JSON holds.
+#[derive(Clone, Debug, Serialize)]
+pub struct PlanResult {
+    /// Scene name.
+    pub scene: String,
+    /// Safety margin `δ`.
+    pub delta: f64,
+    /// Solver status (`converged`, `infeasible`, `iteration_limit`, `stalled`, …).
+    pub status: String,
+    /// The solver's one-line explanation.
+    pub message: String,
+    /// Solver iterations.
+    pub iterations: usize,
+    /// Rollouts simulated.
+    pub evaluations: usize,
+    /// Gradient evaluations (backward passes).
+    pub gradient_evaluations: usize,
+    /// Wall-clock seconds of the optimization.
+    pub wall_s: f64,
+    /// Final KKT residual reported by the solver.
+    pub kkt_residual: f64,
+    /// The paper's metrics at the returned controls.
+    pub metrics: Metrics,
+    /// Controls: `T × controls × 3`.
+    pub controls: Vec<Vec<[f64; 3]>>,
+    /// States `0..=T`: `(T + 1) × N × 3`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub states: Option<Vec<Vec<[f64; 3]>>>,
+    /// The solver's status, for programs.
+    #[serde(skip)]
+    pub solver_status: Option<Status>,
+}
+
+impl PlanResult {
+    /// True when the solver converged and the safety constraint holds (`C ≥ −1e−6`,
+    /// `min SDF ≥ δ − 1e−3` when the scene has safety obstacles).
+    pub fn is_safe_and_converged(&self) -> bool {
+        let safe = self.metrics.min_sdf.is_infinite()
+            || (self.metrics.c >= -1e-6 && self.metrics.min_sdf >= self.delta - 1e-3);
+        self.status == "converged" && safe
+    }
+}
+
+/// Controls tensor (`T × 3K`) as nested `[x, y, z]` lists.
+pub fn controls_to_nested(controls: &Controls) -> Vec<Vec<[f64; 3]>> {
+    (0..controls.rows())
+        .map(|t| {
+            controls
+                .row(t)
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect()
+        })
+        .collect()
+}
+
+/// A state tensor (`N × 3`) as a list of points.
+pub fn state_points(x: &Tensor) -> Vec<[f64; 3]> {
+    x.data()
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect()
+}
+
+/// Controls from nested lists, checked against the model's shape.
+pub fn controls_from_nested(
+    model: &Model,
+    u: &[Vec<[f64; 3]>],
+) -> Result<Controls, cloth::ClothError> {
+    let (t, k) = (model.task.horizon, model.n_controls());
+    if u.len() != t || u.iter().any(|row| row.len() != k) {
+        let found = u.iter().map(Vec::len).max().unwrap_or(0);
+        return Err(cloth::ClothError::Controls(format!(
+            "expected {t} steps × {k} control points, got {} steps × {found}",
+            u.len()
+        )));
+    }
+    let c = Tensor::new(t, 3 * k, u.iter().flatten().flatten().copied().collect());
+    model.check_controls(&c)?;
+    Ok(c)
+}
+
+/// The scene's initial guess as a controls tensor.
+pub fn initial_controls(scene: &Scene, model: &Model) -> Result<Controls, cloth::ClothError> {
+    controls_from_nested(model, &scene.initial_controls_array())
+}
+
+/// Optimizes `model`'s task from `start`, calling `progress` after every iteration.
+pub fn plan(
+    model: &Model,
+    scene_name: &str,
+    start: &Controls,
+    options: &PlanOptions,
+    mut progress: impl FnMut(&IterationInfo),
+) -> anyhow::Result<PlanResult> {
+    model.check_controls(start)?;
+    let mut problem = TrajectoryProblem::new(model, options.task.clone());
+    let clock = Instant::now();
+    let callback = |info: &IterationInfo| {
+        progress(info);
+        ControlFlow::Continue(())
+    };
+    let solution = match options.solver {
+        SolverKind::Sqp => {
+            let settings = SqpSettings::builder()
+                .max_iterations(options.iterations)
+                .step_bound_scale(options.step_bound)
+                .build()?;
+            SqpSolver::new(settings)?.solve_with_callback(&mut problem, start.data(), callback)?
+        }
+        SolverKind::Lbfgs => {
+            anyhow::ensure!(
+                problem.num_inequalities() == 0,
+                "L-BFGS cannot handle the {} inequality constraints of this task; use the SQP",
+                problem.num_inequalities()
+            );
+            let settings = LbfgsSettings::builder()
+                .max_iterations(options.iterations)
+                .build()?;
+            LbfgsSolver::new(settings)?.solve_with_callback(&mut problem, start.data(), callback)?
+        }
+    };
+    let wall_s = clock.elapsed().as_secs_f64();
+    let controls = problem.controls(&solution.x);
+    let mut scored = model.clone();
+    scored.task.alpha = options.task.alpha;
+    scored.task.beta = options.task.beta;
+    let evaluation = scored.evaluate(&controls, options.task.delta, false)?;
+    Ok(PlanResult {
+        scene: scene_name.to_string(),
+        delta: options.task.delta,
+        status: solution.status.name().to_string(),
+        message: solution.message.clone(),
+        iterations: solution.iterations,
+        evaluations: problem.simulations,
+        gradient_evaluations: problem.gradient_evaluations,
+        wall_s,
+        kkt_residual: solution.kkt_residual,
+        metrics: evaluation.metrics,
+        controls: controls_to_nested(&controls),
+        states: Some(evaluation.states.iter().map(state_points).collect()),
+        solver_status: Some(solution.status),
+    })
+}
+
+/// Writes `value` as pretty JSON to `path` atomically: a temporary file beside it, then a rename,
+/// so a failed run never leaves a partial file.
+pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    write_atomic(path, text.as_bytes())
+}
+
+/// Writes `bytes` to `path` through a temporary file and a rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(anyhow::anyhow!("cannot write {}: {e}", path.display()));
+    }
+    Ok(())
+}

@@ -1,0 +1,369 @@
+//! A cloth manipulation task as an [`optim::Problem`].
+//!
+//! Variables: the control sequence `U` flattened step by step (`T × controls × 3`). Objective:
+//! the smooth part `G + βE`, with `αT = α Σ_t ‖u_t − u_{t−1}‖` declared as norm terms so the SQP
+//! treats their kinks exactly (epigraph second-order cones). Inequalities, all `≥ 0`:
+//! - the safety constraint, in one of two forms ([`SafetyForm`]);
+//! - linear rows keeping every control point on the free side of every collider plane at every
+//!   step (the simulator pins control particles, so only this keeps them out of the floor).
+
+use autodiff::{Tape, Tensor, Var};
+use cloth::grad::StepCost;
+use cloth::{ClothError, Controls, Model};
+use optim::{EvalError, Jacobian, NormTerm, Problem};
+
+/// How the obstacle-avoidance constraint reaches the optimizer.
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum SafetyForm {
+    /// One smooth row per step: the soft minimum over particles of the signed distance, `≥ δ`.
+    PerStep,
+    /// The paper's scalar `C = −Σ_t Σ_i relu(δ − SDF(x_i^(t))) ≥ 0`.
+    Scalar,
+}
+
+/// What a [`TrajectoryProblem`] optimizes and how.
+#[derive(Clone, Debug)]
+pub struct TaskOptions {
+    /// Safety margin `δ`.
+    pub delta: f64,
+    /// Weight of the trajectory irregularity `T`.
+    pub alpha: f64,
+    /// Weight of the elastic energy `E`.
+    pub beta: f64,
+    /// The safety constraint's form; `None` drops it (unconstrained apart from collider rows).
+    pub safety: Option<SafetyForm>,
+    /// Also constrain the straight paths between steps (per-step form only).
+    pub swept: bool,
+    /// Sharpness `κ` (1/length) of the per-step soft minimum; it lies within `ln(count)/κ` below
+    /// the true minimum, so the constraint is slightly conservative.
+    pub kappa: f64,
+    /// Per-step rows whose value exceeds this are far from active: their Jacobian row is not
+    /// computed (left zero), saving one backward pass each.
+    pub active_band: f64,
+}
+
+impl TaskOptions {
+    /// The scene's own weights and margin, the per-step safety form when the scene has safety
+    /// obstacles, κ = 200, active band 0.5.
+    pub fn for_model(model: &Model) -> Self {
+        TaskOptions {
+            delta: model.task.delta,
+            alpha: model.task.alpha,
+            beta: model.task.beta,
+            safety: model.safety.is_some().then_some(SafetyForm::PerStep),
+            swept: false,
+            kappa: 200.0,
+            active_band: 0.5,
+        }
+    }
+}
+
+/// Interpolation parameters of the swept-path samples between two steps.
+const SWEPT_SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
+
+/// A linear inequality `offset + Σ coeff·x ≥ 0`.
+#[derive(Clone, Debug)]
+struct LinearRow {
+    coeffs: Vec<(usize, f64)>,
+    offset: f64,
+}
+
+/// Forward results at one point.
+struct Forward {
+    x: Vec<f64>,
+    states: Vec<Tensor>,
+    smooth: f64,
+    safety: Vec<f64>,
+}
+
+/// Gradients at one point.
+struct Backward {
+    x: Vec<f64>,
+    objective: Vec<f64>,
+    safety: Vec<Vec<f64>>,
+}
+
+/// The cloth task as an optimization problem (see the module docs).
+pub struct TrajectoryProblem<'a> {
+    model: &'a Model,
+    options: TaskOptions,
+    linear: Vec<LinearRow>,
+    forward: Option<Forward>,
+    backward: Option<Backward>,
+    /// Rollouts simulated so far.
+    pub simulations: usize,
+    /// Gradient evaluations (backward passes over the rollout) so far.
+    pub gradient_evaluations: usize,
+}
+
+impl<'a> TrajectoryProblem<'a> {
+    /// The problem of `model`'s task with `options`.
+    pub fn new(model: &'a Model, options: TaskOptions) -> Self {
+        let linear = collider_rows(model);
+        TrajectoryProblem {
+            model,
+            options,
+            linear,
+            forward: None,
+            backward: None,
+            simulations: 0,
+            gradient_evaluations: 0,
+        }
+    }
+
+    /// The options.
+    pub fn options(&self) -> &TaskOptions {
+        &self.options
+    }
+
+    /// Number of safety rows (0, 1 or `T`).
+    fn safety_rows(&self) -> usize {
+        match (self.options.safety, self.model.safety.is_some()) {
+            (Some(SafetyForm::PerStep), true) => self.model.task.horizon,
+            (Some(SafetyForm::Scalar), true) => 1,
+            _ => 0,
+        }
+    }
+
+    /// Controls tensor of a variable vector.
+    pub fn controls(&self, x: &[f64]) -> Controls {
+        Tensor::new(
+            self.model.task.horizon,
+            3 * self.model.n_controls(),
+            x.to_vec(),
+        )
+    }
+
+    /// Records the per-step safety term of step `t` (row `t − 1`): soft-min signed distance − δ.
+    fn record_step_safety(&self, tape: &mut Tape, x_prev: Var, x: Var) -> Option<Var> {
+        let mut parts = vec![self.model.record_sdf(tape, x)?];
+        if self.options.swept {
+            for s in SWEPT_SAMPLES {
+                let a = tape.scale(x_prev, 1.0 - s);
+                let b = tape.scale(x, s);
+                let mid = tape.add(a, b);
+                parts.push(self.model.record_sdf(tape, mid)?);
+            }
+        }
+        let all = tape.concat_rows(&parts);
+        let soft = tape.soft_min(all, self.options.kappa);
+        Some(tape.add_scalar(soft, -self.options.delta))
+    }
+
+    fn ensure_forward(&mut self, x: &[f64]) -> Result<&Forward, EvalError> {
+        if self.forward.as_ref().is_none_or(|f| f.x != x) {
+            let controls = self.controls(x);
+            self.simulations += 1;
+            let states = self.model.simulate(&controls).map_err(eval_error)?;
+            let mut tape = Tape::new();
+            let mut smooth = 0.0;
+            let mut safety = vec![0.0; self.safety_rows()];
+            for t in 1..states.len() {
+                tape.clear();
+                let xp = tape.leaf(states[t - 1].clone());
+                let xv = tape.leaf(states[t].clone());
+                if let Some(l) = self.model.record_loss(&mut tape, t, xv, self.options.beta) {
+                    smooth += tape.value(l).item();
+                }
+                match self.options.safety {
+                    Some(SafetyForm::PerStep) if !safety.is_empty() => {
+                        if let Some(c) = self.record_step_safety(&mut tape, xp, xv) {
+                            safety[t - 1] = tape.value(c).item();
+                        }
+                    }
+                    Some(SafetyForm::Scalar) if !safety.is_empty() => {
+                        if let Some(c) = self.model.record_safety(&mut tape, xv, self.options.delta)
+                        {
+                            safety[0] += tape.value(c).item();
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            self.forward = Some(Forward {
+                x: x.to_vec(),
+                states,
+                smooth,
+                safety,
+            });
+        }
+        self.forward
+            .as_ref()
+            .ok_or_else(|| EvalError::new("no forward evaluation"))
+    }
+
+    fn ensure_backward(&mut self, x: &[f64]) -> Result<&Backward, EvalError> {
+        if self.backward.as_ref().is_none_or(|b| b.x != x) {
+            self.ensure_forward(x)?;
+            let forward = self
+                .forward
+                .as_ref()
+                .ok_or_else(|| EvalError::new("no forward evaluation"))?;
+            let controls = self.controls(x);
+            let beta = self.options.beta;
+            let model = self.model;
+            let loss = move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
+                model.record_loss(tape, t, xv, beta)
+            };
+            let delta = self.options.delta;
+            let scalar = move |tape: &mut Tape, _: usize, _: Var, xv: Var| {
+                model.record_safety(tape, xv, delta)
+            };
+            let this = &*self;
+            // Per-step rows that matter (close to active); the others keep a zero Jacobian row.
+            let active: Vec<usize> = match self.options.safety {
+                Some(SafetyForm::PerStep) => (0..forward.safety.len())
+                    .filter(|&r| forward.safety[r] <= self.options.active_band)
+                    .collect(),
+                _ => Vec::new(),
+            };
+            let per_step: Vec<Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + '_>> =
+                active
+                    .iter()
+                    .map(|&row| {
+                        Box::new(move |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
+                            (t == row + 1)
+                                .then(|| this.record_step_safety(tape, xp, xv))
+                                .flatten()
+                        })
+                            as Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + '_>
+                    })
+                    .collect();
+            let mut costs: Vec<StepCost<'_>> = vec![&loss];
+            match self.options.safety {
+                Some(SafetyForm::Scalar) if self.safety_rows() == 1 => costs.push(&scalar),
+                Some(SafetyForm::PerStep) => {
+                    costs.extend(per_step.iter().map(|b| b.as_ref() as StepCost<'_>))
+                }
+                _ => {}
+            }
+            let mut grads = self
+                .model
+                .gradients(&forward.states, &controls, &costs)
+                .into_iter();
+            let objective = grads.next().map(Tensor::into_data).unwrap_or_default();
+            let mut safety = vec![vec![0.0; x.len()]; self.safety_rows()];
+            match self.options.safety {
+                Some(SafetyForm::Scalar) => {
+                    for (row, g) in safety.iter_mut().zip(grads) {
+                        *row = g.into_data();
+                    }
+                }
+                Some(SafetyForm::PerStep) => {
+                    for (&r, g) in active.iter().zip(grads) {
+                        safety[r] = g.into_data();
+                    }
+                }
+                None => {}
+            }
+            drop(per_step);
+            self.gradient_evaluations += 1;
+            self.backward = Some(Backward {
+                x: x.to_vec(),
+                objective,
+                safety,
+            });
+        }
+        self.backward
+            .as_ref()
+            .ok_or_else(|| EvalError::new("no gradient evaluation"))
+    }
+
+    /// The states of the last simulated rollout at `x` (simulating if needed).
+    pub fn states(&mut self, x: &[f64]) -> Result<Vec<Tensor>, EvalError> {
+        Ok(self.ensure_forward(x)?.states.clone())
+    }
+}
+
+fn eval_error(e: ClothError) -> EvalError {
+    EvalError::new(e.to_string())
+}
+
+/// Rows keeping each control point on the free side of each collider plane at steps 1..T:
+/// `n·(p_k⁰ + Σ_{s<t} u_{s,k} − q) ≥ 0`.
+fn collider_rows(model: &Model) -> Vec<LinearRow> {
+    let planes = &model.colliders.planes;
+    let (horizon, k) = (model.task.horizon, model.n_controls());
+    let mut rows = Vec::new();
+    for plane in planes {
+        for (c, &p) in model.controls.as_slice().iter().enumerate() {
+            let start: f64 = (0..3)
+                .map(|j| plane.normal[j] * (model.rest.get(p, j) - plane.point[j]))
+                .sum();
+            for t in 1..=horizon {
+                let coeffs = (0..t)
+                    .flat_map(|s| (0..3).map(move |j| (s * 3 * k + 3 * c + j, plane.normal[j])))
+                    .collect();
+                rows.push(LinearRow {
+                    coeffs,
+                    offset: start,
+                });
+            }
+        }
+    }
+    rows
+}
+
+impl Problem for TrajectoryProblem<'_> {
+    fn num_variables(&self) -> usize {
+        self.model.task.horizon * 3 * self.model.n_controls()
+    }
+
+    fn num_inequalities(&self) -> usize {
+        self.safety_rows() + self.linear.len()
+    }
+
+    fn norm_terms(&self) -> Vec<NormTerm> {
+        if self.options.alpha == 0.0 {
+            return Vec::new();
+        }
+        let n = self.num_variables();
+        let w = 3 * self.model.n_controls();
+        (1..self.model.task.horizon)
+            .map(|t| {
+                let now: Vec<usize> = (t * w..(t + 1) * w).collect();
+                let before: Vec<usize> = ((t - 1) * w..t * w).collect();
+                NormTerm::difference(self.options.alpha, n, &now, &before)
+            })
+            .collect()
+    }
+
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        Ok(self.ensure_forward(x)?.smooth)
+    }
+
+    fn gradient(&mut self, x: &[f64], grad: &mut [f64]) -> Result<(), EvalError> {
+        grad.copy_from_slice(&self.ensure_backward(x)?.objective);
+        Ok(())
+    }
+
+    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        let k = self.safety_rows();
+        c[..k].copy_from_slice(&self.ensure_forward(x)?.safety);
+        for (ci, row) in c[k..].iter_mut().zip(&self.linear) {
+            *ci = row.offset + row.coeffs.iter().map(|&(j, a)| a * x[j]).sum::<f64>();
+        }
+        Ok(())
+    }
+
+    fn inequality_jacobian(&mut self, x: &[f64], jac: &mut Jacobian) -> Result<(), EvalError> {
+        let k = self.safety_rows();
+        let safety = self.ensure_backward(x)?.safety.clone();
+        let linear = &self.linear;
+        let Jacobian::Dense(m) = jac else {
+            return Err(EvalError::new("expected a dense Jacobian"));
+        };
+        for (r, row) in safety.iter().enumerate() {
+            m.row_mut(r).copy_from_slice(row);
+        }
+        for (r, row) in linear.iter().enumerate() {
+            for &(j, a) in &row.coeffs {
+                m.row_mut(k + r)[j] = a;
+            }
+        }
+        Ok(())
+    }
+}
