@@ -18,8 +18,12 @@ use optim::{EvalError, Jacobian, NormTerm, Problem};
 )]
 #[serde(rename_all = "snake_case")]
 pub enum SafetyForm {
-    /// One smooth row per step: the soft minimum over particles of the signed distance, `≥ δ`.
+    /// One smooth row per step: the soft minimum of the distances of every particle to every
+    /// obstacle primitive (sphere, plane), `≥ δ`. Smooth even where the nearest sphere changes.
     PerStep,
+    /// One smooth row: the soft minimum over every step, particle and primitive, `≥ δ`. Its
+    /// gradient costs one backward pass (the per-step soft minima weighted by their softmax).
+    Aggregate,
     /// The paper's scalar `C = −Σ_t Σ_i relu(δ − SDF(x_i^(t))) ≥ 0`.
     Scalar,
 }
@@ -76,6 +80,9 @@ struct Forward {
     x: Vec<f64>,
     states: Vec<Tensor>,
     smooth: f64,
+    /// Per-step soft-min rows (per-step and aggregate forms).
+    per_step: Vec<f64>,
+    /// The constraint rows handed to the optimizer.
     safety: Vec<f64>,
 }
 
@@ -123,7 +130,7 @@ impl<'a> TrajectoryProblem<'a> {
     fn safety_rows(&self) -> usize {
         match (self.options.safety, self.model.safety.is_some()) {
             (Some(SafetyForm::PerStep), true) => self.model.task.horizon,
-            (Some(SafetyForm::Scalar), true) => 1,
+            (Some(SafetyForm::Scalar | SafetyForm::Aggregate), true) => 1,
             _ => 0,
         }
     }
@@ -139,13 +146,13 @@ impl<'a> TrajectoryProblem<'a> {
 
     /// Records the per-step safety term of step `t` (row `t − 1`): soft-min signed distance − δ.
     fn record_step_safety(&self, tape: &mut Tape, x_prev: Var, x: Var) -> Option<Var> {
-        let mut parts = vec![self.model.record_sdf(tape, x)?];
+        let mut parts = vec![self.model.record_sdf_components(tape, x)?];
         if self.options.swept {
             for s in SWEPT_SAMPLES {
                 let a = tape.scale(x_prev, 1.0 - s);
                 let b = tape.scale(x, s);
                 let mid = tape.add(a, b);
-                parts.push(self.model.record_sdf(tape, mid)?);
+                parts.push(self.model.record_sdf_components(tape, mid)?);
             }
         }
         let all = tape.concat_rows(&parts);
@@ -161,6 +168,7 @@ impl<'a> TrajectoryProblem<'a> {
             let mut tape = Tape::new();
             let mut smooth = 0.0;
             let mut safety = vec![0.0; self.safety_rows()];
+            let mut per_step = Vec::new();
             for t in 1..states.len() {
                 tape.clear();
                 let xp = tape.leaf(states[t - 1].clone());
@@ -169,9 +177,9 @@ impl<'a> TrajectoryProblem<'a> {
                     smooth += tape.value(l).item();
                 }
                 match self.options.safety {
-                    Some(SafetyForm::PerStep) if !safety.is_empty() => {
+                    Some(SafetyForm::PerStep | SafetyForm::Aggregate) if !safety.is_empty() => {
                         if let Some(c) = self.record_step_safety(&mut tape, xp, xv) {
-                            safety[t - 1] = tape.value(c).item();
+                            per_step.push(tape.value(c).item());
                         }
                     }
                     Some(SafetyForm::Scalar) if !safety.is_empty() => {
@@ -183,10 +191,20 @@ impl<'a> TrajectoryProblem<'a> {
                     _ => {}
                 }
             }
+            match self.options.safety {
+                Some(SafetyForm::PerStep) if !safety.is_empty() => {
+                    safety.copy_from_slice(&per_step)
+                }
+                Some(SafetyForm::Aggregate) if !safety.is_empty() => {
+                    safety[0] = soft_min(&per_step, self.options.kappa);
+                }
+                _ => {}
+            }
             self.forward = Some(Forward {
                 x: x.to_vec(),
                 states,
                 smooth,
+                per_step,
                 safety,
             });
         }
@@ -232,9 +250,17 @@ impl<'a> TrajectoryProblem<'a> {
                             as Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + '_>
                     })
                     .collect();
+            // Aggregate: Σ_t w_t s_t with the softmax weights w_t of the per-step rows s_t.
+            let weights = soft_min_weights(&forward.per_step, self.options.kappa);
+            let aggregate = |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
+                let w = weights.get(t - 1).copied().filter(|&w| w > 0.0)?;
+                let s = this.record_step_safety(tape, xp, xv)?;
+                Some(tape.scale(s, w))
+            };
             let mut costs: Vec<StepCost<'_>> = vec![&loss];
             match self.options.safety {
                 Some(SafetyForm::Scalar) if self.safety_rows() == 1 => costs.push(&scalar),
+                Some(SafetyForm::Aggregate) if self.safety_rows() == 1 => costs.push(&aggregate),
                 Some(SafetyForm::PerStep) => {
                     costs.extend(per_step.iter().map(|b| b.as_ref() as StepCost<'_>))
                 }
@@ -247,7 +273,7 @@ impl<'a> TrajectoryProblem<'a> {
             let objective = grads.next().map(Tensor::into_data).unwrap_or_default();
             let mut safety = vec![vec![0.0; x.len()]; self.safety_rows()];
             match self.options.safety {
-                Some(SafetyForm::Scalar) => {
+                Some(SafetyForm::Scalar | SafetyForm::Aggregate) => {
                     for (row, g) in safety.iter_mut().zip(grads) {
                         *row = g.into_data();
                     }
@@ -276,6 +302,23 @@ impl<'a> TrajectoryProblem<'a> {
     pub fn states(&mut self, x: &[f64]) -> Result<Vec<Tensor>, EvalError> {
         Ok(self.ensure_forward(x)?.states.clone())
     }
+}
+
+/// `−(1/κ) log Σ exp(−κ vᵢ)`, stable.
+fn soft_min(v: &[f64], kappa: f64) -> f64 {
+    let m = v.iter().copied().fold(f64::INFINITY, f64::min);
+    m - v
+        .iter()
+        .map(|&x| (-kappa * (x - m)).exp())
+        .sum::<f64>()
+        .ln()
+        / kappa
+}
+
+/// The gradient of [`soft_min`]: softmax weights of `−κ v`, summing to 1.
+fn soft_min_weights(v: &[f64], kappa: f64) -> Vec<f64> {
+    let s = soft_min(v, kappa);
+    v.iter().map(|&x| (-kappa * (x - s)).exp()).collect()
 }
 
 fn eval_error(e: ClothError) -> EvalError {

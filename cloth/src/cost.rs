@@ -35,6 +35,13 @@ impl Model {
         Some(tape.map_rows(f, x))
     }
 
+    /// Records the signed distance of every particle to every safety primitive
+    /// (`N × primitives`); `None` when the scene has none.
+    pub fn record_sdf_components(&self, tape: &mut Tape, x: Var) -> Option<Var> {
+        let f = self.safety_components.as_ref()?;
+        Some(tape.map_rows(f, x))
+    }
+
     /// Records `−Σᵢ relu(δ − SDF(xᵢ))` (≥ 0 only when every particle is at least `δ` away).
     pub fn record_safety(&self, tape: &mut Tape, x: Var, delta: f64) -> Option<Var> {
         let sdf = self.record_sdf(tape, x)?;

@@ -73,6 +73,8 @@ pub struct Model {
     pub groups: Vec<ConstraintGroup>,
     /// Per-particle signed distance to the safety obstacles (`N × 3 → N × 1`); `None` without any.
     pub safety: Option<Arc<dyn DynRowFn>>,
+    /// Per-particle signed distance to each safety primitive (`N × 3 → N × primitives`).
+    pub safety_components: Option<Arc<dyn DynRowFn>>,
     /// The safety obstacles themselves (empty without any).
     pub safety_obstacles: Union,
     /// The physical colliders (empty without any), projected as the `collider` group.
@@ -121,6 +123,23 @@ impl<S: SignedDistance> RowFn for ParticleSdf<S> {
     }
 }
 
+/// Signed distance of each particle to each primitive of a union (`3 → components`).
+struct ParticleSdfComponents {
+    union: Union,
+}
+
+impl RowFn for ParticleSdfComponents {
+    fn n_in(&self) -> usize {
+        3
+    }
+    fn n_out(&self) -> usize {
+        self.union.component_count()
+    }
+    fn eval<R: Real>(&self, _row: usize, x: &[R], out: &mut [R]) {
+        self.union.components(&Vector3::new(x[0], x[1], x[2]), out);
+    }
+}
+
 impl Model {
     /// Compiles a validated scene.
     pub fn from_scene(scene: &Scene) -> Result<Model, ClothError> {
@@ -147,6 +166,7 @@ impl Model {
             iterations: scene.physics.iterations,
             groups: Vec::new(),
             safety: None,
+            safety_components: None,
             safety_obstacles: Union::default(),
             colliders: Union::default(),
             task: TaskSpec {
@@ -209,6 +229,9 @@ impl Model {
         if !safety.is_empty() {
             model.safety = Some(Arc::new(ParticleSdf {
                 sdf: safety.clone(),
+            }));
+            model.safety_components = Some(Arc::new(ParticleSdfComponents {
+                union: safety.clone(),
             }));
             model.safety_obstacles = safety;
         }

@@ -101,6 +101,27 @@ impl Union {
     pub fn is_empty(&self) -> bool {
         self.spheres.is_empty() && self.planes.is_empty()
     }
+
+    /// Number of primitives (spheres, then planes).
+    pub fn component_count(&self) -> usize {
+        self.spheres.iter().map(|s| s.radii.len()).sum::<usize>() + self.planes.len()
+    }
+
+    /// The signed distance of `p` to each primitive (spheres, then planes); their minimum is
+    /// [`SignedDistance::distance`].
+    pub fn components<R: Real>(&self, p: &Vector3<R>, out: &mut [R]) {
+        let mut k = 0;
+        for set in &self.spheres {
+            for (c, &r) in set.centers.iter().zip(&set.radii) {
+                out[k] = norm(&(p - Vector3::new(R::cst(c[0]), R::cst(c[1]), R::cst(c[2])))) - r;
+                k += 1;
+            }
+        }
+        for plane in &self.planes {
+            out[k] = plane.distance(p);
+            k += 1;
+        }
+    }
 }
 
 impl SignedDistance for Union {

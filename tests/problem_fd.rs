@@ -1,0 +1,93 @@
+//! `TrajectoryProblem`'s objective gradient and constraint Jacobian against central differences.
+
+use cloth::{Model, Scene};
+use clothopt::plan::initial_controls;
+use clothopt::problem::{SafetyForm, TaskOptions, TrajectoryProblem};
+use optim::{Jacobian, Problem};
+
+fn direction(seed: u64, n: usize) -> Vec<f64> {
+    let mut s = seed.wrapping_mul(0x9E3779B97F4A7C15) | 1;
+    (0..n)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        })
+        .collect()
+}
+
+fn check(form: SafetyForm, swept: bool) {
+    let scene = Scene::builtin("u_obstacle").unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    let mut options = TaskOptions::for_model(&model);
+    options.safety = Some(form);
+    options.swept = swept;
+    options.active_band = f64::INFINITY;
+    options.kappa = 30.0;
+    let mut p = TrajectoryProblem::new(&model, options);
+    let n = p.num_variables();
+    let m = p.num_inequalities();
+    let mut x = initial_controls(&scene, &model).unwrap().into_data();
+    // Move the cloth into the obstacle's neighbourhood so the safety rows are non-trivial.
+    for (t, chunk) in x.chunks_mut(6).enumerate() {
+        chunk[1] += 0.1 * (t as f64 / 10.0);
+    }
+    for (v, d) in x.iter_mut().zip(direction(7, n)) {
+        *v += 0.02 * d;
+    }
+    let mut g = vec![0.0; n];
+    p.gradient(&x, &mut g).unwrap();
+    let mut jac = Jacobian::dense(m, n);
+    p.inequality_jacobian(&x, &mut jac).unwrap();
+    let Jacobian::Dense(jac) = jac else {
+        panic!("dense")
+    };
+    let h = 1e-6;
+    for seed in 0..3 {
+        let d = direction(100 + seed, n);
+        let at = |s: f64, p: &mut TrajectoryProblem| {
+            let xs: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + s * b).collect();
+            let f = p.objective(&xs).unwrap();
+            let mut c = vec![0.0; m];
+            p.inequalities(&xs, &mut c).unwrap();
+            (f, c)
+        };
+        let (fp, cp) = at(h, &mut p);
+        let (fm, cm) = at(-h, &mut p);
+        let fd = (fp - fm) / (2.0 * h);
+        let an: f64 = g.iter().zip(&d).map(|(a, b)| a * b).sum();
+        assert!(
+            (fd - an).abs() <= 1e-6 * an.abs().max(1.0),
+            "objective: {an} vs FD {fd}"
+        );
+        for r in 0..m {
+            let fd = (cp[r] - cm[r]) / (2.0 * h);
+            let an: f64 = jac.row(r).iter().zip(&d).map(|(a, b)| a * b).sum();
+            assert!(
+                (fd - an).abs() <= 1e-6 * an.abs().max(1.0),
+                "row {r}: {an} vs FD {fd}"
+            );
+        }
+    }
+}
+
+#[test]
+fn per_step_safety_derivatives_match_central_differences() {
+    check(SafetyForm::PerStep, false);
+}
+
+#[test]
+fn swept_per_step_safety_derivatives_match_central_differences() {
+    check(SafetyForm::PerStep, true);
+}
+
+#[test]
+fn scalar_safety_derivatives_match_central_differences() {
+    check(SafetyForm::Scalar, false);
+}
+
+#[test]
+fn aggregate_safety_derivatives_match_central_differences() {
+    check(SafetyForm::Aggregate, true);
+}
