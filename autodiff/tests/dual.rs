@@ -76,8 +76,20 @@ fn check_binary(
     for inner in 0..2 {
         let seed = |k: usize| if k == inner { 1.0 } else { 0.0 };
         let h = fdd(
-            Dual::variable(Dual { re: x, eps: [seed(0)] }, 0),
-            Dual::variable(Dual { re: y, eps: [seed(1)] }, 1),
+            Dual::variable(
+                Dual {
+                    re: x,
+                    eps: [seed(0)],
+                },
+                0,
+            ),
+            Dual::variable(
+                Dual {
+                    re: y,
+                    eps: [seed(1)],
+                },
+                1,
+            ),
         );
         for (outer, he) in h.eps.iter().enumerate() {
             let num = if inner == 0 {
@@ -135,20 +147,24 @@ unary!(cos, -10.0f64..10.0, |x| x.cos());
 unary!(relu, signed(0.05, 5.0), |x| x.relu());
 unary!(square, -5.0f64..5.0, |x| x.square());
 unary!(neg, -5.0f64..5.0, |x| -x);
-unary!(powi_pos, -3.0f64..3.0, |x| x.powi(5) + x.powi(2) + x.powi(1) + x.powi(0));
+unary!(powi_pos, -3.0f64..3.0, |x| x.powi(5)
+    + x.powi(2)
+    + x.powi(1)
+    + x.powi(0));
 unary!(powi_neg, signed(0.3, 3.0), |x| x.powi(-1) + x.powi(-3));
 unary!(scalar_ops, -3.0f64..3.0, |x| ((x + 2.0) * 3.0 - 1.5) / 4.0
     + R::cst(2.0) * x);
-unary!(composite, -2.0f64..2.0, |x| ((x * x + 1.0).sqrt() * x.sin()).exp()
+unary!(composite, -2.0f64..2.0, |x| ((x * x + 1.0).sqrt()
+    * x.sin())
+.exp()
     / (x.cos() + 3.0)
     + (x * x + 2.0).ln());
 
 /// Pairs away from the atan2 branch cut (y = 0, x < 0) and from the origin.
 fn atan2_args() -> impl Strategy<Value = (f64, f64)> {
-    (-3.0f64..3.0, -3.0f64..3.0)
-        .prop_filter("atan2 branch cut / origin", |&(y, x)| {
-            y * y + x * x > 0.01 && !(x < 0.0 && y.abs() < 0.05)
-        })
+    (-3.0f64..3.0, -3.0f64..3.0).prop_filter("atan2 branch cut / origin", |&(y, x)| {
+        y * y + x * x > 0.01 && !(x < 0.0 && y.abs() < 0.05)
+    })
 }
 
 /// Pairs clear of ties.
@@ -160,7 +176,8 @@ binary!(atan2, atan2_args(), |y, x| y.atan2(x));
 binary!(min, untied(), |a, b| a.min(b) * b + a);
 binary!(max, untied(), |a, b| a.max(b) * a - b);
 binary!(div, (-3.0f64..3.0, signed(0.3, 3.0)), |a, b| a / b);
-binary!(mul_add_sub, (-3.0f64..3.0, -3.0f64..3.0), |a, b| a * b - (a + b) * a);
+binary!(mul_add_sub, (-3.0f64..3.0, -3.0f64..3.0), |a, b| a * b
+    - (a + b) * a);
 binary!(assign_ops, (-3.0f64..3.0, signed(0.3, 3.0)), |a, b| {
     let mut z = a;
     z += b;
@@ -192,8 +209,15 @@ fn gradient(x: &[f64; 4]) -> [f64; 4] {
 
 /// `(∇f(x), H(x) v)` with `Dual<Dual<f64, 1>, 4>`: inner direction `v`, outer the four axes.
 fn hvp(x: &[f64; 4], v: &[f64; 4]) -> ([f64; 4], [f64; 4]) {
-    let xd: [Dual<D1, 4>; 4] =
-        std::array::from_fn(|k| Dual::variable(Dual { re: x[k], eps: [v[k]] }, k));
+    let xd: [Dual<D1, 4>; 4] = std::array::from_fn(|k| {
+        Dual::variable(
+            Dual {
+                re: x[k],
+                eps: [v[k]],
+            },
+            k,
+        )
+    });
     let e = energy(&xd);
     (
         std::array::from_fn(|k| e.eps[k].re),
@@ -355,7 +379,11 @@ fn vjp_by_duals_chunk_boundaries() {
 #[test]
 fn dual_division_primal_is_the_f64_quotient() {
     let (a, b) = (-2.3132471951825795, 1.2433167471225444);
-    assert_ne!(a * (1.0 / b), a / b, "a pair where the two roundings differ");
+    assert_ne!(
+        a * (1.0 / b),
+        a / b,
+        "a pair where the two roundings differ"
+    );
     assert_eq!((D1::variable(a, 0) / D1::constant(b)).re, a / b);
     assert_eq!((D1::variable(a, 0) / b).re, a / b);
     let nested = Dual::<D1, 2>::variable(D1::variable(a, 0), 0) / Dual::constant(D1::constant(b));

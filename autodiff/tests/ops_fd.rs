@@ -43,22 +43,82 @@ where
     (vars, loss)
 }
 
-/// Central finite difference of the scalar `build` with respect to entry `k` of leaf `li`.
+/// The loss with entry `k` of leaf `li` shifted by `dx`.
+fn shifted_loss<F>(
+    tape: &mut Tape,
+    leaves: &[Tensor],
+    li: usize,
+    k: usize,
+    dx: f64,
+    build: &F,
+) -> f64
+where
+    F: Fn(&mut Tape, &[Var]) -> Var,
+{
+    let mut shifted = leaves.to_vec();
+    shifted[li].data_mut()[k] += dx;
+    let (_, l) = record(tape, &shifted, build);
+    tape.value(l).item()
+}
+
+/// Central finite difference of the scalar `build` with respect to entry `k` of leaf `li`, step
+/// `1e-6·max(1, |x|)`.
 fn central_fd<F>(tape: &mut Tape, leaves: &[Tensor], li: usize, k: usize, build: &F) -> f64
 where
     F: Fn(&mut Tape, &[Var]) -> Var,
 {
     let x = leaves[li].data()[k];
     let h = 1e-6 * x.abs().max(1.0);
-    let mut shifted = leaves.to_vec();
-    shifted[li].data_mut()[k] = x + h;
-    let (_, l) = record(tape, &shifted, build);
-    let fp = tape.value(l).item();
-    shifted[li].data_mut()[k] = x - h;
-    let (_, l) = record(tape, &shifted, build);
-    let fm = tape.value(l).item();
+    let fp = shifted_loss(tape, leaves, li, k, h, build);
+    let fm = shifted_loss(tape, leaves, li, k, -h, build);
     // The step actually taken (x ± h is rounded).
     (fp - fm) / ((x + h) - (x - h))
+}
+
+/// Fourth-order central difference (5-point stencil) with step `1e-4·max(1, |x|)`: truncation
+/// error ~h⁴, rounding error ~ε|L|/h, both far below the tolerance.
+fn richardson_fd<F>(tape: &mut Tape, leaves: &[Tensor], li: usize, k: usize, build: &F) -> f64
+where
+    F: Fn(&mut Tape, &[Var]) -> Var,
+{
+    let x = leaves[li].data()[k];
+    let h = 1e-4 * x.abs().max(1.0);
+    let d1 =
+        shifted_loss(tape, leaves, li, k, h, build) - shifted_loss(tape, leaves, li, k, -h, build);
+    let d2 = shifted_loss(tape, leaves, li, k, 2.0 * h, build)
+        - shifted_loss(tape, leaves, li, k, -2.0 * h, build);
+    (8.0 * d1 - d2) / (12.0 * h)
+}
+
+/// Checks the tape's derivative `an` of `build` with respect to entry `k` of leaf `li`.
+///
+/// The reference is the central difference at step `1e-6·max(1, |x|)`. Its own rounding error is
+/// about `ε·|L|/h`, which for losses of magnitude ~10 after chains of projections reaches the
+/// `1e-8` floor; only when that estimate disagrees is the tape's value compared with a
+/// fourth-order estimate at a larger step, which has no such rounding problem. A wrong gradient
+/// fails both.
+fn check_entry<F>(
+    an: f64,
+    tape: &mut Tape,
+    leaves: &[Tensor],
+    li: usize,
+    k: usize,
+    build: &F,
+    what: &str,
+) -> Result<(), TestCaseError>
+where
+    F: Fn(&mut Tape, &[Var]) -> Var,
+{
+    let fd = central_fd(tape, leaves, li, k, build);
+    if close(an, fd, what).is_ok() {
+        return Ok(());
+    }
+    let fd4 = richardson_fd(tape, leaves, li, k, build);
+    close(
+        an,
+        fd4,
+        &format!("{what} (central FD {fd:e} also disagrees)"),
+    )
 }
 
 /// The generic check: gradient of the scalar loss `build(tape, leaves)` from `Tape::backward`
@@ -76,8 +136,8 @@ where
     for (li, leaf) in leaves.iter().enumerate() {
         prop_assert_eq!(g[li].shape(), leaf.shape(), "gradient shape of leaf {}", li);
         for k in 0..leaf.len() {
-            let fd = central_fd(&mut tape, leaves, li, k, &build);
-            close(g[li].data()[k], fd, &format!("d loss / d leaf{li}[{k}]"))?;
+            let what = format!("d loss / d leaf{li}[{k}]");
+            check_entry(g[li].data()[k], &mut tape, leaves, li, k, &build, &what)?;
         }
     }
     Ok(())
@@ -331,7 +391,11 @@ fn binary_case(nonzero_b: bool) -> impl Strategy<Value = (Tensor, Tensor)> {
             tensor_nonzero(sb.0, sb.1)
                 .prop_map(|t| {
                     // |b| ≥ 0.5 for a well-conditioned quotient.
-                    let d = t.data().iter().map(|&v| v.signum() * (0.4 + v.abs())).collect();
+                    let d = t
+                        .data()
+                        .iter()
+                        .map(|&v| v.signum() * (0.4 + v.abs()))
+                        .collect();
                     Tensor::new(t.rows(), t.cols(), d)
                 })
                 .boxed()
@@ -419,7 +483,11 @@ fn broadcast_shapes() {
             // Each operand entry is read (result elements) / (operand elements) times.
             let n = (expected.0 * expected.1) as f64;
             if a != b {
-                assert!(g.wrt(a).data().iter().all(|&x| x == n / (sa.0 * sa.1) as f64));
+                assert!(g
+                    .wrt(a)
+                    .data()
+                    .iter()
+                    .all(|&x| x == n / (sa.0 * sa.1) as f64));
             }
         }
     }
@@ -705,7 +773,9 @@ fn fd_map_rows_parallel_batch() {
     let x = Tensor::new(
         rows,
         3,
-        (0..rows * 3).map(|k| ((k as f64) * 0.731).sin() * 1.9).collect(),
+        (0..rows * 3)
+            .map(|k| ((k as f64) * 0.731).sin() * 1.9)
+            .collect(),
     );
     let p: Vec<f64> = (0..rows).map(|i| 0.3 + (i % 7) as f64 * 0.2).collect();
     let wavy = Wavy { p: p.clone() };
@@ -796,7 +866,14 @@ fn chain_case() -> impl Strategy<Value = ChainCase> {
         )
             .prop_map(move |(noise, rest, lam_a, lam_b, alpha, sweeps, pre_use)| {
                 let x = (0..n * 3)
-                    .map(|k| noise[k] + if k % 3 == 0 { 1.1 * (k / 3) as f64 } else { 0.0 })
+                    .map(|k| {
+                        noise[k]
+                            + if k % 3 == 0 {
+                                1.1 * (k / 3) as f64
+                            } else {
+                                0.0
+                            }
+                    })
                     .collect();
                 ChainCase {
                     x: Tensor::new(n, 3, x),
@@ -813,11 +890,10 @@ fn chain_case() -> impl Strategy<Value = ChainCase> {
 
 fn chain_sets(n: usize) -> (Arc<RowIndex>, Arc<RowIndex>) {
     let a = (0..n / 2).flat_map(|k| [2 * k, 2 * k + 1]).collect();
-    let b = (0..(n - 1) / 2).flat_map(|k| [2 * k + 1, 2 * k + 2]).collect();
-    (
-        Arc::new(RowIndex::new(2, a)),
-        Arc::new(RowIndex::new(2, b)),
-    )
+    let b = (0..(n - 1) / 2)
+        .flat_map(|k| [2 * k + 1, 2 * k + 2])
+        .collect();
+    (Arc::new(RowIndex::new(2, a)), Arc::new(RowIndex::new(2, b)))
 }
 
 proptest! {
@@ -1032,7 +1108,11 @@ fn run_program(p: &Program, t: &mut Tape, leaves: &[Var]) -> Option<Var> {
                 if !ok {
                     return None;
                 }
-                let m = if s.op == 16 { t.row_min(a) } else { t.row_max(a) };
+                let m = if s.op == 16 {
+                    t.row_min(a)
+                } else {
+                    t.row_max(a)
+                };
                 t.mul(m, b)
             }
             18 => {
@@ -1082,7 +1162,8 @@ fn run_program(p: &Program, t: &mut Tape, leaves: &[Var]) -> Option<Var> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    // About one program in six sits on a kink and is rejected.
+    #![proptest_config(ProptestConfig { cases: 256, max_global_rejects: 4096, ..ProptestConfig::default() })]
 
     #[test]
     fn fd_random_compositions(p in program()) {
@@ -1143,15 +1224,15 @@ proptest! {
         for (li, leaf) in leaves.iter().enumerate() {
             let gl = g.wrt(v[li]);
             prop_assert_eq!(gl.shape(), leaf.shape());
+            let carry_scalar = |t: &mut Tape, v: &[Var]| {
+                let (_, _, lb) = forward(t, v);
+                let kl = t.leaf(sl.clone());
+                t.dot(lb, kl)
+            };
+            let gc = g_carry_only.wrt(v[li]);
             for k in 0..leaf.len() {
-                let fd = central_fd(&mut ft, &leaves, li, k, &scalar);
-                close(gl.data()[k], fd, &format!("vjp leaf{li}[{k}]"))?;
-                let fd_l = central_fd(&mut ft, &leaves, li, k, &|t: &mut Tape, v: &[Var]| {
-                    let (_, _, lb) = forward(t, v);
-                    let kl = t.leaf(sl.clone());
-                    t.dot(lb, kl)
-                });
-                close(g_carry_only.wrt(v[li]).data()[k], fd_l, &format!("carry-only vjp leaf{li}[{k}]"))?;
+                check_entry(gl.data()[k], &mut ft, &leaves, li, k, &scalar, &format!("vjp leaf{li}[{k}]"))?;
+                check_entry(gc.data()[k], &mut ft, &leaves, li, k, &carry_scalar, &format!("carry-only vjp leaf{li}[{k}]"))?;
             }
         }
     }
