@@ -8,6 +8,16 @@
 //! A tape can be [cleared](Tape::clear) and reused without reallocating, and any recorded segment
 //! can be differentiated from an arbitrary upstream gradient with [`Tape::vjp`]: record one time
 //! step, pull the gradient through it, clear, repeat (checkpointing).
+//!
+//! # Conventions at non-differentiable points
+//! The same as the scalar algebra's ([`crate::real`]), so a tape op and the equivalent row
+//! function written with [`crate::Real`] give the same gradient:
+//! - [`Tape::sqrt`] at 0 and [`Tape::relu`] at 0: derivative 0;
+//! - [`Tape::min`] / [`Tape::max`] on a tie: the whole gradient goes to the first argument `a`;
+//! - [`Tape::row_min`] / [`Tape::row_max`] on a tie: to the first (lowest-index) extremal column;
+//! - [`Tape::row_norm`] of a zero row: gradient 0 (finite). A tiny non-zero row (say of length
+//!   1e-12) gets the exact unit-vector gradient; a row whose squared norm underflows (length below
+//!   about 1.5e-154) counts as zero.
 
 use crate::index::RowIndex;
 use crate::rowfn::{eval_rows, vjp_rows, DynRowFn};
