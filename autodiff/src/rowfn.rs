@@ -105,11 +105,10 @@ const ROWS_PER_TASK: usize = 256;
 /// Applies `f` to each row of `input` (`rows × n_in`, row-major), writing `rows × n_out` into `output`.
 pub fn eval_rows(f: &dyn DynRowFn, input: &[f64], output: &mut [f64]) {
     let (n_in, n_out) = (f.n_in(), f.n_out());
-    let rows = if n_in == 0 {
-        output.len() / n_out.max(1)
-    } else {
-        input.len() / n_in
-    };
+    let rows = input
+        .len()
+        .checked_div(n_in)
+        .unwrap_or_else(|| output.len() / n_out.max(1));
     let run = |first: usize, inp: &[f64], out: &mut [f64]| {
         for k in 0..out.len() / n_out.max(1) {
             f.eval_f64(

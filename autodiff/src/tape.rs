@@ -23,6 +23,7 @@ use crate::index::RowIndex;
 use crate::rowfn::{eval_rows, vjp_rows, DynRowFn};
 use crate::tensor::Tensor;
 use crate::update::{check_update, gather_update_inputs, scatter_update_outputs};
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -143,7 +144,8 @@ struct Node {
 pub struct Tape {
     nodes: Vec<Node>,
     epoch: u64,
-    pool: Vec<Vec<f64>>,
+    /// Spare buffers of the last cleared recording, by capacity (reused best-fit).
+    pool: BTreeMap<usize, Vec<Vec<f64>>>,
     scratch: Vec<f64>,
 }
 
@@ -217,20 +219,23 @@ impl Tape {
         Tape {
             nodes: Vec::new(),
             epoch: new_epoch(),
-            pool: Vec::new(),
+            pool: BTreeMap::new(),
             scratch: Vec::new(),
         }
     }
 
     /// Drops every recorded node, keeping their buffers for reuse. Earlier `Var`s become invalid.
+    ///
+    /// Re-recording the same workload then draws every recorded value and saved input from these
+    /// buffers (smallest that fits). Spare buffers the previous re-recording left unused are
+    /// released here, so the tape never holds more than one recording's worth of memory.
     pub fn clear(&mut self) {
-        for node in self.nodes.drain(..) {
-            let mut data = node.value.into_data();
-            data.clear();
-            self.pool.push(data);
-            if let Op::UpdateRows { mut inputs, .. } = node.op {
-                inputs.clear();
-                self.pool.push(inputs);
+        let Tape { nodes, pool, .. } = self;
+        pool.clear();
+        for node in nodes.drain(..) {
+            recycle(pool, node.value.into_data());
+            if let Op::UpdateRows { inputs, .. } = node.op {
+                recycle(pool, inputs);
             }
         }
         self.epoch = new_epoch();
@@ -262,11 +267,34 @@ impl Tape {
             .sum()
     }
 
+    /// A zeroed buffer of `len` values.
     fn alloc(&mut self, len: usize) -> Vec<f64> {
-        let mut v = self.pool.pop().unwrap_or_default();
-        v.clear();
+        let mut v = self.spare(len);
         v.resize(len, 0.0);
         v
+    }
+
+    /// An empty buffer with room for `len` values: the smallest spare one that fits, else new.
+    fn spare(&mut self, len: usize) -> Vec<f64> {
+        if len == 0 {
+            return Vec::new();
+        }
+        let Some((&cap, bucket)) = self.pool.range_mut(len..).next() else {
+            return Vec::with_capacity(len);
+        };
+        let v = bucket.pop().expect("pool buckets are never empty");
+        if bucket.is_empty() {
+            self.pool.remove(&cap);
+        }
+        v
+    }
+
+    /// A copy of node `id`'s value in a spare buffer.
+    fn copy_value(&mut self, id: usize) -> Tensor {
+        let (r, c) = self.nodes[id].value.shape();
+        let mut v = self.spare(r * c);
+        v.extend_from_slice(self.nodes[id].value.data());
+        Tensor::new(r, c, v)
     }
 
     fn check(&self, v: Var) -> usize {
@@ -392,7 +420,7 @@ impl Tape {
             "assign_rows: source shape mismatch"
         );
         assert!(index.bound() <= n, "assign_rows: index out of range");
-        let mut out = self.nodes[d].value.clone();
+        let mut out = self.copy_value(d);
         for (k, &p) in index.as_slice().iter().enumerate() {
             out.row_mut(p).copy_from_slice(self.nodes[s].value.row(k));
         }
@@ -529,7 +557,9 @@ impl Tape {
     pub fn sum(&mut self, a: Var) -> Var {
         let ia = self.check(a);
         let s = self.nodes[ia].value.data().iter().sum::<f64>();
-        self.push(Op::Sum { a: ia }, Tensor::scalar(s))
+        let mut out = self.alloc(1);
+        out[0] = s;
+        self.push(Op::Sum { a: ia }, Tensor::new(1, 1, out))
     }
 
     /// Sum of each row (`rows × 1`).
@@ -575,7 +605,9 @@ impl Tape {
             .zip(self.nodes[ib].value.data())
             .map(|(x, y)| x * y)
             .sum::<f64>();
-        self.push(Op::Dot { a: ia, b: ib }, Tensor::scalar(s))
+        let mut out = self.alloc(1);
+        out[0] = s;
+        self.push(Op::Dot { a: ia, b: ib }, Tensor::new(1, 1, out))
     }
 
     fn row_arg(&mut self, a: Var, better: fn(f64, f64) -> bool) -> Var {
@@ -613,7 +645,8 @@ impl Tape {
         let ids: Vec<usize> = parts.iter().map(|&p| self.check(p)).collect();
         assert!(!ids.is_empty(), "concat_rows: nothing to concatenate");
         let c = self.nodes[ids[0]].value.cols();
-        let mut out = Vec::new();
+        let total = ids.iter().map(|&i| self.nodes[i].value.len()).sum();
+        let mut out = self.spare(total);
         let mut rows = 0;
         for &i in &ids {
             let v = &self.nodes[i].value;
@@ -630,7 +663,7 @@ impl Tape {
         assert!(!ids.is_empty(), "concat_cols: nothing to concatenate");
         let r = self.nodes[ids[0]].value.rows();
         let c: usize = ids.iter().map(|&i| self.nodes[i].value.cols()).sum();
-        let mut out = Vec::with_capacity(r * c);
+        let mut out = self.spare(r * c);
         for row in 0..r {
             for &i in &ids {
                 let v = &self.nodes[i].value;
@@ -681,7 +714,7 @@ impl Tape {
         let mut st = self.take_or_copy(is);
         let mut ca = self.take_or_copy(ic);
         check_update(f.as_ref(), index, &st, &ca);
-        let mut inputs = self.pool.pop().unwrap_or_default();
+        let mut inputs = self.spare(index.rows() * f.n_in());
         gather_update_inputs(index, &st, &ca, &mut inputs);
         let mut outputs = std::mem::take(&mut self.scratch);
         outputs.clear();
@@ -707,7 +740,7 @@ impl Tape {
             node.consumed = true;
             std::mem::take(&mut node.value)
         } else {
-            node.value.clone()
+            self.copy_value(id)
         }
     }
 
@@ -883,7 +916,7 @@ impl Tape {
             Op::RowSum { a } => {
                 let (r, c) = shapes[*a];
                 let data = (0..r)
-                    .flat_map(|i| std::iter::repeat_n(g.data()[i], c))
+                    .flat_map(|i| std::iter::repeat(g.data()[i]).take(c))
                     .collect();
                 accumulate(&mut adj[*a], Tensor::new(r, c, data));
             }
@@ -976,6 +1009,14 @@ impl Tape {
             }
             Op::UpdateCarry => unreachable!("carry adjoints are consumed by their update node"),
         }
+    }
+}
+
+/// Files a cleared node's buffer among the spare ones (buffers without capacity are dropped).
+fn recycle(pool: &mut BTreeMap<usize, Vec<Vec<f64>>>, mut buf: Vec<f64>) {
+    if buf.capacity() > 0 {
+        buf.clear();
+        pool.entry(buf.capacity()).or_default().push(buf);
     }
 }
 

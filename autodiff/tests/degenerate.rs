@@ -2,6 +2,8 @@
 //! docs of `autodiff::real` and `autodiff::tape`): tiny and zero norms, `relu(0)`, `sqrt(0)`, ties
 //! of `min`/`max` and of `row_min`/`row_max`, `abs(0)`, `atan2(0, 0)`.
 
+#![allow(clippy::needless_range_loop)]
+
 use autodiff::{Dual, Real, Tape, Tensor};
 
 type D3 = Dual<f64, 3>;
@@ -49,7 +51,11 @@ fn norm_of_a_1e_12_vector_has_the_unit_gradient_through_the_tape() {
                 w.iter().map(|x| x * x).sum::<f64>().sqrt()
             };
             let fd = (f(h) - f(-h)) / (2.0 * h);
-            assert!((g.data()[k] - fd).abs() <= 1e-8, "FD {fd} vs {}", g.data()[k]);
+            assert!(
+                (g.data()[k] - fd).abs() <= 1e-8,
+                "FD {fd} vs {}",
+                g.data()[k]
+            );
         }
     }
 }
@@ -71,7 +77,11 @@ fn norm_of_a_1e_12_vector_has_the_unit_gradient_through_duals() {
 fn norm_of_a_zero_vector_has_gradient_zero() {
     // Tape: a zero row among non-zero rows.
     let mut t = Tape::new();
-    let x = t.leaf(Tensor::from_rows(&[[0.0, 0.0, 0.0], [3.0, 0.0, 4.0], [-0.0, 0.0, -0.0]]));
+    let x = t.leaf(Tensor::from_rows(&[
+        [0.0, 0.0, 0.0],
+        [3.0, 0.0, 4.0],
+        [-0.0, 0.0, -0.0],
+    ]));
     let n = t.row_norm(x);
     assert_eq!(t.value(n).data(), &[0.0, 5.0, 0.0]);
     let l = t.sum(n);
@@ -107,7 +117,11 @@ fn norm_below_the_squared_underflow_is_treated_as_zero() {
     assert_eq!(g.row(0), &[0.0, 0.0]);
     assert_rel(g.get(1, 0), 0.6, 1e-14, "d|v|/dv₀");
     assert_rel(g.get(1, 1), 0.8, 1e-14, "d|v|/dv₁");
-    let v = [D3::variable(3e-170, 0), D3::variable(4e-170, 1), D3::constant(0.0)];
+    let v = [
+        D3::variable(3e-170, 0),
+        D3::variable(4e-170, 1),
+        D3::constant(0.0),
+    ];
     let nd = norm(&v);
     assert!(nd.eps.iter().all(|e| *e == 0.0));
 }
@@ -167,7 +181,10 @@ fn min_max_ties_pass_the_gradient_to_the_first_argument() {
     assert_eq!(g.wrt(s).item(), 2.0); // ties at column 1, and 2 < 3 at column 2
     assert_eq!(g.wrt(a).data(), &[1.0, 0.0, 0.0]);
     // Duals: the tangent of the first argument.
-    let (x, y) = (Dual::<f64, 2>::variable(1.5, 0), Dual::<f64, 2>::variable(1.5, 1));
+    let (x, y) = (
+        Dual::<f64, 2>::variable(1.5, 0),
+        Dual::<f64, 2>::variable(1.5, 1),
+    );
     assert_eq!(x.min(y).eps, [1.0, 0.0]);
     assert_eq!(x.max(y).eps, [1.0, 0.0]);
     assert_eq!(y.min(x).eps, [0.0, 1.0]);
@@ -201,7 +218,10 @@ fn row_min_max_ties_pass_the_gradient_to_the_first_column() {
 fn abs_and_atan2_at_the_origin_have_derivative_zero() {
     let d = D1::variable(0.0, 0).abs();
     assert_eq!((d.re, d.eps[0]), (0.0, 0.0));
-    let (y, x) = (Dual::<f64, 2>::variable(0.0, 0), Dual::<f64, 2>::variable(0.0, 1));
+    let (y, x) = (
+        Dual::<f64, 2>::variable(0.0, 0),
+        Dual::<f64, 2>::variable(0.0, 1),
+    );
     let a = y.atan2(x);
     assert_eq!((a.re, a.eps), (0.0, [0.0, 0.0]));
 }

@@ -58,7 +58,7 @@ struct Outcome {
 /// A chain of `2·ROWS` particles relaxed by two disjoint sets of `ROWS` (and `ROWS − 1`) edges,
 /// plus a `ROWS`-row `map_rows`.
 fn workload() -> Outcome {
-    assert!(ROWS >= 2 * PARALLEL_MIN_ROWS);
+    const { assert!(ROWS >= 2 * PARALLEL_MIN_ROWS) };
     let n = 2 * ROWS;
     let x0 = Tensor::new(
         n,
@@ -147,7 +147,11 @@ fn one_and_two_threads_agree_bitwise() {
     let one = in_pool(1);
     let two = in_pool(2);
     assert!(one.grads.iter().all(|g| g.is_finite() && g.max_abs() > 0.0));
-    assert_eq!(bits(&one.values), bits(&two.values), "forward values differ");
+    assert_eq!(
+        bits(&one.values),
+        bits(&two.values),
+        "forward values differ"
+    );
     assert_eq!(bits(&one.grads), bits(&two.grads), "gradients differ");
     // And with more threads than cores.
     let four = in_pool(4);

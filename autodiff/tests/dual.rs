@@ -2,6 +2,8 @@
 //! derivatives through nested duals (Hessian–vector products), and `vjp_by_duals` for row
 //! functions wider than one dual chunk.
 
+#![allow(clippy::needless_range_loop)]
+
 use autodiff::rowfn::VJP_CHUNK;
 use autodiff::{vjp_by_duals, Dual, Real, RowFn};
 use proptest::prelude::*;

@@ -8,6 +8,8 @@
 //! sqrt/relu, min/max and row-min/max ties rejected), so finite differences are meaningful.
 //! Forward values are checked against plain reference implementations as well.
 
+#![allow(clippy::needless_range_loop)]
+
 use autodiff::update;
 use autodiff::{DynRowFn, Real, RowFn, RowIndex, Tape, Tensor, Var};
 use proptest::prelude::*;
