@@ -242,7 +242,7 @@ fn assign_case() -> impl Strategy<Value = (Tensor, Vec<usize>, Tensor)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(128))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
     fn fd_leaf(x in shape().prop_flat_map(|(r, c)| tensor(r, c, -3.0, 3.0))) {
@@ -443,7 +443,7 @@ fn check_binary(op: Bin, a: Tensor, b: Tensor) -> Result<(), TestCaseError> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(128))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
     fn fd_add((a, b) in binary_case(false)) { check_binary(Bin::Add, a, b)?; }
@@ -500,7 +500,7 @@ fn broadcast_shapes() {
 // ---------------------------------------------------------------------------------------------
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(128))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
     fn fd_neg(x in shape().prop_flat_map(|(r, c)| tensor(r, c, -3.0, 3.0))) {
@@ -583,7 +583,7 @@ fn no_row_tie(x: &Tensor) -> bool {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(128))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
     fn fd_sum(x in shape().prop_flat_map(|(r, c)| tensor(r, c, -3.0, 3.0))) {
@@ -738,7 +738,7 @@ impl RowFn for Wide {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(96))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
     fn fd_map_rows(
@@ -899,7 +899,7 @@ fn chain_sets(n: usize) -> (Arc<RowIndex>, Arc<RowIndex>) {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(96))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
     fn fd_update_rows(case in chain_case()) {
@@ -1185,7 +1185,7 @@ proptest! {
 // ---------------------------------------------------------------------------------------------
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
     fn fd_vjp_seeded(case in chain_case(), seed_x in tensor(8, 3, -1.0, 1.0), seed_m in tensor(8, 2, -1.0, 1.0)) {
