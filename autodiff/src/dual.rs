@@ -124,7 +124,9 @@ impl<R: Real, const N: usize> Div for Dual<R, N> {
     #[inline(always)]
     fn div(self, o: Self) -> Self {
         let inv = R::one() / o.re;
-        let q = self.re * inv;
+        // The primal is a true quotient (not `self.re * inv`), so it is bitwise the plain
+        // evaluation's.
+        let q = self.re / o.re;
         let mut eps = [R::zero(); N];
         for k in 0..N {
             eps[k] = (self.eps[k] - q * o.eps[k]) * inv;
@@ -185,8 +187,13 @@ impl<R: Real, const N: usize> Mul<f64> for Dual<R, N> {
 impl<R: Real, const N: usize> Div<f64> for Dual<R, N> {
     type Output = Self;
     #[inline(always)]
-    fn div(self, c: f64) -> Self {
-        self * (1.0 / c)
+    fn div(mut self, c: f64) -> Self {
+        // Divide (not multiply by `1 / c`), so the primal is bitwise the plain evaluation's.
+        self.re = self.re / c;
+        for e in self.eps.iter_mut() {
+            *e = *e / c;
+        }
+        self
     }
 }
 

@@ -11,6 +11,9 @@
 //!
 //! The crate knows nothing about cloth.
 
+// Indexed loops over tangent components and row entries read like the formulas they implement.
+#![allow(clippy::needless_range_loop)]
+
 pub mod dual;
 pub mod index;
 pub mod real;

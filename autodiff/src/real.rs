@@ -11,6 +11,12 @@
 //! - `relu(0)`: derivative 0 (the function is treated as flat at the kink);
 //! - `min(a, b)` / `max(a, b)` on a tie: the derivative of the first argument `a`;
 //! - `atan2(0, 0)`: derivative 0.
+//!
+//! Near-degenerate but non-zero arguments get the classical derivative: the norm
+//! `sqrt(v·v)` of a vector of length 1e-12 has exactly the unit-vector gradient `v/|v|` (no
+//! regularization, no epsilon). Only when `v·v` itself underflows to 0 (`|v|` below about
+//! 1.5e-154) is the vector treated as the zero vector: value 0, gradient 0, never NaN.
+//! `tests/degenerate.rs` checks each of these conventions.
 
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};

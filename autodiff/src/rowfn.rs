@@ -156,8 +156,8 @@ impl<F: RowFn> DynRowFn for F {
         saved: Option<&mut Vec<f64>>,
     ) {
         let rows = index.rows();
-        if rows >= PARALLEL_MIN_ROWS || saved.is_some() {
-            // Gather, evaluate (in parallel when large), scatter.
+        if rows >= PARALLEL_MIN_ROWS {
+            // Gather, evaluate in parallel, scatter.
             let mut local = Vec::new();
             let inputs = saved.unwrap_or(&mut local);
             gather_update_inputs(index, state, carry, inputs);
@@ -166,9 +166,14 @@ impl<F: RowFn> DynRowFn for F {
             scatter_update_outputs(index, &outputs, state, carry);
             return;
         }
-        // Small batch: one row at a time through a stack buffer, no allocation.
+        // Small batch: one row at a time through a stack buffer; a recording also keeps the inputs.
         let (sc, cc, arity) = (state.cols(), carry.cols(), index.arity());
         let width = arity * sc + cc;
+        let mut saved = saved;
+        if let Some(s) = saved.as_deref_mut() {
+            s.clear();
+            s.reserve(rows * width);
+        }
         let mut buf_in = [0.0; STACK_ROW];
         let mut buf_out = [0.0; STACK_ROW];
         let (mut heap_in, mut heap_out) = (Vec::new(), Vec::new());
@@ -185,6 +190,9 @@ impl<F: RowFn> DynRowFn for F {
                 x[j * sc..(j + 1) * sc].copy_from_slice(state.row(p));
             }
             x[arity * sc..].copy_from_slice(carry.row(k));
+            if let Some(s) = saved.as_deref_mut() {
+                s.extend_from_slice(x);
+            }
             self.eval(k, x, y);
             for (j, &p) in idx.iter().enumerate() {
                 state.row_mut(p).copy_from_slice(&y[j * sc..(j + 1) * sc]);

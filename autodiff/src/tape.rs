@@ -8,11 +8,22 @@
 //! A tape can be [cleared](Tape::clear) and reused without reallocating, and any recorded segment
 //! can be differentiated from an arbitrary upstream gradient with [`Tape::vjp`]: record one time
 //! step, pull the gradient through it, clear, repeat (checkpointing).
+//!
+//! # Conventions at non-differentiable points
+//! The same as the scalar algebra's ([`crate::real`]), so a tape op and the equivalent row
+//! function written with [`crate::Real`] give the same gradient:
+//! - [`Tape::sqrt`] at 0 and [`Tape::relu`] at 0: derivative 0;
+//! - [`Tape::min`] / [`Tape::max`] on a tie: the whole gradient goes to the first argument `a`;
+//! - [`Tape::row_min`] / [`Tape::row_max`] on a tie: to the first (lowest-index) extremal column;
+//! - [`Tape::row_norm`] of a zero row: gradient 0 (finite). A tiny non-zero row (say of length
+//!   1e-12) gets the exact unit-vector gradient; a row whose squared norm underflows (length below
+//!   about 1.5e-154) counts as zero.
 
 use crate::index::RowIndex;
 use crate::rowfn::{eval_rows, vjp_rows, DynRowFn};
 use crate::tensor::Tensor;
 use crate::update::{gather_update_inputs, scatter_update_outputs, update_rows};
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
@@ -137,7 +148,8 @@ struct Node {
 pub struct Tape {
     nodes: Vec<Node>,
     epoch: u64,
-    pool: Vec<Vec<f64>>,
+    /// Spare buffers of the last cleared recording, by capacity (reused best-fit).
+    pool: BTreeMap<usize, Vec<Vec<f64>>>,
 }
 
 impl Default for Tape {
@@ -210,19 +222,22 @@ impl Tape {
         Tape {
             nodes: Vec::new(),
             epoch: new_epoch(),
-            pool: Vec::new(),
+            pool: BTreeMap::new(),
         }
     }
 
     /// Drops every recorded node, keeping their buffers for reuse. Earlier `Var`s become invalid.
+    ///
+    /// Re-recording the same workload then draws every recorded value and saved input from these
+    /// buffers (smallest that fits). Spare buffers the previous re-recording left unused are
+    /// released here, so the tape never holds more than one recording's worth of memory.
     pub fn clear(&mut self) {
-        for node in self.nodes.drain(..) {
-            let mut data = node.value.into_data();
-            data.clear();
-            self.pool.push(data);
-            if let Op::UpdateRows { mut inputs, .. } = node.op {
-                inputs.clear();
-                self.pool.push(inputs);
+        let Tape { nodes, pool, .. } = self;
+        pool.clear();
+        for node in nodes.drain(..) {
+            recycle(pool, node.value.into_data());
+            if let Op::UpdateRows { inputs, .. } = node.op {
+                recycle(pool, inputs);
             }
         }
         self.epoch = new_epoch();
@@ -254,11 +269,34 @@ impl Tape {
             .sum()
     }
 
+    /// A zeroed buffer of `len` values.
     fn alloc(&mut self, len: usize) -> Vec<f64> {
-        let mut v = self.pool.pop().unwrap_or_default();
-        v.clear();
+        let mut v = self.spare(len);
         v.resize(len, 0.0);
         v
+    }
+
+    /// An empty buffer with room for `len` values: the smallest spare one that fits, else new.
+    fn spare(&mut self, len: usize) -> Vec<f64> {
+        if len == 0 {
+            return Vec::new();
+        }
+        let Some((&cap, bucket)) = self.pool.range_mut(len..).next() else {
+            return Vec::with_capacity(len);
+        };
+        let v = bucket.pop().expect("pool buckets are never empty");
+        if bucket.is_empty() {
+            self.pool.remove(&cap);
+        }
+        v
+    }
+
+    /// A copy of node `id`'s value in a spare buffer.
+    fn copy_value(&mut self, id: usize) -> Tensor {
+        let (r, c) = self.nodes[id].value.shape();
+        let mut v = self.spare(r * c);
+        v.extend_from_slice(self.nodes[id].value.data());
+        Tensor::new(r, c, v)
     }
 
     fn check(&self, v: Var) -> usize {
@@ -384,7 +422,7 @@ impl Tape {
             "assign_rows: source shape mismatch"
         );
         assert!(index.bound() <= n, "assign_rows: index out of range");
-        let mut out = self.nodes[d].value.clone();
+        let mut out = self.copy_value(d);
         for (k, &p) in index.as_slice().iter().enumerate() {
             out.row_mut(p).copy_from_slice(self.nodes[s].value.row(k));
         }
@@ -521,7 +559,9 @@ impl Tape {
     pub fn sum(&mut self, a: Var) -> Var {
         let ia = self.check(a);
         let s = self.nodes[ia].value.data().iter().sum::<f64>();
-        self.push(Op::Sum { a: ia }, Tensor::scalar(s))
+        let mut out = self.alloc(1);
+        out[0] = s;
+        self.push(Op::Sum { a: ia }, Tensor::new(1, 1, out))
     }
 
     /// Sum of each row (`rows × 1`).
@@ -567,7 +607,9 @@ impl Tape {
             .zip(self.nodes[ib].value.data())
             .map(|(x, y)| x * y)
             .sum::<f64>();
-        self.push(Op::Dot { a: ia, b: ib }, Tensor::scalar(s))
+        let mut out = self.alloc(1);
+        out[0] = s;
+        self.push(Op::Dot { a: ia, b: ib }, Tensor::new(1, 1, out))
     }
 
     fn row_arg(&mut self, a: Var, better: fn(f64, f64) -> bool) -> Var {
@@ -624,7 +666,8 @@ impl Tape {
         let ids: Vec<usize> = parts.iter().map(|&p| self.check(p)).collect();
         assert!(!ids.is_empty(), "concat_rows: nothing to concatenate");
         let c = self.nodes[ids[0]].value.cols();
-        let mut out = Vec::new();
+        let total = ids.iter().map(|&i| self.nodes[i].value.len()).sum();
+        let mut out = self.spare(total);
         let mut rows = 0;
         for &i in &ids {
             let v = &self.nodes[i].value;
@@ -641,7 +684,7 @@ impl Tape {
         assert!(!ids.is_empty(), "concat_cols: nothing to concatenate");
         let r = self.nodes[ids[0]].value.rows();
         let c: usize = ids.iter().map(|&i| self.nodes[i].value.cols()).sum();
-        let mut out = Vec::with_capacity(r * c);
+        let mut out = self.spare(r * c);
         for row in 0..r {
             for &i in &ids {
                 let v = &self.nodes[i].value;
@@ -691,7 +734,7 @@ impl Tape {
         let (is, ic) = (self.check(state), self.check(carry));
         let mut st = self.take_or_copy(is);
         let mut ca = self.take_or_copy(ic);
-        let mut inputs = self.pool.pop().unwrap_or_default();
+        let mut inputs = self.spare(index.rows() * f.n_in());
         update_rows(f.as_ref(), index, &mut st, &mut ca, Some(&mut inputs));
         let op = Op::UpdateRows {
             f: f.clone(),
@@ -711,7 +754,7 @@ impl Tape {
             node.consumed = true;
             std::mem::take(&mut node.value)
         } else {
-            node.value.clone()
+            self.copy_value(id)
         }
     }
 
@@ -887,7 +930,7 @@ impl Tape {
             Op::RowSum { a } => {
                 let (r, c) = shapes[*a];
                 let data = (0..r)
-                    .flat_map(|i| std::iter::repeat_n(g.data()[i], c))
+                    .flat_map(|i| std::iter::repeat(g.data()[i]).take(c))
                     .collect();
                 accumulate(&mut adj[*a], Tensor::new(r, c, data));
             }
@@ -998,6 +1041,14 @@ fn soft_min_value(x: &[f64], kappa: f64) -> f64 {
     let m = x.iter().copied().fold(f64::INFINITY, f64::min);
     let sum: f64 = x.iter().map(|&xi| (-kappa * (xi - m)).exp()).sum();
     m - sum.ln() / kappa
+}
+
+/// Files a cleared node's buffer among the spare ones (buffers without capacity are dropped).
+fn recycle(pool: &mut BTreeMap<usize, Vec<Vec<f64>>>, mut buf: Vec<f64>) {
+    if buf.capacity() > 0 {
+        buf.clear();
+        pool.entry(buf.capacity()).or_default().push(buf);
+    }
 }
 
 /// Adds `g` into an adjoint slot, or fills an empty one.
