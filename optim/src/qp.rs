@@ -4,7 +4,7 @@
 //! term, elastic slacks of the inequalities, and the positive/negative elastic parts of the equalities.
 //!
 //! ```text
-//! minimize   ½ dᵀBd + gᵀd + Σ w_k s_k + ν (Σ t + Σ p + Σ r)
+//! minimize   ½ dᵀBd + gᵀd + Σ w_k s_k + Σ νᵢ tᵢ + Σ νⱼ (pⱼ + rⱼ)
 //! subject to h + J_h d − p + r = 0                      zero cone        (q rows)
 //!            c + J_c d + t ≥ 0                          nonnegative cone (m rows)
 //!            t, p, r ≥ 0                                nonnegative cone (m + 2q rows)
@@ -18,7 +18,7 @@
 //! as numerical failures by the caller.
 //!
 //! Clarabel has no warm start, but it can re-solve after a data update with the same sparsity: the
-//! penalty `ν` lives only in `q` ([`QpSubproblem::update_penalty`]) and a second-order correction only
+//! penalty weights `ν` live only in `q` ([`QpSubproblem::update_penalty`]) and a second-order correction only
 //! changes `b` ([`QpSubproblem::update_constraint_values`]), so both reuse the factorization structure.
 
 use crate::linalg::Jacobian;
@@ -46,11 +46,18 @@ pub(crate) struct QpData<'a> {
     pub step_upper: &'a [f64],
 }
 
+/// `q` entries of the elastic variables: `ν_i` for `t_i`, `ν_{m+j}` for both `p_j` and `r_j`.
+fn elastic_costs(weights: &[f64], m: usize, q: usize, out: &mut [f64]) {
+    out[..m].copy_from_slice(&weights[..m]);
+    out[m..m + q].copy_from_slice(&weights[m..m + q]);
+    out[m + q..m + 2 * q].copy_from_slice(&weights[m..m + q]);
+}
+
 /// Which problem to build.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum QpMode {
-    /// The elastic SQP subproblem with penalty `ν`.
-    Optimality { penalty: f64 },
+    /// The elastic SQP subproblem with per-constraint penalty weights `ν` (inequalities, then equalities).
+    Optimality,
     /// Minimize the linearized ℓ1 violation only.
     Feasibility,
 }
@@ -185,13 +192,14 @@ impl QpSubproblem {
     pub(crate) fn new(
         data: &QpData<'_>,
         mode: QpMode,
+        weights: &[f64],
         tolerance: f64,
         max_iterations: u32,
     ) -> Result<Self, QpBuildError> {
         let n = data.n;
         let m = data.ineq.len();
         let q = data.eq.len();
-        let with_norms = matches!(mode, QpMode::Optimality { .. });
+        let with_norms = matches!(mode, QpMode::Optimality);
         let k = if with_norms { data.norms.len() } else { 0 };
         let norm_dims: Vec<usize> = if with_norms {
             data.norms.iter().map(|nd| nd.rows.len()).collect()
@@ -234,18 +242,15 @@ impl QpSubproblem {
 
         // q
         let mut qv = vec![0.0; nvar];
-        let penalty = match mode {
-            QpMode::Optimality { penalty } => {
+        match mode {
+            QpMode::Optimality => {
                 qv[..n].copy_from_slice(data.gradient);
                 for (kk, nd) in data.norms.iter().enumerate() {
                     qv[col_s + kk] = nd.weight;
                 }
-                penalty
+                elastic_costs(weights, m, q, &mut qv[col_t..]);
             }
-            QpMode::Feasibility => 1.0,
-        };
-        for v in &mut qv[col_t..] {
-            *v = penalty;
+            QpMode::Feasibility => qv[col_t..].fill(1.0),
         }
 
         // A, b (rows pushed in increasing order)
@@ -324,11 +329,11 @@ impl QpSubproblem {
         })
     }
 
-    /// Changes the elastic weight `ν` (optimality mode) keeping everything else.
+    /// Changes the elastic weights `ν` (optimality mode) keeping everything else.
     pub(crate) fn update_penalty(
         &mut self,
         data: &QpData<'_>,
-        penalty: f64,
+        weights: &[f64],
     ) -> Result<(), QpBuildError> {
         let l = self.layout;
         let mut qv = vec![0.0; l.nvar];
@@ -336,10 +341,8 @@ impl QpSubproblem {
         for (kk, nd) in data.norms.iter().enumerate().take(l.k) {
             qv[l.n + kk] = nd.weight;
         }
-        for v in &mut qv[l.n + l.k..] {
-            *v = penalty;
-        }
-        self.mode = QpMode::Optimality { penalty };
+        elastic_costs(weights, l.m, l.q, &mut qv[l.n + l.k..]);
+        self.mode = QpMode::Optimality;
         self.solver
             .update_q(&qv)
             .map_err(|e| QpBuildError(format!("Clarabel update_q: {e}")))
@@ -455,8 +458,8 @@ mod tests {
             step_lower: &[-1.0, -1.0],
             step_upper: &[1.0, 1.0],
         };
-        let mut qp = QpSubproblem::new(&data, QpMode::Optimality { penalty: 100.0 }, 1e-9, 100)
-            .expect("build");
+        let mut qp =
+            QpSubproblem::new(&data, QpMode::Optimality, &[100.0], 1e-9, 100).expect("build");
         let s = qp.solve();
         assert!(s.outcome.is_usable());
         // Unconstrained minimizer (-1, 3) clipped: d1 = 1 (upper bound), d0 = -1, d0 + d1 = 0 ≥ 0.5? No:
