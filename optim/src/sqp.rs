@@ -6,16 +6,20 @@
 //!
 //! 1. Build the elastic QP ([`crate::qp`]) with the current `B`, `∇f`, `c`, `J`, norm residuals, and
 //!    the step box `max(l−x, −Δ) ≤ d ≤ min(u−x, Δ)`, `Δ = step_bound_scale · max(1, ‖x‖∞)`.
-//! 2. Steering of the penalty `ν` (Byrd–Nocedal–Waltz): if the step leaves linearized violation, solve the
-//!    feasibility LP for the best reachable violation and raise `ν` until the step achieves a fair share
-//!    of it (all of it if the linearization is consistent). If even the LP cannot reduce the violation,
-//!    `x` is a stationary point of the violation: locally infeasible.
+//! 2. Steering of the per-constraint penalty weights `ν` (Byrd–Nocedal–Waltz): if the step leaves
+//!    linearized violation, solve the feasibility LP for the best reachable violation and raise the weights
+//!    of the constraints the step leaves violated until it achieves a fair share of it (all of it if the
+//!    linearization is consistent). If even the LP cannot reduce the violation, `x` is a stationary point
+//!    of the violation: locally infeasible.
 //! 3. The KKT residual at `x` is computed *explicitly* from the problem's gradients and the QP's
 //!    multipliers; `Converged` is reported only if it and the violation are within tolerance.
-//! 4. Backtracking on the ℓ1 merit `φ = f + Σw‖Ax+b‖ + ν‖viol‖₁` with the Armijo condition on the QP's
+//! 4. Backtracking on the ℓ1 merit `φ = f + Σw‖Ax+b‖ + Σ νᵢ violᵢ` with the Armijo condition on the QP's
 //!    predicted reduction; if the full step is rejected, one second-order correction is tried. A failed
 //!    evaluation counts as a rejected trial and halves the step.
 //! 5. Damped BFGS update with `y = ∇ₓL(x⁺, λ) − ∇ₓL(x, λ)` of the smooth part.
+//!
+//! Constraints whose gradient at `x₀` exceeds `max_constraint_gradient` are scaled down once (IPOPT's
+//! rule); violations, tolerances and multipliers in the results refer to the unscaled constraints.
 
 use crate::bfgs::DampedBfgs;
 use crate::error::OptimError;
