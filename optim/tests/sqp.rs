@@ -518,3 +518,17 @@ fn constraint_scaling_is_invisible_in_the_results() {
     // At x = 0 the unscaled violation is 10⁶.
     assert_eq!(infos[0], 1e6);
 }
+
+#[test]
+fn clarabel_failures_are_reported_not_hidden() {
+    // One interior-point iteration per QP: Clarabel stops with MaxIterations every time.
+    let mut p = hock_schittkowski()
+        .into_iter()
+        .find(|p| p.name == "HS35")
+        .unwrap();
+    let x0 = p.x0.clone();
+    let s = SqpSolver::new(SqpSettings::builder().qp_max_iterations(1).build().unwrap()).unwrap();
+    let sol = s.solve(&mut p, &x0).unwrap();
+    assert_eq!(sol.status, Status::Stalled, "{}", sol.message);
+    assert!(sol.message.contains("MaxIterations"), "{}", sol.message);
+}
