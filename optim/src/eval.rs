@@ -14,8 +14,12 @@ pub(crate) struct PointValues {
     pub f_norms: f64,
     /// Norm residuals `r_k = A_k x + b_k`.
     pub residuals: Vec<Vec<f64>>,
+    /// Scaled constraint values `sᵢ cᵢ(x)` (see [`Evaluator::set_scaling`]).
     pub c: Vec<f64>,
+    /// Scaled equality values.
     pub h: Vec<f64>,
+    /// Max-norm violation of the *unscaled* constraints.
+    pub violation_unscaled: f64,
 }
 
 impl PointValues {
@@ -30,15 +34,30 @@ impl PointValues {
             + self.h.iter().map(|v| v.abs()).sum::<f64>()
     }
 
-    /// Max-norm constraint violation.
+    /// Max-norm violation of the unscaled constraints (what is reported and tested).
     pub(crate) fn violation_inf(&self) -> f64 {
-        let ci = self.c.iter().fold(0.0_f64, |m, v| m.max(-v));
-        ci.max(norm_inf(&self.h))
+        self.violation_unscaled
     }
 
-    /// ℓ1 merit `f + Σ w‖r‖ + ν · viol₁`.
-    pub(crate) fn merit(&self, penalty: f64) -> f64 {
-        self.objective() + penalty * self.violation_l1()
+    /// Weighted ℓ1 violation `Σ νᵢ max(0, −cᵢ) + Σ ν_{m+j} |h_j|`.
+    pub(crate) fn weighted_violation(&self, weights: &[f64]) -> f64 {
+        let m = self.c.len();
+        self.c
+            .iter()
+            .zip(weights)
+            .map(|(c, w)| w * (-c).max(0.0))
+            .sum::<f64>()
+            + self
+                .h
+                .iter()
+                .zip(&weights[m..])
+                .map(|(h, w)| w * h.abs())
+                .sum::<f64>()
+    }
+
+    /// ℓ1 merit `f + Σ w‖r‖ + Σ νᵢ violᵢ`.
+    pub(crate) fn merit(&self, weights: &[f64]) -> f64 {
+        self.objective() + self.weighted_violation(weights)
     }
 }
 
@@ -62,6 +81,10 @@ pub(crate) struct Evaluator<'p, P: Problem + ?Sized> {
     pub has_bounds: bool,
     pub function_evaluations: usize,
     pub gradient_evaluations: usize,
+    /// Row scaling of the inequalities (1 unless [`Evaluator::set_scaling`] was called).
+    pub c_scale: Vec<f64>,
+    /// Row scaling of the equalities.
+    pub h_scale: Vec<f64>,
 }
 
 impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
@@ -90,6 +113,7 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
         let bounds = bounds.unwrap_or_else(|| Bounds::unbounded(n));
         bounds.validate(n)?;
         let norms = NormData::from_terms(&problem.norm_terms(), n)?;
+        let (problem_m, problem_q) = (problem.num_inequalities(), problem.num_equalities());
         Ok(Self {
             n,
             m: problem.num_inequalities(),
@@ -101,6 +125,8 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
             problem,
             function_evaluations: 0,
             gradient_evaluations: 0,
+            c_scale: vec![1.0; problem_m],
+            h_scale: vec![1.0; problem_q],
         })
     }
 
@@ -128,6 +154,13 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
         if let Some(i) = h.iter().position(|v| !v.is_finite()) {
             return Err(EvalError::new(format!("equality {i} is not finite")));
         }
+        let violation_unscaled = c.iter().fold(0.0_f64, |m, v| m.max(-v)).max(norm_inf(&h));
+        for (ci, s) in c.iter_mut().zip(&self.c_scale) {
+            *ci *= s;
+        }
+        for (hi, s) in h.iter_mut().zip(&self.h_scale) {
+            *hi *= s;
+        }
         let residuals: Vec<Vec<f64>> = self.norms.iter().map(|nd| nd.residual(x)).collect();
         let f_norms = self
             .norms
@@ -142,7 +175,35 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
             residuals,
             c,
             h,
+            violation_unscaled,
         })
+    }
+
+    /// Gradient-based constraint scaling (as in IPOPT): `sᵢ = min(1, max_gradient / ‖∇cᵢ(x₀)‖∞)`,
+    /// fixed for the run, applied to the already evaluated `pt`/`dv` at `x₀` and to every later evaluation.
+    pub(crate) fn set_scaling(
+        &mut self,
+        max_gradient: f64,
+        pt: &mut PointValues,
+        dv: &mut PointDerivatives,
+    ) {
+        let rule = |g: f64| {
+            if g > max_gradient {
+                max_gradient / g
+            } else {
+                1.0
+            }
+        };
+        self.c_scale = dv.jc.row_inf_norms().into_iter().map(rule).collect();
+        self.h_scale = dv.jh.row_inf_norms().into_iter().map(rule).collect();
+        for (ci, s) in pt.c.iter_mut().zip(&self.c_scale) {
+            *ci *= s;
+        }
+        for (hi, s) in pt.h.iter_mut().zip(&self.h_scale) {
+            *hi *= s;
+        }
+        dv.jc.scale_rows(&self.c_scale);
+        dv.jh.scale_rows(&self.h_scale);
     }
 
     /// Gradient and Jacobians at `x`.
@@ -158,11 +219,13 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
             jc.clear();
             self.problem.inequality_jacobian(x, &mut jc)?;
             jc.validate(self.m, self.n).map_err(EvalError::new)?;
+            jc.scale_rows(&self.c_scale);
         }
         let mut jh = Jacobian::dense(self.q, self.n);
         if self.q > 0 {
             self.problem.equality_jacobian(x, &mut jh)?;
             jh.validate(self.q, self.n).map_err(EvalError::new)?;
+            jh.scale_rows(&self.h_scale);
         }
         Ok(PointDerivatives { g, jc, jh })
     }

@@ -257,6 +257,50 @@ impl Jacobian {
         }
     }
 
+    /// ∞-norm of every row.
+    pub(crate) fn row_inf_norms(&self) -> Vec<f64> {
+        let mut norms = vec![0.0_f64; self.nrows()];
+        match self {
+            Jacobian::Dense(_) => {
+                self.for_each_nonzero(|i, _, v| norms[i] = norms[i].max(v.abs()));
+            }
+            Jacobian::Sparse(m) => {
+                // Sum duplicates first.
+                let mut e = m.entries.clone();
+                e.sort_by_key(|t| (t.0, t.1));
+                let mut k = 0;
+                while k < e.len() {
+                    let (i, j, mut v) = e[k];
+                    k += 1;
+                    while k < e.len() && e[k].0 == i && e[k].1 == j {
+                        v += e[k].2;
+                        k += 1;
+                    }
+                    norms[i] = norms[i].max(v.abs());
+                }
+            }
+        }
+        norms
+    }
+
+    /// Multiplies row `i` by `s[i]`.
+    pub(crate) fn scale_rows(&mut self, s: &[f64]) {
+        match self {
+            Jacobian::Dense(m) => {
+                for (i, &si) in s.iter().enumerate().take(m.nrows()) {
+                    for v in m.row_mut(i) {
+                        *v *= si;
+                    }
+                }
+            }
+            Jacobian::Sparse(m) => {
+                for e in &mut m.entries {
+                    e.2 *= s[e.0];
+                }
+            }
+        }
+    }
+
     /// `out = J x`.
     pub(crate) fn mul_vec(&self, x: &[f64], out: &mut [f64]) {
         match self {
@@ -360,7 +404,18 @@ mod tests {
         s.push(0, 2, 0.5); // duplicate, summed
         s.push(1, 1, -3.0);
         s.push(1, 2, 4.0);
-        let sparse = Jacobian::Sparse(s);
+        let mut sparse = Jacobian::Sparse(s);
+        assert_eq!(dense.row_inf_norms(), vec![2.0, 4.0]);
+        assert_eq!(sparse.row_inf_norms(), vec![2.0, 4.0]);
+        let mut d2 = dense.clone();
+        d2.scale_rows(&[2.0, 0.5]);
+        sparse.scale_rows(&[2.0, 0.5]);
+        let (mut u, mut v) = ([0.0; 2], [0.0; 2]);
+        d2.mul_vec(&[1.0, 2.0, 3.0], &mut u);
+        sparse.mul_vec(&[1.0, 2.0, 3.0], &mut v);
+        assert_eq!(u, [14.0, 3.0]);
+        assert_eq!(u, v);
+        sparse.scale_rows(&[0.5, 2.0]);
         let x = [1.0, 2.0, 3.0];
         let (mut a, mut b) = ([0.0; 2], [0.0; 2]);
         dense.mul_vec(&x, &mut a);

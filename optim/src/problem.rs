@@ -140,7 +140,8 @@ impl NormTerm {
     }
 }
 
-/// A smooth, possibly constrained, minimization problem (see the [module docs](self)).
+/// A smooth, possibly constrained, minimization problem:
+/// `min f(x) + Σ w_k‖A_k x + b_k‖  s.t.  c(x) ≥ 0, h(x) = 0, l ≤ x ≤ u`.
 ///
 /// Only [`num_variables`](Problem::num_variables), [`objective`](Problem::objective) and
 /// [`gradient`](Problem::gradient) are required. Methods take `&mut self` so an implementation may cache

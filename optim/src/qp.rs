@@ -1,24 +1,26 @@
 //! The QP subproblem of the SQP, assembled in Clarabel's conic form and solved by Clarabel.
 //!
-//! Variables `z = [d (n) | s (K) | t (m) | p (q) | r (q)]`: the step, one epigraph variable per norm
-//! term, elastic slacks of the inequalities, and the positive/negative elastic parts of the equalities.
+//! Variables `z = [d (n) | s (K) | t (mₑ) | p (q) | r (q)]`: the step, one epigraph variable per norm
+//! term, elastic slacks of the inequalities violated at `x` (`mₑ` of them; the others hold at `d = 0`
+//! and need none), and the positive/negative elastic parts of the equalities.
 //!
 //! ```text
-//! minimize   ½ dᵀBd + gᵀd + Σ w_k s_k + ν (Σ t + Σ p + Σ r)
+//! minimize   ½ dᵀBd + gᵀd + Σ w_k s_k + Σ νᵢ tᵢ + Σ νⱼ (pⱼ + rⱼ)
 //! subject to h + J_h d − p + r = 0                      zero cone        (q rows)
-//!            c + J_c d + t ≥ 0                          nonnegative cone (m rows)
-//!            t, p, r ≥ 0                                nonnegative cone (m + 2q rows)
+//!            c + J_c d + t ≥ 0   (t only where c < 0)   nonnegative cone (m rows)
+//!            t, p, r ≥ 0                                nonnegative cone (mₑ + 2q rows)
 //!            d ≤ d_up,  −d ≤ −d_lo                      nonnegative cone (2n rows: bounds ∩ step box)
 //!            (s_k, A_k d + A_k x + b_k) ∈ SOC           one second-order cone per norm term
 //! ```
 //!
 //! The feasibility variant drops the objective's `B`, `g` and norm terms and minimizes `Σ t + Σ p + Σ r`
 //! (the smallest linearized ℓ1 violation reachable inside the step box). `d = 0`, `t = max(0, −c)`, … is
-//! always feasible, so neither problem can be infeasible; Clarabel's infeasibility verdicts are treated
+//! always feasible, so neither problem can be infeasible (the second-order correction changes `c` and
+//! may be, which only means the correction is skipped); Clarabel's infeasibility verdicts are treated
 //! as numerical failures by the caller.
 //!
 //! Clarabel has no warm start, but it can re-solve after a data update with the same sparsity: the
-//! penalty `ν` lives only in `q` ([`QpSubproblem::update_penalty`]) and a second-order correction only
+//! penalty weights `ν` live only in `q` ([`QpSubproblem::update_penalty`]) and a second-order correction only
 //! changes `b` ([`QpSubproblem::update_constraint_values`]), so both reuse the factorization structure.
 
 use crate::linalg::Jacobian;
@@ -46,11 +48,22 @@ pub(crate) struct QpData<'a> {
     pub step_upper: &'a [f64],
 }
 
+/// `q` entries of the elastic variables: `ν_i` for the slack of elastic inequality `i`, `ν_{m+j}` for
+/// both `p_j` and `r_j`.
+fn elastic_costs(weights: &[f64], elastic: &[usize], m: usize, q: usize, out: &mut [f64]) {
+    let me = elastic.len();
+    for (o, &i) in out.iter_mut().zip(elastic) {
+        *o = weights[i];
+    }
+    out[me..me + q].copy_from_slice(&weights[m..m + q]);
+    out[me + q..me + 2 * q].copy_from_slice(&weights[m..m + q]);
+}
+
 /// Which problem to build.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum QpMode {
-    /// The elastic SQP subproblem with penalty `ν`.
-    Optimality { penalty: f64 },
+    /// The elastic SQP subproblem with per-constraint penalty weights `ν` (inequalities, then equalities).
+    Optimality,
     /// Minimize the linearized ℓ1 violation only.
     Feasibility,
 }
@@ -110,6 +123,8 @@ pub(crate) struct QpSubproblem {
     layout: Layout,
     mode: QpMode,
     norm_dims: Vec<usize>,
+    /// Inequalities with an elastic slack: those violated at `x` (the others hold at `d = 0`).
+    elastic: Vec<usize>,
 }
 
 /// Triplets pushed in increasing row order, compressed to CSC by a stable counting sort on columns
@@ -185,23 +200,28 @@ impl QpSubproblem {
     pub(crate) fn new(
         data: &QpData<'_>,
         mode: QpMode,
+        weights: &[f64],
         tolerance: f64,
         max_iterations: u32,
     ) -> Result<Self, QpBuildError> {
         let n = data.n;
         let m = data.ineq.len();
         let q = data.eq.len();
-        let with_norms = matches!(mode, QpMode::Optimality { .. });
+        let with_norms = matches!(mode, QpMode::Optimality);
         let k = if with_norms { data.norms.len() } else { 0 };
         let norm_dims: Vec<usize> = if with_norms {
             data.norms.iter().map(|nd| nd.rows.len()).collect()
         } else {
             Vec::new()
         };
-        let nvar = n + k + m + 2 * q;
+        // Only constraints violated at x need an elastic slack: d = 0 satisfies the others, so the QP
+        // stays feasible with far fewer variables and rows when most constraints hold (the usual case).
+        let elastic: Vec<usize> = (0..m).filter(|&i| data.ineq[i] < 0.0).collect();
+        let me = elastic.len();
+        let nvar = n + k + me + 2 * q;
         let row_ineq = q;
         let row_slack = row_ineq + m;
-        let row_box_up = row_slack + m + 2 * q;
+        let row_box_up = row_slack + me + 2 * q;
         let row_box_lo = row_box_up + n;
         let row_soc = row_box_lo + n;
         let nrows = row_soc + norm_dims.iter().map(|p| p + 1).sum::<usize>();
@@ -216,7 +236,7 @@ impl QpSubproblem {
             row_box_lo,
             row_soc,
         };
-        let (col_s, col_t, col_p, col_r) = (n, n + k, n + k + m, n + k + m + q);
+        let (col_s, col_t, col_p, col_r) = (n, n + k, n + k + me, n + k + me + q);
 
         // P: upper triangle of B (optimality mode only).
         let mut p_trip = TripletBuilder::with_capacity(n * (n + 1) / 2);
@@ -234,23 +254,20 @@ impl QpSubproblem {
 
         // q
         let mut qv = vec![0.0; nvar];
-        let penalty = match mode {
-            QpMode::Optimality { penalty } => {
+        match mode {
+            QpMode::Optimality => {
                 qv[..n].copy_from_slice(data.gradient);
                 for (kk, nd) in data.norms.iter().enumerate() {
                     qv[col_s + kk] = nd.weight;
                 }
-                penalty
+                elastic_costs(weights, &elastic, m, q, &mut qv[col_t..]);
             }
-            QpMode::Feasibility => 1.0,
-        };
-        for v in &mut qv[col_t..] {
-            *v = penalty;
+            QpMode::Feasibility => qv[col_t..].fill(1.0),
         }
 
         // A, b (rows pushed in increasing order)
         let jac_nnz_hint = n * (m + q);
-        let mut a = TripletBuilder::with_capacity(jac_nnz_hint + 3 * m + 6 * q + 2 * n);
+        let mut a = TripletBuilder::with_capacity(jac_nnz_hint + m + 2 * me + 6 * q + 2 * n);
         let mut b = vec![0.0; nrows];
         // Zero cone: J_h d − p + r = −h
         data.eq_jac.for_each_nonzero(|i, j, v| a.push(i, j, v));
@@ -262,12 +279,12 @@ impl QpSubproblem {
         // Inequalities: −J_c d − t ≤ c
         data.ineq_jac
             .for_each_nonzero(|i, j, v| a.push(row_ineq + i, j, -v));
-        for i in 0..m {
-            a.push(row_ineq + i, col_t + i, -1.0);
-            b[row_ineq + i] = data.ineq[i];
+        b[row_ineq..row_ineq + m].copy_from_slice(data.ineq);
+        for (kk, &i) in elastic.iter().enumerate() {
+            a.push(row_ineq + i, col_t + kk, -1.0);
         }
         // Slacks ≥ 0
-        for i in 0..m + 2 * q {
+        for i in 0..me + 2 * q {
             a.push(row_slack + i, col_t + i, -1.0);
         }
         // Step box
@@ -300,7 +317,7 @@ impl QpSubproblem {
         if q > 0 {
             cones.push(SupportedConeT::ZeroConeT(q));
         }
-        cones.push(SupportedConeT::NonnegativeConeT(m + m + 2 * q + 2 * n));
+        cones.push(SupportedConeT::NonnegativeConeT(m + me + 2 * q + 2 * n));
         for &p in &norm_dims {
             cones.push(SupportedConeT::SecondOrderConeT(p + 1));
         }
@@ -321,14 +338,15 @@ impl QpSubproblem {
             layout,
             mode,
             norm_dims,
+            elastic,
         })
     }
 
-    /// Changes the elastic weight `ν` (optimality mode) keeping everything else.
+    /// Changes the elastic weights `ν` (optimality mode) keeping everything else.
     pub(crate) fn update_penalty(
         &mut self,
         data: &QpData<'_>,
-        penalty: f64,
+        weights: &[f64],
     ) -> Result<(), QpBuildError> {
         let l = self.layout;
         let mut qv = vec![0.0; l.nvar];
@@ -336,10 +354,8 @@ impl QpSubproblem {
         for (kk, nd) in data.norms.iter().enumerate().take(l.k) {
             qv[l.n + kk] = nd.weight;
         }
-        for v in &mut qv[l.n + l.k..] {
-            *v = penalty;
-        }
-        self.mode = QpMode::Optimality { penalty };
+        elastic_costs(weights, &self.elastic, l.m, l.q, &mut qv[l.n + l.k..]);
+        self.mode = QpMode::Optimality;
         self.solver
             .update_q(&qv)
             .map_err(|e| QpBuildError(format!("Clarabel update_q: {e}")))
@@ -455,8 +471,8 @@ mod tests {
             step_lower: &[-1.0, -1.0],
             step_upper: &[1.0, 1.0],
         };
-        let mut qp = QpSubproblem::new(&data, QpMode::Optimality { penalty: 100.0 }, 1e-9, 100)
-            .expect("build");
+        let mut qp =
+            QpSubproblem::new(&data, QpMode::Optimality, &[100.0], 1e-9, 100).expect("build");
         let s = qp.solve();
         assert!(s.outcome.is_usable());
         // Unconstrained minimizer (-1, 3) clipped: d1 = 1 (upper bound), d0 = -1, d0 + d1 = 0 ≥ 0.5? No:

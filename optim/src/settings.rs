@@ -91,6 +91,11 @@ pub struct SqpSettings {
     pub qp_tolerance: f64,
     /// Iteration limit handed to Clarabel. Default 200.
     pub qp_max_iterations: u32,
+    /// Constraint scaling (as in IPOPT): every constraint whose gradient at the starting point has
+    /// ∞-norm above this value is scaled down to it, for the whole run. Internal only: reported
+    /// violations, `tol_feasibility` and multipliers refer to the unscaled constraints.
+    /// `f64::INFINITY` disables scaling. Default 100.
+    pub max_constraint_gradient: f64,
 }
 
 impl Default for SqpSettings {
@@ -111,6 +116,7 @@ impl Default for SqpSettings {
             bfgs_damping: 0.2,
             qp_tolerance: 1e-9,
             qp_max_iterations: 200,
+            max_constraint_gradient: 100.0,
         }
     }
 }
@@ -159,6 +165,11 @@ impl SqpSettings {
             self.qp_max_iterations > 0,
             "qp_max_iterations",
             "must be > 0",
+        )?;
+        check(
+            self.max_constraint_gradient > 0.0,
+            "max_constraint_gradient",
+            "must be > 0 (use f64::INFINITY to disable scaling)",
         )
     }
 }
@@ -179,6 +190,7 @@ settings_builder!(SqpSettings, SqpSettingsBuilder, {
     bfgs_damping: f64,
     qp_tolerance: f64,
     qp_max_iterations: u32,
+    max_constraint_gradient: f64,
 });
 
 /// Settings of the L-BFGS solver ([`LbfgsSolver`](crate::LbfgsSolver)).

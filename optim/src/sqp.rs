@@ -6,16 +6,20 @@
 //!
 //! 1. Build the elastic QP ([`crate::qp`]) with the current `B`, `∇f`, `c`, `J`, norm residuals, and
 //!    the step box `max(l−x, −Δ) ≤ d ≤ min(u−x, Δ)`, `Δ = step_bound_scale · max(1, ‖x‖∞)`.
-//! 2. Steering of the penalty `ν` (Byrd–Nocedal–Waltz): if the step leaves linearized violation, solve the
-//!    feasibility LP for the best reachable violation and raise `ν` until the step achieves a fair share
-//!    of it (all of it if the linearization is consistent). If even the LP cannot reduce the violation,
-//!    `x` is a stationary point of the violation: locally infeasible.
+//! 2. Steering of the per-constraint penalty weights `ν` (Byrd–Nocedal–Waltz): if the step leaves
+//!    linearized violation, solve the feasibility LP for the best reachable violation and raise the weights
+//!    of the constraints the step leaves violated until it achieves a fair share of it (all of it if the
+//!    linearization is consistent). If even the LP cannot reduce the violation, `x` is a stationary point
+//!    of the violation: locally infeasible.
 //! 3. The KKT residual at `x` is computed *explicitly* from the problem's gradients and the QP's
 //!    multipliers; `Converged` is reported only if it and the violation are within tolerance.
-//! 4. Backtracking on the ℓ1 merit `φ = f + Σw‖Ax+b‖ + ν‖viol‖₁` with the Armijo condition on the QP's
+//! 4. Backtracking on the ℓ1 merit `φ = f + Σw‖Ax+b‖ + Σ νᵢ violᵢ` with the Armijo condition on the QP's
 //!    predicted reduction; if the full step is rejected, one second-order correction is tried. A failed
 //!    evaluation counts as a rejected trial and halves the step.
 //! 5. Damped BFGS update with `y = ∇ₓL(x⁺, λ) − ∇ₓL(x, λ)` of the smooth part.
+//!
+//! Constraints whose gradient at `x₀` exceeds `max_constraint_gradient` are scaled down once (IPOPT's
+//! rule); violations, tolerances and multipliers in the results refer to the unscaled constraints.
 
 use crate::bfgs::DampedBfgs;
 use crate::error::OptimError;
@@ -69,8 +73,8 @@ pub struct SqpSolver {
 struct Step {
     qp: QpSubproblem,
     sol: QpSolution,
-    /// Penalty the solution was computed with.
-    penalty: f64,
+    /// Penalty weights the solution was computed with.
+    penalty: Vec<f64>,
     /// Linearized ℓ1 violation left by `sol.d`.
     lin_violation: f64,
     /// The feasibility LP could not reduce the linearized violation.
@@ -91,19 +95,22 @@ enum Search {
     Budget,
 }
 
-/// `Σ max(0, −(c + J d)) + Σ |h + J_h d|`.
-fn linearized_violation(pt: &PointValues, dv: &PointDerivatives, d: &[f64]) -> f64 {
+/// Per constraint: `max(0, −(cᵢ + Jᵢ d))`, then `|h_j + J_{h,j} d|`.
+fn linearized_violations(pt: &PointValues, dv: &PointDerivatives, d: &[f64]) -> Vec<f64> {
     let mut jd = vec![0.0; pt.c.len()];
     dv.jc.mul_vec(d, &mut jd);
-    let mut v: f64 = pt.c.iter().zip(&jd).map(|(c, a)| (-(c + a)).max(0.0)).sum();
     let mut hd = vec![0.0; pt.h.len()];
     dv.jh.mul_vec(d, &mut hd);
-    v +=
-        pt.h.iter()
-            .zip(&hd)
-            .map(|(h, a)| (h + a).abs())
-            .sum::<f64>();
-    v
+    pt.c.iter()
+        .zip(&jd)
+        .map(|(c, a)| (-(c + a)).max(0.0))
+        .chain(pt.h.iter().zip(&hd).map(|(h, a)| (h + a).abs()))
+        .collect()
+}
+
+/// `Σ max(0, −(c + J d)) + Σ |h + J_h d|`.
+fn linearized_violation(pt: &PointValues, dv: &PointDerivatives, d: &[f64]) -> f64 {
+    linearized_violations(pt, dv, d).iter().sum()
 }
 
 /// `∇f − J_cᵀλ − J_hᵀμ` (smooth part of the Lagrangian).
@@ -301,7 +308,10 @@ impl SqpSolver {
             }
         };
 
-        let mut penalty = s.elastic_weight;
+        if s.max_constraint_gradient.is_finite() {
+            ev.set_scaling(s.max_constraint_gradient, &mut pt, &mut dv);
+        }
+        let mut penalty = vec![s.elastic_weight; ev.m + ev.q];
         let mut iterations = 0usize;
         let mut last_step_norm = 0.0;
         let mut last_alpha = 0.0;
@@ -354,7 +364,7 @@ impl SqpSolver {
                 kkt_residual: kkt,
                 step_norm: last_step_norm,
                 step_length: last_alpha,
-                penalty: step.penalty,
+                penalty: step.penalty.iter().fold(0.0, |a: f64, b| a.max(*b)),
                 linearized_violation: step.lin_violation,
                 function_evaluations: ev.function_evaluations,
                 gradient_evaluations: ev.gradient_evaluations,
@@ -395,7 +405,7 @@ impl SqpSolver {
                 .zip(step_lower.iter().zip(&step_upper))
                 .map(|(v, (l, u))| v.clamp(*l, *u))
                 .collect();
-            let pred = predicted_reduction(&pt, &dv, &bfgs, &ev.norms, &d, step.penalty);
+            let pred = predicted_reduction(&pt, &dv, &bfgs, &ev.norms, &d, &step.penalty);
             let negligible = norm_inf(&d) <= s.tol_step * (1.0 + xinf);
             let descent = pred > 0.0;
             if !qp_usable || negligible || !descent || d.iter().any(|v| !v.is_finite()) {
@@ -420,7 +430,7 @@ impl SqpSolver {
                 &dv,
                 &d,
                 pred,
-                step.penalty,
+                &step.penalty,
                 &mut step.qp,
                 &data,
             );
@@ -480,6 +490,13 @@ impl SqpSolver {
             }
         };
 
+        // Multipliers of the scaled constraints sᵢcᵢ → multipliers of cᵢ.
+        for (l, sc) in mult.inequality.iter_mut().zip(&ev.c_scale) {
+            *l *= sc;
+        }
+        for (l, sc) in mult.equality.iter_mut().zip(&ev.h_scale) {
+            *l *= sc;
+        }
         Ok(Solution {
             status,
             message,
@@ -501,19 +518,20 @@ impl SqpSolver {
         data: &QpData<'_>,
         pt: &PointValues,
         dv: &PointDerivatives,
-        penalty: &mut f64,
+        penalty: &mut [f64],
     ) -> Result<Step, String> {
         let s = &self.settings;
         let mut qp = QpSubproblem::new(
             data,
-            QpMode::Optimality { penalty: *penalty },
+            QpMode::Optimality,
+            penalty,
             s.qp_tolerance,
             s.qp_max_iterations,
         )
         .map_err(|e| e.0)?;
         let mut sol = qp.solve();
         let mut lin_violation = linearized_violation(pt, dv, &sol.d);
-        let mut step_penalty = *penalty;
+        let mut step_penalty = penalty.to_vec();
         let mut infeasible_stationary = false;
         let lv0 = pt.violation_l1();
         let scale = 1.0 + norm_inf(&pt.c).max(norm_inf(&pt.h));
@@ -522,6 +540,7 @@ impl SqpSolver {
             let mut fqp = QpSubproblem::new(
                 data,
                 QpMode::Feasibility,
+                &[],
                 s.qp_tolerance,
                 s.qp_max_iterations,
             )
@@ -541,19 +560,36 @@ impl SqpSolver {
                     lv0 - lv >= 0.1 * (lv0 - lv_min)
                 }
             };
-            while !good_enough(lin_violation) && *penalty < s.elastic_weight_max {
-                let next = (*penalty * s.elastic_weight_growth).min(s.elastic_weight_max);
-                if qp.update_penalty(data, next).is_err() {
+            let count = penalty.len().max(1) as f64;
+            while !good_enough(lin_violation) {
+                // Raise the weights of the constraints the step leaves violated (all, if none stands out).
+                let per = linearized_violations(pt, dv, &sol.d);
+                let mut next = penalty.to_vec();
+                let mut raised = false;
+                for (w, v) in next.iter_mut().zip(&per) {
+                    if *v > lin_tol / count && *w < s.elastic_weight_max {
+                        *w = (*w * s.elastic_weight_growth).min(s.elastic_weight_max);
+                        raised = true;
+                    }
+                }
+                if !raised {
+                    for w in next.iter_mut() {
+                        if *w < s.elastic_weight_max {
+                            *w = (*w * s.elastic_weight_growth).min(s.elastic_weight_max);
+                            raised = true;
+                        }
+                    }
+                }
+                if !raised || qp.update_penalty(data, &next).is_err() {
                     break;
                 }
+                penalty.copy_from_slice(&next);
                 let trial = qp.solve();
                 if !trial.outcome.is_usable() {
-                    // Keep the last usable step; restore the QP to its penalty for a consistent SOC.
-                    let _ = qp.update_penalty(data, step_penalty);
-                    *penalty = next;
+                    // Keep the last usable step; restore the QP to its weights for a consistent SOC.
+                    let _ = qp.update_penalty(data, &step_penalty);
                     break;
                 }
-                *penalty = next;
                 step_penalty = next;
                 lin_violation = linearized_violation(pt, dv, &trial.d);
                 sol = trial;
@@ -577,7 +613,7 @@ impl SqpSolver {
         dv: &PointDerivatives,
         d: &[f64],
         pred: f64,
-        penalty: f64,
+        penalty: &[f64],
         qp: &mut QpSubproblem,
         data: &QpData<'_>,
     ) -> Search {
@@ -662,7 +698,7 @@ impl SqpSolver {
         d: &[f64],
         trial: PointValues,
         pred: f64,
-        penalty: f64,
+        penalty: &[f64],
         qp: &mut QpSubproblem,
         data: &QpData<'_>,
     ) -> Option<Search> {
@@ -702,7 +738,7 @@ fn predicted_reduction(
     bfgs: &DampedBfgs,
     norms: &[NormData],
     d: &[f64],
-    penalty: f64,
+    weights: &[f64],
 ) -> f64 {
     let n = d.len();
     let mut bd = vec![0.0; n];
@@ -713,6 +749,7 @@ fn predicted_reduction(
         .iter()
         .map(|nd| nd.weight * norm2(&nd.residual(&xd)))
         .sum();
-    let lin = linearized_violation(pt, dv, d);
-    -quad + (pt.f_norms - norms_new) + penalty * (pt.violation_l1() - lin)
+    let lin = linearized_violations(pt, dv, d);
+    let lin_weighted: f64 = lin.iter().zip(weights).map(|(v, w)| v * w).sum();
+    -quad + (pt.f_norms - norms_new) + (pt.weighted_violation(weights) - lin_weighted)
 }

@@ -72,10 +72,11 @@ pub struct IterationInfo {
     pub step_norm: f64,
     /// Line-search step length of that step (0 at iteration 0).
     pub step_length: f64,
-    /// Current ℓ1 penalty / elastic weight (SQP; 0 for L-BFGS).
+    /// Largest per-constraint ℓ1 penalty / elastic weight (SQP; 0 for L-BFGS).
     pub penalty: f64,
-    /// Linearized ℓ1 constraint violation left by the QP step from this iterate (SQP; 0 for L-BFGS).
-    /// Positive means the linearization was inconsistent and the elastic slacks were used.
+    /// Linearized ℓ1 constraint violation left by the QP step from this iterate, in the solver's
+    /// internally scaled constraint units (SQP; 0 for L-BFGS). Positive means the linearization was
+    /// inconsistent and the elastic slacks were used.
     pub linearized_violation: f64,
     /// Objective (and constraint) evaluations so far.
     pub function_evaluations: usize,
@@ -107,7 +108,8 @@ pub struct Solution {
     pub status: Status,
     /// A one-line explanation of the status.
     pub message: String,
-    /// The returned point: the final iterate, or for [`Status::Infeasible`] the least-violating iterate.
+    /// The returned point: the final iterate (for [`Status::Infeasible`], the stationary point of the
+    /// violation where the run stopped).
     pub x: Vec<f64>,
     /// Total objective at `x` (smooth part plus norm terms).
     pub objective: f64,

@@ -706,6 +706,58 @@ pub fn hock_schittkowski() -> Vec<TestProblem> {
             none,
         ),
         tp(
+            "HS106",
+            8,
+            6,
+            0,
+            &[5000.0, 5000.0, 5000.0, 200.0, 350.0, 150.0, 225.0, 425.0],
+            Some((
+                vec![100.0, 1000.0, 1000.0, 10.0, 10.0, 10.0, 10.0, 10.0],
+                vec![
+                    10000.0, 10000.0, 10000.0, 1000.0, 1000.0, 1000.0, 1000.0, 1000.0,
+                ],
+            )),
+            7049.24802052867,
+            |x| x[0] + x[1] + x[2],
+            |_, g| {
+                g.fill(0.0);
+                g[0] = 1.0;
+                g[1] = 1.0;
+                g[2] = 1.0;
+            },
+            |x, c| {
+                c[0] = 1.0 - 0.0025 * (x[3] + x[5]);
+                c[1] = 1.0 - 0.0025 * (x[4] + x[6] - x[3]);
+                c[2] = 1.0 - 0.01 * (x[7] - x[4]);
+                c[3] = x[0] * x[5] - 833.33252 * x[3] - 100.0 * x[0] + 83333.333;
+                c[4] = x[1] * x[6] - 1250.0 * x[4] - x[1] * x[3] + 1250.0 * x[3];
+                c[5] = x[2] * x[7] - 1_250_000.0 - x[2] * x[4] + 2500.0 * x[4];
+            },
+            |x, j| {
+                j.fill(0.0);
+                let n = 8;
+                j[3] = -0.0025;
+                j[5] = -0.0025;
+                j[n + 3] = 0.0025;
+                j[n + 4] = -0.0025;
+                j[n + 6] = -0.0025;
+                j[2 * n + 4] = 0.01;
+                j[2 * n + 7] = -0.01;
+                j[3 * n] = x[5] - 100.0;
+                j[3 * n + 3] = -833.33252;
+                j[3 * n + 5] = x[0];
+                j[4 * n + 1] = x[6] - x[3];
+                j[4 * n + 3] = -x[1] + 1250.0;
+                j[4 * n + 4] = -1250.0;
+                j[4 * n + 6] = x[1];
+                j[5 * n + 2] = x[7] - x[4];
+                j[5 * n + 4] = -x[2] + 2500.0;
+                j[5 * n + 7] = x[2];
+            },
+            none,
+            none,
+        ),
+        tp(
             "HS113",
             10,
             8,
@@ -870,63 +922,6 @@ fn hs118() -> TestProblem {
     )
 }
 
-/// Hard cases kept out of [`hock_schittkowski`] because the SQP does not yet solve them robustly
-/// (see the crate README): HS106 (badly scaled bilinear constraints, variables from 10 to 10⁴).
-pub fn hock_schittkowski_hard() -> Vec<TestProblem> {
-    vec![tp(
-        "HS106",
-        8,
-        6,
-        0,
-        &[5000.0, 5000.0, 5000.0, 200.0, 350.0, 150.0, 225.0, 425.0],
-        Some((
-            vec![100.0, 1000.0, 1000.0, 10.0, 10.0, 10.0, 10.0, 10.0],
-            vec![
-                10000.0, 10000.0, 10000.0, 1000.0, 1000.0, 1000.0, 1000.0, 1000.0,
-            ],
-        )),
-        7049.24802052867,
-        |x| x[0] + x[1] + x[2],
-        |_, g| {
-            g.fill(0.0);
-            g[0] = 1.0;
-            g[1] = 1.0;
-            g[2] = 1.0;
-        },
-        |x, c| {
-            c[0] = 1.0 - 0.0025 * (x[3] + x[5]);
-            c[1] = 1.0 - 0.0025 * (x[4] + x[6] - x[3]);
-            c[2] = 1.0 - 0.01 * (x[7] - x[4]);
-            c[3] = x[0] * x[5] - 833.33252 * x[3] - 100.0 * x[0] + 83333.333;
-            c[4] = x[1] * x[6] - 1250.0 * x[4] - x[1] * x[3] + 1250.0 * x[3];
-            c[5] = x[2] * x[7] - 1_250_000.0 - x[2] * x[4] + 2500.0 * x[4];
-        },
-        |x, j| {
-            j.fill(0.0);
-            let n = 8;
-            j[3] = -0.0025;
-            j[5] = -0.0025;
-            j[n + 3] = 0.0025;
-            j[n + 4] = -0.0025;
-            j[n + 6] = -0.0025;
-            j[2 * n + 4] = 0.01;
-            j[2 * n + 7] = -0.01;
-            j[3 * n] = x[5] - 100.0;
-            j[3 * n + 3] = -833.33252;
-            j[3 * n + 5] = x[0];
-            j[4 * n + 1] = x[6] - x[3];
-            j[4 * n + 3] = -x[1] + 1250.0;
-            j[4 * n + 4] = -1250.0;
-            j[4 * n + 6] = x[1];
-            j[5 * n + 2] = x[7] - x[4];
-            j[5 * n + 4] = -x[2] + 2500.0;
-            j[5 * n + 7] = x[2];
-        },
-        none,
-        none,
-    )]
-}
-
 /// The chained Rosenbrock function `Σ 100(x_{i+1} − x_i²)² + (1 − x_i)²` in `n ≥ 2` variables, minimum
 /// 0 at `(1, …, 1)`; the usual start is `(−1.2, 1, −1.2, 1, …)` ([`rosenbrock_start`]).
 #[derive(Clone, Copy, Debug)]
@@ -970,10 +965,7 @@ mod tests {
     /// Every hand-written derivative agrees with central differences.
     #[test]
     fn derivatives_match_finite_differences() {
-        for mut p in hock_schittkowski()
-            .into_iter()
-            .chain(hock_schittkowski_hard())
-        {
+        for mut p in hock_schittkowski() {
             let n = p.n;
             // A generic point near the start (avoid exact zeros where some terms are flat).
             let x: Vec<f64> =

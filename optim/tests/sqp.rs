@@ -468,3 +468,67 @@ fn solution_serializes_to_json() {
     assert_eq!(back.status, Status::Converged);
     assert_eq!(back.iterations, sol.iterations);
 }
+
+/// `min x₀² + x₁²  s.t.  10⁶ (x₀ + x₁ − 1) ≥ 0`: the constraint is scaled internally, but the reported
+/// multiplier is the one of the constraint as written, `λ = 10⁻⁶`, and the violation is unscaled.
+struct BigConstraint;
+
+impl Problem for BigConstraint {
+    fn num_variables(&self) -> usize {
+        2
+    }
+    fn num_inequalities(&self) -> usize {
+        1
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        Ok(x[0] * x[0] + x[1] * x[1])
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        g[0] = 2.0 * x[0];
+        g[1] = 2.0 * x[1];
+        Ok(())
+    }
+    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        c[0] = 1e6 * (x[0] + x[1] - 1.0);
+        Ok(())
+    }
+    fn inequality_jacobian(&mut self, _x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
+        j.set(0, 0, 1e6);
+        j.set(0, 1, 1e6);
+        Ok(())
+    }
+}
+
+#[test]
+fn constraint_scaling_is_invisible_in_the_results() {
+    let mut infos = Vec::new();
+    let sol = solver()
+        .solve_with_callback(&mut BigConstraint, &[0.0, 0.0], |i| {
+            infos.push(i.constraint_violation);
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    assert!((sol.x[0] - 0.5).abs() < 1e-7 && (sol.x[1] - 0.5).abs() < 1e-7);
+    assert!(
+        (sol.multipliers.inequality[0] - 1e-6).abs() < 1e-12,
+        "{:?}",
+        sol.multipliers
+    );
+    // At x = 0 the unscaled violation is 10⁶.
+    assert_eq!(infos[0], 1e6);
+}
+
+#[test]
+fn clarabel_failures_are_reported_not_hidden() {
+    // One interior-point iteration per QP: Clarabel stops with MaxIterations every time.
+    let mut p = hock_schittkowski()
+        .into_iter()
+        .find(|p| p.name == "HS35")
+        .unwrap();
+    let x0 = p.x0.clone();
+    let s = SqpSolver::new(SqpSettings::builder().qp_max_iterations(1).build().unwrap()).unwrap();
+    let sol = s.solve(&mut p, &x0).unwrap();
+    assert_eq!(sol.status, Status::Stalled, "{}", sol.message);
+    assert!(sol.message.contains("MaxIterations"), "{}", sol.message);
+}
