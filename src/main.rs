@@ -70,6 +70,12 @@ enum Command {
         /// Also keep the straight paths between steps at least δ away.
         #[arg(long)]
         swept: bool,
+        /// Sharpness κ (1/length) of the soft minimum in the per-step and aggregate forms.
+        #[arg(long)]
+        kappa: Option<f64>,
+        /// Per-step rows farther than this from active skip their gradient (length units).
+        #[arg(long)]
+        active_band: Option<f64>,
         /// The solver.
         #[arg(long, value_enum, default_value_t = SolverKind::Sqp)]
         solver: SolverKind,
@@ -182,6 +188,8 @@ fn run(cli: Cli) -> Result<()> {
             iterations,
             safety,
             swept,
+            kappa,
+            active_band,
             solver,
             out,
             verbose,
@@ -201,6 +209,8 @@ fn run(cli: Cli) -> Result<()> {
             options.task.beta = beta.unwrap_or(options.task.beta);
             options.task.safety = model.safety.is_some().then_some(safety);
             options.task.swept = swept;
+            options.task.kappa = kappa.unwrap_or(options.task.kappa);
+            options.task.active_band = active_band.unwrap_or(options.task.active_band);
             let start = initial_controls(&scene, &model)?;
             let bar = ProgressBar::new(iterations as u64);
             bar.set_style(
