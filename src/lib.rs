@@ -1,1 +1,3 @@
 //! clothopt
+
+pub mod plot;

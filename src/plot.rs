@@ -1,0 +1,1481 @@
+//! Figures as PNG files: plain data in, picture out.
+//!
+//! Every function takes plain numbers (`[f64; 3]` positions, `(x, y)` pairs, bar values) and writes one
+//! PNG; nothing here knows about the simulator or the optimizer, so any caller can draw with it.
+//!
+//! - [`draw_trajectory_3d`] and [`draw_trajectory_top`]: a cloth manipulation trajectory (cloth frames as
+//!   wireframes, control-point paths, obstacle spheres, targets, ground) in an axonometric 3-D view and
+//!   seen from above, like the paper's Fig. 4 (`delta_result`) and Fig. 5 (`qualitative_result`).
+//! - [`draw_bar_chart`]: grouped bars of padded cost terms per variant, like the paper's
+//!   `quantitative_result` chart.
+//! - [`draw_xy`]: lines with markers, optional per-point labels, labelled horizontal reference lines and
+//!   logarithmic axes (e.g. gradient error against time).
+//!
+//! Text is rendered with DejaVu Sans, embedded in the binary (`assets/fonts/`), so drawing needs no
+//! system fonts.
+
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::coord::cartesian::Cartesian3d;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+/// An error while drawing a figure.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The figure's data cannot be drawn (wrong sizes, NaN, non-positive values on a log axis, …).
+    #[error("invalid figure data: {0}")]
+    InvalidData(String),
+    /// The PNG could not be written (missing directory, permissions, unsupported extension, …).
+    #[error("cannot write {path}: {message}")]
+    Write {
+        /// The file that was being written.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// Drawing into the in-memory bitmap failed.
+    #[error("drawing failed: {0}")]
+    Draw(String),
+    /// The embedded font could not be parsed.
+    #[error("the embedded font could not be loaded")]
+    Font,
+}
+
+/// An obstacle sphere.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sphere {
+    /// Centre `[x, y, z]`.
+    pub center: [f64; 3],
+    /// Radius (> 0).
+    pub radius: f64,
+}
+
+/// The viewing direction of [`draw_trajectory_3d`] (an orthographic, axonometric view with equal scale
+/// on all three axes; `z` is drawn upwards).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View3d {
+    /// Rotation about the vertical (`z`) axis in radians; 0 looks along `+y`, positive values turn the
+    /// camera so that more of the `−x` side is seen.
+    pub yaw: f64,
+    /// Elevation of the camera above the horizontal plane in radians (0 = side view, π/2 = top view).
+    pub pitch: f64,
+}
+
+impl Default for View3d {
+    /// Three-quarter view from the `−y` side, slightly from the right and above.
+    fn default() -> Self {
+        View3d {
+            yaw: -0.55,
+            pitch: 0.45,
+        }
+    }
+}
+
+/// A cloth trajectory to draw with [`draw_trajectory_3d`] or [`draw_trajectory_top`].
+#[derive(Debug, Clone)]
+pub struct TrajectoryFigure<'a> {
+    /// Figure title.
+    pub title: String,
+    /// Cloth grid `(rows, cols)`; particle `p = r * cols + c`, used to draw each frame as a wireframe.
+    pub grid: (usize, usize),
+    /// Cloth states to draw (e.g. initial, intermediate, final), each with its legend label.
+    pub frames: Vec<(&'a [[f64; 3]], String)>,
+    /// Path of each control point over the steps (`T + 1` points each).
+    pub control_paths: Vec<Vec<[f64; 3]>>,
+    /// Obstacle spheres (may be empty).
+    pub spheres: &'a [Sphere],
+    /// Target positions, drawn as red points.
+    pub targets: &'a [[f64; 3]],
+    /// Particles that should reach the targets; ringed in red on the last frame (may be empty).
+    pub target_particles: &'a [usize],
+    /// Height of the ground plane, drawn in the 3-D view if `Some`.
+    pub ground_z: Option<f64>,
+    /// Viewing direction of the 3-D view.
+    pub view: View3d,
+}
+
+impl Default for TrajectoryFigure<'_> {
+    /// An empty figure with the default view; fill in the fields you need.
+    fn default() -> Self {
+        TrajectoryFigure {
+            title: String::new(),
+            grid: (0, 0),
+            frames: Vec::new(),
+            control_paths: Vec::new(),
+            spheres: &[],
+            targets: &[],
+            target_particles: &[],
+            ground_z: None,
+            view: View3d::default(),
+        }
+    }
+}
+
+/// A grouped bar chart for [`draw_bar_chart`].
+#[derive(Debug, Clone)]
+pub struct BarChart {
+    /// Figure title.
+    pub title: String,
+    /// Y-axis label (the padding note is appended automatically when `pad > 0`).
+    pub y_label: String,
+    /// One group of bars per entry (e.g. per variant `"G+αT"`), one value per series.
+    pub groups: Vec<(String, Vec<f64>)>,
+    /// Series names (e.g. `G`, `αT`, `βE`), one colour each, shown in the legend.
+    pub series_names: Vec<String>,
+    /// Added to every value before drawing so that tiny values stay visible (the paper uses 0.1);
+    /// the numbers printed above the bars are the unpadded values.
+    pub pad: f64,
+    /// Logarithmic y axis.
+    pub log_y: bool,
+}
+
+/// One line of an [`XyFigure`].
+#[derive(Debug, Clone, Default)]
+pub struct Series {
+    /// Legend name.
+    pub name: String,
+    /// Points `(x, y)`, joined in the given order.
+    pub points: Vec<(f64, f64)>,
+    /// Optional per-point labels (e.g. `"n_iter=100"`): empty, or one per point (`""` = no label).
+    pub labels: Vec<String>,
+}
+
+/// A labelled horizontal reference line (e.g. `δ = 0.2`).
+#[derive(Debug, Clone)]
+pub struct RefLine {
+    /// Its y value.
+    pub y: f64,
+    /// Text drawn on the line.
+    pub label: String,
+}
+
+/// A line-and-marker plot for [`draw_xy`].
+#[derive(Debug, Clone, Default)]
+pub struct XyFigure {
+    /// Figure title.
+    pub title: String,
+    /// X-axis label, with units.
+    pub x_label: String,
+    /// Y-axis label, with units.
+    pub y_label: String,
+    /// The lines.
+    pub series: Vec<Series>,
+    /// Logarithmic x axis (all x must be > 0).
+    pub log_x: bool,
+    /// Logarithmic y axis (all y and reference lines must be > 0).
+    pub log_y: bool,
+    /// Horizontal reference lines.
+    pub ref_lines: Vec<RefLine>,
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Shared helpers
+// ---------------------------------------------------------------------------------------------------
+
+type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+type Coord3 = Cartesian3d<RangedCoordf64, RangedCoordf64, RangedCoordf64>;
+
+static FONT_BYTES: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+const FAMILY: &str = "sans-serif";
+
+const SIZE_3D: (u32, u32) = (1000, 800);
+const SIZE_2D: (u32, u32) = (900, 600);
+
+const FRAME_COLORS: [RGBColor; 7] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(40, 40, 40),
+    RGBColor(23, 190, 207),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(188, 189, 34),
+];
+const PATH_COLORS: [RGBColor; 4] = [
+    RGBColor(128, 0, 170),
+    RGBColor(0, 150, 60),
+    RGBColor(0, 90, 200),
+    RGBColor(200, 100, 0),
+];
+const SERIES_COLORS: [RGBColor; 7] = [
+    RGBColor(31, 119, 180),
+    RGBColor(230, 100, 0),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(23, 190, 207),
+];
+/// Bar colours follow the paper's chart: target error yellow, irregularity red, energy purple.
+const BAR_COLORS: [RGBColor; 6] = [
+    RGBColor(240, 190, 30),
+    RGBColor(215, 48, 39),
+    RGBColor(117, 80, 170),
+    RGBColor(31, 119, 180),
+    RGBColor(44, 160, 44),
+    RGBColor(140, 86, 75),
+];
+const TARGET_RED: RGBColor = RGBColor(225, 20, 20);
+const GROUND: RGBColor = RGBColor(205, 185, 150);
+const GRID_GRAY: RGBColor = RGBColor(215, 215, 215);
+
+fn ensure_font() -> Result<(), PlotError> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font(FAMILY, FontStyle::Normal, FONT_BYTES).is_ok()
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err(PlotError::Font)
+    }
+}
+
+fn text(size: f64) -> TextStyle<'static> {
+    TextStyle::from(FontDesc::new(
+        FontFamily::SansSerif,
+        size,
+        FontStyle::Normal,
+    ))
+    .color(&BLACK)
+}
+
+fn text_c(size: f64, color: RGBColor) -> TextStyle<'static> {
+    let mut style = text(size);
+    style.color = color.to_backend_color();
+    style
+}
+
+fn de<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotError {
+    PlotError::Draw(e.to_string())
+}
+
+fn open(path: &Path, size: (u32, u32)) -> Result<Area<'_>, PlotError> {
+    ensure_font()?;
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(e) if e.eq_ignore_ascii_case("png") => {}
+        _ => {
+            return Err(PlotError::Write {
+                path: path.to_path_buf(),
+                message: "the file name must end in .png".into(),
+            })
+        }
+    }
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE).map_err(de)?;
+    Ok(root)
+}
+
+fn save(root: &Area, path: &Path) -> Result<(), PlotError> {
+    root.present().map_err(|e| PlotError::Write {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
+fn check_finite(what: &str, v: f64) -> Result<(), PlotError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(PlotError::InvalidData(format!("{what} is {v}")))
+    }
+}
+
+fn check_point(what: &str, p: &[f64; 3]) -> Result<(), PlotError> {
+    if p.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(PlotError::InvalidData(format!(
+            "{what} is not finite: [{}, {}, {}]",
+            p[0], p[1], p[2]
+        )))
+    }
+}
+
+/// A compact number: plain decimals between 1e-3 and 1e4, else `m×10ⁿ`.
+fn fmt_num(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return if v == 0.0 { "0".into() } else { format!("{v}") };
+    }
+    let a = v.abs();
+    if (1e-3..1e4).contains(&a) {
+        let digits = (3 - 1 - a.log10().floor() as i32).clamp(0, 6) as usize;
+        let s = format!("{v:.digits$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    } else {
+        let e = a.log10().floor() as i32;
+        let m = v / 10f64.powi(e);
+        let ms = format!("{m:.2}");
+        let ms = ms.trim_end_matches('0').trim_end_matches('.');
+        if ms == "1" {
+            format!("10{}", superscript(e))
+        } else if ms == "-1" {
+            format!("−10{}", superscript(e))
+        } else {
+            format!("{ms}×10{}", superscript(e))
+        }
+    }
+}
+
+/// A tick label on a linear axis: short decimals, `−0` shown as `0`.
+fn fmt_tick(v: f64) -> String {
+    if v.abs() < 1e-12 {
+        return "0".into();
+    }
+    fmt_num(v)
+}
+
+fn superscript(e: i32) -> String {
+    e.to_string()
+        .chars()
+        .map(|c| match c {
+            '-' => '⁻',
+            '0' => '⁰',
+            '1' => '¹',
+            '2' => '²',
+            '3' => '³',
+            '4' => '⁴',
+            '5' => '⁵',
+            '6' => '⁶',
+            '7' => '⁷',
+            '8' => '⁸',
+            _ => '⁹',
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Legends
+// ---------------------------------------------------------------------------------------------------
+
+enum Swatch {
+    Line(RGBColor, u32),
+    PathMarkers(RGBColor),
+    Dot(RGBColor),
+    Ring(RGBColor),
+    Sphere,
+    Patch(RGBAColor),
+}
+
+/// Draws a boxed legend with its top-left corner at `(x, y)`; returns its bottom y.
+fn draw_legend(
+    root: &Area,
+    (x, y): (i32, i32),
+    heading: &str,
+    entries: &[(Swatch, String)],
+) -> Result<i32, PlotError> {
+    let style = text(15.0);
+    let row = 26;
+    let mut width = root.estimate_text_size(heading, &text(16.0)).map_err(de)?.0 as i32;
+    for (_, label) in entries {
+        width = width.max(root.estimate_text_size(label, &style).map_err(de)?.0 as i32 + 46);
+    }
+    let height = 34 + row * entries.len() as i32;
+    let w = width + 20;
+    root.draw(&Rectangle::new(
+        [(x, y), (x + w, y + height)],
+        WHITE.filled(),
+    ))
+    .map_err(de)?;
+    root.draw(&Rectangle::new(
+        [(x, y), (x + w, y + height)],
+        RGBColor(150, 150, 150).stroke_width(1),
+    ))
+    .map_err(de)?;
+    root.draw(&Text::new(heading.to_string(), (x + 10, y + 8), text(16.0)))
+        .map_err(de)?;
+    for (i, (sw, label)) in entries.iter().enumerate() {
+        let cy = y + 34 + row * i as i32 + row / 2 - 2;
+        let sx = x + 10;
+        match sw {
+            Swatch::Line(c, w) => {
+                root.draw(&PathElement::new(
+                    vec![(sx, cy), (sx + 30, cy)],
+                    c.stroke_width(*w),
+                ))
+                .map_err(de)?;
+            }
+            Swatch::PathMarkers(c) => {
+                root.draw(&PathElement::new(
+                    vec![(sx, cy), (sx + 30, cy)],
+                    c.stroke_width(4),
+                ))
+                .map_err(de)?;
+                root.draw(&Circle::new((sx + 15, cy), 5, c.filled()))
+                    .map_err(de)?;
+                root.draw(&Circle::new((sx + 15, cy), 5, WHITE.stroke_width(1)))
+                    .map_err(de)?;
+            }
+            Swatch::Dot(c) => {
+                root.draw(&Circle::new((sx + 15, cy), 6, c.filled()))
+                    .map_err(de)?;
+                root.draw(&Circle::new((sx + 15, cy), 6, BLACK.stroke_width(1)))
+                    .map_err(de)?;
+            }
+            Swatch::Ring(c) => {
+                root.draw(&Circle::new((sx + 15, cy), 7, c.stroke_width(2)))
+                    .map_err(de)?;
+            }
+            Swatch::Sphere => draw_shaded_disc(root, (sx + 15, cy), 10)?,
+            Swatch::Patch(c) => {
+                root.draw(&Rectangle::new(
+                    [(sx + 2, cy - 8), (sx + 28, cy + 8)],
+                    c.filled(),
+                ))
+                .map_err(de)?;
+                root.draw(&Rectangle::new(
+                    [(sx + 2, cy - 8), (sx + 28, cy + 8)],
+                    RGBColor(120, 110, 90).stroke_width(1),
+                ))
+                .map_err(de)?;
+            }
+        }
+        root.draw(&Text::new(
+            label.clone(),
+            (sx + 40, cy),
+            style.pos(Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(de)?;
+    }
+    Ok(y + height)
+}
+
+/// A grey disc shaded like a sphere lit from the upper left.
+fn draw_shaded_disc(root: &Area, (cx, cy): (i32, i32), r: i32) -> Result<(), PlotError> {
+    let r = r.max(2);
+    let (dark, light) = ((105.0, 110.0, 125.0), (238.0, 238.0, 242.0));
+    root.draw(&Circle::new(
+        (cx, cy),
+        r,
+        RGBColor(dark.0 as u8, dark.1 as u8, dark.2 as u8).filled(),
+    ))
+    .map_err(de)?;
+    let steps = 7;
+    for k in 1..=steps {
+        let t = k as f64 / steps as f64;
+        let rr = (r as f64 * (1.0 - 0.85 * t)).round() as i32;
+        let off = (r as f64 * 0.35 * t).round() as i32;
+        let mix = |a: f64, b: f64| (a + (b - a) * t) as u8;
+        let c = RGBColor(
+            mix(dark.0, light.0),
+            mix(dark.1, light.1),
+            mix(dark.2, light.2),
+        );
+        root.draw(&Circle::new((cx - off, cy - off), rr.max(1), c.filled()))
+            .map_err(de)?;
+    }
+    root.draw(&Circle::new(
+        (cx, cy),
+        r,
+        RGBColor(60, 60, 70).stroke_width(1),
+    ))
+    .map_err(de)?;
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Trajectory figures
+// ---------------------------------------------------------------------------------------------------
+
+/// Maps world points to pixels for one view.
+trait Projector {
+    fn px(&self, p: [f64; 3]) -> (i32, i32);
+    /// Larger = farther from the viewer (drawn first).
+    fn depth(&self, p: [f64; 3]) -> f64;
+    /// Pixels per world unit (the same in every direction).
+    fn px_per_unit(&self) -> f64;
+}
+
+struct AxonometricView<'c> {
+    coord: &'c Coord3,
+    scale: f64,
+}
+
+impl Projector for AxonometricView<'_> {
+    fn px(&self, p: [f64; 3]) -> (i32, i32) {
+        self.coord.translate(&(p[0], p[2], -p[1]))
+    }
+    fn depth(&self, p: [f64; 3]) -> f64 {
+        self.coord.projected_depth(&p[0], &p[2], &-p[1]) as f64
+    }
+    fn px_per_unit(&self) -> f64 {
+        self.scale
+    }
+}
+
+struct TopView<'c> {
+    coord: &'c Cartesian2d<RangedCoordf64, RangedCoordf64>,
+    scale: f64,
+}
+
+impl Projector for TopView<'_> {
+    fn px(&self, p: [f64; 3]) -> (i32, i32) {
+        self.coord.translate(&(p[0], p[1]))
+    }
+    fn depth(&self, p: [f64; 3]) -> f64 {
+        -p[2]
+    }
+    fn px_per_unit(&self) -> f64 {
+        self.scale
+    }
+}
+
+enum Prim {
+    Quad([[f64; 3]; 4], RGBAColor),
+    Segment([f64; 3], [f64; 3], RGBColor, u32),
+    Ball(Sphere),
+    Marker([f64; 3], RGBColor, i32),
+}
+
+fn mid(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        (a[0] + b[0]) / 2.0,
+        (a[1] + b[1]) / 2.0,
+        (a[2] + b[2]) / 2.0,
+    ]
+}
+
+fn validate_trajectory(fig: &TrajectoryFigure) -> Result<(), PlotError> {
+    let (rows, cols) = fig.grid;
+    for (k, (frame, label)) in fig.frames.iter().enumerate() {
+        if frame.len() != rows * cols {
+            return Err(PlotError::InvalidData(format!(
+                "frame {k} (\"{label}\") has {} particles but the grid {rows}×{cols} needs {}",
+                frame.len(),
+                rows * cols
+            )));
+        }
+        for (i, p) in frame.iter().enumerate() {
+            check_point(&format!("particle {i} of frame {k} (\"{label}\")"), p)?;
+        }
+    }
+    for (k, path) in fig.control_paths.iter().enumerate() {
+        for (t, p) in path.iter().enumerate() {
+            check_point(&format!("point {t} of control path {k}"), p)?;
+        }
+    }
+    for (k, s) in fig.spheres.iter().enumerate() {
+        check_point(&format!("centre of sphere {k}"), &s.center)?;
+        if !(s.radius.is_finite() && s.radius > 0.0) {
+            return Err(PlotError::InvalidData(format!(
+                "sphere {k} has radius {}; it must be finite and > 0",
+                s.radius
+            )));
+        }
+    }
+    for (k, p) in fig.targets.iter().enumerate() {
+        check_point(&format!("target {k}"), p)?;
+    }
+    if let Some(&bad) = fig.target_particles.iter().find(|&&i| i >= rows * cols) {
+        return Err(PlotError::InvalidData(format!(
+            "target particle {bad} is outside the {rows}×{cols} grid"
+        )));
+    }
+    if let Some(z) = fig.ground_z {
+        check_finite("ground_z", z)?;
+    }
+    let empty = fig.frames.is_empty()
+        && fig.control_paths.iter().all(|p| p.is_empty())
+        && fig.spheres.is_empty()
+        && fig.targets.is_empty();
+    if empty {
+        return Err(PlotError::InvalidData(
+            "the trajectory figure has nothing to draw".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Axis-aligned bounds of everything drawn, padded; each axis at least `min_span` wide.
+fn trajectory_bounds(fig: &TrajectoryFigure) -> [[f64; 2]; 3] {
+    let mut b = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
+    let mut add = |p: [f64; 3], r: f64| {
+        for a in 0..3 {
+            b[a][0] = b[a][0].min(p[a] - r);
+            b[a][1] = b[a][1].max(p[a] + r);
+        }
+    };
+    for (f, _) in &fig.frames {
+        f.iter().for_each(|&p| add(p, 0.0));
+    }
+    for path in &fig.control_paths {
+        path.iter().for_each(|&p| add(p, 0.0));
+    }
+    for s in fig.spheres {
+        add(s.center, s.radius);
+    }
+    fig.targets.iter().for_each(|&p| add(p, 0.0));
+    if let Some(z) = fig.ground_z {
+        b[2][0] = b[2][0].min(z);
+        b[2][1] = b[2][1].max(z);
+    }
+    let largest = b.iter().map(|r| r[1] - r[0]).fold(0.0, f64::max).max(1e-6);
+    for r in b.iter_mut() {
+        let span = r[1] - r[0];
+        let pad = 0.04 * largest + 0.5 * (0.15 * largest - span).max(0.0);
+        r[0] -= pad;
+        r[1] += pad;
+    }
+    b
+}
+
+/// Cloth wireframes, control paths and spheres as depth-sortable primitives.
+fn scene_prims(fig: &TrajectoryFigure) -> Vec<Prim> {
+    let (rows, cols) = fig.grid;
+    let mut prims = Vec::new();
+    for (k, (frame, _)) in fig.frames.iter().enumerate() {
+        let c = FRAME_COLORS[k % FRAME_COLORS.len()];
+        let at = |r: usize, cc: usize| frame[r * cols + cc];
+        for r in 0..rows {
+            for cc in 0..cols {
+                if r + 1 < rows && cc + 1 < cols {
+                    prims.push(Prim::Quad(
+                        [at(r, cc), at(r, cc + 1), at(r + 1, cc + 1), at(r + 1, cc)],
+                        c.mix(0.10),
+                    ));
+                }
+                if cc + 1 < cols {
+                    prims.push(Prim::Segment(at(r, cc), at(r, cc + 1), c, 1));
+                }
+                if r + 1 < rows {
+                    prims.push(Prim::Segment(at(r, cc), at(r + 1, cc), c, 1));
+                }
+            }
+        }
+    }
+    for (k, path) in fig.control_paths.iter().enumerate() {
+        let c = PATH_COLORS[k % PATH_COLORS.len()];
+        for w in path.windows(2) {
+            prims.push(Prim::Segment(w[0], w[1], c, 4));
+        }
+        for &p in path {
+            prims.push(Prim::Marker(p, c, 5));
+        }
+    }
+    for &s in fig.spheres {
+        prims.push(Prim::Ball(s));
+    }
+    prims
+}
+
+fn prim_depth(proj: &dyn Projector, p: &Prim) -> f64 {
+    match p {
+        Prim::Quad(q, _) => {
+            let c = mid(mid(q[0], q[2]), mid(q[1], q[3]));
+            proj.depth(c)
+        }
+        Prim::Segment(a, b, _, _) => proj.depth(mid(*a, *b)),
+        Prim::Ball(s) => proj.depth(s.center),
+        Prim::Marker(p, _, _) => proj.depth(*p) - 1e-3,
+    }
+}
+
+fn render_prims(root: &Area, proj: &dyn Projector, prims: Vec<Prim>) -> Result<(), PlotError> {
+    let mut items: Vec<(f64, Prim)> = prims
+        .into_iter()
+        .map(|p| (prim_depth(proj, &p), p))
+        .collect();
+    // Farthest first (painter's algorithm).
+    items.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for (_, p) in items {
+        match p {
+            Prim::Quad(q, c) => {
+                let pts: Vec<_> = q.iter().map(|&v| proj.px(v)).collect();
+                root.draw(&Polygon::new(pts, c.filled())).map_err(de)?;
+            }
+            Prim::Segment(a, b, c, w) => {
+                root.draw(&PathElement::new(
+                    vec![proj.px(a), proj.px(b)],
+                    c.stroke_width(w),
+                ))
+                .map_err(de)?;
+            }
+            Prim::Ball(s) => {
+                let r = (s.radius * proj.px_per_unit()).round() as i32;
+                draw_shaded_disc(root, proj.px(s.center), r)?;
+            }
+            Prim::Marker(p, c, r) => {
+                let at = proj.px(p);
+                root.draw(&Circle::new(at, r, c.filled())).map_err(de)?;
+                root.draw(&Circle::new(at, r, WHITE.stroke_width(1)))
+                    .map_err(de)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Targets and the particles meant to reach them, always on top.
+fn render_targets(
+    root: &Area,
+    proj: &dyn Projector,
+    fig: &TrajectoryFigure,
+) -> Result<(), PlotError> {
+    if let Some((last, _)) = fig.frames.last() {
+        for &i in fig.target_particles {
+            root.draw(&Circle::new(
+                proj.px(last[i]),
+                7,
+                TARGET_RED.stroke_width(2),
+            ))
+            .map_err(de)?;
+        }
+    }
+    for &t in fig.targets {
+        let at = proj.px(t);
+        root.draw(&Circle::new(at, 5, TARGET_RED.filled()))
+            .map_err(de)?;
+        root.draw(&Circle::new(at, 5, BLACK.stroke_width(1)))
+            .map_err(de)?;
+    }
+    Ok(())
+}
+
+fn trajectory_legend(fig: &TrajectoryFigure, with_ground: bool) -> Vec<(Swatch, String)> {
+    let mut e = Vec::new();
+    for (k, (_, label)) in fig.frames.iter().enumerate() {
+        e.push((
+            Swatch::Line(FRAME_COLORS[k % FRAME_COLORS.len()], 2),
+            format!("cloth: {label}"),
+        ));
+    }
+    for k in 0..fig.control_paths.len() {
+        e.push((
+            Swatch::PathMarkers(PATH_COLORS[k % PATH_COLORS.len()]),
+            format!("control point {} path", k + 1),
+        ));
+    }
+    if !fig.spheres.is_empty() {
+        e.push((
+            Swatch::Sphere,
+            format!("obstacle ({} spheres)", fig.spheres.len()),
+        ));
+    }
+    if !fig.targets.is_empty() {
+        e.push((Swatch::Dot(TARGET_RED), "target positions".into()));
+    }
+    if !fig.target_particles.is_empty() && !fig.frames.is_empty() {
+        e.push((Swatch::Ring(TARGET_RED), "target particles (last)".into()));
+    }
+    if let (true, Some(z)) = (with_ground, fig.ground_z) {
+        e.push((
+            Swatch::Patch(GROUND.mix(0.45)),
+            format!("ground z = {}", fmt_tick(z)),
+        ));
+    }
+    e
+}
+
+/// Draws a cloth trajectory in an axonometric 3-D view (equal scale on all axes, `z` up) to a PNG
+/// (1000×800): cloth frames as wireframes in distinct colours, control-point paths as thick purple
+/// and green polylines with a marker per step, obstacle spheres as shaded discs, targets as red
+/// points, the ground plane, axis labels in metres and a legend.
+pub fn draw_trajectory_3d(fig: &TrajectoryFigure, path: &Path) -> Result<(), PlotError> {
+    validate_trajectory(fig)?;
+    let root = open(path, SIZE_3D)?;
+    let titled = root
+        .titled(
+            &fig.title,
+            text(24.0).pos(Pos::new(HPos::Center, VPos::Top)),
+        )
+        .map_err(de)?;
+    let legend_w = 250;
+    let (plot_area, legend_area) = titled.split_horizontally(SIZE_3D.0 as i32 - legend_w);
+
+    let b = trajectory_bounds(fig);
+    // plotters' 3-D axes: X = world x, Y = world z (up), Z = −world y (keeps the frame right-handed).
+    let mut chart = ChartBuilder::on(&plot_area)
+        .margin(10)
+        .build_cartesian_3d(b[0][0]..b[0][1], b[2][0]..b[2][1], -b[1][1]..-b[1][0])
+        .map_err(de)?;
+    let spans = [b[0][1] - b[0][0], b[2][1] - b[2][0], b[1][1] - b[1][0]];
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    let (avail_w, avail_h) = (
+        (xr.end - xr.start) as f64 * 0.80,
+        (yr.end - yr.start) as f64 * 0.82,
+    );
+    let view = fig.view;
+    let set_size = |chart: &mut ChartContext<'_, BitMapBackend<'_>, Coord3>, k: f64| {
+        chart.set_3d_pixel_range((
+            (k * spans[0]).round().max(1.0) as i32,
+            (k * spans[1]).round().max(1.0) as i32,
+            (k * spans[2]).round().max(1.0) as i32,
+        ));
+        chart.with_projection(|mut pb| {
+            pb.yaw = view.yaw;
+            pb.pitch = view.pitch;
+            pb.scale = 1.0;
+            pb.into_matrix()
+        });
+    };
+    // Fit the projected box into the drawing area (the projection is linear in the scale k).
+    let k0 = 400.0 / spans.iter().fold(0.0f64, |a, &s| a.max(s));
+    set_size(&mut chart, k0);
+    let corners = |coord: &Coord3| {
+        let mut bb = [i32::MAX, i32::MIN, i32::MAX, i32::MIN];
+        for &x in &b[0] {
+            for &y in &b[1] {
+                for &z in &b[2] {
+                    let (px, py) = coord.translate(&(x, z, -y));
+                    bb = [bb[0].min(px), bb[1].max(px), bb[2].min(py), bb[3].max(py)];
+                }
+            }
+        }
+        bb
+    };
+    let bb = corners(chart.plotting_area().as_coord_spec());
+    let f = (avail_w / (bb[1] - bb[0]).max(1) as f64).min(avail_h / (bb[3] - bb[2]).max(1) as f64);
+    let k = k0 * f;
+    set_size(&mut chart, k);
+
+    let fmt_y = |v: &f64| fmt_tick(-*v);
+    let fmt_v = |v: &f64| fmt_tick(*v);
+    chart
+        .configure_axes()
+        .label_style(text(13.0))
+        .x_labels(6)
+        .y_labels(6)
+        .z_labels(6)
+        .max_light_lines(1)
+        .light_grid_style(RGBColor(235, 235, 235))
+        .bold_grid_style(GRID_GRAY)
+        .axis_panel_style(RGBColor(248, 248, 248).filled())
+        .x_formatter(&fmt_v)
+        .y_formatter(&fmt_v)
+        .z_formatter(&fmt_y)
+        .draw()
+        .map_err(de)?;
+
+    let coord = chart.plotting_area().as_coord_spec();
+    // Pixels per world unit: the rows of an orthographic rotation are orthonormal, so the three
+    // projected axis vectors of length L carry 2·(s·L)² in total. translate() rounds to pixels,
+    // so measure on long vectors.
+    let big = 1000.0 / k;
+    let o = coord.translate(&(0.0, 0.0, 0.0));
+    let mut sq = 0.0;
+    for e in [(big, 0.0, 0.0), (0.0, big, 0.0), (0.0, 0.0, big)] {
+        let p = coord.translate(&e);
+        sq += ((p.0 - o.0) as f64).powi(2) + ((p.1 - o.1) as f64).powi(2);
+    }
+    let scale = (sq / 2.0).sqrt() / big;
+    let proj = AxonometricView { coord, scale };
+
+    draw_axis_titles(&root, coord, &b, &plot_area)?;
+
+    if let Some(z) = fig.ground_z {
+        let q = [
+            [b[0][0], b[1][0], z],
+            [b[0][1], b[1][0], z],
+            [b[0][1], b[1][1], z],
+            [b[0][0], b[1][1], z],
+        ];
+        let pts: Vec<_> = q.iter().map(|&v| proj.px(v)).collect();
+        root.draw(&Polygon::new(pts, GROUND.mix(0.45).filled()))
+            .map_err(de)?;
+    }
+    render_prims(&root, &proj, scene_prims(fig))?;
+    render_targets(&root, &proj, fig)?;
+
+    let (lx, ly) = legend_area.get_base_pixel();
+    let bottom = draw_legend(
+        &root,
+        (lx, ly + 20),
+        "Legend",
+        &trajectory_legend(fig, true),
+    )?;
+    let note = format!(
+        "view: yaw {:.0}°, pitch {:.0}°",
+        view.yaw * 180.0 / PI,
+        view.pitch * 180.0 / PI
+    );
+    root.draw(&Text::new(
+        note,
+        (lx + 4, bottom + 12),
+        text_c(13.0, RGBColor(90, 90, 90)),
+    ))
+    .map_err(de)?;
+    root.draw(&Text::new(
+        "equal scale on x, y, z".to_string(),
+        (lx + 4, bottom + 30),
+        text_c(13.0, RGBColor(90, 90, 90)),
+    ))
+    .map_err(de)?;
+    save(&root, path)
+}
+
+/// Puts "x [m]", "y [m]", "z [m]" beside the box edges on which plotters draws the tick labels (the
+/// same choice as plotters' `draw_axis`: the nearest back-panel edge, then the highest).
+fn draw_axis_titles(
+    root: &Area,
+    coord: &Coord3,
+    b: &[[f64; 2]; 3],
+    plot_area: &Area,
+) -> Result<(), PlotError> {
+    // Ranges in plotters' axis order (X = x, Y = z, Z = −y).
+    let r = [[b[0][0], b[0][1]], [b[2][0], b[2][1]], [-b[1][1], -b[1][0]]];
+    let depth = |p: [f64; 3]| coord.projected_depth(&p[0], &p[1], &p[2]);
+    let px = |p: [f64; 3]| coord.translate(&(p[0], p[1], p[2]));
+    let lo = [r[0][0], r[1][0], r[2][0]];
+    // The back value of each axis: the panel farther from the viewer.
+    let mut back = [0.0; 3];
+    for i in 0..3 {
+        let mut c = lo;
+        c[i] = r[i][1];
+        back[i] = if depth(lo) >= depth(c) {
+            r[i][0]
+        } else {
+            r[i][1]
+        };
+    }
+    let (xr, yr) = plot_area.get_pixel_range();
+    let centre = ((xr.start + xr.end) / 2, (yr.start + yr.end) / 2);
+    let names = ["x [m]", "z [m]", "y [m]"];
+    for idx in 0..3 {
+        let mut best: Option<((i32, i32), [f64; 3], [f64; 3])> = None;
+        for i in (0..3).filter(|&i| i != idx) {
+            let j = 3 - i - idx;
+            for &vj in &r[j] {
+                let mut s = [0.0; 3];
+                s[i] = back[i];
+                s[j] = vj;
+                s[idx] = r[idx][0];
+                let mut e = s;
+                e[idx] = r[idx][1];
+                let key = (depth(s) + depth(e), px(s).1 + px(e).1);
+                if best.map_or(true, |(k, _, _)| key < k) {
+                    best = Some((key, s, e));
+                }
+            }
+        }
+        let Some((_, s, e)) = best else { continue };
+        let (ps, pe) = (px(s), px(e));
+        let m = ((ps.0 + pe.0) as f64 / 2.0, (ps.1 + pe.1) as f64 / 2.0);
+        let d = (m.0 - centre.0 as f64, m.1 - centre.1 as f64);
+        let n = (d.0 * d.0 + d.1 * d.1).sqrt().max(1.0);
+        let at = (
+            (m.0 + d.0 / n * 52.0).round() as i32,
+            (m.1 + d.1 / n * 52.0).round() as i32,
+        );
+        root.draw(&Text::new(
+            names[idx].to_string(),
+            at,
+            text(17.0).pos(Pos::new(HPos::Center, VPos::Center)),
+        ))
+        .map_err(de)?;
+    }
+    Ok(())
+}
+
+/// Draws the same trajectory seen from above (x–y plane, equal aspect ratio) to a PNG (900×600):
+/// higher elements cover lower ones; spheres appear as shaded discs; the ground is not drawn.
+pub fn draw_trajectory_top(fig: &TrajectoryFigure, path: &Path) -> Result<(), PlotError> {
+    validate_trajectory(fig)?;
+    let root = open(path, SIZE_2D)?;
+    let titled = root
+        .titled(
+            &fig.title,
+            text(22.0).pos(Pos::new(HPos::Center, VPos::Top)),
+        )
+        .map_err(de)?;
+    let legend_w = 240;
+    let (plot_area, legend_area) = titled.split_horizontally(SIZE_2D.0 as i32 - legend_w);
+    let b = trajectory_bounds(fig);
+
+    let build = |xr: std::ops::Range<f64>, yr: std::ops::Range<f64>| {
+        ChartBuilder::on(&plot_area)
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d(xr, yr)
+    };
+    // Measure the plotting area, then widen one range so that 1 m is as long on both axes.
+    let probe = build(b[0][0]..b[0][1], b[1][0]..b[1][1]).map_err(de)?;
+    let (pw, ph) = probe.plotting_area().dim_in_pixel();
+    drop(probe);
+    let (dx, dy) = (b[0][1] - b[0][0], b[1][1] - b[1][0]);
+    let s = (pw as f64 / dx).min(ph as f64 / dy);
+    let (ex, ey) = ((pw as f64 / s - dx) / 2.0, (ph as f64 / s - dy) / 2.0);
+    let mut chart = build(b[0][0] - ex..b[0][1] + ex, b[1][0] - ey..b[1][1] + ey).map_err(de)?;
+    let fmt = |v: &f64| fmt_tick(*v);
+    chart
+        .configure_mesh()
+        .x_desc("x [m]")
+        .y_desc("y [m]")
+        .axis_desc_style(text(17.0))
+        .label_style(text(14.0))
+        .x_label_formatter(&fmt)
+        .y_label_formatter(&fmt)
+        .light_line_style(RGBColor(240, 240, 240))
+        .bold_line_style(RGBColor(220, 220, 220))
+        .draw()
+        .map_err(de)?;
+    let coord = chart.plotting_area().as_coord_spec();
+    let proj = TopView { coord, scale: s };
+    render_prims(&root, &proj, scene_prims(fig))?;
+    render_targets(&root, &proj, fig)?;
+
+    let (lx, ly) = legend_area.get_base_pixel();
+    let bottom = draw_legend(
+        &root,
+        (lx, ly + 20),
+        "Top view",
+        &trajectory_legend(fig, false),
+    )?;
+    root.draw(&Text::new(
+        "seen from above (+z);".to_string(),
+        (lx + 4, bottom + 12),
+        text_c(13.0, RGBColor(90, 90, 90)),
+    ))
+    .map_err(de)?;
+    root.draw(&Text::new(
+        "higher parts cover lower ones".to_string(),
+        (lx + 4, bottom + 30),
+        text_c(13.0, RGBColor(90, 90, 90)),
+    ))
+    .map_err(de)?;
+    save(&root, path)
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Bar chart
+// ---------------------------------------------------------------------------------------------------
+
+/// Draws grouped bars (one group per entry of `fig.groups`, one coloured bar per series) to a PNG
+/// (900×600), like the paper's `quantitative_result` chart: bar heights are `value + pad`, the
+/// unpadded value is printed above each bar, optional logarithmic y axis, legend.
+pub fn draw_bar_chart(fig: &BarChart, path: &Path) -> Result<(), PlotError> {
+    let ns = fig.series_names.len();
+    if fig.groups.is_empty() || ns == 0 {
+        return Err(PlotError::InvalidData(
+            "a bar chart needs at least one group and one series".into(),
+        ));
+    }
+    check_finite("pad", fig.pad)?;
+    for (g, vals) in &fig.groups {
+        if vals.len() != ns {
+            return Err(PlotError::InvalidData(format!(
+                "group \"{g}\" has {} values but there are {ns} series",
+                vals.len()
+            )));
+        }
+        for (s, v) in vals.iter().enumerate() {
+            check_finite(
+                &format!("value of \"{}\" in \"{g}\"", fig.series_names[s]),
+                *v,
+            )?;
+            if fig.log_y && v + fig.pad <= 0.0 {
+                return Err(PlotError::InvalidData(format!(
+                    "value of \"{}\" in \"{g}\" plus pad is {} ≤ 0, which a log axis cannot show",
+                    fig.series_names[s],
+                    v + fig.pad
+                )));
+            }
+        }
+    }
+    let padded = fig
+        .groups
+        .iter()
+        .flat_map(|(_, v)| v.iter().map(|x| x + fig.pad));
+    let (lo, hi) = padded.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    let root = open(path, SIZE_2D)?;
+    let y_desc = if fig.pad > 0.0 {
+        format!("{} (+{} padding)", fig.y_label, fmt_num(fig.pad))
+    } else {
+        fig.y_label.clone()
+    };
+    let note = if fig.pad > 0.0 {
+        format!(
+            "Bar height = value + {}, so that small values stay visible; numbers above the bars are the unpadded values.",
+            fmt_num(fig.pad)
+        )
+    } else {
+        "Numbers above the bars are the values.".to_string()
+    };
+    let (main, foot) = root.split_vertically(SIZE_2D.1 as i32 - 28);
+    foot.draw(&Text::new(
+        note,
+        (SIZE_2D.0 as i32 / 2, 8),
+        text_c(13.0, RGBColor(80, 80, 80)).pos(Pos::new(HPos::Center, VPos::Top)),
+    ))
+    .map_err(de)?;
+    let ng = fig.groups.len() as f64;
+    if fig.log_y {
+        let y0 = lo / 2.0;
+        let y1 = hi * 4.0;
+        bar_body(&main, fig, (0.0..ng, (y0..y1).log_scale()), y0, &y_desc)?;
+    } else {
+        let y0 = lo.min(0.0);
+        let y1 = hi.max(0.0) + 0.15 * (hi.max(0.0) - y0).max(1e-12);
+        let y0 = if y0 < 0.0 { y0 - 0.05 * (y1 - y0) } else { y0 };
+        bar_body(&main, fig, (0.0..ng, y0..y1), 0.0f64.max(y0), &y_desc)?;
+    }
+    save(&root, path)
+}
+
+fn bar_body<YR>(
+    area: &Area,
+    fig: &BarChart,
+    (xr, yr): (std::ops::Range<f64>, YR),
+    base: f64,
+    y_desc: &str,
+) -> Result<(), PlotError>
+where
+    YR: AsRangedCoord<Value = f64>,
+    YR::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let mut chart = ChartBuilder::on(area)
+        .caption(&fig.title, text(22.0))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(xr, yr)
+        .map_err(de)?;
+    let fmt_y = |v: &f64| fmt_num(*v);
+    let fmt_none = |_: &f64| String::new();
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(0)
+        .x_label_formatter(&fmt_none)
+        .y_label_formatter(&fmt_y)
+        .y_desc(y_desc)
+        .axis_desc_style(text(16.0))
+        .label_style(text(14.0))
+        .light_line_style(RGBColor(242, 242, 242))
+        .bold_line_style(RGBColor(215, 215, 215))
+        .draw()
+        .map_err(de)?;
+    let ns = fig.series_names.len() as f64;
+    let width = 0.8 / ns;
+    let (y_lo, _) = {
+        let r = chart.plotting_area().get_pixel_range();
+        (r.1.end, r.1.start)
+    };
+    for (g, (name, vals)) in fig.groups.iter().enumerate() {
+        for (s, &v) in vals.iter().enumerate() {
+            let x0 = g as f64 + 0.1 + width * s as f64;
+            let x1 = x0 + width;
+            let c = BAR_COLORS[s % BAR_COLORS.len()];
+            let top = v + fig.pad;
+            let bar =
+                |style: ShapeStyle| Rectangle::new([(x0 + 0.01, base), (x1 - 0.01, top)], style);
+            chart
+                .draw_series([bar(c.filled()), bar(BLACK.stroke_width(1))])
+                .map_err(de)?;
+            let (cx, ty) = chart.backend_coord(&((x0 + x1) / 2.0, top.max(base)));
+            area.draw(&Text::new(
+                fmt_num(v),
+                (
+                    cx - area.get_base_pixel().0,
+                    ty - 4 - area.get_base_pixel().1,
+                ),
+                text(12.0).pos(Pos::new(HPos::Center, VPos::Bottom)),
+            ))
+            .map_err(de)?;
+        }
+        let (gx, _) = chart.backend_coord(&(g as f64 + 0.5, base));
+        area.draw(&Text::new(
+            name.clone(),
+            (
+                gx - area.get_base_pixel().0,
+                y_lo + 10 - area.get_base_pixel().1,
+            ),
+            text(17.0).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(de)?;
+    }
+    // Legend (plotters' own, anchored top-right).
+    for (s, name) in fig.series_names.iter().enumerate() {
+        let c = BAR_COLORS[s % BAR_COLORS.len()];
+        chart
+            .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
+            .map_err(de)?
+            .label(name.clone())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 7), (x + 18, y + 7)], c.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(text(15.0))
+        .background_style(WHITE.mix(0.9))
+        .border_style(RGBColor(150, 150, 150))
+        .draw()
+        .map_err(de)?;
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------------
+// XY plot
+// ---------------------------------------------------------------------------------------------------
+
+fn axis_range(vals: impl Iterator<Item = f64>, log: bool, extra_hi: f64) -> (f64, f64) {
+    let (mut lo, mut hi) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if log {
+        let (l, h) = (lo.log10(), hi.log10());
+        let span = (h - l).max(0.3);
+        let c = (l + h) / 2.0;
+        let (l, h) = (c - span / 2.0, c + span / 2.0);
+        (
+            10f64.powf(l - 0.06 * span),
+            10f64.powf(h + (0.06 + extra_hi) * span),
+        )
+    } else {
+        if hi - lo < 1e-12 * (1.0 + lo.abs()) {
+            let d = if lo == 0.0 { 1.0 } else { 0.1 * lo.abs() };
+            lo -= d;
+            hi += d;
+        }
+        let span = hi - lo;
+        (lo - 0.06 * span, hi + (0.06 + extra_hi) * span)
+    }
+}
+
+/// Draws lines with markers (one colour and marker shape per series) to a PNG (900×600), with
+/// optional per-point labels, labelled dashed horizontal reference lines, optional log axes and a
+/// legend placed in the emptiest corner.
+pub fn draw_xy(fig: &XyFigure, path: &Path) -> Result<(), PlotError> {
+    if fig.series.iter().all(|s| s.points.is_empty()) {
+        return Err(PlotError::InvalidData(format!(
+            "plot \"{}\" has no points",
+            fig.title
+        )));
+    }
+    for s in &fig.series {
+        if !s.labels.is_empty() && s.labels.len() != s.points.len() {
+            return Err(PlotError::InvalidData(format!(
+                "series \"{}\" has {} labels for {} points",
+                s.name,
+                s.labels.len(),
+                s.points.len()
+            )));
+        }
+        for (i, &(x, y)) in s.points.iter().enumerate() {
+            check_finite(&format!("x of point {i} of series \"{}\"", s.name), x)?;
+            check_finite(&format!("y of point {i} of series \"{}\"", s.name), y)?;
+            if fig.log_x && x <= 0.0 {
+                return Err(PlotError::InvalidData(format!(
+                    "point {i} of series \"{}\" has x = {x} on a log axis",
+                    s.name
+                )));
+            }
+            if fig.log_y && y <= 0.0 {
+                return Err(PlotError::InvalidData(format!(
+                    "point {i} of series \"{}\" has y = {y} on a log axis",
+                    s.name
+                )));
+            }
+        }
+    }
+    for l in &fig.ref_lines {
+        check_finite(&format!("reference line \"{}\"", l.label), l.y)?;
+        if fig.log_y && l.y <= 0.0 {
+            return Err(PlotError::InvalidData(format!(
+                "reference line \"{}\" at y = {} on a log axis",
+                l.label, l.y
+            )));
+        }
+    }
+    let has_labels = fig
+        .series
+        .iter()
+        .any(|s| s.labels.iter().any(|l| !l.is_empty()));
+    let xs = fig.series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
+    let ys = fig
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.1))
+        .chain(fig.ref_lines.iter().map(|l| l.y));
+    let (x0, x1) = axis_range(xs, fig.log_x, if has_labels { 0.12 } else { 0.0 });
+    let (y0, y1) = axis_range(ys, fig.log_y, 0.0);
+    let root = open(path, SIZE_2D)?;
+    match (fig.log_x, fig.log_y) {
+        (false, false) => xy_body(&root, fig, x0..x1, y0..y1)?,
+        (true, false) => xy_body(&root, fig, (x0..x1).log_scale(), y0..y1)?,
+        (false, true) => xy_body(&root, fig, x0..x1, (y0..y1).log_scale())?,
+        (true, true) => xy_body(&root, fig, (x0..x1).log_scale(), (y0..y1).log_scale())?,
+    }
+    save(&root, path)
+}
+
+fn xy_body<XR, YR>(root: &Area, fig: &XyFigure, xr: XR, yr: YR) -> Result<(), PlotError>
+where
+    XR: AsRangedCoord<Value = f64>,
+    YR: AsRangedCoord<Value = f64>,
+    XR::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    YR::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let mut chart = ChartBuilder::on(root)
+        .caption(&fig.title, text(22.0))
+        .margin(18)
+        .x_label_area_size(55)
+        .y_label_area_size(85)
+        .build_cartesian_2d(xr, yr)
+        .map_err(de)?;
+    let fmt = |v: &f64| fmt_num(*v);
+    chart
+        .configure_mesh()
+        .x_desc(fig.x_label.as_str())
+        .y_desc(fig.y_label.as_str())
+        .axis_desc_style(text(17.0))
+        .label_style(text(14.0))
+        .x_label_formatter(&fmt)
+        .y_label_formatter(&fmt)
+        .light_line_style(RGBColor(243, 243, 243))
+        .bold_line_style(RGBColor(218, 218, 218))
+        .draw()
+        .map_err(de)?;
+
+    let x_range = chart.x_range();
+    let (xa, xb) = (x_range.start, x_range.end);
+    for l in &fig.ref_lines {
+        let c = RGBColor(70, 70, 70);
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(xa, l.y), (xb, l.y)],
+                10,
+                6,
+                c.stroke_width(2),
+            ))
+            .map_err(de)?;
+        let (px, py) = chart.backend_coord(&(xb, l.y));
+        root.draw(&Text::new(
+            l.label.clone(),
+            (px - 6, py - 5),
+            text_c(15.0, c).pos(Pos::new(HPos::Right, VPos::Bottom)),
+        ))
+        .map_err(de)?;
+    }
+
+    let mut pix: Vec<(i32, i32)> = Vec::new();
+    for (k, s) in fig.series.iter().enumerate() {
+        let c = SERIES_COLORS[k % SERIES_COLORS.len()];
+        let pts = s.points.clone();
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+            .map_err(de)?
+            .label(s.name.clone())
+            .legend(move |(x, y)| {
+                EmptyElement::at((x, y))
+                    + PathElement::new(vec![(-4, 0), (22, 0)], c.stroke_width(2))
+                    + marker(k, (9, 0), c)
+            });
+        for &p in &pts {
+            let at = chart.backend_coord(&p);
+            pix.push(at);
+            root.draw(&marker(k, at, c)).map_err(de)?;
+        }
+        for (i, label) in s.labels.iter().enumerate() {
+            if label.is_empty() {
+                continue;
+            }
+            let (px, py) = chart.backend_coord(&pts[i]);
+            let (dy, v) = if k % 2 == 0 {
+                (-8, VPos::Bottom)
+            } else {
+                (8, VPos::Top)
+            };
+            root.draw(&Text::new(
+                label.clone(),
+                (px + 7, py + dy),
+                text_c(13.0, darker(c)).pos(Pos::new(HPos::Left, v)),
+            ))
+            .map_err(de)?;
+        }
+    }
+
+    // Legend in the corner with the fewest points.
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    let (cx, cy) = ((xr.start + xr.end) / 2, (yr.start + yr.end) / 2);
+    let count = |right: bool, lower: bool| {
+        pix.iter()
+            .filter(|&&(x, y)| (x > cx) == right && (y > cy) == lower)
+            .count()
+    };
+    let corners = [
+        (count(true, false), SeriesLabelPosition::UpperRight),
+        (count(false, false), SeriesLabelPosition::UpperLeft),
+        (count(true, true), SeriesLabelPosition::LowerRight),
+        (count(false, true), SeriesLabelPosition::LowerLeft),
+    ];
+    let pos = corners
+        .into_iter()
+        .min_by_key(|c| c.0)
+        .map(|c| c.1)
+        .unwrap_or(SeriesLabelPosition::UpperRight);
+    chart
+        .configure_series_labels()
+        .position(pos)
+        .margin(12)
+        .label_font(text(15.0))
+        .background_style(WHITE.mix(0.92))
+        .border_style(RGBColor(150, 150, 150))
+        .draw()
+        .map_err(de)?;
+    Ok(())
+}
+
+fn darker(c: RGBColor) -> RGBColor {
+    RGBColor(
+        (c.0 as f64 * 0.7) as u8,
+        (c.1 as f64 * 0.7) as u8,
+        (c.2 as f64 * 0.7) as u8,
+    )
+}
+
+/// Marker shape `k` (circle, triangle, square, diamond, …) centred at a pixel.
+fn marker<DB: DrawingBackend>(
+    k: usize,
+    (x, y): (i32, i32),
+    c: RGBColor,
+) -> DynElement<'static, DB, (i32, i32)> {
+    let r = 5;
+    match k % 4 {
+        0 => Circle::new((x, y), r, c.filled()).into_dyn(),
+        1 => Polygon::new(
+            vec![(x, y - r - 1), (x + r + 1, y + r), (x - r - 1, y + r)],
+            c.filled(),
+        )
+        .into_dyn(),
+        2 => Rectangle::new([(x - r, y - r), (x + r, y + r)], c.filled()).into_dyn(),
+        _ => Polygon::new(
+            vec![
+                (x, y - r - 2),
+                (x + r + 1, y),
+                (x, y + r + 2),
+                (x - r - 1, y),
+            ],
+            c.filled(),
+        )
+        .into_dyn(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_are_compact() {
+        assert_eq!(fmt_num(0.0), "0");
+        assert_eq!(fmt_num(0.5), "0.5");
+        assert_eq!(fmt_num(0.123456), "0.123");
+        assert_eq!(fmt_num(1234.0), "1234");
+        assert_eq!(fmt_num(1e-5), "10⁻⁵");
+        assert_eq!(fmt_num(2.5e-7), "2.5×10⁻⁷");
+        assert_eq!(fmt_num(3e6), "3×10⁶");
+        assert_eq!(fmt_tick(-1e-15), "0");
+    }
+}
