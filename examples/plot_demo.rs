@@ -97,6 +97,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..Default::default()
     };
     draw_trajectory_3d(&fig, &dir.join("trajectory_3d.png"))?;
+    if let Ok(v) = std::env::var("VIEWS") {
+        for (i, yp) in v.split(';').enumerate() {
+            let mut it = yp.split(',').map(|x| x.parse::<f64>().unwrap());
+            let mut f2 = fig.clone();
+            f2.view = clothopt::plot::View3d {
+                yaw: it.next().unwrap(),
+                pitch: it.next().unwrap(),
+            };
+            draw_trajectory_3d(&f2, &dir.join(format!("view{i}.png")))?;
+        }
+    }
     draw_trajectory_top(&fig, &dir.join("trajectory_top.png"))?;
 
     // Bar chart like the paper's quantitative_result (drop task).
@@ -155,7 +166,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let opt_time = [0.05, 0.09, 0.17, 0.4, 0.8, 1.6, 3.1, 7.9];
     let sdf = [0.02, 0.08, 0.15, 0.185, 0.198, 0.2, 0.2, 0.2];
     let g = [0.42, 0.31, 0.22, 0.19, 0.182, 0.181, 0.181, 0.181];
-    let labels: Vec<String> = iters.iter().map(|n| format!("{n}")).collect();
+    let labels: Vec<String> = iters
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            if i == 0 {
+                format!("n_iter={n}")
+            } else {
+                format!("{n}")
+            }
+        })
+        .collect();
     draw_xy(
         &XyFigure {
             title: "Plan re-simulated at 5000 iterations vs optimisation time (synthetic)".into(),

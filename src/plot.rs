@@ -24,6 +24,7 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters_backend::{BackendColor, BackendCoord, DrawingErrorKind};
 
 /// An error while drawing a figure.
 #[derive(Debug, thiserror::Error)]
@@ -60,19 +61,20 @@ pub struct Sphere {
 /// on all three axes; `z` is drawn upwards).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct View3d {
-    /// Rotation about the vertical (`z`) axis in radians; 0 looks along `+y`, positive values turn the
-    /// camera so that more of the `−x` side is seen.
+    /// Rotation about the vertical (`z`) axis in radians: 0 looks along `+y` (camera on the `−y` side),
+    /// positive values swing the camera towards `+x`.
     pub yaw: f64,
     /// Elevation of the camera above the horizontal plane in radians (0 = side view, π/2 = top view).
     pub pitch: f64,
 }
 
 impl Default for View3d {
-    /// Three-quarter view from the `−y` side, slightly from the right and above.
+    /// Three-quarter view from the `−y`/`+x` side and above (yaw ≈ 52°, pitch ≈ 29°): `+y` runs from
+    /// left to right across the picture, so a trajectory along `y` reads left to right.
     fn default() -> Self {
         View3d {
-            yaw: -0.55,
-            pitch: 0.45,
+            yaw: 0.9,
+            pitch: 0.5,
         }
     }
 }
@@ -178,7 +180,7 @@ pub struct XyFigure {
 // Shared helpers
 // ---------------------------------------------------------------------------------------------------
 
-type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+type Area<'a> = DrawingArea<Canvas<'a>, Shift>;
 type Coord3 = Cartesian3d<RangedCoordf64, RangedCoordf64, RangedCoordf64>;
 
 static FONT_BYTES: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
@@ -266,7 +268,10 @@ fn open(path: &Path, size: (u32, u32)) -> Result<Area<'_>, PlotError> {
             })
         }
     }
-    let root = BitMapBackend::new(path, size).into_drawing_area();
+    let root = Canvas {
+        inner: BitMapBackend::new(path, size),
+    }
+    .into_drawing_area();
     root.fill(&WHITE).map_err(de)?;
     Ok(root)
 }
@@ -354,16 +359,226 @@ fn superscript(e: i32) -> String {
 }
 
 // ---------------------------------------------------------------------------------------------------
+// Text rendering
+// ---------------------------------------------------------------------------------------------------
+
+/// A bitmap backend that lays text out itself (side bearings, kerning, baseline), because the text
+/// path of plotters' `ab_glyph` feature drops the glyphs' side bearings, which makes small labels
+/// hard to read ("vi sible"). Everything else goes to [`BitMapBackend`].
+struct Canvas<'a> {
+    inner: BitMapBackend<'a>,
+}
+
+fn font_ref() -> Option<&'static ab_glyph::FontRef<'static>> {
+    static FONT: OnceLock<Option<ab_glyph::FontRef<'static>>> = OnceLock::new();
+    FONT.get_or_init(|| ab_glyph::FontRef::try_from_slice(FONT_BYTES).ok())
+        .as_ref()
+}
+
+/// One laid-out line of text: glyphs positioned on a baseline at y = 0, starting at x = 0.
+struct Laid {
+    glyphs: Vec<ab_glyph::Glyph>,
+    width: f32,
+    ascent: f32,
+    descent: f32,
+    cap: f32,
+}
+
+fn lay_out(text: &str, size: f64) -> Option<Laid> {
+    use ab_glyph::{Font, ScaleFont};
+    let font = font_ref()?;
+    let scaled = font.as_scaled(size as f32);
+    let mut caret = 0.0f32;
+    let mut prev = None;
+    let mut glyphs = Vec::with_capacity(text.len());
+    for ch in text.chars() {
+        let id = scaled.glyph_id(ch);
+        if let Some(p) = prev {
+            caret += scaled.kern(p, id);
+        }
+        glyphs.push(id.with_scale_and_position(scaled.scale(), ab_glyph::point(caret, 0.0)));
+        caret += scaled.h_advance(id);
+        prev = Some(id);
+    }
+    let cap = scaled.glyph_bounds(&scaled.glyph_id('H').with_scale(scaled.scale()));
+    Some(Laid {
+        glyphs,
+        width: caret,
+        ascent: scaled.ascent(),
+        descent: scaled.descent(),
+        cap: -cap.min.y,
+    })
+}
+
+impl DrawingBackend for Canvas<'_> {
+    type ErrorType = <BitMapBackend<'static> as DrawingBackend>::ErrorType;
+
+    fn get_size(&self) -> (u32, u32) {
+        self.inner.get_size()
+    }
+    fn ensure_prepared(&mut self) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.inner.ensure_prepared()
+    }
+    fn present(&mut self) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.inner.present()
+    }
+    fn draw_pixel(
+        &mut self,
+        point: BackendCoord,
+        color: BackendColor,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.inner.draw_pixel(point, color)
+    }
+    fn draw_line<S: plotters_backend::BackendStyle>(
+        &mut self,
+        from: BackendCoord,
+        to: BackendCoord,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.inner.draw_line(from, to, style)
+    }
+    fn draw_rect<S: plotters_backend::BackendStyle>(
+        &mut self,
+        upper_left: BackendCoord,
+        bottom_right: BackendCoord,
+        style: &S,
+        fill: bool,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.inner.draw_rect(upper_left, bottom_right, style, fill)
+    }
+    fn draw_path<S: plotters_backend::BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        path: I,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.inner.draw_path(path, style)
+    }
+    fn draw_circle<S: plotters_backend::BackendStyle>(
+        &mut self,
+        center: BackendCoord,
+        radius: u32,
+        style: &S,
+        fill: bool,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.inner.draw_circle(center, radius, style, fill)
+    }
+    fn fill_polygon<S: plotters_backend::BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        vert: I,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.inner.fill_polygon(vert, style)
+    }
+    fn blit_bitmap(
+        &mut self,
+        pos: BackendCoord,
+        size: (u32, u32),
+        src: &[u8],
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.inner.blit_bitmap(pos, size, src)
+    }
+
+    fn estimate_text_size<TStyle: plotters_backend::BackendTextStyle>(
+        &self,
+        text: &str,
+        style: &TStyle,
+    ) -> Result<(u32, u32), DrawingErrorKind<Self::ErrorType>> {
+        match lay_out(text, style.size()) {
+            Some(l) => Ok((l.width.ceil() as u32, (l.ascent - l.descent).ceil() as u32)),
+            None => self.inner.estimate_text_size(text, style),
+        }
+    }
+
+    fn draw_text<TStyle: plotters_backend::BackendTextStyle>(
+        &mut self,
+        text: &str,
+        style: &TStyle,
+        pos: BackendCoord,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        let color = style.color();
+        if color.alpha == 0.0 {
+            return Ok(());
+        }
+        let Some(laid) = lay_out(text, style.size()) else {
+            return self.inner.draw_text(text, style, pos);
+        };
+        let anchor = style.anchor();
+        let dx = match anchor.h_pos {
+            HPos::Left => 0.0,
+            HPos::Right => -laid.width,
+            HPos::Center => -laid.width / 2.0,
+        };
+        // Baseline position relative to the anchor: the whole line box (ascent to descent) for top and
+        // bottom, the middle of the capitals for centre, so that numbers sit centred on tick marks.
+        let baseline = match anchor.v_pos {
+            VPos::Top => laid.ascent,
+            VPos::Center => laid.cap / 2.0,
+            VPos::Bottom => laid.descent,
+        };
+        let trans = style.transform();
+        let font = match font_ref() {
+            Some(f) => f,
+            None => return self.inner.draw_text(text, style, pos),
+        };
+        let mut failed = None;
+        for g in laid.glyphs {
+            use ab_glyph::Font;
+            let Some(outline) = font.outline_glyph(g) else {
+                continue;
+            };
+            let b = outline.px_bounds();
+            let inner = &mut self.inner;
+            outline.draw(|x, y, cover| {
+                if failed.is_some() || cover <= 0.0 {
+                    return;
+                }
+                let tx = (b.min.x + x as f32 + dx).round() as i32;
+                let ty = (b.min.y + y as f32 + baseline).round() as i32;
+                let (rx, ry) = trans.transform(tx, ty);
+                let c = BackendColor {
+                    alpha: color.alpha * f64::from(cover.min(1.0)),
+                    rgb: color.rgb,
+                };
+                if let Err(e) = inner.draw_pixel((pos.0 + rx, pos.1 + ry), c) {
+                    failed = Some(e);
+                }
+            });
+            if let Some(e) = failed {
+                return Err(e);
+            }
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------
 // Legends
 // ---------------------------------------------------------------------------------------------------
 
 enum Swatch {
     Line(RGBColor, u32),
+    LineMarker(RGBColor, usize),
     PathMarkers(RGBColor),
     Dot(RGBColor),
     Ring(RGBColor),
     Sphere,
     Patch(RGBAColor),
+}
+
+const LEGEND_ROW: i32 = 26;
+
+/// Width and height of a legend box (an empty heading takes no room).
+fn legend_size(
+    root: &Area,
+    heading: &str,
+    entries: &[(Swatch, String)],
+) -> Result<(i32, i32), PlotError> {
+    let mut width = root.estimate_text_size(heading, &text(16.0)).map_err(de)?.0 as i32;
+    for (_, label) in entries {
+        width = width.max(root.estimate_text_size(label, &text(15.0)).map_err(de)?.0 as i32 + 46);
+    }
+    let head = if heading.is_empty() { 6 } else { 34 };
+    Ok((width + 20, head + 4 + LEGEND_ROW * entries.len() as i32))
 }
 
 /// Draws a boxed legend with its top-left corner at `(x, y)`; returns its bottom y.
@@ -374,13 +589,9 @@ fn draw_legend(
     entries: &[(Swatch, String)],
 ) -> Result<i32, PlotError> {
     let style = text(15.0);
-    let row = 26;
-    let mut width = root.estimate_text_size(heading, &text(16.0)).map_err(de)?.0 as i32;
-    for (_, label) in entries {
-        width = width.max(root.estimate_text_size(label, &style).map_err(de)?.0 as i32 + 46);
-    }
-    let height = 34 + row * entries.len() as i32;
-    let w = width + 20;
+    let row = LEGEND_ROW;
+    let (w, height) = legend_size(root, heading, entries)?;
+    let head = if heading.is_empty() { 6 } else { 34 };
     root.draw(&Rectangle::new(
         [(x, y), (x + w, y + height)],
         WHITE.filled(),
@@ -391,10 +602,12 @@ fn draw_legend(
         RGBColor(150, 150, 150).stroke_width(1),
     ))
     .map_err(de)?;
-    root.draw(&Text::new(heading.to_string(), (x + 10, y + 8), text(16.0)))
-        .map_err(de)?;
+    if !heading.is_empty() {
+        root.draw(&Text::new(heading.to_string(), (x + 10, y + 8), text(16.0)))
+            .map_err(de)?;
+    }
     for (i, (sw, label)) in entries.iter().enumerate() {
-        let cy = y + 34 + row * i as i32 + row / 2 - 2;
+        let cy = y + head + row * i as i32 + row / 2;
         let sx = x + 10;
         match sw {
             Swatch::Line(c, w) => {
@@ -404,6 +617,14 @@ fn draw_legend(
                 ))
                 .map_err(de)?;
             }
+            Swatch::LineMarker(c, k) => {
+                root.draw(&PathElement::new(
+                    vec![(sx, cy), (sx + 30, cy)],
+                    c.stroke_width(2),
+                ))
+                .map_err(de)?;
+                root.draw(&marker(*k, (sx + 15, cy), *c)).map_err(de)?;
+            }
             Swatch::PathMarkers(c) => {
                 root.draw(&PathElement::new(
                     vec![(sx, cy), (sx + 30, cy)],
@@ -412,7 +633,7 @@ fn draw_legend(
                 .map_err(de)?;
                 root.draw(&Circle::new((sx + 15, cy), 5, c.filled()))
                     .map_err(de)?;
-                root.draw(&Circle::new((sx + 15, cy), 5, WHITE.stroke_width(1)))
+                root.draw(&Circle::new((sx + 15, cy), 5, BLACK.stroke_width(1)))
                     .map_err(de)?;
             }
             Swatch::Dot(c) => {
@@ -706,7 +927,7 @@ fn render_prims(root: &Area, proj: &dyn Projector, prims: Vec<Prim>) -> Result<(
             Prim::Marker(p, c, r) => {
                 let at = proj.px(p);
                 root.draw(&Circle::new(at, r, c.filled())).map_err(de)?;
-                root.draw(&Circle::new(at, r, WHITE.stroke_width(1)))
+                root.draw(&Circle::new(at, r, BLACK.stroke_width(1)))
                     .map_err(de)?;
             }
         }
@@ -804,7 +1025,7 @@ pub fn draw_trajectory_3d(fig: &TrajectoryFigure, path: &Path) -> Result<(), Plo
         (yr.end - yr.start) as f64 * 0.82,
     );
     let view = fig.view;
-    let set_size = |chart: &mut ChartContext<'_, BitMapBackend<'_>, Coord3>, k: f64| {
+    let set_size = |chart: &mut ChartContext<'_, Canvas<'_>, Coord3>, k: f64| {
         chart.set_3d_pixel_range((
             (k * spans[0]).round().max(1.0) as i32,
             (k * spans[1]).round().max(1.0) as i32,
@@ -940,23 +1161,20 @@ fn draw_axis_titles(
     let centre = ((xr.start + xr.end) / 2, (yr.start + yr.end) / 2);
     let names = ["x [m]", "z [m]", "y [m]"];
     for idx in 0..3 {
-        let mut best: Option<((i32, i32), [f64; 3], [f64; 3])> = None;
-        for i in (0..3).filter(|&i| i != idx) {
+        let candidates = (0..3).filter(|&i| i != idx).flat_map(|i| {
             let j = 3 - i - idx;
-            for &vj in &r[j] {
+            r[j].map(|vj| {
                 let mut s = [0.0; 3];
                 s[i] = back[i];
                 s[j] = vj;
                 s[idx] = r[idx][0];
                 let mut e = s;
                 e[idx] = r[idx][1];
-                let key = (depth(s) + depth(e), px(s).1 + px(e).1);
-                if best.map_or(true, |(k, _, _)| key < k) {
-                    best = Some((key, s, e));
-                }
-            }
-        }
-        let Some((_, s, e)) = best else { continue };
+                (s, e)
+            })
+        });
+        let best = candidates.min_by_key(|&(s, e)| (depth(s) + depth(e), px(s).1 + px(e).1));
+        let Some((s, e)) = best else { continue };
         let (ps, pe) = (px(s), px(e));
         let m = ((ps.0 + pe.0) as f64 / 2.0, (ps.1 + pe.1) as f64 / 2.0);
         let d = (m.0 - centre.0 as f64, m.1 - centre.1 as f64);
@@ -1014,7 +1232,8 @@ pub fn draw_trajectory_top(fig: &TrajectoryFigure, path: &Path) -> Result<(), Pl
         .label_style(text(14.0))
         .x_label_formatter(&fmt)
         .y_label_formatter(&fmt)
-        .light_line_style(RGBColor(240, 240, 240))
+        .max_light_lines(1)
+        .light_line_style(RGBColor(242, 242, 242))
         .bold_line_style(RGBColor(220, 220, 220))
         .draw()
         .map_err(de)?;
@@ -1096,7 +1315,7 @@ pub fn draw_bar_chart(fig: &BarChart, path: &Path) -> Result<(), PlotError> {
     };
     let note = if fig.pad > 0.0 {
         format!(
-            "Bar height = value + {}, so that small values stay visible; numbers above the bars are the unpadded values.",
+            "Bar height = value + {} (dashed line: value 0), so that small values stay visible; numbers above the bars are the unpadded values.",
             fmt_num(fig.pad)
         )
     } else {
@@ -1152,6 +1371,7 @@ where
         .y_desc(y_desc)
         .axis_desc_style(text(16.0))
         .label_style(text(14.0))
+        .y_max_light_lines(if fig.log_y { 9 } else { 1 })
         .light_line_style(RGBColor(242, 242, 242))
         .bold_line_style(RGBColor(215, 215, 215))
         .draw()
@@ -1194,6 +1414,17 @@ where
             text(17.0).pos(Pos::new(HPos::Center, VPos::Top)),
         ))
         .map_err(de)?;
+    }
+    if fig.pad > 0.0 {
+        let ng = fig.groups.len() as f64;
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(0.0, fig.pad), (ng, fig.pad)],
+                6,
+                4,
+                RGBColor(60, 60, 60).stroke_width(1),
+            ))
+            .map_err(de)?;
     }
     // Legend (plotters' own, anchored top-right).
     for (s, name) in fig.series_names.iter().enumerate() {
@@ -1333,97 +1564,197 @@ where
         .label_style(text(14.0))
         .x_label_formatter(&fmt)
         .y_label_formatter(&fmt)
-        .light_line_style(RGBColor(243, 243, 243))
+        .x_max_light_lines(if fig.log_x { 9 } else { 1 })
+        .y_max_light_lines(if fig.log_y { 9 } else { 1 })
+        .light_line_style(RGBColor(240, 240, 240))
         .bold_line_style(RGBColor(218, 218, 218))
         .draw()
         .map_err(de)?;
 
     let x_range = chart.x_range();
     let (xa, xb) = (x_range.start, x_range.end);
+    // Lines and reference lines first; labels are placed afterwards around everything drawn.
+    let mut obstacles = Obstacles::default();
+    let ref_color = RGBColor(70, 70, 70);
     for l in &fig.ref_lines {
-        let c = RGBColor(70, 70, 70);
         chart
             .draw_series(DashedLineSeries::new(
                 [(xa, l.y), (xb, l.y)],
                 10,
                 6,
-                c.stroke_width(2),
+                ref_color.stroke_width(2),
             ))
             .map_err(de)?;
-        let (px, py) = chart.backend_coord(&(xb, l.y));
-        root.draw(&Text::new(
-            l.label.clone(),
-            (px - 6, py - 5),
-            text_c(15.0, c).pos(Pos::new(HPos::Right, VPos::Bottom)),
-        ))
-        .map_err(de)?;
+        obstacles.add_polyline(&[
+            chart.backend_coord(&(xa, l.y)),
+            chart.backend_coord(&(xb, l.y)),
+        ]);
     }
-
-    let mut pix: Vec<(i32, i32)> = Vec::new();
     for (k, s) in fig.series.iter().enumerate() {
         let c = SERIES_COLORS[k % SERIES_COLORS.len()];
-        let pts = s.points.clone();
         chart
-            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
-            .map_err(de)?
-            .label(s.name.clone())
-            .legend(move |(x, y)| {
-                EmptyElement::at((x, y))
-                    + PathElement::new(vec![(-4, 0), (22, 0)], c.stroke_width(2))
-                    + marker(k, (9, 0), c)
-            });
-        for &p in &pts {
-            let at = chart.backend_coord(&p);
-            pix.push(at);
+            .draw_series(LineSeries::new(s.points.iter().copied(), c.stroke_width(2)))
+            .map_err(de)?;
+        let px: Vec<_> = s.points.iter().map(|p| chart.backend_coord(p)).collect();
+        obstacles.add_polyline(&px);
+        for &at in &px {
             root.draw(&marker(k, at, c)).map_err(de)?;
+            obstacles
+                .boxes
+                .push((at.0 - 7, at.1 - 7, at.0 + 7, at.1 + 7));
         }
-        for (i, label) in s.labels.iter().enumerate() {
+    }
+    let (pxr, pyr) = chart.plotting_area().get_pixel_range();
+    let bounds = (pxr.start, pyr.start, pxr.end, pyr.end);
+
+    for l in &fig.ref_lines {
+        let (x0, y) = chart.backend_coord(&(xa, l.y));
+        let (x1, _) = chart.backend_coord(&(xb, l.y));
+        let cands = [
+            (x1 - 6, y - 4, HPos::Right, VPos::Bottom),
+            (x0 + 6, y - 4, HPos::Left, VPos::Bottom),
+            (x1 - 6, y + 4, HPos::Right, VPos::Top),
+            (x0 + 6, y + 4, HPos::Left, VPos::Top),
+        ];
+        let style = text_c(15.0, ref_color);
+        place_label(root, &l.label, &style, &cands, &mut obstacles, bounds)?;
+    }
+    for (k, s) in fig.series.iter().enumerate() {
+        let style = text_c(13.0, darker(SERIES_COLORS[k % SERIES_COLORS.len()]));
+        for (label, p) in s.labels.iter().zip(&s.points) {
             if label.is_empty() {
                 continue;
             }
-            let (px, py) = chart.backend_coord(&pts[i]);
-            let (dy, v) = if k % 2 == 0 {
-                (-8, VPos::Bottom)
-            } else {
-                (8, VPos::Top)
-            };
-            root.draw(&Text::new(
-                label.clone(),
-                (px + 7, py + dy),
-                text_c(13.0, darker(c)).pos(Pos::new(HPos::Left, v)),
-            ))
-            .map_err(de)?;
+            let (x, y) = chart.backend_coord(p);
+            let cands = [
+                (x + 8, y - 6, HPos::Left, VPos::Bottom),
+                (x + 8, y + 6, HPos::Left, VPos::Top),
+                (x - 8, y - 6, HPos::Right, VPos::Bottom),
+                (x - 8, y + 6, HPos::Right, VPos::Top),
+                (x, y - 10, HPos::Center, VPos::Bottom),
+                (x, y + 10, HPos::Center, VPos::Top),
+                (x + 10, y, HPos::Left, VPos::Center),
+                (x - 10, y, HPos::Right, VPos::Center),
+            ];
+            place_label(root, label, &style, &cands, &mut obstacles, bounds)?;
         }
     }
 
-    // Legend in the corner with the fewest points.
-    let (xr, yr) = chart.plotting_area().get_pixel_range();
-    let (cx, cy) = ((xr.start + xr.end) / 2, (yr.start + yr.end) / 2);
-    let count = |right: bool, lower: bool| {
-        pix.iter()
-            .filter(|&&(x, y)| (x > cx) == right && (y > cy) == lower)
-            .count()
-    };
+    // Legend in the corner where it covers the least.
+    let entries: Vec<(Swatch, String)> = fig
+        .series
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            (
+                Swatch::LineMarker(SERIES_COLORS[k % SERIES_COLORS.len()], k),
+                s.name.clone(),
+            )
+        })
+        .collect();
+    let (w, h) = legend_size(root, "", &entries)?;
+    let m = 12;
     let corners = [
-        (count(true, false), SeriesLabelPosition::UpperRight),
-        (count(false, false), SeriesLabelPosition::UpperLeft),
-        (count(true, true), SeriesLabelPosition::LowerRight),
-        (count(false, true), SeriesLabelPosition::LowerLeft),
+        (bounds.2 - m - w, bounds.1 + m),
+        (bounds.0 + m, bounds.1 + m),
+        (bounds.2 - m - w, bounds.3 - m - h),
+        (bounds.0 + m, bounds.3 - m - h),
     ];
-    let pos = corners
+    let at = corners
         .into_iter()
-        .min_by_key(|c| c.0)
-        .map(|c| c.1)
-        .unwrap_or(SeriesLabelPosition::UpperRight);
-    chart
-        .configure_series_labels()
-        .position(pos)
-        .margin(12)
-        .label_font(text(15.0))
-        .background_style(WHITE.mix(0.92))
-        .border_style(RGBColor(150, 150, 150))
-        .draw()
-        .map_err(de)?;
+        .min_by_key(|&(x, y)| obstacles.cost((x, y, x + w, y + h)))
+        .unwrap_or(corners[0]);
+    draw_legend(root, at, "", &entries)?;
+    Ok(())
+}
+
+/// Pixel boxes already covered by markers, lines and labels, for placing labels where they collide
+/// the least.
+#[derive(Default)]
+struct Obstacles {
+    boxes: Vec<(i32, i32, i32, i32)>,
+    labels: Vec<(i32, i32, i32, i32)>,
+    line_points: Vec<(i32, i32)>,
+}
+
+impl Obstacles {
+    fn add_polyline(&mut self, pts: &[(i32, i32)]) {
+        for w in pts.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            let len = (((b.0 - a.0).pow(2) + (b.1 - a.1).pow(2)) as f64).sqrt();
+            let n = (len / 3.0).ceil().max(1.0) as i32;
+            for i in 0..=n {
+                let t = i as f64 / n as f64;
+                self.line_points.push((
+                    a.0 + ((b.0 - a.0) as f64 * t).round() as i32,
+                    a.1 + ((b.1 - a.1) as f64 * t).round() as i32,
+                ));
+            }
+        }
+    }
+
+    fn cost(&self, r: (i32, i32, i32, i32)) -> i64 {
+        let hit = |o: &(i32, i32, i32, i32)| {
+            let w = (r.2.min(o.2) - r.0.max(o.0)).max(0) as i64;
+            let h = (r.3.min(o.3) - r.1.max(o.1)).max(0) as i64;
+            w * h
+        };
+        let labels: i64 = self.labels.iter().map(hit).sum::<i64>() * 20;
+        let boxes: i64 = self.boxes.iter().map(hit).sum::<i64>() * 8;
+        let lines = self
+            .line_points
+            .iter()
+            .filter(|p| p.0 >= r.0 && p.0 <= r.2 && p.1 >= r.1 && p.1 <= r.3)
+            .count() as i64
+            * 30;
+        labels + boxes + lines
+    }
+}
+
+/// Draws `label` at the candidate anchor that collides least with `obs` (earlier candidates win
+/// ties; leaving the plot area is expensive), and records its box.
+fn place_label(
+    root: &Area,
+    label: &str,
+    style: &TextStyle,
+    cands: &[(i32, i32, HPos, VPos)],
+    obs: &mut Obstacles,
+    bounds: (i32, i32, i32, i32),
+) -> Result<(), PlotError> {
+    let (w, h) = root.estimate_text_size(label, style).map_err(de)?;
+    let (w, h) = (w as i32, h as i32);
+    let rect = |&(x, y, hp, vp): &(i32, i32, HPos, VPos)| {
+        let x0 = match hp {
+            HPos::Left => x,
+            HPos::Center => x - w / 2,
+            HPos::Right => x - w,
+        };
+        let y0 = match vp {
+            VPos::Top => y,
+            VPos::Center => y - h / 2,
+            VPos::Bottom => y - h,
+        };
+        (x0, y0, x0 + w, y0 + h)
+    };
+    let cost = |i: usize| {
+        let r = rect(&cands[i]);
+        let outside = (bounds.0 - r.0).max(0)
+            + (r.2 - bounds.2).max(0)
+            + (bounds.1 - r.1).max(0)
+            + (r.3 - bounds.3).max(0);
+        obs.cost(r) + outside as i64 * 1000 + i as i64
+    };
+    let Some(i) = (0..cands.len()).min_by_key(|&i| cost(i)) else {
+        return Ok(());
+    };
+    let (x, y, hp, vp) = cands[i];
+    obs.labels.push(rect(&cands[i]));
+    root.draw(&Text::new(
+        label.to_string(),
+        (x, y),
+        style.pos(Pos::new(hp, vp)),
+    ))
+    .map_err(de)?;
     Ok(())
 }
 
