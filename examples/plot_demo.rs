@@ -1,14 +1,15 @@
 //! Draws every figure type of `clothopt::plot` from synthetic data.
 //!
-//! `cargo run --release --example plot_demo -- DIR` writes `trajectory_3d.png`, `trajectory_top.png`,
-//! `bars.png`, `bars_log.png`, `xy_loglog.png` and `xy_linear.png` into DIR (created if missing).
+//! `cargo run --release --example plot_demo -- DIR` writes `trajectory_3d.png`,
+//! `trajectory_3d_side.png`, `trajectory_top.png`, `bars.png`, `bars_log.png`, `xy_loglog.png` and
+//! `xy_linear.png` into DIR (created if missing).
 
 use std::f64::consts::PI;
 use std::path::PathBuf;
 
 use clothopt::plot::{
     draw_bar_chart, draw_trajectory_3d, draw_trajectory_top, draw_xy, BarChart, RefLine, Series,
-    Sphere, TrajectoryFigure, XyFigure,
+    Sphere, TrajectoryFigure, View3d, XyFigure,
 };
 
 const N: usize = 10;
@@ -94,20 +95,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         targets: &targets,
         target_particles: &target_particles,
         ground_z: Some(0.0),
+        safety_margin: Some(0.2),
         ..Default::default()
     };
     draw_trajectory_3d(&fig, &dir.join("trajectory_3d.png"))?;
-    if let Ok(v) = std::env::var("VIEWS") {
-        for (i, yp) in v.split(';').enumerate() {
-            let mut it = yp.split(',').map(|x| x.parse::<f64>().unwrap());
-            let mut f2 = fig.clone();
-            f2.view = clothopt::plot::View3d {
-                yaw: it.next().unwrap(),
-                pitch: it.next().unwrap(),
-            };
-            draw_trajectory_3d(&f2, &dir.join(format!("view{i}.png")))?;
-        }
-    }
+    // A second viewing angle (almost side-on), as the paper shows each trajectory from several.
+    let side = TrajectoryFigure {
+        view: View3d {
+            yaw: 1.35,
+            pitch: 0.3,
+        },
+        ..fig.clone()
+    };
+    draw_trajectory_3d(&side, &dir.join("trajectory_3d_side.png"))?;
     draw_trajectory_top(&fig, &dir.join("trajectory_top.png"))?;
 
     // Bar chart like the paper's quantitative_result (drop task).
@@ -203,6 +203,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
         &dir.join("xy_linear.png"),
     )?;
-    println!("wrote 6 figures to {}", dir.display());
+    println!("wrote 7 figures to {}", dir.display());
     Ok(())
 }

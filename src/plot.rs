@@ -98,6 +98,9 @@ pub struct TrajectoryFigure<'a> {
     pub target_particles: &'a [usize],
     /// Height of the ground plane, drawn in the 3-D view if `Some`.
     pub ground_z: Option<f64>,
+    /// Safety threshold δ: if `Some`, the outline of the obstacle grown by δ (every sphere at radius
+    /// `r + δ`, as projected) is drawn dashed red: the zone the cloth is meant to stay out of.
+    pub safety_margin: Option<f64>,
     /// Viewing direction of the 3-D view.
     pub view: View3d,
 }
@@ -114,6 +117,7 @@ impl Default for TrajectoryFigure<'_> {
             targets: &[],
             target_particles: &[],
             ground_z: None,
+            safety_margin: None,
             view: View3d::default(),
         }
     }
@@ -223,6 +227,7 @@ const BAR_COLORS: [RGBColor; 6] = [
     RGBColor(140, 86, 75),
 ];
 const TARGET_RED: RGBColor = RGBColor(225, 20, 20);
+const MARGIN_RED: RGBColor = RGBColor(200, 40, 40);
 const GROUND: RGBColor = RGBColor(205, 185, 150);
 const GRID_GRAY: RGBColor = RGBColor(215, 215, 215);
 
@@ -561,6 +566,7 @@ enum Swatch {
     PathMarkers(RGBColor),
     Dot(RGBColor),
     Ring(RGBColor),
+    DashedRing(RGBColor),
     Sphere,
     Patch(RGBAColor),
 }
@@ -646,6 +652,10 @@ fn draw_legend(
                 root.draw(&Circle::new((sx + 15, cy), 7, c.stroke_width(2)))
                     .map_err(de)?;
             }
+            Swatch::DashedRing(c) => {
+                draw_shaded_disc(root, (sx + 15, cy), 6)?;
+                draw_dashed_envelope(root, &[((sx + 15, cy), 10.0)], *c)?;
+            }
             Swatch::Sphere => draw_shaded_disc(root, (sx + 15, cy), 10)?,
             Swatch::Patch(c) => {
                 root.draw(&Rectangle::new(
@@ -668,6 +678,53 @@ fn draw_legend(
         .map_err(de)?;
     }
     Ok(y + height)
+}
+
+/// The outline of the union of circles (centre, radius in pixels), dashed (dashes of about 6 px).
+fn draw_dashed_envelope(
+    root: &Area,
+    circles: &[((i32, i32), f64)],
+    color: RGBColor,
+) -> Result<(), PlotError> {
+    for (i, &((cx, cy), r)) in circles.iter().enumerate() {
+        let n = ((2.0 * PI * r / 6.0).round() as usize).max(8) & !1;
+        let at = |k: usize| {
+            let a = 2.0 * PI * k as f64 / n as f64;
+            (cx as f64 + r * a.cos(), cy as f64 + r * a.sin())
+        };
+        let inside_other = |p: (f64, f64)| {
+            circles.iter().enumerate().any(|(j, &((ox, oy), or))| {
+                j != i && (p.0 - ox as f64).hypot(p.1 - oy as f64) < or - 0.5
+            })
+        };
+        for k in (0..n).step_by(2) {
+            let (a, b) = (at(k), at(k + 1));
+            if inside_other(a) || inside_other(b) {
+                continue;
+            }
+            let px = |p: (f64, f64)| (p.0.round() as i32, p.1.round() as i32);
+            root.draw(&PathElement::new(vec![px(a), px(b)], color.stroke_width(1)))
+                .map_err(de)?;
+        }
+    }
+    Ok(())
+}
+
+/// The safety margin around the obstacle: the outline of all spheres grown by δ, as projected.
+fn render_margin(
+    root: &Area,
+    proj: &dyn Projector,
+    fig: &TrajectoryFigure,
+) -> Result<(), PlotError> {
+    let Some(d) = fig.safety_margin else {
+        return Ok(());
+    };
+    let circles: Vec<_> = fig
+        .spheres
+        .iter()
+        .map(|s| (proj.px(s.center), (s.radius + d) * proj.px_per_unit()))
+        .collect();
+    draw_dashed_envelope(root, &circles, MARGIN_RED)
 }
 
 /// A grey disc shaded like a sphere lit from the upper left.
@@ -804,6 +861,13 @@ fn validate_trajectory(fig: &TrajectoryFigure) -> Result<(), PlotError> {
     if let Some(z) = fig.ground_z {
         check_finite("ground_z", z)?;
     }
+    if let Some(d) = fig.safety_margin {
+        if !(d.is_finite() && d >= 0.0) {
+            return Err(PlotError::InvalidData(format!(
+                "safety_margin is {d}; it must be finite and ≥ 0"
+            )));
+        }
+    }
     let empty = fig.frames.is_empty()
         && fig.control_paths.iter().all(|p| p.is_empty())
         && fig.spheres.is_empty()
@@ -900,14 +964,18 @@ fn prim_depth(proj: &dyn Projector, p: &Prim) -> f64 {
     }
 }
 
-fn render_prims(root: &Area, proj: &dyn Projector, prims: Vec<Prim>) -> Result<(), PlotError> {
+/// Farthest first (painter's algorithm); ties keep their order.
+fn paint_order(proj: &dyn Projector, prims: Vec<Prim>) -> Vec<Prim> {
     let mut items: Vec<(f64, Prim)> = prims
         .into_iter()
         .map(|p| (prim_depth(proj, &p), p))
         .collect();
-    // Farthest first (painter's algorithm).
     items.sort_by(|a, b| b.0.total_cmp(&a.0));
-    for (_, p) in items {
+    items.into_iter().map(|(_, p)| p).collect()
+}
+
+fn render_prims(root: &Area, proj: &dyn Projector, prims: Vec<Prim>) -> Result<(), PlotError> {
+    for p in paint_order(proj, prims) {
         match p {
             Prim::Quad(q, c) => {
                 let pts: Vec<_> = q.iter().map(|&v| proj.px(v)).collect();
@@ -979,6 +1047,12 @@ fn trajectory_legend(fig: &TrajectoryFigure, with_ground: bool) -> Vec<(Swatch, 
         e.push((
             Swatch::Sphere,
             format!("obstacle ({} spheres)", fig.spheres.len()),
+        ));
+    }
+    if let (false, Some(d)) = (fig.spheres.is_empty(), fig.safety_margin) {
+        e.push((
+            Swatch::DashedRing(MARGIN_RED),
+            format!("safety margin δ = {}", fmt_tick(d)),
         ));
     }
     if !fig.targets.is_empty() {
@@ -1104,6 +1178,7 @@ pub fn draw_trajectory_3d(fig: &TrajectoryFigure, path: &Path) -> Result<(), Plo
             .map_err(de)?;
     }
     render_prims(&root, &proj, scene_prims(fig))?;
+    render_margin(&root, &proj, fig)?;
     render_targets(&root, &proj, fig)?;
 
     let (lx, ly) = legend_area.get_base_pixel();
@@ -1219,10 +1294,8 @@ pub fn draw_trajectory_top(fig: &TrajectoryFigure, path: &Path) -> Result<(), Pl
     let probe = build(b[0][0]..b[0][1], b[1][0]..b[1][1]).map_err(de)?;
     let (pw, ph) = probe.plotting_area().dim_in_pixel();
     drop(probe);
-    let (dx, dy) = (b[0][1] - b[0][0], b[1][1] - b[1][0]);
-    let s = (pw as f64 / dx).min(ph as f64 / dy);
-    let (ex, ey) = ((pw as f64 / s - dx) / 2.0, (ph as f64 / s - dy) / 2.0);
-    let mut chart = build(b[0][0] - ex..b[0][1] + ex, b[1][0] - ey..b[1][1] + ey).map_err(de)?;
+    let (xr, yr) = equal_aspect([b[0], b[1]], (pw, ph));
+    let mut chart = build(xr[0]..xr[1], yr[0]..yr[1]).map_err(de)?;
     let fmt = |v: &f64| fmt_tick(*v);
     chart
         .configure_mesh()
@@ -1238,8 +1311,14 @@ pub fn draw_trajectory_top(fig: &TrajectoryFigure, path: &Path) -> Result<(), Pl
         .draw()
         .map_err(de)?;
     let coord = chart.plotting_area().as_coord_spec();
-    let proj = TopView { coord, scale: s };
+    let (p0, p1) = (
+        coord.translate(&(xr[0], yr[0])),
+        coord.translate(&(xr[1], yr[0])),
+    );
+    let scale = (p1.0 - p0.0) as f64 / (xr[1] - xr[0]);
+    let proj = TopView { coord, scale };
     render_prims(&root, &proj, scene_prims(fig))?;
+    render_margin(&root, &proj, fig)?;
     render_targets(&root, &proj, fig)?;
 
     let (lx, ly) = legend_area.get_base_pixel();
@@ -1262,6 +1341,15 @@ pub fn draw_trajectory_top(fig: &TrajectoryFigure, path: &Path) -> Result<(), Pl
     ))
     .map_err(de)?;
     save(&root, path)
+}
+
+/// Widens the x or the y range around its centre so that one unit is as long on both axes of a
+/// `pw × ph` pixel plot.
+fn equal_aspect(b: [[f64; 2]; 2], (pw, ph): (u32, u32)) -> ([f64; 2], [f64; 2]) {
+    let (dx, dy) = (b[0][1] - b[0][0], b[1][1] - b[1][0]);
+    let s = (pw as f64 / dx).min(ph as f64 / dy);
+    let (ex, ey) = ((pw as f64 / s - dx) / 2.0, (ph as f64 / s - dy) / 2.0);
+    ([b[0][0] - ex, b[0][1] + ex], [b[1][0] - ey, b[1][1] + ey])
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -1797,6 +1885,293 @@ fn marker<DB: DrawingBackend>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A fresh, empty directory under the system temp dir.
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("clothopt-plot-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        dir
+    }
+
+    /// Width, height and RGB(A) pixels of a PNG file.
+    fn decode(path: &Path) -> (u32, u32, Vec<[u8; 3]>) {
+        let file = std::fs::File::open(path).expect("png exists");
+        let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+            .read_info()
+            .expect("png header");
+        let mut buf = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut buf).expect("png frame");
+        let step = info.color_type.samples();
+        let px = buf[..info.buffer_size()]
+            .chunks(step)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
+        (info.width, info.height, px)
+    }
+
+    fn count(px: &[[u8; 3]], c: RGBColor) -> usize {
+        px.iter().filter(|p| **p == [c.0, c.1, c.2]).count()
+    }
+
+    fn sheet(y: f64) -> Vec<[f64; 3]> {
+        (0..9)
+            .map(|p| [(p % 3) as f64 * 0.5 - 0.5, y, 2.0 - (p / 3) as f64 * 0.5])
+            .collect()
+    }
+
+    #[test]
+    fn trajectory_views_draw_every_element() {
+        let dir = scratch("traj");
+        let (a, b) = (sheet(-1.0), sheet(1.0));
+        let spheres = [Sphere {
+            center: [0.0, 0.0, 1.0],
+            radius: 0.3,
+        }];
+        let targets = [[-0.5, 1.2, 1.0], [0.5, 1.2, 1.0]];
+        let fig = TrajectoryFigure {
+            title: "test".into(),
+            grid: (3, 3),
+            frames: vec![(&a[..], "initial".into()), (&b[..], "final".into())],
+            control_paths: vec![vec![a[0], [-0.5, 0.0, 2.5], b[0]], vec![a[2], b[2]]],
+            spheres: &spheres,
+            targets: &targets,
+            target_particles: &[6, 8],
+            ground_z: Some(0.0),
+            safety_margin: Some(0.1),
+            ..Default::default()
+        };
+        for (name, size) in [("3d.png", SIZE_3D), ("top.png", SIZE_2D)] {
+            let path = dir.join(name);
+            if name == "3d.png" {
+                draw_trajectory_3d(&fig, &path).expect("3-D view");
+            } else {
+                draw_trajectory_top(&fig, &path).expect("top view");
+            }
+            let (w, h, px) = decode(&path);
+            assert_eq!((w, h), size, "{name}");
+            // Markers and solid fills are drawn without anti-aliasing, so exact colours are found.
+            assert!(count(&px, PATH_COLORS[0]) > 100, "{name}: purple path");
+            assert!(count(&px, PATH_COLORS[1]) > 100, "{name}: green path");
+            assert!(count(&px, TARGET_RED) > 30, "{name}: targets");
+            assert!(count(&px, FRAME_COLORS[0]) > 20, "{name}: first frame");
+            assert!(count(&px, MARGIN_RED) > 20, "{name}: safety margin");
+            assert!(count(&px, RGBColor(105, 110, 125)) > 50, "{name}: sphere");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn bar_chart_and_xy_write_pngs() {
+        let dir = scratch("charts");
+        let mut bars = BarChart {
+            title: "bars".into(),
+            y_label: "cost".into(),
+            groups: vec![
+                ("G".into(), vec![0.0, 1.0, 2.0]),
+                ("G+αT".into(), vec![0.5, 0.1, 3.0]),
+            ],
+            series_names: vec!["G".into(), "αT".into(), "βE".into()],
+            pad: 0.1,
+            log_y: false,
+        };
+        for log_y in [false, true] {
+            bars.log_y = log_y;
+            let path = dir.join(format!("bars_{log_y}.png"));
+            draw_bar_chart(&bars, &path).expect("bar chart");
+            let (w, h, px) = decode(&path);
+            assert_eq!((w, h), SIZE_2D);
+            for c in &BAR_COLORS[..3] {
+                assert!(count(&px, *c) > 200, "bar colour {c:?} (log {log_y})");
+            }
+        }
+        let fig = XyFigure {
+            title: "xy".into(),
+            x_label: "time [ms]".into(),
+            y_label: "error".into(),
+            series: vec![Series {
+                name: "a".into(),
+                points: vec![(1.0, 1.0), (10.0, 0.1), (100.0, 0.001)],
+                labels: vec!["n=1".into(), String::new(), "n=100".into()],
+            }],
+            log_x: true,
+            log_y: true,
+            ref_lines: vec![RefLine {
+                y: 0.01,
+                label: "1 %".into(),
+            }],
+        };
+        let path = dir.join("xy.png");
+        draw_xy(&fig, &path).expect("xy plot");
+        let (_, _, px) = decode(&path);
+        assert!(count(&px, SERIES_COLORS[0]) > 100);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn bad_data_and_bad_paths_are_errors_not_panics() {
+        let dir = scratch("errors");
+        let a = sheet(0.0);
+        let fig = TrajectoryFigure {
+            grid: (3, 4),
+            frames: vec![(&a[..], "initial".into())],
+            ..Default::default()
+        };
+        let e = draw_trajectory_3d(&fig, &dir.join("x.png")).unwrap_err();
+        assert!(
+            matches!(&e, PlotError::InvalidData(m) if m.contains("3×4") && m.contains("9 particles")),
+            "{e}"
+        );
+        assert!(matches!(
+            draw_trajectory_top(&TrajectoryFigure::default(), &dir.join("x.png")),
+            Err(PlotError::InvalidData(_))
+        ));
+
+        let mut xy = XyFigure {
+            series: vec![Series {
+                name: "s".into(),
+                points: vec![(1.0, 0.0), (2.0, 1.0)],
+                labels: Vec::new(),
+            }],
+            log_y: true,
+            ..Default::default()
+        };
+        let e = draw_xy(&xy, &dir.join("x.png")).unwrap_err();
+        assert!(
+            matches!(&e, PlotError::InvalidData(m) if m.contains("y = 0")),
+            "{e}"
+        );
+        xy.log_y = false;
+        xy.series[0].labels = vec!["only one".into()];
+        assert!(matches!(
+            draw_xy(&xy, &dir.join("x.png")),
+            Err(PlotError::InvalidData(_))
+        ));
+        xy.series[0].labels.clear();
+        xy.series[0].points[1].1 = f64::NAN;
+        assert!(matches!(
+            draw_xy(&xy, &dir.join("x.png")),
+            Err(PlotError::InvalidData(_))
+        ));
+
+        let bars = BarChart {
+            title: String::new(),
+            y_label: String::new(),
+            groups: vec![("G".into(), vec![1.0])],
+            series_names: vec!["G".into(), "αT".into()],
+            pad: 0.1,
+            log_y: false,
+        };
+        let e = draw_bar_chart(&bars, &dir.join("x.png")).unwrap_err();
+        assert!(
+            matches!(&e, PlotError::InvalidData(m) if m.contains("1 values")),
+            "{e}"
+        );
+
+        // I/O problems surface as `Write` errors naming the file.
+        xy.series[0].points[1].1 = 1.0;
+        let missing = dir.join("no-such-dir").join("x.png");
+        let e = draw_xy(&xy, &missing).unwrap_err();
+        assert!(
+            matches!(&e, PlotError::Write { path, .. } if *path == missing),
+            "{e}"
+        );
+        let e = draw_xy(&xy, &dir.join("x.jpg")).unwrap_err();
+        assert!(matches!(e, PlotError::Write { .. }), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn text_is_rendered_with_the_embedded_font_and_anchored() {
+        ensure_font().expect("font");
+        let (w, h) = (200u32, 100u32);
+        let mut buf = vec![255u8; (w * h * 3) as usize];
+        {
+            let root = Canvas {
+                inner: BitMapBackend::with_buffer(&mut buf, (w, h)),
+            }
+            .into_drawing_area();
+            root.draw(&Text::new(
+                "Hxy 0.1".to_string(),
+                (100, 50),
+                text(20.0).pos(Pos::new(HPos::Center, VPos::Center)),
+            ))
+            .expect("text");
+            root.present().expect("present");
+        }
+        let dark: Vec<(u32, u32)> = (0..w * h)
+            .filter(|&i| buf[(i * 3) as usize] < 128)
+            .map(|i| (i % w, i / w))
+            .collect();
+        assert!(dark.len() > 60, "text drawn: {} dark pixels", dark.len());
+        let (x0, x1) = (
+            dark.iter().map(|p| p.0).min().unwrap_or(0),
+            dark.iter().map(|p| p.0).max().unwrap_or(0),
+        );
+        // Horizontally centred on x = 100 within 2 px.
+        assert!(
+            (x0 as i32 + x1 as i32 - 200).abs() <= 4,
+            "x from {x0} to {x1}"
+        );
+        // Capitals are centred on y = 50: the 'H' stem spans rows symmetric about 50.
+        let h_rows: Vec<u32> = dark.iter().filter(|p| p.0 <= x0 + 1).map(|p| p.1).collect();
+        let (top, bottom) = (
+            h_rows.iter().min().copied().unwrap_or(0),
+            h_rows.iter().max().copied().unwrap_or(0),
+        );
+        assert!(
+            (top as i32 + bottom as i32 - 100).abs() <= 2,
+            "H from {top} to {bottom}"
+        );
+    }
+
+    struct Flat;
+    impl Projector for Flat {
+        fn px(&self, p: [f64; 3]) -> (i32, i32) {
+            (p[0] as i32, p[1] as i32)
+        }
+        fn depth(&self, p: [f64; 3]) -> f64 {
+            -p[2]
+        }
+        fn px_per_unit(&self) -> f64 {
+            1.0
+        }
+    }
+
+    #[test]
+    fn higher_elements_are_painted_over_lower_ones() {
+        let prims = vec![
+            Prim::Marker([0.0, 0.0, 2.0], BLACK, 3),
+            Prim::Ball(Sphere {
+                center: [0.0, 0.0, 0.0],
+                radius: 1.0,
+            }),
+            Prim::Segment([0.0; 3], [0.0, 0.0, 1.0], BLACK, 1),
+        ];
+        let order: Vec<&str> = paint_order(&Flat, prims)
+            .iter()
+            .map(|p| match p {
+                Prim::Ball(_) => "ball",
+                Prim::Segment(..) => "segment",
+                Prim::Marker(..) => "marker",
+                Prim::Quad(..) => "quad",
+            })
+            .collect();
+        assert_eq!(order, ["ball", "segment", "marker"]);
+    }
+
+    #[test]
+    fn top_view_ranges_have_equal_scale() {
+        let (xr, yr) = equal_aspect([[-1.0, 1.0], [-1.5, 1.5]], (600, 500));
+        let sx = 600.0 / (xr[1] - xr[0]);
+        let sy = 500.0 / (yr[1] - yr[0]);
+        assert!((sx - sy).abs() < 1e-9, "{sx} vs {sy}");
+        assert!(xr[0] <= -1.0 && xr[1] >= 1.0 && yr[0] <= -1.5 && yr[1] >= 1.5);
+        assert!(
+            (yr[0] + 1.5).abs() < 1e-12,
+            "y is the limiting axis and stays tight"
+        );
+    }
 
     #[test]
     fn numbers_are_compact() {
