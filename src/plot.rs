@@ -262,30 +262,42 @@ fn de<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotErr
     PlotError::Draw(e.to_string())
 }
 
-fn open(path: &Path, size: (u32, u32)) -> Result<Area<'_>, PlotError> {
+/// Draws into a white in-memory RGB bitmap of `size` pixels with `draw`, then writes it to `path` as
+/// a PNG.
+fn render(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&Area) -> Result<(), PlotError>,
+) -> Result<(), PlotError> {
     ensure_font()?;
+    let write_err = |message: String| PlotError::Write {
+        path: path.to_path_buf(),
+        message,
+    };
     match path.extension().and_then(|e| e.to_str()) {
         Some(e) if e.eq_ignore_ascii_case("png") => {}
-        _ => {
-            return Err(PlotError::Write {
-                path: path.to_path_buf(),
-                message: "the file name must end in .png".into(),
-            })
+        _ => return Err(write_err("the file name must end in .png".into())),
+    }
+    let mut buf = vec![255u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = Canvas {
+            inner: BitMapBackend::with_buffer(&mut buf, size),
         }
+        .into_drawing_area();
+        draw(&root)?;
+        root.present().map_err(de)?;
     }
-    let root = Canvas {
-        inner: BitMapBackend::new(path, size),
-    }
-    .into_drawing_area();
-    root.fill(&WHITE).map_err(de)?;
-    Ok(root)
-}
-
-fn save(root: &Area, path: &Path) -> Result<(), PlotError> {
-    root.present().map_err(|e| PlotError::Write {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })
+    let file = std::fs::File::create(path).map_err(|e| write_err(e.to_string()))?;
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), size.0, size.1);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder
+        .write_header()
+        .map_err(|e| write_err(e.to_string()))?;
+    writer
+        .write_image_data(&buf)
+        .map_err(|e| write_err(e.to_string()))?;
+    writer.finish().map_err(|e| write_err(e.to_string()))
 }
 
 fn check_finite(what: &str, v: f64) -> Result<(), PlotError> {
@@ -1076,136 +1088,138 @@ fn trajectory_legend(fig: &TrajectoryFigure, with_ground: bool) -> Vec<(Swatch, 
 /// points, the ground plane, axis labels in metres and a legend.
 pub fn draw_trajectory_3d(fig: &TrajectoryFigure, path: &Path) -> Result<(), PlotError> {
     validate_trajectory(fig)?;
-    let root = open(path, SIZE_3D)?;
-    let titled = root
-        .titled(
-            &fig.title,
-            text(24.0).pos(Pos::new(HPos::Center, VPos::Top)),
-        )
-        .map_err(de)?;
-    let legend_w = 250;
-    let (plot_area, legend_area) = titled.split_horizontally(SIZE_3D.0 as i32 - legend_w);
+    render(path, SIZE_3D, |root| {
+        let titled = root
+            .titled(
+                &fig.title,
+                text(24.0).pos(Pos::new(HPos::Center, VPos::Top)),
+            )
+            .map_err(de)?;
+        let legend_w = 250;
+        let (plot_area, legend_area) = titled.split_horizontally(SIZE_3D.0 as i32 - legend_w);
 
-    let b = trajectory_bounds(fig);
-    // plotters' 3-D axes: X = world x, Y = world z (up), Z = −world y (keeps the frame right-handed).
-    let mut chart = ChartBuilder::on(&plot_area)
-        .margin(10)
-        .build_cartesian_3d(b[0][0]..b[0][1], b[2][0]..b[2][1], -b[1][1]..-b[1][0])
-        .map_err(de)?;
-    let spans = [b[0][1] - b[0][0], b[2][1] - b[2][0], b[1][1] - b[1][0]];
-    let (xr, yr) = chart.plotting_area().get_pixel_range();
-    let (avail_w, avail_h) = (
-        (xr.end - xr.start) as f64 * 0.80,
-        (yr.end - yr.start) as f64 * 0.82,
-    );
-    let view = fig.view;
-    let set_size = |chart: &mut ChartContext<'_, Canvas<'_>, Coord3>, k: f64| {
-        chart.set_3d_pixel_range((
-            (k * spans[0]).round().max(1.0) as i32,
-            (k * spans[1]).round().max(1.0) as i32,
-            (k * spans[2]).round().max(1.0) as i32,
-        ));
-        chart.with_projection(|mut pb| {
-            pb.yaw = view.yaw;
-            pb.pitch = view.pitch;
-            pb.scale = 1.0;
-            pb.into_matrix()
-        });
-    };
-    // Fit the projected box into the drawing area (the projection is linear in the scale k).
-    let k0 = 400.0 / spans.iter().fold(0.0f64, |a, &s| a.max(s));
-    set_size(&mut chart, k0);
-    let corners = |coord: &Coord3| {
-        let mut bb = [i32::MAX, i32::MIN, i32::MAX, i32::MIN];
-        for &x in &b[0] {
-            for &y in &b[1] {
-                for &z in &b[2] {
-                    let (px, py) = coord.translate(&(x, z, -y));
-                    bb = [bb[0].min(px), bb[1].max(px), bb[2].min(py), bb[3].max(py)];
+        let b = trajectory_bounds(fig);
+        // plotters' 3-D axes: X = world x, Y = world z (up), Z = −world y (keeps the frame right-handed).
+        let mut chart = ChartBuilder::on(&plot_area)
+            .margin(10)
+            .build_cartesian_3d(b[0][0]..b[0][1], b[2][0]..b[2][1], -b[1][1]..-b[1][0])
+            .map_err(de)?;
+        let spans = [b[0][1] - b[0][0], b[2][1] - b[2][0], b[1][1] - b[1][0]];
+        let (xr, yr) = chart.plotting_area().get_pixel_range();
+        let (avail_w, avail_h) = (
+            (xr.end - xr.start) as f64 * 0.80,
+            (yr.end - yr.start) as f64 * 0.82,
+        );
+        let view = fig.view;
+        let set_size = |chart: &mut ChartContext<'_, Canvas<'_>, Coord3>, k: f64| {
+            chart.set_3d_pixel_range((
+                (k * spans[0]).round().max(1.0) as i32,
+                (k * spans[1]).round().max(1.0) as i32,
+                (k * spans[2]).round().max(1.0) as i32,
+            ));
+            chart.with_projection(|mut pb| {
+                pb.yaw = view.yaw;
+                pb.pitch = view.pitch;
+                pb.scale = 1.0;
+                pb.into_matrix()
+            });
+        };
+        // Fit the projected box into the drawing area (the projection is linear in the scale k).
+        let k0 = 400.0 / spans.iter().fold(0.0f64, |a, &s| a.max(s));
+        set_size(&mut chart, k0);
+        let corners = |coord: &Coord3| {
+            let mut bb = [i32::MAX, i32::MIN, i32::MAX, i32::MIN];
+            for &x in &b[0] {
+                for &y in &b[1] {
+                    for &z in &b[2] {
+                        let (px, py) = coord.translate(&(x, z, -y));
+                        bb = [bb[0].min(px), bb[1].max(px), bb[2].min(py), bb[3].max(py)];
+                    }
                 }
             }
-        }
-        bb
-    };
-    let bb = corners(chart.plotting_area().as_coord_spec());
-    let f = (avail_w / (bb[1] - bb[0]).max(1) as f64).min(avail_h / (bb[3] - bb[2]).max(1) as f64);
-    let k = k0 * f;
-    set_size(&mut chart, k);
+            bb
+        };
+        let bb = corners(chart.plotting_area().as_coord_spec());
+        let f =
+            (avail_w / (bb[1] - bb[0]).max(1) as f64).min(avail_h / (bb[3] - bb[2]).max(1) as f64);
+        let k = k0 * f;
+        set_size(&mut chart, k);
 
-    let fmt_y = |v: &f64| fmt_tick(-*v);
-    let fmt_v = |v: &f64| fmt_tick(*v);
-    chart
-        .configure_axes()
-        .label_style(text(13.0))
-        .x_labels(6)
-        .y_labels(6)
-        .z_labels(6)
-        .max_light_lines(1)
-        .light_grid_style(RGBColor(235, 235, 235))
-        .bold_grid_style(GRID_GRAY)
-        .axis_panel_style(RGBColor(248, 248, 248).filled())
-        .x_formatter(&fmt_v)
-        .y_formatter(&fmt_v)
-        .z_formatter(&fmt_y)
-        .draw()
-        .map_err(de)?;
-
-    let coord = chart.plotting_area().as_coord_spec();
-    // Pixels per world unit: the rows of an orthographic rotation are orthonormal, so the three
-    // projected axis vectors of length L carry 2·(s·L)² in total. translate() rounds to pixels,
-    // so measure on long vectors.
-    let big = 1000.0 / k;
-    let o = coord.translate(&(0.0, 0.0, 0.0));
-    let mut sq = 0.0;
-    for e in [(big, 0.0, 0.0), (0.0, big, 0.0), (0.0, 0.0, big)] {
-        let p = coord.translate(&e);
-        sq += ((p.0 - o.0) as f64).powi(2) + ((p.1 - o.1) as f64).powi(2);
-    }
-    let scale = (sq / 2.0).sqrt() / big;
-    let proj = AxonometricView { coord, scale };
-
-    draw_axis_titles(&root, coord, &b, &plot_area)?;
-
-    if let Some(z) = fig.ground_z {
-        let q = [
-            [b[0][0], b[1][0], z],
-            [b[0][1], b[1][0], z],
-            [b[0][1], b[1][1], z],
-            [b[0][0], b[1][1], z],
-        ];
-        let pts: Vec<_> = q.iter().map(|&v| proj.px(v)).collect();
-        root.draw(&Polygon::new(pts, GROUND.mix(0.45).filled()))
+        let fmt_y = |v: &f64| fmt_tick(-*v);
+        let fmt_v = |v: &f64| fmt_tick(*v);
+        chart
+            .configure_axes()
+            .label_style(text(13.0))
+            .x_labels(6)
+            .y_labels(6)
+            .z_labels(6)
+            .max_light_lines(1)
+            .light_grid_style(RGBColor(235, 235, 235))
+            .bold_grid_style(GRID_GRAY)
+            .axis_panel_style(RGBColor(248, 248, 248).filled())
+            .x_formatter(&fmt_v)
+            .y_formatter(&fmt_v)
+            .z_formatter(&fmt_y)
+            .draw()
             .map_err(de)?;
-    }
-    render_prims(&root, &proj, scene_prims(fig))?;
-    render_margin(&root, &proj, fig)?;
-    render_targets(&root, &proj, fig)?;
 
-    let (lx, ly) = legend_area.get_base_pixel();
-    let bottom = draw_legend(
-        &root,
-        (lx, ly + 20),
-        "Legend",
-        &trajectory_legend(fig, true),
-    )?;
-    let note = format!(
-        "view: yaw {:.0}°, pitch {:.0}°",
-        view.yaw * 180.0 / PI,
-        view.pitch * 180.0 / PI
-    );
-    root.draw(&Text::new(
-        note,
-        (lx + 4, bottom + 12),
-        text_c(13.0, RGBColor(90, 90, 90)),
-    ))
-    .map_err(de)?;
-    root.draw(&Text::new(
-        "equal scale on x, y, z".to_string(),
-        (lx + 4, bottom + 30),
-        text_c(13.0, RGBColor(90, 90, 90)),
-    ))
-    .map_err(de)?;
-    save(&root, path)
+        let coord = chart.plotting_area().as_coord_spec();
+        // Pixels per world unit: the rows of an orthographic rotation are orthonormal, so the three
+        // projected axis vectors of length L carry 2·(s·L)² in total. translate() rounds to pixels,
+        // so measure on long vectors.
+        let big = 1000.0 / k;
+        let o = coord.translate(&(0.0, 0.0, 0.0));
+        let mut sq = 0.0;
+        for e in [(big, 0.0, 0.0), (0.0, big, 0.0), (0.0, 0.0, big)] {
+            let p = coord.translate(&e);
+            sq += ((p.0 - o.0) as f64).powi(2) + ((p.1 - o.1) as f64).powi(2);
+        }
+        let scale = (sq / 2.0).sqrt() / big;
+        let proj = AxonometricView { coord, scale };
+
+        draw_axis_titles(&root, coord, &b, &plot_area)?;
+
+        if let Some(z) = fig.ground_z {
+            let q = [
+                [b[0][0], b[1][0], z],
+                [b[0][1], b[1][0], z],
+                [b[0][1], b[1][1], z],
+                [b[0][0], b[1][1], z],
+            ];
+            let pts: Vec<_> = q.iter().map(|&v| proj.px(v)).collect();
+            root.draw(&Polygon::new(pts, GROUND.mix(0.45).filled()))
+                .map_err(de)?;
+        }
+        render_prims(&root, &proj, scene_prims(fig))?;
+        render_margin(&root, &proj, fig)?;
+        render_targets(&root, &proj, fig)?;
+
+        let (lx, ly) = legend_area.get_base_pixel();
+        let bottom = draw_legend(
+            &root,
+            (lx, ly + 20),
+            "Legend",
+            &trajectory_legend(fig, true),
+        )?;
+        let note = format!(
+            "view: yaw {:.0}°, pitch {:.0}°",
+            view.yaw * 180.0 / PI,
+            view.pitch * 180.0 / PI
+        );
+        root.draw(&Text::new(
+            note,
+            (lx + 4, bottom + 12),
+            text_c(13.0, RGBColor(90, 90, 90)),
+        ))
+        .map_err(de)?;
+        root.draw(&Text::new(
+            "equal scale on x, y, z".to_string(),
+            (lx + 4, bottom + 30),
+            text_c(13.0, RGBColor(90, 90, 90)),
+        ))
+        .map_err(de)?;
+        Ok(())
+    })
 }
 
 /// Puts "x [m]", "y [m]", "z [m]" beside the box edges on which plotters draws the tick labels (the
@@ -1272,75 +1286,76 @@ fn draw_axis_titles(
 /// higher elements cover lower ones; spheres appear as shaded discs; the ground is not drawn.
 pub fn draw_trajectory_top(fig: &TrajectoryFigure, path: &Path) -> Result<(), PlotError> {
     validate_trajectory(fig)?;
-    let root = open(path, SIZE_2D)?;
-    let titled = root
-        .titled(
-            &fig.title,
-            text(22.0).pos(Pos::new(HPos::Center, VPos::Top)),
-        )
-        .map_err(de)?;
-    let legend_w = 240;
-    let (plot_area, legend_area) = titled.split_horizontally(SIZE_2D.0 as i32 - legend_w);
-    let b = trajectory_bounds(fig);
+    render(path, SIZE_2D, |root| {
+        let titled = root
+            .titled(
+                &fig.title,
+                text(22.0).pos(Pos::new(HPos::Center, VPos::Top)),
+            )
+            .map_err(de)?;
+        let legend_w = 240;
+        let (plot_area, legend_area) = titled.split_horizontally(SIZE_2D.0 as i32 - legend_w);
+        let b = trajectory_bounds(fig);
 
-    let build = |xr: std::ops::Range<f64>, yr: std::ops::Range<f64>| {
-        ChartBuilder::on(&plot_area)
-            .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(60)
-            .build_cartesian_2d(xr, yr)
-    };
-    // Measure the plotting area, then widen one range so that 1 m is as long on both axes.
-    let probe = build(b[0][0]..b[0][1], b[1][0]..b[1][1]).map_err(de)?;
-    let (pw, ph) = probe.plotting_area().dim_in_pixel();
-    drop(probe);
-    let (xr, yr) = equal_aspect([b[0], b[1]], (pw, ph));
-    let mut chart = build(xr[0]..xr[1], yr[0]..yr[1]).map_err(de)?;
-    let fmt = |v: &f64| fmt_tick(*v);
-    chart
-        .configure_mesh()
-        .x_desc("x [m]")
-        .y_desc("y [m]")
-        .axis_desc_style(text(17.0))
-        .label_style(text(14.0))
-        .x_label_formatter(&fmt)
-        .y_label_formatter(&fmt)
-        .max_light_lines(1)
-        .light_line_style(RGBColor(242, 242, 242))
-        .bold_line_style(RGBColor(220, 220, 220))
-        .draw()
-        .map_err(de)?;
-    let coord = chart.plotting_area().as_coord_spec();
-    let (p0, p1) = (
-        coord.translate(&(xr[0], yr[0])),
-        coord.translate(&(xr[1], yr[0])),
-    );
-    let scale = (p1.0 - p0.0) as f64 / (xr[1] - xr[0]);
-    let proj = TopView { coord, scale };
-    render_prims(&root, &proj, scene_prims(fig))?;
-    render_margin(&root, &proj, fig)?;
-    render_targets(&root, &proj, fig)?;
+        let build = |xr: std::ops::Range<f64>, yr: std::ops::Range<f64>| {
+            ChartBuilder::on(&plot_area)
+                .margin(12)
+                .x_label_area_size(45)
+                .y_label_area_size(60)
+                .build_cartesian_2d(xr, yr)
+        };
+        // Measure the plotting area, then widen one range so that 1 m is as long on both axes.
+        let probe = build(b[0][0]..b[0][1], b[1][0]..b[1][1]).map_err(de)?;
+        let (pw, ph) = probe.plotting_area().dim_in_pixel();
+        drop(probe);
+        let (xr, yr) = equal_aspect([b[0], b[1]], (pw, ph));
+        let mut chart = build(xr[0]..xr[1], yr[0]..yr[1]).map_err(de)?;
+        let fmt = |v: &f64| fmt_tick(*v);
+        chart
+            .configure_mesh()
+            .x_desc("x [m]")
+            .y_desc("y [m]")
+            .axis_desc_style(text(17.0))
+            .label_style(text(14.0))
+            .x_label_formatter(&fmt)
+            .y_label_formatter(&fmt)
+            .max_light_lines(1)
+            .light_line_style(RGBColor(242, 242, 242))
+            .bold_line_style(RGBColor(220, 220, 220))
+            .draw()
+            .map_err(de)?;
+        let coord = chart.plotting_area().as_coord_spec();
+        let (p0, p1) = (
+            coord.translate(&(xr[0], yr[0])),
+            coord.translate(&(xr[1], yr[0])),
+        );
+        let scale = (p1.0 - p0.0) as f64 / (xr[1] - xr[0]);
+        let proj = TopView { coord, scale };
+        render_prims(&root, &proj, scene_prims(fig))?;
+        render_margin(&root, &proj, fig)?;
+        render_targets(&root, &proj, fig)?;
 
-    let (lx, ly) = legend_area.get_base_pixel();
-    let bottom = draw_legend(
-        &root,
-        (lx, ly + 20),
-        "Top view",
-        &trajectory_legend(fig, false),
-    )?;
-    root.draw(&Text::new(
-        "seen from above (+z);".to_string(),
-        (lx + 4, bottom + 12),
-        text_c(13.0, RGBColor(90, 90, 90)),
-    ))
-    .map_err(de)?;
-    root.draw(&Text::new(
-        "higher parts cover lower ones".to_string(),
-        (lx + 4, bottom + 30),
-        text_c(13.0, RGBColor(90, 90, 90)),
-    ))
-    .map_err(de)?;
-    save(&root, path)
+        let (lx, ly) = legend_area.get_base_pixel();
+        let bottom = draw_legend(
+            &root,
+            (lx, ly + 20),
+            "Top view",
+            &trajectory_legend(fig, false),
+        )?;
+        root.draw(&Text::new(
+            "seen from above (+z);".to_string(),
+            (lx + 4, bottom + 12),
+            text_c(13.0, RGBColor(90, 90, 90)),
+        ))
+        .map_err(de)?;
+        root.draw(&Text::new(
+            "higher parts cover lower ones".to_string(),
+            (lx + 4, bottom + 30),
+            text_c(13.0, RGBColor(90, 90, 90)),
+        ))
+        .map_err(de)?;
+        Ok(())
+    })
 }
 
 /// Widens the x or the y range around its centre so that one unit is as long on both axes of a
@@ -1395,39 +1410,40 @@ pub fn draw_bar_chart(fig: &BarChart, path: &Path) -> Result<(), PlotError> {
     let (lo, hi) = padded.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
         (a.min(v), b.max(v))
     });
-    let root = open(path, SIZE_2D)?;
-    let y_desc = if fig.pad > 0.0 {
-        format!("{} (+{} padding)", fig.y_label, fmt_num(fig.pad))
-    } else {
-        fig.y_label.clone()
-    };
-    let note = if fig.pad > 0.0 {
-        format!(
+    render(path, SIZE_2D, |root| {
+        let y_desc = if fig.pad > 0.0 {
+            format!("{} (+{} padding)", fig.y_label, fmt_num(fig.pad))
+        } else {
+            fig.y_label.clone()
+        };
+        let note = if fig.pad > 0.0 {
+            format!(
             "Bar height = value + {} (dashed line: value 0), so that small values stay visible; numbers above the bars are the unpadded values.",
             fmt_num(fig.pad)
         )
-    } else {
-        "Numbers above the bars are the values.".to_string()
-    };
-    let (main, foot) = root.split_vertically(SIZE_2D.1 as i32 - 28);
-    foot.draw(&Text::new(
-        note,
-        (SIZE_2D.0 as i32 / 2, 8),
-        text_c(13.0, RGBColor(80, 80, 80)).pos(Pos::new(HPos::Center, VPos::Top)),
-    ))
-    .map_err(de)?;
-    let ng = fig.groups.len() as f64;
-    if fig.log_y {
-        let y0 = lo / 2.0;
-        let y1 = hi * 4.0;
-        bar_body(&main, fig, (0.0..ng, (y0..y1).log_scale()), y0, &y_desc)?;
-    } else {
-        let y0 = lo.min(0.0);
-        let y1 = hi.max(0.0) + 0.15 * (hi.max(0.0) - y0).max(1e-12);
-        let y0 = if y0 < 0.0 { y0 - 0.05 * (y1 - y0) } else { y0 };
-        bar_body(&main, fig, (0.0..ng, y0..y1), 0.0f64.max(y0), &y_desc)?;
-    }
-    save(&root, path)
+        } else {
+            "Numbers above the bars are the values.".to_string()
+        };
+        let (main, foot) = root.split_vertically(SIZE_2D.1 as i32 - 28);
+        foot.draw(&Text::new(
+            note,
+            (SIZE_2D.0 as i32 / 2, 8),
+            text_c(13.0, RGBColor(80, 80, 80)).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(de)?;
+        let ng = fig.groups.len() as f64;
+        if fig.log_y {
+            let y0 = lo / 2.0;
+            let y1 = hi * 4.0;
+            bar_body(&main, fig, (0.0..ng, (y0..y1).log_scale()), y0, &y_desc)?;
+        } else {
+            let y0 = lo.min(0.0);
+            let y1 = hi.max(0.0) + 0.15 * (hi.max(0.0) - y0).max(1e-12);
+            let y0 = if y0 < 0.0 { y0 - 0.05 * (y1 - y0) } else { y0 };
+            bar_body(&main, fig, (0.0..ng, y0..y1), 0.0f64.max(y0), &y_desc)?;
+        }
+        Ok(())
+    })
 }
 
 fn bar_body<YR>(
@@ -1619,14 +1635,15 @@ pub fn draw_xy(fig: &XyFigure, path: &Path) -> Result<(), PlotError> {
         .chain(fig.ref_lines.iter().map(|l| l.y));
     let (x0, x1) = axis_range(xs, fig.log_x, if has_labels { 0.12 } else { 0.0 });
     let (y0, y1) = axis_range(ys, fig.log_y, 0.0);
-    let root = open(path, SIZE_2D)?;
-    match (fig.log_x, fig.log_y) {
-        (false, false) => xy_body(&root, fig, x0..x1, y0..y1)?,
-        (true, false) => xy_body(&root, fig, (x0..x1).log_scale(), y0..y1)?,
-        (false, true) => xy_body(&root, fig, x0..x1, (y0..y1).log_scale())?,
-        (true, true) => xy_body(&root, fig, (x0..x1).log_scale(), (y0..y1).log_scale())?,
-    }
-    save(&root, path)
+    render(path, SIZE_2D, |root| {
+        match (fig.log_x, fig.log_y) {
+            (false, false) => xy_body(&root, fig, x0..x1, y0..y1)?,
+            (true, false) => xy_body(&root, fig, (x0..x1).log_scale(), y0..y1)?,
+            (false, true) => xy_body(&root, fig, x0..x1, (y0..y1).log_scale())?,
+            (true, true) => xy_body(&root, fig, (x0..x1).log_scale(), (y0..y1).log_scale())?,
+        }
+        Ok(())
+    })
 }
 
 fn xy_body<XR, YR>(root: &Area, fig: &XyFigure, xr: XR, yr: YR) -> Result<(), PlotError>
