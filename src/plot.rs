@@ -291,6 +291,7 @@ fn render(
     let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), size.0, size.1);
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
     let mut writer = encoder
         .write_header()
         .map_err(|e| write_err(e.to_string()))?;
@@ -1177,7 +1178,7 @@ pub fn draw_trajectory_3d(fig: &TrajectoryFigure, path: &Path) -> Result<(), Plo
         let scale = (sq / 2.0).sqrt() / big;
         let proj = AxonometricView { coord, scale };
 
-        draw_axis_titles(&root, coord, &b, &plot_area)?;
+        draw_axis_titles(root, coord, &b, &plot_area)?;
 
         if let Some(z) = fig.ground_z {
             let q = [
@@ -1190,17 +1191,12 @@ pub fn draw_trajectory_3d(fig: &TrajectoryFigure, path: &Path) -> Result<(), Plo
             root.draw(&Polygon::new(pts, GROUND.mix(0.45).filled()))
                 .map_err(de)?;
         }
-        render_prims(&root, &proj, scene_prims(fig))?;
-        render_margin(&root, &proj, fig)?;
-        render_targets(&root, &proj, fig)?;
+        render_prims(root, &proj, scene_prims(fig))?;
+        render_margin(root, &proj, fig)?;
+        render_targets(root, &proj, fig)?;
 
         let (lx, ly) = legend_area.get_base_pixel();
-        let bottom = draw_legend(
-            &root,
-            (lx, ly + 20),
-            "Legend",
-            &trajectory_legend(fig, true),
-        )?;
+        let bottom = draw_legend(root, (lx, ly + 20), "Legend", &trajectory_legend(fig, true))?;
         let note = format!(
             "view: yaw {:.0}°, pitch {:.0}°",
             view.yaw * 180.0 / PI,
@@ -1331,13 +1327,13 @@ pub fn draw_trajectory_top(fig: &TrajectoryFigure, path: &Path) -> Result<(), Pl
         );
         let scale = (p1.0 - p0.0) as f64 / (xr[1] - xr[0]);
         let proj = TopView { coord, scale };
-        render_prims(&root, &proj, scene_prims(fig))?;
-        render_margin(&root, &proj, fig)?;
-        render_targets(&root, &proj, fig)?;
+        render_prims(root, &proj, scene_prims(fig))?;
+        render_margin(root, &proj, fig)?;
+        render_targets(root, &proj, fig)?;
 
         let (lx, ly) = legend_area.get_base_pixel();
         let bottom = draw_legend(
-            &root,
+            root,
             (lx, ly + 20),
             "Top view",
             &trajectory_legend(fig, false),
@@ -1637,10 +1633,10 @@ pub fn draw_xy(fig: &XyFigure, path: &Path) -> Result<(), PlotError> {
     let (y0, y1) = axis_range(ys, fig.log_y, 0.0);
     render(path, SIZE_2D, |root| {
         match (fig.log_x, fig.log_y) {
-            (false, false) => xy_body(&root, fig, x0..x1, y0..y1)?,
-            (true, false) => xy_body(&root, fig, (x0..x1).log_scale(), y0..y1)?,
-            (false, true) => xy_body(&root, fig, x0..x1, (y0..y1).log_scale())?,
-            (true, true) => xy_body(&root, fig, (x0..x1).log_scale(), (y0..y1).log_scale())?,
+            (false, false) => xy_body(root, fig, x0..x1, y0..y1)?,
+            (true, false) => xy_body(root, fig, (x0..x1).log_scale(), y0..y1)?,
+            (false, true) => xy_body(root, fig, x0..x1, (y0..y1).log_scale())?,
+            (true, true) => xy_body(root, fig, (x0..x1).log_scale(), (y0..y1).log_scale())?,
         }
         Ok(())
     })
