@@ -1,8 +1,8 @@
 //! Draws every figure type of `clothopt::plot` from synthetic data.
 //!
 //! `cargo run --release --example plot_demo -- DIR` writes `trajectory_3d.png`,
-//! `trajectory_3d_side.png`, `trajectory_top.png`, `bars.png`, `bars_log.png`, `xy_loglog.png` and
-//! `xy_linear.png` into DIR (created if missing).
+//! `trajectory_3d_side.png`, `trajectory_top.png`, `drop_3d.png`, `drop_top.png`, `bars.png`,
+//! `bars_log.png`, `xy_loglog.png` and `xy_linear.png` into DIR (created if missing).
 
 use std::f64::consts::PI;
 use std::path::PathBuf;
@@ -110,6 +110,54 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     draw_trajectory_3d(&side, &dir.join("trajectory_3d_side.png"))?;
     draw_trajectory_top(&fig, &dir.join("trajectory_top.png"))?;
 
+    // An obstacle-free task with a ground plane, like the ablation's `drop`: the cloth is lowered
+    // from hanging to lying flat, its four corners meeting targets on the floor.
+    let drop: Vec<Vec<[f64; 3]>> = (0..=T)
+        .map(|t| {
+            let s = t as f64 / T as f64;
+            let mut out = Vec::with_capacity(N * N);
+            for r in 0..N {
+                for c in 0..N {
+                    let u = c as f64 / (N - 1) as f64 - 0.5;
+                    let v = r as f64 / (N - 1) as f64;
+                    // Hanging part and lying part: rows above `lying` still hang.
+                    let top = [u, -0.5 + 1.0 * s, 1.2 * (1.0 - s)];
+                    let hang = (1.0 - s) * 1.2;
+                    let along = v;
+                    let p = if along <= hang {
+                        [top[0], top[1], top[2] - along]
+                    } else {
+                        [top[0], top[1] - (along - hang), 0.0]
+                    };
+                    out.push(p);
+                }
+            }
+            out
+        })
+        .collect();
+    let drop_paths: Vec<Vec<[f64; 3]>> = [0, N - 1]
+        .iter()
+        .map(|&p| drop.iter().map(|st| st[p]).collect())
+        .collect();
+    let corners = [0, N - 1, N * (N - 1), N * N - 1];
+    let drop_targets: Vec<[f64; 3]> = corners.iter().map(|&i| drop[T][i]).collect();
+    let drop_fig = TrajectoryFigure {
+        title: "drop task, G+αT+βE (synthetic): lowered onto the floor".into(),
+        grid: (N, N),
+        frames: vec![
+            (&drop[0][..], "initial (t = 0)".into()),
+            (&drop[T / 2][..], format!("intermediate (t = {})", T / 2)),
+            (&drop[T][..], format!("final (t = {T})")),
+        ],
+        control_paths: drop_paths,
+        targets: &drop_targets,
+        target_particles: &corners,
+        ground_z: Some(0.0),
+        ..Default::default()
+    };
+    draw_trajectory_3d(&drop_fig, &dir.join("drop_3d.png"))?;
+    draw_trajectory_top(&drop_fig, &dir.join("drop_top.png"))?;
+
     // Bar chart like the paper's quantitative_result (drop task).
     let names: Vec<String> = ["G", "αT", "βE"].iter().map(|s| s.to_string()).collect();
     let groups = vec![
@@ -203,6 +251,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
         &dir.join("xy_linear.png"),
     )?;
-    println!("wrote 7 figures to {}", dir.display());
+    println!("wrote 9 figures to {}", dir.display());
     Ok(())
 }

@@ -320,8 +320,12 @@ fn check_point(what: &str, p: &[f64; 3]) -> Result<(), PlotError> {
     }
 }
 
-/// A compact number: plain decimals between 1e-3 and 1e4, else `m×10ⁿ`.
+/// A compact number: plain decimals between 1e-3 and 1e4, else `m×10ⁿ`; minus signs as `−`.
 fn fmt_num(v: f64) -> String {
+    fmt_num_ascii(v).replace('-', "−")
+}
+
+fn fmt_num_ascii(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
         return if v == 0.0 { "0".into() } else { format!("{v}") };
     }
@@ -342,7 +346,7 @@ fn fmt_num(v: f64) -> String {
         if ms == "1" {
             format!("10{}", superscript(e))
         } else if ms == "-1" {
-            format!("−10{}", superscript(e))
+            format!("-10{}", superscript(e))
         } else {
             format!("{ms}×10{}", superscript(e))
         }
@@ -1434,7 +1438,12 @@ pub fn draw_bar_chart(fig: &BarChart, path: &Path) -> Result<(), PlotError> {
             bar_body(&main, fig, (0.0..ng, (y0..y1).log_scale()), y0, &y_desc)?;
         } else {
             let y0 = lo.min(0.0);
-            let y1 = hi.max(0.0) + 0.15 * (hi.max(0.0) - y0).max(1e-12);
+            let span = hi.max(0.0) - y0;
+            let y1 = if span > 1e-12 {
+                hi.max(0.0) + 0.15 * span
+            } else {
+                1.0
+            };
             let y0 = if y0 < 0.0 { y0 - 0.05 * (y1 - y0) } else { y0 };
             bar_body(&main, fig, (0.0..ng, y0..y1), 0.0f64.max(y0), &y_desc)?;
         }
@@ -2196,5 +2205,7 @@ mod tests {
         assert_eq!(fmt_num(2.5e-7), "2.5×10⁻⁷");
         assert_eq!(fmt_num(3e6), "3×10⁶");
         assert_eq!(fmt_tick(-1e-15), "0");
+        assert_eq!(fmt_num(-0.25), "−0.25");
+        assert_eq!(fmt_num(-1e-6), "−10⁻⁶");
     }
 }
