@@ -1,15 +1,15 @@
 //! Draws every figure type of `clothopt::plot` from synthetic data.
 //!
 //! `cargo run --release --example plot_demo -- DIR` writes `trajectory_3d.png`,
-//! `trajectory_3d_side.png`, `trajectory_top.png`, `drop_3d.png`, `drop_top.png`, `bars.png`,
-//! `bars_log.png`, `xy_loglog.png` and `xy_linear.png` into DIR (created if missing).
+//! `trajectory_3d_side.png`, `trajectory_top.png`, `drop_3d.png`, `drop_top.png`, `panels.png`,
+//! `bars.png`, `bars_log.png`, `xy_loglog.png` and `xy_linear.png` into DIR (created if missing).
 
 use std::f64::consts::PI;
 use std::path::PathBuf;
 
 use clothopt::plot::{
-    draw_bar_chart, draw_trajectory_3d, draw_trajectory_top, draw_xy, BarChart, RefLine, Series,
-    Sphere, TrajectoryFigure, View3d, XyFigure,
+    draw_bar_chart, draw_trajectory_3d, draw_trajectory_panels, draw_trajectory_top, draw_xy,
+    BarChart, RefLine, Series, Sphere, TrajectoryFigure, View3d, XyFigure,
 };
 
 const N: usize = 10;
@@ -158,6 +158,52 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     draw_trajectory_3d(&drop_fig, &dir.join("drop_3d.png"))?;
     draw_trajectory_top(&drop_fig, &dir.join("drop_top.png"))?;
 
+    // Panels like the paper's qualitative_result: one trajectory per objective variant, same axes.
+    let variants = ["G", "G+αT", "G+βE", "G+αT+βE"];
+    let bends = [0.5, 0.0, 0.3, 0.1];
+    let variant_states: Vec<Vec<Vec<[f64; 3]>>> = bends
+        .iter()
+        .map(|&bend| {
+            drop.iter()
+                .enumerate()
+                .map(|(t, st)| {
+                    let s = t as f64 / T as f64;
+                    let wiggle = bend * (2.0 * PI * s).sin();
+                    st.iter()
+                        .map(|p| [p[0] + wiggle * 0.8, p[1], p[2] + wiggle * 0.5 * p[2]])
+                        .collect()
+                })
+                .collect()
+        })
+        .collect();
+    let panels: Vec<TrajectoryFigure> = variants
+        .iter()
+        .zip(&variant_states)
+        .map(|(name, states)| TrajectoryFigure {
+            title: format!("drop, {name}"),
+            grid: (N, N),
+            frames: vec![
+                (&states[0][..], "initial".into()),
+                (&states[T / 2][..], "intermediate".into()),
+                (&states[T][..], "final".into()),
+            ],
+            control_paths: [0, N - 1]
+                .iter()
+                .map(|&p| states.iter().map(|st| st[p]).collect())
+                .collect(),
+            targets: &drop_targets,
+            target_particles: &corners,
+            ground_z: Some(0.0),
+            ..Default::default()
+        })
+        .collect();
+    draw_trajectory_panels(
+        "drop task: trajectory per objective variant (synthetic)",
+        &panels,
+        4,
+        &dir.join("panels.png"),
+    )?;
+
     // Bar chart like the paper's quantitative_result (drop task).
     let names: Vec<String> = ["G", "αT", "βE"].iter().map(|s| s.to_string()).collect();
     let groups = vec![
@@ -251,6 +297,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
         &dir.join("xy_linear.png"),
     )?;
-    println!("wrote 9 figures to {}", dir.display());
+    println!("wrote 10 figures to {}", dir.display());
     Ok(())
 }

@@ -4,8 +4,10 @@
 //! PNG; nothing here knows about the simulator or the optimizer, so any caller can draw with it.
 //!
 //! - [`draw_trajectory_3d`] and [`draw_trajectory_top`]: a cloth manipulation trajectory (cloth frames as
-//!   wireframes, control-point paths, obstacle spheres, targets, ground) in an axonometric 3-D view and
-//!   seen from above, like the paper's Fig. 4 (`delta_result`) and Fig. 5 (`qualitative_result`).
+//!   wireframes, control-point paths, obstacle spheres with the δ margin, targets, ground) in an
+//!   axonometric 3-D view and seen from above, like the paper's Fig. 4 (`delta_result`);
+//!   [`draw_trajectory_panels`] puts several trajectories side by side on the same axes, like its
+//!   Fig. 5 (`qualitative_result`).
 //! - [`draw_bar_chart`]: grouped bars of padded cost terms per variant, like the paper's
 //!   `quantitative_result` chart.
 //! - [`draw_xy`]: lines with markers, optional per-point labels, labelled horizontal reference lines and
@@ -1103,101 +1105,8 @@ pub fn draw_trajectory_3d(fig: &TrajectoryFigure, path: &Path) -> Result<(), Plo
         let legend_w = 250;
         let (plot_area, legend_area) = titled.split_horizontally(SIZE_3D.0 as i32 - legend_w);
 
-        let b = trajectory_bounds(fig);
-        // plotters' 3-D axes: X = world x, Y = world z (up), Z = −world y (keeps the frame right-handed).
-        let mut chart = ChartBuilder::on(&plot_area)
-            .margin(10)
-            .build_cartesian_3d(b[0][0]..b[0][1], b[2][0]..b[2][1], -b[1][1]..-b[1][0])
-            .map_err(de)?;
-        let spans = [b[0][1] - b[0][0], b[2][1] - b[2][0], b[1][1] - b[1][0]];
-        let (xr, yr) = chart.plotting_area().get_pixel_range();
-        let (avail_w, avail_h) = (
-            (xr.end - xr.start) as f64 * 0.80,
-            (yr.end - yr.start) as f64 * 0.82,
-        );
+        scene_3d(root, &plot_area, fig, &trajectory_bounds(fig), 17.0)?;
         let view = fig.view;
-        let set_size = |chart: &mut ChartContext<'_, Canvas<'_>, Coord3>, k: f64| {
-            chart.set_3d_pixel_range((
-                (k * spans[0]).round().max(1.0) as i32,
-                (k * spans[1]).round().max(1.0) as i32,
-                (k * spans[2]).round().max(1.0) as i32,
-            ));
-            chart.with_projection(|mut pb| {
-                pb.yaw = view.yaw;
-                pb.pitch = view.pitch;
-                pb.scale = 1.0;
-                pb.into_matrix()
-            });
-        };
-        // Fit the projected box into the drawing area (the projection is linear in the scale k).
-        let k0 = 400.0 / spans.iter().fold(0.0f64, |a, &s| a.max(s));
-        set_size(&mut chart, k0);
-        let corners = |coord: &Coord3| {
-            let mut bb = [i32::MAX, i32::MIN, i32::MAX, i32::MIN];
-            for &x in &b[0] {
-                for &y in &b[1] {
-                    for &z in &b[2] {
-                        let (px, py) = coord.translate(&(x, z, -y));
-                        bb = [bb[0].min(px), bb[1].max(px), bb[2].min(py), bb[3].max(py)];
-                    }
-                }
-            }
-            bb
-        };
-        let bb = corners(chart.plotting_area().as_coord_spec());
-        let f =
-            (avail_w / (bb[1] - bb[0]).max(1) as f64).min(avail_h / (bb[3] - bb[2]).max(1) as f64);
-        let k = k0 * f;
-        set_size(&mut chart, k);
-
-        let fmt_y = |v: &f64| fmt_tick(-*v);
-        let fmt_v = |v: &f64| fmt_tick(*v);
-        chart
-            .configure_axes()
-            .label_style(text(13.0))
-            .x_labels(6)
-            .y_labels(6)
-            .z_labels(6)
-            .max_light_lines(1)
-            .light_grid_style(RGBColor(235, 235, 235))
-            .bold_grid_style(GRID_GRAY)
-            .axis_panel_style(RGBColor(248, 248, 248).filled())
-            .x_formatter(&fmt_v)
-            .y_formatter(&fmt_v)
-            .z_formatter(&fmt_y)
-            .draw()
-            .map_err(de)?;
-
-        let coord = chart.plotting_area().as_coord_spec();
-        // Pixels per world unit: the rows of an orthographic rotation are orthonormal, so the three
-        // projected axis vectors of length L carry 2·(s·L)² in total. translate() rounds to pixels,
-        // so measure on long vectors.
-        let big = 1000.0 / k;
-        let o = coord.translate(&(0.0, 0.0, 0.0));
-        let mut sq = 0.0;
-        for e in [(big, 0.0, 0.0), (0.0, big, 0.0), (0.0, 0.0, big)] {
-            let p = coord.translate(&e);
-            sq += ((p.0 - o.0) as f64).powi(2) + ((p.1 - o.1) as f64).powi(2);
-        }
-        let scale = (sq / 2.0).sqrt() / big;
-        let proj = AxonometricView { coord, scale };
-
-        draw_axis_titles(root, coord, &b, &plot_area)?;
-
-        if let Some(z) = fig.ground_z {
-            let q = [
-                [b[0][0], b[1][0], z],
-                [b[0][1], b[1][0], z],
-                [b[0][1], b[1][1], z],
-                [b[0][0], b[1][1], z],
-            ];
-            let pts: Vec<_> = q.iter().map(|&v| proj.px(v)).collect();
-            root.draw(&Polygon::new(pts, GROUND.mix(0.45).filled()))
-                .map_err(de)?;
-        }
-        render_prims(root, &proj, scene_prims(fig))?;
-        render_margin(root, &proj, fig)?;
-        render_targets(root, &proj, fig)?;
 
         let (lx, ly) = legend_area.get_base_pixel();
         let bottom = draw_legend(root, (lx, ly + 20), "Legend", &trajectory_legend(fig, true))?;
@@ -1222,6 +1131,178 @@ pub fn draw_trajectory_3d(fig: &TrajectoryFigure, path: &Path) -> Result<(), Plo
     })
 }
 
+/// Draws several trajectories in 3-D side by side, `cols` panels per row, to one PNG (panels of
+/// 460×440 plus a legend column), e.g. the four objective variants of the paper's Fig. 5
+/// (`qualitative_result`) or one panel per δ. All panels share the same axes box, so they compare
+/// directly; each is titled with its figure's `title`; the legend is built from the first panel.
+pub fn draw_trajectory_panels(
+    title: &str,
+    panels: &[TrajectoryFigure],
+    cols: usize,
+    path: &Path,
+) -> Result<(), PlotError> {
+    if panels.is_empty() || cols == 0 {
+        return Err(PlotError::InvalidData(
+            "a panel figure needs at least one panel and one column".into(),
+        ));
+    }
+    for fig in panels {
+        validate_trajectory(fig)?;
+    }
+    let cols = cols.min(panels.len());
+    let rows = panels.len().div_ceil(cols);
+    let (pw, ph, legend_w, title_h) = (460u32, 440u32, 250u32, 50u32);
+    let size = (cols as u32 * pw + legend_w, rows as u32 * ph + title_h);
+    let mut b = trajectory_bounds(&panels[0]);
+    for fig in &panels[1..] {
+        let o = trajectory_bounds(fig);
+        for a in 0..3 {
+            b[a] = [b[a][0].min(o[a][0]), b[a][1].max(o[a][1])];
+        }
+    }
+    render(path, size, |root| {
+        let titled = root
+            .titled(title, text(24.0).pos(Pos::new(HPos::Center, VPos::Top)))
+            .map_err(de)?;
+        let (grid, legend_area) = titled.split_horizontally((cols as u32 * pw) as i32);
+        let cells = grid.split_evenly((rows, cols));
+        for (fig, cell) in panels.iter().zip(&cells) {
+            let area = cell.titled(&fig.title, text(17.0)).map_err(de)?;
+            scene_3d(root, &area, fig, &b, 14.0)?;
+        }
+        let (lx, ly) = legend_area.get_base_pixel();
+        let first = &panels[0];
+        let bottom = draw_legend(
+            root,
+            (lx, ly + 20),
+            "Legend",
+            &trajectory_legend(first, true),
+        )?;
+        root.draw(&Text::new(
+            format!(
+                "view: yaw {:.0}°, pitch {:.0}°",
+                first.view.yaw * 180.0 / PI,
+                first.view.pitch * 180.0 / PI
+            ),
+            (lx + 4, bottom + 12),
+            text_c(13.0, RGBColor(90, 90, 90)),
+        ))
+        .map_err(de)?;
+        root.draw(&Text::new(
+            "same axes in every panel".to_string(),
+            (lx + 4, bottom + 30),
+            text_c(13.0, RGBColor(90, 90, 90)),
+        ))
+        .map_err(de)?;
+        Ok(())
+    })
+}
+
+/// The 3-D scene of one trajectory (axes box, ground, cloth, paths, spheres, margin, targets) in
+/// `plot_area`, within the world box `b`; everything is drawn on `root` in absolute pixels.
+fn scene_3d(
+    root: &Area,
+    plot_area: &Area,
+    fig: &TrajectoryFigure,
+    b: &[[f64; 2]; 3],
+    title_size: f64,
+) -> Result<(), PlotError> {
+    // plotters' 3-D axes: X = world x, Y = world z (up), Z = −world y (keeps the frame right-handed).
+    let mut chart = ChartBuilder::on(plot_area)
+        .margin(10)
+        .build_cartesian_3d(b[0][0]..b[0][1], b[2][0]..b[2][1], -b[1][1]..-b[1][0])
+        .map_err(de)?;
+    let spans = [b[0][1] - b[0][0], b[2][1] - b[2][0], b[1][1] - b[1][0]];
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    let (avail_w, avail_h) = (
+        (xr.end - xr.start) as f64 * 0.80,
+        (yr.end - yr.start) as f64 * 0.82,
+    );
+    let view = fig.view;
+    let set_size = |chart: &mut ChartContext<'_, Canvas<'_>, Coord3>, k: f64| {
+        chart.set_3d_pixel_range((
+            (k * spans[0]).round().max(1.0) as i32,
+            (k * spans[1]).round().max(1.0) as i32,
+            (k * spans[2]).round().max(1.0) as i32,
+        ));
+        chart.with_projection(|mut pb| {
+            pb.yaw = view.yaw;
+            pb.pitch = view.pitch;
+            pb.scale = 1.0;
+            pb.into_matrix()
+        });
+    };
+    // Fit the projected box into the drawing area (the projection is linear in the scale k).
+    let k0 = 400.0 / spans.iter().fold(0.0f64, |a, &s| a.max(s));
+    set_size(&mut chart, k0);
+    let corners = |coord: &Coord3| {
+        let mut bb = [i32::MAX, i32::MIN, i32::MAX, i32::MIN];
+        for &x in &b[0] {
+            for &y in &b[1] {
+                for &z in &b[2] {
+                    let (px, py) = coord.translate(&(x, z, -y));
+                    bb = [bb[0].min(px), bb[1].max(px), bb[2].min(py), bb[3].max(py)];
+                }
+            }
+        }
+        bb
+    };
+    let bb = corners(chart.plotting_area().as_coord_spec());
+    let f = (avail_w / (bb[1] - bb[0]).max(1) as f64).min(avail_h / (bb[3] - bb[2]).max(1) as f64);
+    let k = k0 * f;
+    set_size(&mut chart, k);
+
+    let fmt_y = |v: &f64| fmt_tick(-*v);
+    let fmt_v = |v: &f64| fmt_tick(*v);
+    chart
+        .configure_axes()
+        .label_style(text(13.0))
+        .x_labels(6)
+        .y_labels(6)
+        .z_labels(6)
+        .max_light_lines(1)
+        .light_grid_style(RGBColor(235, 235, 235))
+        .bold_grid_style(GRID_GRAY)
+        .axis_panel_style(RGBColor(248, 248, 248).filled())
+        .x_formatter(&fmt_v)
+        .y_formatter(&fmt_v)
+        .z_formatter(&fmt_y)
+        .draw()
+        .map_err(de)?;
+
+    let coord = chart.plotting_area().as_coord_spec();
+    // Pixels per world unit: the rows of an orthographic rotation are orthonormal, so the three
+    // projected axis vectors of length L carry 2·(s·L)² in total. translate() rounds to pixels,
+    // so measure on long vectors.
+    let big = 1000.0 / k;
+    let o = coord.translate(&(0.0, 0.0, 0.0));
+    let mut sq = 0.0;
+    for e in [(big, 0.0, 0.0), (0.0, big, 0.0), (0.0, 0.0, big)] {
+        let p = coord.translate(&e);
+        sq += ((p.0 - o.0) as f64).powi(2) + ((p.1 - o.1) as f64).powi(2);
+    }
+    let scale = (sq / 2.0).sqrt() / big;
+    let proj = AxonometricView { coord, scale };
+
+    draw_axis_titles(root, coord, b, plot_area, title_size)?;
+
+    if let Some(z) = fig.ground_z {
+        let q = [
+            [b[0][0], b[1][0], z],
+            [b[0][1], b[1][0], z],
+            [b[0][1], b[1][1], z],
+            [b[0][0], b[1][1], z],
+        ];
+        let pts: Vec<_> = q.iter().map(|&v| proj.px(v)).collect();
+        root.draw(&Polygon::new(pts, GROUND.mix(0.45).filled()))
+            .map_err(de)?;
+    }
+    render_prims(root, &proj, scene_prims(fig))?;
+    render_margin(root, &proj, fig)?;
+    render_targets(root, &proj, fig)?;
+    Ok(())
+}
+
 /// Puts "x [m]", "y [m]", "z [m]" beside the box edges on which plotters draws the tick labels (the
 /// same choice as plotters' `draw_axis`: the nearest back-panel edge, then the highest).
 fn draw_axis_titles(
@@ -1229,6 +1310,7 @@ fn draw_axis_titles(
     coord: &Coord3,
     b: &[[f64; 2]; 3],
     plot_area: &Area,
+    size: f64,
 ) -> Result<(), PlotError> {
     // Ranges in plotters' axis order (X = x, Y = z, Z = −y).
     let r = [[b[0][0], b[0][1]], [b[2][0], b[2][1]], [-b[1][1], -b[1][0]]];
@@ -1268,14 +1350,16 @@ fn draw_axis_titles(
         let m = ((ps.0 + pe.0) as f64 / 2.0, (ps.1 + pe.1) as f64 / 2.0);
         let d = (m.0 - centre.0 as f64, m.1 - centre.1 as f64);
         let n = (d.0 * d.0 + d.1 * d.1).sqrt().max(1.0);
+        // Tick labels beside a vertical edge extend sideways, so go further out there.
+        let off = if d.0.abs() > d.1.abs() { 4.2 } else { 3.0 } * size;
         let at = (
-            (m.0 + d.0 / n * 52.0).round() as i32,
-            (m.1 + d.1 / n * 52.0).round() as i32,
+            (m.0 + d.0 / n * off).round() as i32,
+            (m.1 + d.1 / n * off).round() as i32,
         );
         root.draw(&Text::new(
             names[idx].to_string(),
             at,
-            text(17.0).pos(Pos::new(HPos::Center, VPos::Center)),
+            text(size).pos(Pos::new(HPos::Center, VPos::Center)),
         ))
         .map_err(de)?;
     }
@@ -1980,6 +2064,16 @@ mod tests {
             assert!(count(&px, MARGIN_RED) > 20, "{name}: safety margin");
             assert!(count(&px, RGBColor(105, 110, 125)) > 50, "{name}: sphere");
         }
+        let panels = [fig.clone(), fig.clone(), fig];
+        let path = dir.join("panels.png");
+        draw_trajectory_panels("three", &panels, 2, &path).expect("panels");
+        let (w, h, px) = decode(&path);
+        assert_eq!((w, h), (2 * 460 + 250, 2 * 440 + 50));
+        assert!(count(&px, PATH_COLORS[0]) > 300, "three purple paths");
+        assert!(matches!(
+            draw_trajectory_panels("none", &[], 2, &path),
+            Err(PlotError::InvalidData(_))
+        ));
         let _ = std::fs::remove_dir_all(&dir);
     }
 
