@@ -1,0 +1,227 @@
+//! Helpers shared by the integration tests: small scenes, a tiny deterministic RNG, finite
+//! differences and the comparison used throughout.
+
+#![allow(dead_code)]
+
+use autodiff::Tensor;
+use cloth::scene::{
+    Bending, BendingModel, InitialControls, Obstacle, ObstacleRole, Plane, SphereSet, Stiffness,
+    Target,
+};
+use cloth::{Model, Scene};
+
+/// xorshift64*: deterministic pseudo-random numbers without an RNG crate.
+pub struct XorShift(u64);
+
+impl XorShift {
+    pub fn new(seed: u64) -> Self {
+        XorShift(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+    /// Uniform in `[0, 1)`.
+    pub fn next_f64(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Uniform in `[a, b)`.
+    pub fn uniform(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.next_f64()
+    }
+    /// A vector uniform in `[-1, 1]^n`.
+    pub fn direction(&mut self, n: usize) -> Vec<f64> {
+        (0..n).map(|_| self.uniform(-1.0, 1.0)).collect()
+    }
+}
+
+/// Which bending model a small scene uses.
+#[derive(Clone, Copy, Debug)]
+pub enum BendKind {
+    None,
+    Distance(f64),
+    Dihedral(f64),
+}
+
+/// A small hanging cloth (`rows × cols`, side 1, in the plane `y = −1.5`, top at `z = 2`),
+/// gripped at its two top corners, `T = horizon`, with the bottom row as targets.
+pub fn small_scene(
+    rows: usize,
+    cols: usize,
+    horizon: usize,
+    iterations: usize,
+    stretch: f64,
+    bending: BendKind,
+) -> Scene {
+    let mut s = Scene::builtin("swing").unwrap();
+    s.name = format!("small{rows}x{cols}");
+    s.cloth.rows = rows;
+    s.cloth.cols = cols;
+    s.physics.iterations = iterations;
+    s.task.horizon = horizon;
+    s.material.stretch = if stretch.is_infinite() {
+        Stiffness::Infinite
+    } else {
+        Stiffness::Finite(stretch)
+    };
+    s.material.bending = match bending {
+        BendKind::None => None,
+        BendKind::Distance(k) => Some(Bending {
+            model: BendingModel::Distance,
+            stiffness: Stiffness::Finite(k),
+        }),
+        BendKind::Dihedral(k) => Some(Bending {
+            model: BendingModel::Dihedral,
+            stiffness: Stiffness::Finite(k),
+        }),
+    };
+    s.controls = vec![[0, 0], [0, cols - 1]];
+    s.task.targets = (0..cols)
+        .map(|c| Target {
+            particle: [rows - 1, c],
+            position: [-0.5 + c as f64 / (cols - 1) as f64, 1.0, 1.5],
+        })
+        .collect();
+    s.task.initial_controls = InitialControls::Zeros;
+    s.validate().unwrap();
+    s
+}
+
+/// A sphere-set obstacle.
+pub fn spheres(centers: Vec<[f64; 3]>, radii: Vec<f64>, role: ObstacleRole) -> Obstacle {
+    Obstacle::Spheres(SphereSet {
+        centers,
+        radii,
+        role,
+    })
+}
+
+/// A plane obstacle.
+pub fn plane(point: [f64; 3], normal: [f64; 3], role: ObstacleRole) -> Obstacle {
+    Obstacle::Plane(Plane {
+        point,
+        normal,
+        role,
+    })
+}
+
+/// The scene's initial control guess as a tensor.
+pub fn initial_controls(scene: &Scene) -> Tensor {
+    let u = scene.initial_controls_array();
+    Tensor::new(
+        u.len(),
+        3 * scene.controls.len(),
+        u.into_iter().flatten().flatten().collect(),
+    )
+}
+
+/// Controls from a flat list of values (`horizon × 3·n_controls`).
+pub fn controls_from(model: &Model, values: &[f64]) -> Tensor {
+    Tensor::new(
+        model.task.horizon,
+        3 * model.n_controls(),
+        values[..model.task.horizon * 3 * model.n_controls()].to_vec(),
+    )
+}
+
+/// `u + s·d`.
+pub fn shifted(u: &Tensor, d: &[f64], s: f64) -> Tensor {
+    let mut v = u.clone();
+    for (x, di) in v.data_mut().iter_mut().zip(d) {
+        *x += s * di;
+    }
+    v
+}
+
+/// `⟨a, b⟩`.
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Central difference of `f` at `u` along `d` with step `h`.
+pub fn central(f: &dyn Fn(&Tensor) -> f64, u: &Tensor, d: &[f64], h: f64) -> f64 {
+    (f(&shifted(u, d, h)) - f(&shifted(u, d, -h))) / (2.0 * h)
+}
+
+/// `|a − b| / (max(|a|, |b|) + floor/rel)`: the relative error with an absolute floor, scaled so
+/// that `rel_err(..) ≤ rel` means `|a − b| ≤ rel·max(|a|, |b|) + floor`.
+pub fn within(a: f64, b: f64, rel: f64, floor: f64) -> bool {
+    (a - b).abs() <= rel * a.abs().max(b.abs()) + floor
+}
+
+/// The excess of `|a − b|` over `rel·max(|a|,|b|) + floor`, as a ratio (≤ 1 passes).
+pub fn ratio(a: f64, b: f64, rel: f64, floor: f64) -> f64 {
+    (a - b).abs() / (rel * a.abs().max(b.abs()) + floor)
+}
+
+/// True when the two tensors are equal bit for bit.
+pub fn bitwise_eq(a: &Tensor, b: &Tensor) -> bool {
+    a.shape() == b.shape()
+        && a.data()
+            .iter()
+            .zip(b.data())
+            .all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+/// Replays [`Model::simulate`] step by step with the same kernel ([`autodiff::update::update_rows`])
+/// and records, for every projection of a row of the group named `watch`, whether it was active
+/// (`c(x) < 0`, with `c` the caller's function of the row's first particle) and the smallest `|c|`
+/// seen. Returns the states (which must equal `simulate`'s bit for bit), the activity pattern and
+/// the margin.
+pub fn replay_watching(
+    model: &Model,
+    controls: &Tensor,
+    watch: &str,
+    c: &dyn Fn(&[f64]) -> f64,
+) -> (Vec<Tensor>, Vec<bool>, f64) {
+    use autodiff::update::update_rows;
+    let mut states = vec![model.rest.clone()];
+    let mut pattern = Vec::new();
+    let mut margin = f64::INFINITY;
+    let (mut inputs, mut outputs) = (Vec::new(), Vec::new());
+    for t in 0..model.task.horizon {
+        let prev = &states[t];
+        let mut x = prev.clone();
+        if let Some(g) = model.gravity_step {
+            for row in x.data_mut().chunks_exact_mut(3) {
+                for k in 0..3 {
+                    row[k] += g[k];
+                }
+            }
+        }
+        for (k, &p) in model.controls.as_slice().iter().enumerate() {
+            for j in 0..3 {
+                x.row_mut(p)[j] = prev.get(p, j) + controls.get(t, 3 * k + j);
+            }
+        }
+        let sets: Vec<(&str, &cloth::model::ProjectionSet)> = model
+            .groups
+            .iter()
+            .flat_map(|g| g.sets.iter().map(move |s| (g.name.as_str(), s)))
+            .collect();
+        let mut lambdas: Vec<Tensor> = sets
+            .iter()
+            .map(|(_, s)| Tensor::zeros(s.index.rows(), 1))
+            .collect();
+        for _ in 0..model.iterations {
+            for ((name, set), lambda) in sets.iter().zip(lambdas.iter_mut()) {
+                if *name == watch {
+                    for k in 0..set.index.rows() {
+                        let v = c(x.row(set.index.row(k)[0]));
+                        pattern.push(v < 0.0);
+                        margin = margin.min(v.abs());
+                    }
+                }
+                update_rows(
+                    set.projection.as_ref(),
+                    &set.index,
+                    &mut x,
+                    lambda,
+                    &mut inputs,
+                    &mut outputs,
+                );
+            }
+        }
+        states.push(x);
+    }
+    (states, pattern, margin)
+}
