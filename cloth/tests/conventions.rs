@@ -93,7 +93,7 @@ fn target_error_at_zero_has_gradient_zero() {
     let ev = model.evaluate(&u, 0.0, true).unwrap();
     assert_eq!(ev.metrics.g, 0.0);
     let beta = model.task.beta;
-    let energy = |tape: &mut autodiff::Tape, _t: usize, x: autodiff::Var| {
+    let energy = |tape: &mut autodiff::Tape, _t: usize, _prev: autodiff::Var, x: autodiff::Var| {
         model.record_energy(tape, x).map(|e| tape.scale(e, beta))
     };
     let mut expected = model.gradients(&ev.states, &u, &[&energy]).remove(0);

@@ -177,7 +177,6 @@ pub fn replay_watching(
     let mut states = vec![model.rest.clone()];
     let mut pattern = Vec::new();
     let mut margin = f64::INFINITY;
-    let (mut inputs, mut outputs) = (Vec::new(), Vec::new());
     for t in 0..model.task.horizon {
         let prev = &states[t];
         let mut x = prev.clone();
@@ -211,14 +210,7 @@ pub fn replay_watching(
                         margin = margin.min(v.abs());
                     }
                 }
-                update_rows(
-                    set.projection.as_ref(),
-                    &set.index,
-                    &mut x,
-                    lambda,
-                    &mut inputs,
-                    &mut outputs,
-                );
+                update_rows(set.projection.as_ref(), &set.index, &mut x, lambda, None);
             }
         }
         states.push(x);
