@@ -2,8 +2,11 @@
 //!
 //! Glue between the `cloth` simulator and the `optim` solvers: [`problem::TrajectoryProblem`]
 //! casts a cloth task as an optimization problem; [`plan`] runs it and packages the result;
-//! [`plot`] draws the figures.
+//! [`plot`] draws figures and [`figures`] builds them from rollouts; [`export`] writes way-points
+//! and meshes for robots and viewers.
 
+pub mod export;
+pub mod figures;
 pub mod plan;
 pub mod plot;
 pub mod problem;

@@ -3,6 +3,7 @@
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use cloth::{Controls, Model, Scene};
+use clothopt::figures::{top_view_path, RolloutFigure};
 use clothopt::plan::{self, controls_from_nested, initial_controls, PlanOptions, SolverKind};
 use clothopt::problem::SafetyForm;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -33,6 +34,9 @@ enum Command {
         /// Write the rollout (metrics, controls, states) as JSON.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Draw the rollout: a 3-D view here and a top view beside it (`*_top.png`).
+        #[arg(long)]
+        png: Option<PathBuf>,
     },
     /// Print L, its terms, C and their gradients with respect to the controls as one JSON object.
     Grad {
@@ -82,9 +86,29 @@ enum Command {
         /// Write the result JSON here.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Scaled KKT tolerance for `converged`.
+        #[arg(long, default_value_t = 1e-4)]
+        tol: f64,
+        /// Draw the result: a 3-D view here and a top view beside it (`*_top.png`).
+        #[arg(long)]
+        png: Option<PathBuf>,
         /// Print one line per optimizer iteration to stderr.
         #[arg(long)]
         verbose: bool,
+    },
+    /// Export a result: dense way-points of the control points (CSV) and/or one OBJ mesh per step.
+    Export {
+        /// A result JSON written by `optimize --out` (or `simulate --out`).
+        result: PathBuf,
+        /// Write the control points' way-points here (CSV).
+        #[arg(long)]
+        waypoints: Option<PathBuf>,
+        /// Way-points per step (linear interpolation between steps).
+        #[arg(long, default_value_t = 10)]
+        per_step: usize,
+        /// Write one OBJ mesh per step into this directory.
+        #[arg(long)]
+        obj: Option<PathBuf>,
     },
 }
 
@@ -138,6 +162,7 @@ fn run(cli: Cli) -> Result<()> {
             scene,
             controls,
             out,
+            png,
         } => {
             let scene = load_scene(&scene)?;
             let model = Model::from_scene(&scene)?;
@@ -152,10 +177,21 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(out) = out {
                 let result = serde_json::json!({
                     "scene": scene.name, "delta": scene.task.delta, "metrics": m,
+                    "grid": [scene.cloth.rows, scene.cloth.cols],
+                    "control_particles": model.controls.as_slice(),
                     "controls": plan::controls_to_nested(&u),
                     "states": ev.states.iter().map(plan::state_points).collect::<Vec<_>>(),
                 });
                 plan::write_json_atomic(&out, &result)?;
+            }
+            if let Some(png) = png {
+                draw(
+                    &model,
+                    &scene,
+                    &ev.states,
+                    &format!("{} (simulated)", scene.name),
+                    &png,
+                )?;
             }
         }
         Command::Grad {
@@ -192,6 +228,8 @@ fn run(cli: Cli) -> Result<()> {
             active_band,
             solver,
             out,
+            tol,
+            png,
             verbose,
         } => {
             let scene = load_scene(&scene)?;
@@ -209,6 +247,7 @@ fn run(cli: Cli) -> Result<()> {
             options.task.beta = beta.unwrap_or(options.task.beta);
             options.task.safety = model.safety.is_some().then_some(safety);
             options.task.swept = swept;
+            options.tol_optimality = tol;
             options.task.kappa = kappa.unwrap_or(options.task.kappa);
             options.task.active_band = active_band.unwrap_or(options.task.active_band);
             let start = initial_controls(&scene, &model)?;
@@ -219,7 +258,7 @@ fn run(cli: Cli) -> Result<()> {
                 )
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
             );
-            let result = plan::plan(&model, &scene.name, &start, &options, |info| {
+            let result = plan::plan(&model, &scene, &start, &options, |info| {
                 if verbose {
                     bar.suspend(|| {
                         eprintln!(
@@ -266,10 +305,105 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(out) = out {
                 plan::write_json_atomic(&out, &result)?;
             }
+            if let Some(png) = png {
+                let states = plan::states_of(&result)?;
+                let title = format!(
+                    "{}  δ = {}  ({})",
+                    result.scene, result.delta, result.status
+                );
+                draw(&model, &scene, &states, &title, &png)?;
+            }
             if result.status == "infeasible" {
                 bail!("no feasible trajectory found: {}", result.message);
             }
         }
+        Command::Export {
+            result,
+            waypoints,
+            per_step,
+            obj,
+        } => {
+            let text = std::fs::read_to_string(&result)
+                .with_context(|| format!("cannot read {}", result.display()))?;
+            let parsed: ExportInput = serde_json::from_str(&text)
+                .with_context(|| format!("{}: not a clothopt result", result.display()))?;
+            let [rows, cols] = parsed.grid;
+            if let Some(bad) = parsed.states.iter().position(|s| s.len() != rows * cols) {
+                bail!(
+                    "{}: states[{bad}] has {} points for a {rows} × {cols} grid",
+                    result.display(),
+                    parsed.states[bad].len()
+                );
+            }
+            if let Some(&p) = parsed.control_particles.iter().find(|&&p| p >= rows * cols) {
+                bail!("{}: control particle {p} out of range", result.display());
+            }
+            if waypoints.is_none() && obj.is_none() {
+                bail!("nothing to export: give --waypoints FILE and/or --obj DIR");
+            }
+            if let Some(path) = waypoints {
+                let paths: Vec<Vec<[f64; 3]>> = parsed
+                    .control_particles
+                    .iter()
+                    .map(|&p| parsed.states.iter().map(|s| s[p]).collect())
+                    .collect();
+                plan::write_atomic(
+                    &path,
+                    clothopt::export::waypoints_csv(&paths, per_step).as_bytes(),
+                )?;
+                println!(
+                    "wrote {} ({} way-points per step)",
+                    path.display(),
+                    per_step.max(1)
+                );
+            }
+            if let Some(dir) = obj {
+                std::fs::create_dir_all(&dir)
+                    .with_context(|| format!("cannot create {}", dir.display()))?;
+                for (t, state) in parsed.states.iter().enumerate() {
+                    let path = dir.join(format!("step_{t:03}.obj"));
+                    plan::write_atomic(
+                        &path,
+                        clothopt::export::obj_mesh(state, rows, cols).as_bytes(),
+                    )?;
+                }
+                println!(
+                    "wrote {} OBJ meshes to {}",
+                    parsed.states.len(),
+                    dir.display()
+                );
+            }
+        }
     }
+    Ok(())
+}
+
+/// What `export` needs from a result file.
+#[derive(serde::Deserialize)]
+struct ExportInput {
+    grid: [usize; 2],
+    control_particles: Vec<usize>,
+    states: Vec<Vec<[f64; 3]>>,
+}
+
+/// Draws a rollout's 3-D view to `png` and its top view beside it.
+fn draw(
+    model: &Model,
+    scene: &Scene,
+    states: &[autodiff::Tensor],
+    title: &str,
+    png: &Path,
+) -> Result<()> {
+    let figure = RolloutFigure::new(
+        model,
+        (scene.cloth.rows, scene.cloth.cols),
+        states,
+        title,
+        Some(scene.task.delta),
+    );
+    figure.draw_3d(png)?;
+    let top = top_view_path(png);
+    figure.draw_top(&top)?;
+    println!("wrote {} and {}", png.display(), top.display());
     Ok(())
 }

@@ -33,22 +33,27 @@ pub struct PlanOptions {
     /// SQP step bound: `‖d‖∞ ≤ scale · max(1, ‖U‖∞)`, in control units (a control is a
     /// displacement per step; 0.5 is half a cloth width).
     pub step_bound: f64,
+    /// Scaled KKT (stationarity) tolerance for `converged`. The default 1e-4 is met once the
+    /// objective stops changing in its 8th digit on the built-in scenes; much tighter values hit
+    /// the accuracy of the QP multipliers at the trajectory term's kinks (≈1e-5) and end `stalled`.
+    pub tol_optimality: f64,
 }
 
 impl PlanOptions {
-    /// Defaults for `model`: its own task, SQP, 200 iterations, step bound 0.5.
+    /// Defaults for `model`: its own task, SQP, 200 iterations, step bound 0.5, KKT tolerance 1e-4.
     pub fn for_model(model: &Model) -> Self {
         PlanOptions {
             task: TaskOptions::for_model(model),
             iterations: 200,
             solver: SolverKind::Sqp,
             step_bound: 0.5,
+            tol_optimality: 1e-4,
         }
     }
 }
 
 /// A planning run's outcome: what the result JSON holds.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct PlanResult {
     /// Scene name.
     pub scene: String,
@@ -70,6 +75,10 @@ pub struct PlanResult {
     pub kkt_residual: f64,
     /// The paper's metrics at the returned controls.
     pub metrics: Metrics,
+    /// Cloth grid `[rows, cols]` (particle `r·cols + c`).
+    pub grid: [usize; 2],
+    /// Particle index of each control point.
+    pub control_particles: Vec<usize>,
     /// Controls: `T × controls × 3`.
     pub controls: Vec<Vec<[f64; 3]>>,
     /// States `0..=T`: `(T + 1) × N × 3`.
@@ -137,7 +146,7 @@ pub fn initial_controls(scene: &Scene, model: &Model) -> Result<Controls, cloth:
 /// Optimizes `model`'s task from `start`, calling `progress` after every iteration.
 pub fn plan(
     model: &Model,
-    scene_name: &str,
+    scene: &Scene,
     start: &Controls,
     options: &PlanOptions,
     mut progress: impl FnMut(&IterationInfo),
@@ -154,6 +163,7 @@ pub fn plan(
             let settings = SqpSettings::builder()
                 .max_iterations(options.iterations)
                 .step_bound_scale(options.step_bound)
+                .tol_optimality(options.tol_optimality)
                 .build()?;
             SqpSolver::new(settings)?.solve_with_callback(&mut problem, start.data(), callback)?
         }
@@ -176,7 +186,7 @@ pub fn plan(
     scored.task.beta = options.task.beta;
     let evaluation = scored.evaluate(&controls, options.task.delta, false)?;
     Ok(PlanResult {
-        scene: scene_name.to_string(),
+        scene: scene.name.clone(),
         delta: options.task.delta,
         status: solution.status.name().to_string(),
         message: solution.message.clone(),
@@ -186,10 +196,24 @@ pub fn plan(
         wall_s,
         kkt_residual: solution.kkt_residual,
         metrics: evaluation.metrics,
+        grid: [scene.cloth.rows, scene.cloth.cols],
+        control_particles: model.controls.as_slice().to_vec(),
         controls: controls_to_nested(&controls),
         states: Some(evaluation.states.iter().map(state_points).collect()),
         solver_status: Some(solution.status),
     })
+}
+
+/// The states of a result as tensors (`N × 3` each).
+pub fn states_of(result: &PlanResult) -> anyhow::Result<Vec<Tensor>> {
+    let states = result
+        .states
+        .as_ref()
+        .ok_or_else(|| anyhow::anyhow!("the result holds no states"))?;
+    Ok(states
+        .iter()
+        .map(|s| Tensor::new(s.len(), 3, s.iter().flatten().copied().collect()))
+        .collect())
 }
 
 /// Writes `value` as pretty JSON to `path` atomically: a temporary file beside it, then a rename,

@@ -14,7 +14,7 @@ use autodiff::{Tape, Tensor, Var};
 pub type StepCost<'a> = &'a (dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync);
 
 /// The paper's metrics of one rollout.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Metrics {
     /// Target error `G`.
     #[serde(rename = "G")]
