@@ -51,7 +51,7 @@ pub struct TaskOptions {
 
 impl TaskOptions {
     /// The scene's own weights and margin, the per-step safety form when the scene has safety
-    /// obstacles, κ = 200, active band 0.2.
+    /// obstacles, κ = 200, active band 0.5.
     pub fn for_model(model: &Model) -> Self {
         TaskOptions {
             delta: model.task.delta,
@@ -60,7 +60,7 @@ impl TaskOptions {
             safety: model.safety.is_some().then_some(SafetyForm::PerStep),
             swept: false,
             kappa: 200.0,
-            active_band: 0.2,
+            active_band: 0.5,
         }
     }
 }

@@ -1,0 +1,178 @@
+//! The paper's safety experiment: `u_obstacle` for δ ∈ {0.05, 0.20, 0.40}, plus δ = 0.20 with the
+//! straight paths between steps constrained too. Prints the paper's Table I with status, iterations
+//! and wall time, says which way each trajectory went, writes the runs as JSON and draws, per run,
+//! a 3-D and a top view (the paper's Fig. 4).
+//!
+//! `cargo run --release --example safety [-- --out FILE --png-dir DIR]`
+
+use anyhow::Result;
+use autodiff::Tensor;
+use clap::Parser;
+use cloth::{Model, Scene};
+use clothopt::figures::RolloutFigure;
+use clothopt::plan::{self, PlanOptions, PlanResult};
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(about = "The paper's safety experiment on u_obstacle")]
+struct Args {
+    /// Write `{"runs": [...]}` (results without states) here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Draw a 3-D and a top view per run into this directory.
+    #[arg(long)]
+    png_dir: Option<PathBuf>,
+    /// Optimizer iteration limit per run.
+    #[arg(long, default_value_t = 200)]
+    iterations: usize,
+}
+
+/// SciPy SLSQP with exact JAX gradients on the same scene (issue 5): (δ, L, feasible).
+const PEERS: [(f64, f64, bool); 3] = [(0.05, 0.517, false), (0.20, 0.870, true), (0.40, 1.942, false)];
+
+/// Where the cloth crossed the obstacle's plane `y = 0`, in words.
+fn route(states: &[Tensor]) -> String {
+    let n = states[0].rows();
+    let mut crossings = Vec::new();
+    for p in 0..n {
+        for t in 1..states.len() {
+            let (a, b) = (states[t - 1].row(p), states[t].row(p));
+            if a[1] < 0.0 && b[1] >= 0.0 {
+                let s = -a[1] / (b[1] - a[1]);
+                crossings.push([a[0] + s * (b[0] - a[0]), a[2] + s * (b[2] - a[2])]);
+                break;
+            }
+        }
+    }
+    if crossings.is_empty() {
+        return "never crossed the obstacle plane".into();
+    }
+    let (xmin, xmax) = crossings.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| (lo.min(c[0]), hi.max(c[0])));
+    let zmin = crossings.iter().map(|c| c[1]).fold(f64::INFINITY, f64::min);
+    // The U: post centres at |x| = 0.75 (inner surfaces |x| = 0.5), post tops at z = 3.0, bar top
+    // at z = 0.5. Between two post spheres the surface recedes, so a crossing may reach |x| > 0.5.
+    if zmin > 3.0 {
+        format!("over the top of the obstacle (lowest crossing z = {zmin:.2})")
+    } else if xmin > 1.0 || xmax < -1.0 {
+        "around the side of the obstacle".into()
+    } else if xmin > -0.75 && xmax < 0.75 && zmin >= 0.5 {
+        let span = xmax - xmin;
+        if span < 0.6 {
+            format!("through the opening, turned edge-on (crossing width {span:.2} of 1.00)")
+        } else {
+            format!("through the opening, diagonally (crossing width {span:.2} of 1.00)")
+        }
+    } else {
+        format!("partly around the obstacle (crossings x ∈ [{xmin:.2}, {xmax:.2}], z ≥ {zmin:.2})")
+    }
+}
+
+struct Run {
+    label: String,
+    swept: bool,
+    result: PlanResult,
+    states: Vec<Tensor>,
+}
+
+fn main() -> Result<()> {
+    let args = Args::parse();
+    let scene = Scene::builtin("u_obstacle")?;
+    let model = Model::from_scene(&scene)?;
+    let start = plan::initial_controls(&scene, &model)?;
+    let configs = [(0.05, false), (0.20, false), (0.40, false), (0.20, true)];
+    let mut runs = Vec::new();
+    for (delta, swept) in configs {
+        let mut options = PlanOptions::for_model(&model);
+        options.task.delta = delta;
+        options.task.swept = swept;
+        options.iterations = args.iterations;
+        let label = format!("δ = {delta:.2}{}", if swept { " swept" } else { "" });
+        eprintln!("optimizing {label} …");
+        let mut result = plan::plan(&model, &scene, &start, &options, |_| {})?;
+        let states = plan::states_of(&result)?;
+        result.states = None;
+        runs.push(Run {
+            label,
+            swept,
+            result,
+            states,
+        });
+    }
+
+    println!("\nTable I — u_obstacle, L = G + αT + βE (α = {}, β = {})", scene.task.alpha, scene.task.beta);
+    print!("{:<14}", "metric");
+    for run in &runs {
+        print!("{:>16}", run.label);
+    }
+    println!();
+    let rows: [(&str, fn(&PlanResult) -> String); 11] = [
+        ("G", |r| format!("{:.4}", r.metrics.g)),
+        ("αT", |r| format!("{:.4}", r.metrics.alpha_t)),
+        ("βE", |r| format!("{:.4}", r.metrics.beta_e)),
+        ("L", |r| format!("{:.4}", r.metrics.l)),
+        ("C", |r| format!("{:.1e}", r.metrics.c)),
+        ("min SDF", |r| format!("{:.4}", r.metrics.min_sdf)),
+        ("min SDF swept", |r| format!("{:.4}", r.metrics.min_sdf_swept)),
+        ("status", |r| r.status.clone()),
+        ("iterations", |r| r.iterations.to_string()),
+        ("simulations", |r| r.evaluations.to_string()),
+        ("wall [s]", |r| format!("{:.1}", r.wall_s)),
+    ];
+    for (name, cell) in rows {
+        print!("{name:<14}");
+        for run in &runs {
+            print!("{:>16}", cell(&run.result));
+        }
+        println!();
+    }
+
+    println!("\nRoutes:");
+    for run in &runs {
+        println!("  {:<14} {}", run.label, route(&run.states));
+    }
+
+    println!("\nVerdicts (feasible: C ≥ −1e−6 and min SDF ≥ δ − 1e−3; peers: SciPy SLSQP + JAX gradients):");
+    let mut all_ok = true;
+    for run in &runs {
+        let r = &run.result;
+        let feasible = r.metrics.c >= -1e-6 && r.metrics.min_sdf >= r.delta - 1e-3;
+        let swept_ok = !run.swept || r.metrics.min_sdf_swept >= r.delta - 1e-2;
+        let peer = PEERS.iter().find(|p| (p.0 - r.delta).abs() < 1e-9 && !run.swept);
+        let vs_peer = peer.map_or(String::new(), |&(_, l, ok)| {
+            format!("; peer L = {l:.3} ({})", if ok { "feasible" } else { "infeasible" })
+        });
+        let ok = feasible && r.status == "converged" && swept_ok;
+        all_ok &= ok;
+        println!(
+            "  {} {:<14} {} {} L = {:.4}{}{}",
+            if ok { "PASS" } else { "FAIL" },
+            run.label,
+            if feasible { "feasible," } else { "INFEASIBLE," },
+            r.status,
+            r.metrics.l,
+            vs_peer,
+            if run.swept { format!("; swept min SDF {:.4}", r.metrics.min_sdf_swept) } else { String::new() },
+        );
+    }
+
+    if let Some(out) = &args.out {
+        let results: Vec<&PlanResult> = runs.iter().map(|r| &r.result).collect();
+        plan::write_json_atomic(out, &serde_json::json!({ "runs": results }))?;
+        println!("\nwrote {}", out.display());
+    }
+    if let Some(dir) = &args.png_dir {
+        std::fs::create_dir_all(dir)?;
+        for run in &runs {
+            let tag = format!("{:.2}{}", run.result.delta, if run.swept { "_swept" } else { "" });
+            let title = format!("u_obstacle  {}  ({})", run.label, run.result.status);
+            let fig = RolloutFigure::new(&model, (scene.cloth.rows, scene.cloth.cols), &run.states, &title, Some(run.result.delta));
+            fig.draw_3d(&dir.join(format!("safety_{tag}.png")))?;
+            fig.draw_top(&dir.join(format!("safety_{tag}_top.png")))?;
+        }
+        println!("wrote figures to {}", dir.display());
+    }
+    if !all_ok {
+        std::process::exit(1);
+    }
+    Ok(())
+}
