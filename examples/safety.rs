@@ -28,7 +28,11 @@ struct Args {
 }
 
 /// SciPy SLSQP with exact JAX gradients on the same scene (issue 5): (δ, L, feasible).
-const PEERS: [(f64, f64, bool); 3] = [(0.05, 0.517, false), (0.20, 0.870, true), (0.40, 1.942, false)];
+const PEERS: [(f64, f64, bool); 3] = [
+    (0.05, 0.517, false),
+    (0.20, 0.870, true),
+    (0.40, 1.942, false),
+];
 
 /// Where the cloth crossed the obstacle's plane `y = 0`, in words.
 fn route(states: &[Tensor]) -> String {
@@ -47,7 +51,11 @@ fn route(states: &[Tensor]) -> String {
     if crossings.is_empty() {
         return "never crossed the obstacle plane".into();
     }
-    let (xmin, xmax) = crossings.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| (lo.min(c[0]), hi.max(c[0])));
+    let (xmin, xmax) = crossings
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+            (lo.min(c[0]), hi.max(c[0]))
+        });
     let zmin = crossings.iter().map(|c| c[1]).fold(f64::INFINITY, f64::min);
     // The U: post centres at |x| = 0.75 (inner surfaces |x| = 0.5), post tops at z = 3.0, bar top
     // at z = 0.5. Between two post spheres the surface recedes, so a crossing may reach |x| > 0.5.
@@ -99,7 +107,10 @@ fn main() -> Result<()> {
         });
     }
 
-    println!("\nTable I — u_obstacle, L = G + αT + βE (α = {}, β = {})", scene.task.alpha, scene.task.beta);
+    println!(
+        "\nTable I — u_obstacle, L = G + αT + βE (α = {}, β = {})",
+        scene.task.alpha, scene.task.beta
+    );
     print!("{:<14}", "metric");
     for run in &runs {
         print!("{:>16}", run.label);
@@ -112,7 +123,9 @@ fn main() -> Result<()> {
         ("L", |r| format!("{:.4}", r.metrics.l)),
         ("C", |r| format!("{:.1e}", r.metrics.c)),
         ("min SDF", |r| format!("{:.4}", r.metrics.min_sdf)),
-        ("min SDF swept", |r| format!("{:.4}", r.metrics.min_sdf_swept)),
+        ("min SDF swept", |r| {
+            format!("{:.4}", r.metrics.min_sdf_swept)
+        }),
         ("status", |r| r.status.clone()),
         ("iterations", |r| r.iterations.to_string()),
         ("simulations", |r| r.evaluations.to_string()),
@@ -137,9 +150,14 @@ fn main() -> Result<()> {
         let r = &run.result;
         let feasible = r.metrics.c >= -1e-6 && r.metrics.min_sdf >= r.delta - 1e-3;
         let swept_ok = !run.swept || r.metrics.min_sdf_swept >= r.delta - 1e-2;
-        let peer = PEERS.iter().find(|p| (p.0 - r.delta).abs() < 1e-9 && !run.swept);
+        let peer = PEERS
+            .iter()
+            .find(|p| (p.0 - r.delta).abs() < 1e-9 && !run.swept);
         let vs_peer = peer.map_or(String::new(), |&(_, l, ok)| {
-            format!("; peer L = {l:.3} ({})", if ok { "feasible" } else { "infeasible" })
+            format!(
+                "; peer L = {l:.3} ({})",
+                if ok { "feasible" } else { "infeasible" }
+            )
         });
         let ok = feasible && r.status == "converged" && swept_ok;
         all_ok &= ok;
@@ -151,7 +169,11 @@ fn main() -> Result<()> {
             r.status,
             r.metrics.l,
             vs_peer,
-            if run.swept { format!("; swept min SDF {:.4}", r.metrics.min_sdf_swept) } else { String::new() },
+            if run.swept {
+                format!("; swept min SDF {:.4}", r.metrics.min_sdf_swept)
+            } else {
+                String::new()
+            },
         );
     }
 
@@ -163,9 +185,19 @@ fn main() -> Result<()> {
     if let Some(dir) = &args.png_dir {
         std::fs::create_dir_all(dir)?;
         for run in &runs {
-            let tag = format!("{:.2}{}", run.result.delta, if run.swept { "_swept" } else { "" });
+            let tag = format!(
+                "{:.2}{}",
+                run.result.delta,
+                if run.swept { "_swept" } else { "" }
+            );
             let title = format!("u_obstacle  {}  ({})", run.label, run.result.status);
-            let fig = RolloutFigure::new(&model, (scene.cloth.rows, scene.cloth.cols), &run.states, &title, Some(run.result.delta));
+            let fig = RolloutFigure::new(
+                &model,
+                (scene.cloth.rows, scene.cloth.cols),
+                &run.states,
+                &title,
+                Some(run.result.delta),
+            );
             fig.draw_3d(&dir.join(format!("safety_{tag}.png")))?;
             fig.draw_top(&dir.join(format!("safety_{tag}_top.png")))?;
         }

@@ -86,6 +86,10 @@ enum Command {
         /// Write the result JSON here.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Start from these controls: a controls file or a previous result (default: the scene's
+        /// initial guess).
+        #[arg(long)]
+        start: Option<PathBuf>,
         /// Scaled KKT tolerance for `converged`.
         #[arg(long, default_value_t = 1e-4)]
         tol: f64,
@@ -124,8 +128,8 @@ fn load_scene(name: &str) -> Result<Scene> {
     }
 }
 
+/// A controls file, or any JSON object with a `controls` key (such as a result).
 #[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
 struct ControlsFile {
     controls: Vec<Vec<[f64; 3]>>,
 }
@@ -229,6 +233,7 @@ fn run(cli: Cli) -> Result<()> {
             solver,
             out,
             tol,
+            start,
             png,
             verbose,
         } => {
@@ -250,7 +255,7 @@ fn run(cli: Cli) -> Result<()> {
             options.tol_optimality = tol;
             options.task.kappa = kappa.unwrap_or(options.task.kappa);
             options.task.active_band = active_band.unwrap_or(options.task.active_band);
-            let start = initial_controls(&scene, &model)?;
+            let start = load_controls(&scene, &model, start.as_deref())?;
             let bar = ProgressBar::new(iterations as u64);
             bar.set_style(
                 ProgressStyle::with_template(
