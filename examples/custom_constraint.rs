@@ -14,9 +14,9 @@
 use anyhow::{bail, Context, Result};
 use autodiff::{Real, Tensor};
 use cloth::constraint::{norm, Constraint};
+use cloth::nalgebra::Vector3;
 use cloth::{Controls, Model, Scene};
 use clothopt::plan::{controls_from_nested, plan, PlanOptions};
-use nalgebra::Vector3;
 use std::time::Instant;
 
 // ---- the user's constraint: this is all a new constraint type needs ------------------------
