@@ -228,7 +228,7 @@ fn main() -> Result<()> {
         "\nplanning swing with the area constraint (SQP, ≤ {} iterations):",
         options.iterations
     );
-    let result = plan(&model, "swing+area", &start, &options, |info| {
+    let result = plan(&model, &scene, &start, &options, |info| {
         if info.iteration % 10 == 0 {
             println!(
                 "  it {:>3}  L {:>10.6}  kkt {:>8.1e}",
