@@ -194,6 +194,7 @@ fn run(cli: Cli) -> Result<()> {
                     &scene,
                     &ev.states,
                     &format!("{} (simulated)", scene.name),
+                    scene.task.delta,
                     &png,
                 )?;
             }
@@ -316,7 +317,7 @@ fn run(cli: Cli) -> Result<()> {
                     "{}  δ = {}  ({})",
                     result.scene, result.delta, result.status
                 );
-                draw(&model, &scene, &states, &title, &png)?;
+                draw(&model, &scene, &states, &title, result.delta, &png)?;
             }
             if result.status == "infeasible" {
                 bail!("no feasible trajectory found: {}", result.message);
@@ -397,6 +398,7 @@ fn draw(
     scene: &Scene,
     states: &[autodiff::Tensor],
     title: &str,
+    delta: f64,
     png: &Path,
 ) -> Result<()> {
     let figure = RolloutFigure::new(
@@ -404,7 +406,7 @@ fn draw(
         (scene.cloth.rows, scene.cloth.cols),
         states,
         title,
-        Some(scene.task.delta),
+        Some(delta),
     );
     figure.draw_3d(png)?;
     let top = top_view_path(png);
