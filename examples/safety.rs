@@ -164,7 +164,8 @@ fn main() -> Result<()> {
         print!("{:>16}", run.start);
     }
     println!();
-    let rows: [(&str, fn(&PlanResult) -> String); 11] = [
+    type Cell = fn(&PlanResult) -> String;
+    let rows: [(&str, Cell); 11] = [
         ("G", |r| format!("{:.4}", r.metrics.g)),
         ("αT", |r| format!("{:.4}", r.metrics.alpha_t)),
         ("βE", |r| format!("{:.4}", r.metrics.beta_e)),

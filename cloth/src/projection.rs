@@ -179,8 +179,8 @@ fn hessian_vector_n<C: Constraint, const D: usize, const A: usize>(
         std::array::from_fn(|i| Vector3::new(seed(3 * i), seed(3 * i + 1), seed(3 * i + 2)));
     let r = c.c(instance, &p);
     let mut hv = [0.0; MAX_D];
-    for j in 0..D {
-        hv[j] = r.eps[j].eps[0];
+    for (h, e) in hv.iter_mut().zip(&r.eps) {
+        *h = e.eps[0];
     }
     hv
 }
