@@ -84,7 +84,12 @@ impl<C: Constraint> RowFn for Projection<C> {
     #[inline]
     fn eval<R: Real>(&self, row: usize, input: &[R], out: &mut [R]) {
         let d = 3 * C::ARITY;
-        out.copy_from_slice(input);
+        // `d` is a compile-time constant per constraint type: these loops unroll to moves.
+        let unchanged = |out: &mut [R]| {
+            for j in 0..=d {
+                out[j] = input[j];
+            }
+        };
         let mut g = [R::zero(); MAX_D];
         let c = value_and_gradient(
             self.constraint.as_ref(),
@@ -93,11 +98,11 @@ impl<C: Constraint> RowFn for Projection<C> {
             &mut g,
         );
         if C::INEQUALITY && c.value() >= 0.0 {
-            return;
+            return unchanged(out);
         }
         let denom = self.weighted_sq(row, &g) + self.compliance;
         if denom.value() == 0.0 {
-            return;
+            return unchanged(out);
         }
         let lambda = input[d];
         let dlambda = (-c - lambda * self.compliance) / denom;
