@@ -5,7 +5,7 @@
 //!
 //! The problem has several local optima (at δ = 0.4: through the opening edge-on, with different
 //! twists), so each δ is a continuation: it is solved from the scene's initial guess and from the
-//! plan of the previous (smaller) δ, and the better converged, feasible plan is kept.
+//! plans of the smaller δ, and the best converged, feasible plan is kept.
 //!
 //! `cargo run --release --example safety [-- --out FILE --png-dir DIR]`
 
@@ -112,17 +112,11 @@ fn main() -> Result<()> {
         options.task.swept = swept;
         options.iterations = args.iterations;
         let label = format!("δ = {delta:.2}{}", if swept { " swept" } else { "" });
-        // Continuation: the scene's guess, and the plan of the previous run (unswept runs only).
+        // Continuation: the scene's guess, and every earlier plan with a smaller or equal δ.
         let mut starts = vec![("guess".to_string(), start.clone())];
-        if let Some(prev) = runs
-            .iter()
-            .rev()
-            .find(|r| !r.swept && r.result.delta <= delta && r.label != label)
-        {
-            starts.push((
-                format!("plan {}", prev.label),
-                plan::controls_from_nested(&model, &prev.result.controls)?,
-            ));
+        for prev in runs.iter().filter(|r| !r.swept && r.result.delta <= delta) {
+            let controls = plan::controls_from_nested(&model, &prev.result.controls)?;
+            starts.push((format!("plan {}", prev.label), controls));
         }
         let mut best: Option<(String, PlanResult)> = None;
         for (name, u0) in starts {

@@ -85,11 +85,7 @@ impl<C: Constraint> RowFn for Projection<C> {
     fn eval<R: Real>(&self, row: usize, input: &[R], out: &mut [R]) {
         let d = 3 * C::ARITY;
         // `d` is a compile-time constant per constraint type: these loops unroll to moves.
-        let unchanged = |out: &mut [R]| {
-            for j in 0..=d {
-                out[j] = input[j];
-            }
-        };
+        let unchanged = |out: &mut [R]| out[..=d].copy_from_slice(&input[..=d]);
         let mut g = [R::zero(); MAX_D];
         let c = value_and_gradient(
             self.constraint.as_ref(),
