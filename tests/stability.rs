@@ -18,13 +18,15 @@
 //! [`long_horizon_t100_gradient_grows_like_sqrt_t`] for the measured growth and why it is what the
 //! physics explains.
 
+mod common;
+
 use autodiff::Tensor;
 use cloth::scene::{
-    Bending, BendingModel, InitialControls, Obstacle, ObstacleRole, Plane, SphereSet, Stiffness,
-    Target,
+    Bending, BendingModel, Obstacle, ObstacleRole, Plane, SphereSet, Stiffness, Target,
 };
 use cloth::{Evaluation, Model, Scene};
 use clothopt::problem::{SafetyForm, TaskOptions, TrajectoryProblem};
+use common::small;
 use optim::{Jacobian, Problem};
 
 // ---------------------------------------------------------------------------------------------
@@ -46,33 +48,6 @@ impl Rng {
     fn vec(&mut self, n: usize, scale: f64) -> Vec<f64> {
         (0..n).map(|_| scale * self.uniform()).collect()
     }
-}
-
-/// A hanging `rows × cols` cloth (side 1, plane `y = −1.5`, top at `z = 2`), gripped at its two
-/// top corners (one corner if `cols = 1`), stretch 1e4, distance bending 1e2, `T = horizon`,
-/// targets on the bottom row.
-fn small(rows: usize, cols: usize, horizon: usize, iterations: usize) -> Scene {
-    let mut s = Scene::builtin("swing").unwrap();
-    s.name = format!("stability{rows}x{cols}");
-    s.cloth.rows = rows;
-    s.cloth.cols = cols;
-    s.physics.iterations = iterations;
-    s.task.horizon = horizon;
-    s.controls = if cols > 1 {
-        vec![[0, 0], [0, cols - 1]]
-    } else {
-        vec![[0, 0]]
-    };
-    let den = (cols.max(2) - 1) as f64;
-    s.task.targets = (0..cols)
-        .map(|c| Target {
-            particle: [rows - 1, c],
-            position: [-0.5 + c as f64 / den, 1.0, 1.5],
-        })
-        .collect();
-    s.task.initial_controls = InitialControls::Zeros;
-    s.validate().unwrap();
-    s
 }
 
 fn stiffness(k: f64) -> Stiffness {
