@@ -213,6 +213,11 @@ pub fn plan(
     mut progress: impl FnMut(&IterationInfo),
 ) -> anyhow::Result<PlanResult> {
     options.validate()?;
+    anyhow::ensure!(
+        model.n_controls() > 0,
+        "scene `{}` has no control particles: there is nothing to optimize",
+        scene.name
+    );
     model.check_controls(start)?;
     let mut problem = TrajectoryProblem::new(model, options.task.clone());
     let clock = Instant::now();
