@@ -53,10 +53,10 @@ impl PlanOptions {
 }
 
 impl PlanOptions {
-    /// Checks every option, naming the first bad one: `δ`, `α`, `β` finite and ≥ 0, `κ` finite and
-    /// > 0 (the soft minimum divides by it), the active band not NaN and ≥ 0, at least one
-    /// iteration, a finite positive step bound and tolerance. [`plan`] calls it, so a bad option is
-    /// an error instead of a panic or a silently NaN objective.
+    /// Checks every option, naming the first bad one: `δ`, `α`, `β` finite and ≥ 0; `κ` finite
+    /// and positive (the soft minimum divides by it); the active band not NaN and ≥ 0; at least
+    /// one iteration; a finite positive step bound and tolerance. [`plan`] calls it, so a bad
+    /// option is an error instead of a panic or a silently NaN objective.
     pub fn validate(&self) -> anyhow::Result<()> {
         let t = &self.task;
         let non_negative = [("delta", t.delta), ("alpha", t.alpha), ("beta", t.beta)];

@@ -110,7 +110,7 @@ fn mutate(v: &mut Value, kind: u8, a: u64, b: u64) {
         3 if !numeric.is_empty() => {
             let p = numeric[(a % numeric.len() as u64) as usize].clone();
             if let Some(slot) = v.pointer_mut(&p) {
-                *slot = if b % 2 == 0 {
+                *slot = if b & 1 == 0 {
                     Value::from(b % 13)
                 } else {
                     let x = slot.as_f64().unwrap_or(1.0) * [-1.0, 1e3, 1e-3, 7.5][(b % 4) as usize];
@@ -149,7 +149,7 @@ fn mutate(v: &mut Value, kind: u8, a: u64, b: u64) {
             let p = ps[(a % ps.len() as u64) as usize].clone();
             match v.pointer_mut(&p) {
                 Some(Value::Object(m)) => {
-                    if b % 2 == 0 {
+                    if b & 1 == 0 {
                         m.insert("unexpected".into(), Value::from(1));
                     } else if let Some(k) = m.keys().nth((b as usize / 2) % m.len().max(1)).cloned()
                     {

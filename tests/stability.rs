@@ -24,7 +24,7 @@ use autodiff::Tensor;
 use cloth::scene::{
     Bending, BendingModel, Obstacle, ObstacleRole, Plane, SphereSet, Stiffness, Target,
 };
-use cloth::{Evaluation, Model, Scene};
+use cloth::{Evaluation, Model};
 use clothopt::problem::{SafetyForm, TaskOptions, TrajectoryProblem};
 use common::small;
 use optim::{Jacobian, Problem};
@@ -480,10 +480,10 @@ fn identical_consecutive_and_all_zero_controls() {
     let gl = ev.grad_l.unwrap();
     let d12: Vec<f64> = (0..w).map(|j| u.get(2, j) - u.get(1, j)).collect();
     let n12 = dot(&d12, &d12).sqrt();
-    for j in 0..w {
+    for (j, d) in d12.iter().enumerate() {
         let expect = g0.get(0, j); // step 0 only has the zero difference to step 1
         assert!((gl.get(0, j) - expect).abs() < 1e-12, "step 0, {j}");
-        let expect = g0.get(1, j) - scene.task.alpha * d12[j] / n12;
+        let expect = g0.get(1, j) - scene.task.alpha * d / n12;
         assert!((gl.get(1, j) - expect).abs() < 1e-12, "step 1, {j}");
     }
 }
