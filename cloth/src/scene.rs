@@ -32,6 +32,12 @@ pub const MAX_PARTICLES: usize = 1 << 24;
 /// Largest accepted `task.horizon` (number of time steps).
 pub const MAX_HORIZON: usize = 1 << 20;
 
+/// Largest accepted magnitude of a length-like value: every coordinate and vector component
+/// (positions, `right`, `down`, gravity, targets, sphere centres, plane points and normals, initial
+/// controls), sphere radii and `task.delta`. Beyond it squared distances and energies approach the
+/// range of `f64`, and a rollout overflows instead of failing validation.
+pub const MAX_COORDINATE: f64 = 1e9;
+
 /// Errors from reading, parsing or validating a scene.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
@@ -60,11 +66,29 @@ pub enum SceneError {
         source: std::io::Error,
     },
     /// [`Scene::builtin`] was asked for a name that is not built in.
-    #[error("unknown built-in scene `{name}` (available: {})", builtin_list())]
+    #[error(
+        "unknown built-in scene `{}` (available: {})",
+        one_line(name),
+        builtin_list()
+    )]
     UnknownBuiltin {
         /// The requested name.
         name: String,
     },
+}
+
+/// `text` with control characters (newlines, tabs, …) escaped, so an error quoting user input
+/// (an unknown field name, a scene name) stays on one line.
+fn one_line(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 fn builtin_list() -> String {
@@ -422,9 +446,22 @@ fn check_finite(field: &str, x: f64) -> Result<(), SceneError> {
     }
 }
 
+/// Finite, with magnitude at most [`MAX_COORDINATE`].
+fn check_coordinate(field: &str, x: f64) -> Result<(), SceneError> {
+    check_finite(field, x)?;
+    if x.abs() <= MAX_COORDINATE {
+        Ok(())
+    } else {
+        Err(invalid(
+            field,
+            format!("magnitude {x:e} exceeds the limit of {MAX_COORDINATE:e}"),
+        ))
+    }
+}
+
 fn check_vec3(field: &str, v: &[f64; 3]) -> Result<(), SceneError> {
     for (k, &x) in v.iter().enumerate() {
-        check_finite(&format!("{field}[{k}]"), x)?;
+        check_coordinate(&format!("{field}[{k}]"), x)?;
     }
     Ok(())
 }
@@ -525,7 +562,9 @@ fn parse_error(text: &str, err: &serde_json::Error) -> SceneError {
             }
         }
     }
-    SceneError::Parse { message }
+    SceneError::Parse {
+        message: one_line(&message),
+    }
 }
 
 impl Scene {
@@ -574,9 +613,12 @@ impl Scene {
 
     /// Checks every value; the first problem found is returned as [`SceneError::Invalid`] naming the field.
     ///
-    /// Rejects: non-finite numbers anywhere; `rows`/`cols` of 0 or more than [`MAX_PARTICLES`]
-    /// particles; a zero `right` (when `cols > 1`) or `down` (when `rows > 1`), or parallel `right` and
-    /// `down`; `particle_mass ≤ 0`; non-positive stiffness; `dt ≤ 0`; `iterations = 0`; control particles
+    /// Rejects: non-finite numbers anywhere; length-like values (coordinates, vector components,
+    /// radii, `delta`) beyond [`MAX_COORDINATE`] in magnitude; `rows`/`cols` of 0 or more than
+    /// [`MAX_PARTICLES`] particles; a zero `right` (when `cols > 1`) or `down` (when `rows > 1`), or
+    /// parallel `right` and `down`; `particle_mass ≤ 0` or so small that its inverse overflows;
+    /// non-positive stiffness, or one so small that the compliance `1/(k·dt²)` overflows; `dt ≤ 0`, or
+    /// `dt²` not a normal number up to [`MAX_COORDINATE`]; `iterations = 0`; control particles
     /// out of range or repeated; sphere sets that are empty, whose radii and centres differ in number, or
     /// with a radius `≤ 0`; a zero plane normal; `horizon` of 0 or above [`MAX_HORIZON`]; no targets, a
     /// target out of range or repeated; negative `alpha`, `beta`, `delta`; initial controls of the wrong
@@ -635,7 +677,14 @@ impl Scene {
                 ));
             }
         }
-        check_positive("cloth.particle_mass", c.particle_mass)
+        check_positive("cloth.particle_mass", c.particle_mass)?;
+        if !(1.0 / c.particle_mass).is_finite() {
+            return Err(invalid(
+                "cloth.particle_mass",
+                format!("{:e} is too small: its inverse overflows", c.particle_mass),
+            ));
+        }
+        Ok(())
     }
 
     fn validate_material(&self) -> Result<(), SceneError> {
@@ -649,9 +698,37 @@ impl Scene {
     fn validate_physics(&self) -> Result<(), SceneError> {
         let p = &self.physics;
         check_positive("physics.dt", p.dt)?;
+        let dt2 = p.dt * p.dt;
+        if !(dt2.is_normal() && dt2 <= MAX_COORDINATE) {
+            return Err(invalid(
+                "physics.dt",
+                format!(
+                    "{:e} is out of range: dt² must be a normal number at most {MAX_COORDINATE:e}",
+                    p.dt
+                ),
+            ));
+        }
         check_vec3("physics.gravity", &p.gravity)?;
         if p.iterations == 0 {
             return Err(invalid("physics.iterations", "must be at least 1, got 0"));
+        }
+        // The XPBD compliance α̃ = 1/(k·dt²) must be a finite number (a projection divides by it).
+        let mut stiffnesses = vec![("material.stretch", self.material.stretch)];
+        if let Some(b) = &self.material.bending {
+            stiffnesses.push(("material.bending.stiffness", b.stiffness));
+        }
+        for (field, k) in stiffnesses {
+            let compliance = k.compliance(p.dt);
+            if !compliance.is_finite() {
+                return Err(invalid(
+                    field,
+                    format!(
+                        "{:e} is too small for physics.dt = {:e}: the compliance 1/(k·dt²) overflows",
+                        k.value(),
+                        p.dt
+                    ),
+                ));
+            }
         }
         Ok(())
     }
@@ -714,6 +791,7 @@ impl Scene {
                     }
                     for (j, &r) in s.radii.iter().enumerate() {
                         check_positive(&format!("{base}.radii[{j}]"), r)?;
+                        check_coordinate(&format!("{base}.radii[{j}]"), r)?;
                     }
                 }
                 Obstacle::Plane(p) => {
@@ -763,6 +841,7 @@ impl Scene {
         check_non_negative("task.alpha", t.alpha)?;
         check_non_negative("task.beta", t.beta)?;
         check_non_negative("task.delta", t.delta)?;
+        check_coordinate("task.delta", t.delta)?;
         let m = self.controls.len();
         match &t.initial_controls {
             InitialControls::Zeros => {}
