@@ -1,0 +1,1023 @@
+//! What accuracy costs in time (issue 6, item 1).
+//!
+//! XPBD's accuracy is the number of Gauss–Seidel iterations per step (`n_iter`). For `u_obstacle`
+//! (δ = 0.2) and `swing`, at the scene's initial guess, this sweeps `n_iter` and reports: the
+//! stretch residual (max |C| and RMS of `|x_i − x_j| − l⁰` over every stretch edge at the end of
+//! every step), E, L, the relative error of ∇L against a converged reference (5,000 iterations), the
+//! median time of one forward and one forward+gradient pass, and the consequence for planning: the
+//! plan optimized at `n_iter`, re-simulated at the reference accuracy (true G, true min SDF: does it
+//! stay safe?). Then forward+gradient time and peak memory against mesh size, 1 vs 2 threads, each
+//! measured in a fresh child process (this example re-run with a hidden subcommand).
+//!
+//! `cargo run --release --example accuracy_vs_time [-- --out FILE --png-dir DIR --quick --jax PYTHON]`
+
+use anyhow::{anyhow, ensure, Context, Result};
+use autodiff::Tensor;
+use clap::{Parser, Subcommand};
+use cloth::{Controls, Model, Scene};
+use clothopt::plan::{self, PlanOptions};
+use clothopt::plot::{draw_xy, RefLine, Series, XyFigure};
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+#[derive(Parser)]
+#[command(
+    about = "Accuracy against time: Gauss–Seidel iterations, gradient error, planning safety, mesh size",
+    args_conflicts_with_subcommands = true
+)]
+struct Args {
+    /// Internal: one measurement in a fresh process (used for peak memory).
+    #[command(subcommand)]
+    child: Option<Child>,
+    /// Write `{"rows": [...]}` here (atomically).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Draw the PNG plots into this directory (created if missing).
+    #[arg(long)]
+    png_dir: Option<PathBuf>,
+    /// Reduced sweep (n_iter ∈ {5, 20, 100}, reference 1,000 iterations, 3 timing runs,
+    /// 30 optimizer iterations, meshes 10 and 20) for a quick look.
+    #[arg(long)]
+    quick: bool,
+    /// Optimizer iteration limit per plan [default: 150; 30 with --quick].
+    #[arg(long)]
+    plan_iterations: Option<usize>,
+    /// Plan only for n_iter up to this (larger settings take minutes per plan).
+    #[arg(long, default_value_t = 200)]
+    plan_max_n_iter: usize,
+    /// Iterations of the converged reference [default: 5000; 1000 with --quick].
+    #[arg(long)]
+    reference_iterations: Option<usize>,
+    /// Timing runs per median [default: 5; 3 with --quick].
+    #[arg(long)]
+    reps: Option<usize>,
+    /// Also time the JAX reference with this Python (e.g. /tmp/jaxenv/bin/python).
+    #[arg(long)]
+    jax: Option<PathBuf>,
+    /// The JAX benchmark script run by --jax.
+    #[arg(long, default_value = "/work/shared/anchors/jax_ref/bench_jax.py")]
+    jax_script: PathBuf,
+}
+
+#[derive(Subcommand)]
+enum Child {
+    /// Times forward and forward+gradient of `u_obstacle` at `n × n` and prints one JSON line with
+    /// the process's peak RSS (VmHWM) before and after.
+    #[command(hide = true)]
+    MeasureMesh {
+        #[arg(long)]
+        n: usize,
+        #[arg(long)]
+        threads: usize,
+        #[arg(long)]
+        iterations: usize,
+        #[arg(long)]
+        reps: usize,
+        /// Stop timing after this many seconds (at least one run).
+        #[arg(long)]
+        budget_s: f64,
+    },
+}
+
+/// The sweep's settings after `--quick` and the overrides.
+struct Config {
+    n_iters: Vec<usize>,
+    reference_iterations: usize,
+    reps: usize,
+    plan_iterations: usize,
+    plan_max_n_iter: usize,
+    mesh_sizes: Vec<usize>,
+}
+
+/// One output row; `kind` tells which.
+#[derive(Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+enum Row {
+    Accuracy(AccuracyRow),
+    Mesh(MeshRow),
+    Jax(JaxRow),
+}
+
+/// One `(scene, n_iter)` setting at the scene's initial guess.
+#[derive(Serialize, Clone)]
+struct AccuracyRow {
+    scene: String,
+    n_iter: usize,
+    /// This is the converged reference itself (its gradient error is 0 by definition).
+    reference: bool,
+    /// Largest `| |x_i − x_j| − l⁰ |` over stretch edges and steps 1..T (length units).
+    max_abs_c: f64,
+    /// RMS of the same over every edge and step.
+    rms_c: f64,
+    /// Largest |C| at the end of each step 1..T.
+    max_abs_c_per_step: Vec<f64>,
+    e: f64,
+    l: f64,
+    g: f64,
+    /// `‖∇L − ∇L_ref‖₂ / ‖∇L_ref‖₂`.
+    grad_rel_err: f64,
+    /// Median seconds of `evaluate(.., false)` (rollout and metrics).
+    forward_s: f64,
+    /// Median seconds of `evaluate(.., true)` (rollout, metrics, dL/dU and dC/dU).
+    forward_gradient_s: f64,
+    timing_runs: usize,
+    threads: usize,
+    plan: Option<PlanRow>,
+    /// Why there is no plan.
+    plan_skipped: Option<String>,
+}
+
+/// A plan optimized at `n_iter`, and the same controls re-simulated at the reference accuracy.
+#[derive(Serialize, Clone)]
+struct PlanRow {
+    status: String,
+    iterations: usize,
+    simulations: usize,
+    wall_s: f64,
+    /// What the planner saw (simulated at `n_iter`).
+    planned_g: f64,
+    planned_l: f64,
+    planned_min_sdf: Option<f64>,
+    planned_max_abs_c: f64,
+    /// The truth (re-simulated at the reference iterations).
+    true_g: f64,
+    true_l: f64,
+    true_min_sdf: Option<f64>,
+    true_min_sdf_swept: Option<f64>,
+    true_max_abs_c: f64,
+    /// `true_min_sdf ≥ δ − 1e−3` (None without safety obstacles).
+    safe: Option<bool>,
+}
+
+/// Forward+gradient at one mesh size and thread count, measured in a fresh process.
+#[derive(Serialize, Deserialize, Clone)]
+struct MeshRow {
+    scene: String,
+    n: usize,
+    particles: usize,
+    n_iter: usize,
+    threads: usize,
+    forward_s: f64,
+    forward_gradient_s: f64,
+    timing_runs: usize,
+    l: f64,
+    /// Process peak RSS (VmHWM) after the forward+gradient runs, MB.
+    peak_rss_mb: Option<f64>,
+    /// VmHWM growth over the forward+gradient runs (model already built), MB.
+    rss_growth_mb: Option<f64>,
+}
+
+/// The JAX reference at one setting, beside ours.
+#[derive(Serialize, Clone)]
+struct JaxRow {
+    scene: String,
+    n: usize,
+    n_iter: usize,
+    forward_s: f64,
+    forward_gradient_s: f64,
+    l: f64,
+    /// Our medians at the same setting (2 threads; n = 10 from the sweep, else the mesh rows).
+    ours_forward_s: Option<f64>,
+    ours_forward_gradient_s: Option<f64>,
+    /// `|L_jax − L_ours| / |L_ours|` and the same for ∇L (n = 10 only).
+    l_rel_diff: Option<f64>,
+    grad_rel_diff: Option<f64>,
+}
+
+/// Everything written to `--out`.
+#[derive(Serialize)]
+struct Output<'a> {
+    rows: &'a [Row],
+    reference_iterations: usize,
+    plan_iterations: usize,
+    memory_method: &'static str,
+    total_wall_s: f64,
+}
+
+const MEMORY_METHOD: &str = "VmHWM from /proc/self/status in a fresh child process per (n, threads): \
+     peak_rss_mb is the process peak after the forward+gradient runs, rss_growth_mb its growth over them";
+
+/// The scene's stretch edges and rest lengths, for the constraint residual.
+struct Stretch {
+    edges: Vec<[usize; 2]>,
+    rest: Vec<f64>,
+}
+
+impl Stretch {
+    fn of(scene: &Scene) -> Stretch {
+        let x = scene.rest_positions();
+        let edges = scene.mesh().stretch_edges();
+        let rest = edges.iter().map(|&[i, j]| dist(&x[i], &x[j])).collect();
+        Stretch { edges, rest }
+    }
+
+    /// (max |C|, RMS C, max |C| per step) over steps 1..T of `states` (`N × 3` each).
+    fn residual(&self, states: &[Tensor]) -> (f64, f64, Vec<f64>) {
+        let (mut sq, mut count, mut per_step) = (0.0, 0usize, Vec::new());
+        for x in states.iter().skip(1) {
+            let p = |i: usize| {
+                let r = x.row(i);
+                [r[0], r[1], r[2]]
+            };
+            let mut m: f64 = 0.0;
+            for (&[i, j], &l0) in self.edges.iter().zip(&self.rest) {
+                let c = dist(&p(i), &p(j)) - l0;
+                m = m.max(c.abs());
+                sq += c * c;
+                count += 1;
+            }
+            per_step.push(m);
+        }
+        let max = per_step.iter().copied().fold(0.0, f64::max);
+        (max, (sq / count.max(1) as f64).sqrt(), per_step)
+    }
+}
+
+fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Median wall seconds of `f` over `reps` runs, stopping early once `budget_s` is spent (always at
+/// least one run); also the number of runs.
+fn median_time<T>(
+    reps: usize,
+    budget_s: f64,
+    mut f: impl FnMut() -> Result<T>,
+) -> Result<(f64, usize)> {
+    let clock = Instant::now();
+    let mut times = Vec::with_capacity(reps);
+    while times.len() < reps.max(1) {
+        let t = Instant::now();
+        std::hint::black_box(f()?);
+        times.push(t.elapsed().as_secs_f64());
+        if clock.elapsed().as_secs_f64() > budget_s {
+            break;
+        }
+    }
+    Ok((median(&mut times), times.len()))
+}
+
+/// A `/proc/self/status` field in kB (`VmHWM`, `VmRSS`); `None` where there is no procfs.
+fn proc_status_kb(field: &str) -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    text.lines()
+        .find_map(|l| l.strip_prefix(field)?.strip_prefix(':'))
+        .and_then(|v| v.split_whitespace().next()?.parse().ok())
+}
+
+fn rel_err(a: &Tensor, b: &Tensor) -> f64 {
+    let diff: f64 = a
+        .data()
+        .iter()
+        .zip(b.data())
+        .map(|(x, y)| (x - y).powi(2))
+        .sum();
+    let norm: f64 = b.data().iter().map(|y| y * y).sum();
+    (diff / norm).sqrt()
+}
+
+/// `scene` with `n` solver iterations per step.
+fn with_iterations(scene: &Scene, n: usize) -> Scene {
+    let mut s = scene.clone();
+    s.physics.iterations = n;
+    s
+}
+
+/// `Some(v)` for a finite value (min SDF is ∞ without safety obstacles).
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+/// The hidden child: one mesh-size measurement, printed as one JSON line.
+fn measure_mesh(
+    n: usize,
+    threads: usize,
+    iterations: usize,
+    reps: usize,
+    budget_s: f64,
+) -> Result<()> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let scene = with_iterations(&Scene::builtin("u_obstacle")?.refined(n, n)?, iterations);
+    let model = Model::from_scene(&scene)?;
+    let start = plan::initial_controls(&scene, &model)?;
+    let delta = scene.task.delta;
+    let row = pool.install(|| -> Result<MeshRow> {
+        let hwm0 = proc_status_kb("VmHWM");
+        let mut l = f64::NAN;
+        let (fg, runs) = median_time(reps, budget_s, || {
+            let ev = model.evaluate(&start, delta, true)?;
+            l = ev.metrics.l;
+            Ok(ev)
+        })?;
+        let hwm1 = proc_status_kb("VmHWM");
+        let (fwd, _) = median_time(reps, budget_s, || Ok(model.evaluate(&start, delta, false)?))?;
+        Ok(MeshRow {
+            scene: "u_obstacle".into(),
+            n,
+            particles: model.n_particles(),
+            n_iter: iterations,
+            threads,
+            forward_s: fwd,
+            forward_gradient_s: fg,
+            timing_runs: runs,
+            l,
+            peak_rss_mb: hwm1.map(|k| k / 1024.0),
+            rss_growth_mb: hwm0.zip(hwm1).map(|(a, b)| (b - a) / 1024.0),
+        })
+    })?;
+    println!("{}", serde_json::to_string(&row)?);
+    Ok(())
+}
+
+/// Runs the mesh measurement in a fresh copy of this program.
+fn spawn_mesh(n: usize, threads: usize, reps: usize) -> Result<MeshRow> {
+    let exe = std::env::current_exe().context("cannot locate this example's executable")?;
+    let budget = 20.0;
+    let out = Command::new(exe)
+        .args([
+            "measure-mesh",
+            "--n",
+            &n.to_string(),
+            "--threads",
+            &threads.to_string(),
+        ])
+        .args(["--iterations", "100", "--reps", &reps.to_string()])
+        .args(["--budget-s", &budget.to_string()])
+        .output()
+        .context("cannot start the measurement child")?;
+    ensure!(
+        out.status.success(),
+        "mesh measurement n = {n}, {threads} thread(s) failed: {}",
+        String::from_utf8_lossy(&out.stderr).trim()
+    );
+    serde_json::from_slice(&out.stdout).context("unreadable output of the measurement child")
+}
+
+/// The sweep over `n_iter` for one scene: accuracy, cost, and the consequence for planning.
+/// Also returns ∇L per `n_iter`, for the JAX comparison.
+fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<usize, Tensor>)> {
+    let base = Scene::builtin(name)?;
+    let delta = base.task.delta;
+    let stretch = Stretch::of(&base);
+    let threads = rayon::current_num_threads();
+    let mut grads = HashMap::new();
+
+    let ref_model = Model::from_scene(&with_iterations(&base, cfg.reference_iterations))?;
+    let start = plan::initial_controls(&base, &ref_model)?;
+    eprintln!(
+        "{name}: reference, {} iterations …",
+        cfg.reference_iterations
+    );
+    let clock = Instant::now();
+    let reference = ref_model.evaluate(&start, delta, true)?;
+    let ref_time = clock.elapsed().as_secs_f64();
+    let clock = Instant::now();
+    ref_model.evaluate(&start, delta, false)?;
+    let ref_fwd = clock.elapsed().as_secs_f64();
+    let g_ref = reference
+        .grad_l
+        .clone()
+        .ok_or_else(|| anyhow!("the reference evaluation returned no gradient"))?;
+    let (max_c, rms_c, per_step) = stretch.residual(&reference.states);
+    let mut rows = vec![AccuracyRow {
+        scene: name.into(),
+        n_iter: cfg.reference_iterations,
+        reference: true,
+        max_abs_c: max_c,
+        rms_c,
+        max_abs_c_per_step: per_step,
+        e: reference.metrics.e,
+        l: reference.metrics.l,
+        g: reference.metrics.g,
+        grad_rel_err: 0.0,
+        forward_s: ref_fwd,
+        forward_gradient_s: ref_time,
+        timing_runs: 1,
+        threads,
+        plan: None,
+        plan_skipped: Some("the reference".into()),
+    }];
+    grads.insert(cfg.reference_iterations, g_ref.clone());
+
+    for &n_iter in &cfg.n_iters {
+        let scene = with_iterations(&base, n_iter);
+        let model = Model::from_scene(&scene)?;
+        eprintln!("{name}: n_iter = {n_iter}: timing …");
+        // The first evaluation is also the warm-up of the timings.
+        let ev = model.evaluate(&start, delta, true)?;
+        let grad = ev
+            .grad_l
+            .ok_or_else(|| anyhow!("evaluate returned no gradient"))?;
+        let (max_c, rms_c, per_step) = stretch.residual(&ev.states);
+        let inf = f64::INFINITY;
+        let (fwd, runs) = median_time(cfg.reps, inf, || Ok(model.evaluate(&start, delta, false)?))?;
+        let (fg, _) = median_time(cfg.reps, inf, || Ok(model.evaluate(&start, delta, true)?))?;
+        let mut row = AccuracyRow {
+            scene: name.into(),
+            n_iter,
+            reference: false,
+            max_abs_c: max_c,
+            rms_c,
+            max_abs_c_per_step: per_step,
+            e: ev.metrics.e,
+            l: ev.metrics.l,
+            g: ev.metrics.g,
+            grad_rel_err: rel_err(&grad, &g_ref),
+            forward_s: fwd,
+            forward_gradient_s: fg,
+            timing_runs: runs,
+            threads,
+            plan: None,
+            plan_skipped: None,
+        };
+        grads.insert(n_iter, grad);
+        if n_iter > cfg.plan_max_n_iter {
+            row.plan_skipped = Some(format!(
+                "n_iter > {} (a plan costs ~n_iter/100 × the 100-iteration plan; raise --plan-max-n-iter)",
+                cfg.plan_max_n_iter
+            ));
+        } else {
+            eprintln!("{name}: n_iter = {n_iter}: planning …");
+            match plan_at(&model, &scene, &ref_model, &start, &stretch, cfg) {
+                Ok(p) => row.plan = Some(p),
+                Err(e) => row.plan_skipped = Some(format!("planning failed: {e:#}")),
+            }
+        }
+        rows.push(row);
+    }
+    Ok((rows, grads))
+}
+
+/// Optimizes at `model`'s accuracy, then re-simulates the plan with `ref_model`.
+fn plan_at(
+    model: &Model,
+    scene: &Scene,
+    ref_model: &Model,
+    start: &Controls,
+    stretch: &Stretch,
+    cfg: &Config,
+) -> Result<PlanRow> {
+    let mut options = PlanOptions::for_model(model);
+    options.iterations = cfg.plan_iterations;
+    let delta = options.task.delta;
+    let result = plan::plan(model, scene, start, &options, |_| {})?;
+    let planned_states = plan::states_of(&result)?;
+    let controls = plan::controls_from_nested(ref_model, &result.controls)?;
+    let truth = ref_model.evaluate(&controls, delta, false)?;
+    let true_min_sdf = finite(truth.metrics.min_sdf);
+    Ok(PlanRow {
+        status: result.status.clone(),
+        iterations: result.iterations,
+        simulations: result.evaluations,
+        wall_s: result.wall_s,
+        planned_g: result.metrics.g,
+        planned_l: result.metrics.l,
+        planned_min_sdf: finite(result.metrics.min_sdf),
+        planned_max_abs_c: stretch.residual(&planned_states).0,
+        true_g: truth.metrics.g,
+        true_l: truth.metrics.l,
+        true_min_sdf,
+        true_min_sdf_swept: finite(truth.metrics.min_sdf_swept),
+        true_max_abs_c: stretch.residual(&truth.states).0,
+        safe: true_min_sdf.map(|m| m >= delta - 1e-3),
+    })
+}
+
+/// The JAX benchmark's output line.
+#[derive(Deserialize)]
+struct JaxOut {
+    forward_s: f64,
+    forward_gradient_s: f64,
+    #[serde(rename = "L")]
+    l: f64,
+    #[serde(rename = "grad_L")]
+    grad_l: Vec<Vec<[f64; 3]>>,
+}
+
+/// Runs `python script SCENE n n_iter` and parses its JSON line.
+fn run_jax(python: &Path, script: &Path, scene: &str, n: usize, n_iter: usize) -> Result<JaxOut> {
+    let code = if scene == "u_obstacle" { "U" } else { scene };
+    let out = Command::new(python)
+        .arg(script)
+        .args([code, &n.to_string(), &n_iter.to_string()])
+        .output()
+        .with_context(|| format!("cannot run {}", python.display()))?;
+    ensure!(
+        out.status.success(),
+        "JAX benchmark failed: {}",
+        String::from_utf8_lossy(&out.stderr).trim()
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .rev()
+        .find(|l| l.trim_start().starts_with('{'))
+        .ok_or_else(|| anyhow!("the JAX benchmark printed no JSON"))?;
+    Ok(serde_json::from_str(line)?)
+}
+
+fn fmt_opt(v: Option<f64>, prec: usize) -> String {
+    v.map_or("—".into(), |v| format!("{v:.prec$}"))
+}
+
+fn print_tables(acc: &[AccuracyRow], mesh: &[MeshRow], jax: &[JaxRow], cfg: &Config) {
+    println!(
+        "\nAccuracy and cost at the initial guess (reference: {} iterations; times: medians of {} runs, {} threads)",
+        cfg.reference_iterations,
+        cfg.reps,
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:<11}{:>7}{:>10}{:>10}{:>10}{:>9}{:>10}{:>11}{:>12}",
+        "scene", "n_iter", "max|C|", "RMS C", "E", "L", "∇L err", "fwd [ms]", "fwd+∇ [ms]"
+    );
+    for r in acc {
+        println!(
+            "{:<11}{:>7}{:>10.2e}{:>10.2e}{:>10.1}{:>9.4}{:>10}{:>11.2}{:>12.2}",
+            r.scene,
+            r.n_iter,
+            r.max_abs_c,
+            r.rms_c,
+            r.e,
+            r.l,
+            if r.reference {
+                "ref".into()
+            } else {
+                format!("{:.2e}", r.grad_rel_err)
+            },
+            1e3 * r.forward_s,
+            1e3 * r.forward_gradient_s,
+        );
+    }
+    println!("(max|C|, RMS C: stretch residual |x_i − x_j| − l⁰ over all edges and steps; rest edge 0.111–0.157.");
+    println!(" ∇L err: ‖∇L − ∇L_ref‖/‖∇L_ref‖. fwd+∇ is evaluate(.., true): dL/dU and dC/dU. Reference times: 1 run.");
+    println!(" swing's initial guess is all zeros, where T = Σ‖u_t − u_t−1‖ sits at its kink: its gradient is");
+    println!(" taken as 0 there (both runs), so swing's ∇L is ∇(G + βE).)");
+
+    println!(
+        "\nConsequence for planning: SQP (≤ {} iterations) at n_iter, re-simulated at {} iterations (\"true\")",
+        cfg.plan_iterations, cfg.reference_iterations
+    );
+    println!(
+        "{:<11}{:>7}{:>17}{:>6}{:>6}{:>9}{:>9}{:>9}{:>10}{:>10}{:>10}{:>7}",
+        "scene",
+        "n_iter",
+        "status",
+        "iter",
+        "sims",
+        "opt [s]",
+        "G plan",
+        "G true",
+        "SDF plan",
+        "SDF true",
+        "max|C|",
+        "safe"
+    );
+    for r in acc.iter().filter(|r| !r.reference) {
+        match (&r.plan, &r.plan_skipped) {
+            (Some(p), _) => println!(
+                "{:<11}{:>7}{:>17}{:>6}{:>6}{:>9.1}{:>9.4}{:>9.4}{:>10}{:>10}{:>10.2e}{:>7}",
+                r.scene,
+                r.n_iter,
+                p.status,
+                p.iterations,
+                p.simulations,
+                p.wall_s,
+                p.planned_g,
+                p.true_g,
+                fmt_opt(p.planned_min_sdf, 4),
+                fmt_opt(p.true_min_sdf, 4),
+                p.planned_max_abs_c,
+                p.safe.map_or("—", |s| if s { "yes" } else { "NO" }),
+            ),
+            (None, reason) => println!(
+                "{:<11}{:>7}  skipped: {}",
+                r.scene,
+                r.n_iter,
+                reason.as_deref().unwrap_or("")
+            ),
+        }
+    }
+    println!("(G plan / SDF plan: as the planner saw them at n_iter; max|C|: the plan's stretch residual at n_iter;");
+    println!(" safe: true min SDF ≥ δ − 1e−3 with δ = 0.2; swing has no obstacle.)");
+
+    if !mesh.is_empty() {
+        println!(
+            "\nMesh size: u_obstacle, 100 iterations, forward+gradient (fresh process per row)"
+        );
+        println!(
+            "{:>4}{:>10}{:>9}{:>11}{:>13}{:>6}{:>15}{:>13}",
+            "n",
+            "particles",
+            "threads",
+            "fwd [ms]",
+            "fwd+∇ [ms]",
+            "runs",
+            "peak RSS [MB]",
+            "growth [MB]"
+        );
+        for r in mesh {
+            println!(
+                "{:>4}{:>10}{:>9}{:>11.1}{:>13.1}{:>6}{:>15}{:>13}",
+                r.n,
+                r.particles,
+                r.threads,
+                1e3 * r.forward_s,
+                1e3 * r.forward_gradient_s,
+                r.timing_runs,
+                fmt_opt(r.peak_rss_mb, 1),
+                fmt_opt(r.rss_growth_mb, 1),
+            );
+        }
+        println!("(peak RSS: VmHWM of the child process after the forward+gradient runs; growth: over those runs)");
+    }
+
+    if !jax.is_empty() {
+        println!("\nJAX-jit reference (same spec, float64, CPU) beside ours (2 threads)");
+        println!(
+            "{:<11}{:>4}{:>7}{:>13}{:>15}{:>13}{:>15}{:>10}{:>10}",
+            "scene",
+            "n",
+            "n_iter",
+            "JAX fwd [ms]",
+            "JAX fwd+∇ [ms]",
+            "ours fwd",
+            "ours fwd+∇",
+            "L diff",
+            "∇L diff"
+        );
+        for r in jax {
+            println!(
+                "{:<11}{:>4}{:>7}{:>13.2}{:>15.2}{:>13}{:>15}{:>10}{:>10}",
+                r.scene,
+                r.n,
+                r.n_iter,
+                1e3 * r.forward_s,
+                1e3 * r.forward_gradient_s,
+                fmt_opt(r.ours_forward_s.map(|s| 1e3 * s), 2),
+                fmt_opt(r.ours_forward_gradient_s.map(|s| 1e3 * s), 2),
+                r.l_rel_diff.map_or("—".into(), |v| format!("{v:.1e}")),
+                r.grad_rel_diff.map_or("—".into(), |v| format!("{v:.1e}")),
+            );
+        }
+    }
+}
+
+/// Labels points by their `n_iter`.
+fn labelled(points: Vec<(f64, f64, usize)>, name: String) -> Series {
+    Series {
+        name,
+        labels: points.iter().map(|p| p.2.to_string()).collect(),
+        points: points.iter().map(|p| (p.0, p.1)).collect(),
+    }
+}
+
+fn draw_plots(
+    dir: &Path,
+    acc: &[AccuracyRow],
+    mesh: &[MeshRow],
+    jax: &[JaxRow],
+    cfg: &Config,
+) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let mut written = Vec::new();
+    let scenes: Vec<&str> = ["u_obstacle", "swing"]
+        .into_iter()
+        .filter(|s| acc.iter().any(|r| r.scene == *s))
+        .collect();
+    let swept = |scene: &str| {
+        let scene = scene.to_string();
+        acc.iter().filter(move |r| r.scene == scene && !r.reference)
+    };
+
+    // 1. Gradient error against forward+gradient time.
+    let mut series: Vec<Series> = scenes
+        .iter()
+        .map(|s| {
+            let pts = swept(s)
+                .filter(|r| r.grad_rel_err > 0.0)
+                .map(|r| (1e3 * r.forward_gradient_s, r.grad_rel_err, r.n_iter))
+                .collect();
+            labelled(pts, format!("{s} (this library)"))
+        })
+        .collect();
+    for j in jax.iter().filter(|j| j.n == 10) {
+        if let Some(r) = swept(&j.scene).find(|r| r.n_iter == j.n_iter && r.grad_rel_err > 0.0) {
+            series.push(labelled(
+                vec![(1e3 * j.forward_gradient_s, r.grad_rel_err, j.n_iter)],
+                format!("{} JAX-jit (same gradient)", j.scene),
+            ));
+        }
+    }
+    let path = dir.join("accuracy_grad_error_vs_time.png");
+    draw_xy(
+        &XyFigure {
+            title: "Gradient accuracy vs cost (labels: Gauss–Seidel iterations per step)".into(),
+            x_label: "time of one forward + gradient pass [ms]".into(),
+            y_label: format!(
+                "relative error of ∇L vs {} iterations",
+                cfg.reference_iterations
+            ),
+            series,
+            log_x: true,
+            log_y: true,
+            ref_lines: vec![],
+        },
+        &path,
+    )?;
+    written.push(path);
+
+    // 2. True min SDF of the plans against optimization time (u_obstacle).
+    let planned = |scene: &str| {
+        swept(scene)
+            .filter_map(|r| r.plan.as_ref().map(|p| (r.n_iter, p)))
+            .collect::<Vec<_>>()
+    };
+    let u = planned("u_obstacle");
+    if !u.is_empty() && u.iter().all(|(_, p)| p.true_min_sdf.is_some()) {
+        let pts = |f: &dyn Fn(&PlanRow) -> Option<f64>| {
+            u.iter()
+                .filter_map(|(n, p)| f(p).map(|v| (p.wall_s, v, *n)))
+                .collect::<Vec<_>>()
+        };
+        let path = dir.join("accuracy_plan_min_sdf.png");
+        draw_xy(
+            &XyFigure {
+                title:
+                    "u_obstacle: is a plan optimized with n_iter iterations safe? (labels: n_iter)"
+                        .into(),
+                x_label: "optimization wall time [s]".into(),
+                y_label: "min SDF over the trajectory".into(),
+                series: vec![
+                    labelled(
+                        pts(&|p| p.true_min_sdf),
+                        format!(
+                            "true: re-simulated at {} iterations",
+                            cfg.reference_iterations
+                        ),
+                    ),
+                    labelled(
+                        pts(&|p| p.planned_min_sdf),
+                        "as the planner saw it (n_iter)".into(),
+                    ),
+                ],
+                log_x: true,
+                log_y: false,
+                ref_lines: vec![RefLine {
+                    y: 0.2,
+                    label: "δ = 0.2: safe above".into(),
+                }],
+            },
+            &path,
+        )?;
+        written.push(path);
+    }
+
+    // 3. True G of the plans against optimization time.
+    let mut series = Vec::new();
+    for s in &scenes {
+        let p = planned(s);
+        if p.is_empty() {
+            continue;
+        }
+        series.push(labelled(
+            p.iter().map(|(n, p)| (p.wall_s, p.true_g, *n)).collect(),
+            format!("{s}: true G ({} iterations)", cfg.reference_iterations),
+        ));
+        series.push(labelled(
+            p.iter().map(|(n, p)| (p.wall_s, p.planned_g, *n)).collect(),
+            format!("{s}: G as the planner saw it"),
+        ));
+    }
+    if !series.is_empty() {
+        let log_y = series.iter().all(|s| s.points.iter().all(|p| p.1 > 0.0));
+        let path = dir.join("accuracy_plan_g.png");
+        draw_xy(
+            &XyFigure {
+                title: "Target error G of plans optimized with n_iter iterations (labels: n_iter)"
+                    .into(),
+                x_label: "optimization wall time [s]".into(),
+                y_label: "target error G (lower is better)".into(),
+                series,
+                log_x: true,
+                log_y,
+                ref_lines: vec![],
+            },
+            &path,
+        )?;
+        written.push(path);
+    }
+
+    // 4. Mesh size.
+    if !mesh.is_empty() {
+        let mut threads: Vec<usize> = mesh.iter().map(|r| r.threads).collect();
+        threads.dedup();
+        threads.sort_unstable();
+        threads.dedup();
+        let series = threads
+            .iter()
+            .map(|&k| {
+                let rows: Vec<&MeshRow> = mesh.iter().filter(|r| r.threads == k).collect();
+                Series {
+                    name: format!("{k} thread{}", if k == 1 { "" } else { "s" }),
+                    points: rows
+                        .iter()
+                        .map(|r| (r.particles as f64, r.forward_gradient_s))
+                        .collect(),
+                    labels: rows
+                        .iter()
+                        .map(|r| match r.peak_rss_mb {
+                            Some(m) => format!("{0}×{0}, {m:.0} MB", r.n),
+                            None => format!("{0}×{0}", r.n),
+                        })
+                        .collect(),
+                }
+            })
+            .collect();
+        let path = dir.join("accuracy_mesh_scaling.png");
+        draw_xy(
+            &XyFigure {
+                title: "u_obstacle forward + gradient, 100 iterations (labels: mesh, peak RSS)"
+                    .into(),
+                x_label: "particles".into(),
+                y_label: "time [s]".into(),
+                series,
+                log_x: true,
+                log_y: true,
+                ref_lines: vec![],
+            },
+            &path,
+        )?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+fn write_output(path: Option<&Path>, rows: &[Row], cfg: &Config, total: f64) -> Result<()> {
+    if let Some(path) = path {
+        plan::write_json_atomic(
+            path,
+            &Output {
+                rows,
+                reference_iterations: cfg.reference_iterations,
+                plan_iterations: cfg.plan_iterations,
+                memory_method: MEMORY_METHOD,
+                total_wall_s: total,
+            },
+        )?;
+    }
+    Ok(())
+}
+
+fn main() -> Result<()> {
+    let args = Args::parse();
+    if let Some(Child::MeasureMesh {
+        n,
+        threads,
+        iterations,
+        reps,
+        budget_s,
+    }) = args.child
+    {
+        return measure_mesh(n, threads, iterations, reps, budget_s);
+    }
+    let clock = Instant::now();
+    let q = args.quick;
+    let cfg = Config {
+        n_iters: if q {
+            vec![5, 20, 100]
+        } else {
+            vec![5, 10, 20, 50, 100, 200, 400, 1000]
+        },
+        reference_iterations: args
+            .reference_iterations
+            .unwrap_or(if q { 1000 } else { 5000 }),
+        reps: args.reps.unwrap_or(if q { 3 } else { 5 }),
+        plan_iterations: args.plan_iterations.unwrap_or(if q { 30 } else { 150 }),
+        plan_max_n_iter: args.plan_max_n_iter,
+        mesh_sizes: if q {
+            vec![10, 20]
+        } else {
+            vec![10, 20, 40, 80]
+        },
+    };
+    ensure!(cfg.reps >= 1, "--reps must be at least 1");
+    ensure!(
+        cfg.plan_iterations >= 1,
+        "--plan-iterations must be at least 1"
+    );
+    ensure!(
+        cfg.reference_iterations >= 1,
+        "--reference-iterations must be at least 1"
+    );
+    if let Some(dir) = &args.png_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+
+    let mut acc = Vec::new();
+    let mut grads = HashMap::new();
+    for name in ["u_obstacle", "swing"] {
+        let (rows, g) = sweep_scene(name, &cfg)?;
+        acc.extend(rows);
+        grads.insert(name, g);
+        let rows: Vec<Row> = acc.iter().cloned().map(Row::Accuracy).collect();
+        write_output(
+            args.out.as_deref(),
+            &rows,
+            &cfg,
+            clock.elapsed().as_secs_f64(),
+        )?;
+    }
+
+    let mut mesh = Vec::new();
+    for &n in &cfg.mesh_sizes {
+        for threads in [1, 2] {
+            eprintln!("mesh {n}×{n}, {threads} thread(s) …");
+            mesh.push(spawn_mesh(n, threads, cfg.reps)?);
+        }
+    }
+
+    let mut jax = Vec::new();
+    if let Some(python) = &args.jax {
+        let mut settings = vec![("u_obstacle", 10), ("swing", 10)];
+        settings.extend(
+            cfg.mesh_sizes
+                .iter()
+                .filter(|&&n| n > 10 && n <= 40)
+                .map(|&n| ("u_obstacle", n)),
+        );
+        for (scene, n) in settings {
+            eprintln!("JAX: {scene}, n = {n}, 100 iterations …");
+            let j = match run_jax(python, &args.jax_script, scene, n, 100) {
+                Ok(j) => j,
+                Err(e) => {
+                    eprintln!("JAX skipped: {e:#}");
+                    break;
+                }
+            };
+            let ours = acc
+                .iter()
+                .find(|r| r.scene == scene && r.n_iter == 100 && n == 10);
+            let ours_mesh = mesh
+                .iter()
+                .find(|r| r.n == n && r.threads == 2 && scene == "u_obstacle");
+            let ours_l = ours.map(|r| r.l).or(ours_mesh.map(|r| r.l));
+            let grad_rel_diff = grads
+                .get(scene)
+                .and_then(|g| g.get(&100))
+                .filter(|_| n == 10)
+                .map(|g| {
+                    let flat: Vec<f64> = j.grad_l.iter().flatten().flatten().copied().collect();
+                    rel_err(&Tensor::new(g.rows(), g.cols(), flat), g)
+                });
+            jax.push(JaxRow {
+                scene: scene.into(),
+                n,
+                n_iter: 100,
+                forward_s: j.forward_s,
+                forward_gradient_s: j.forward_gradient_s,
+                l: j.l,
+                ours_forward_s: ours.map(|r| r.forward_s).or(ours_mesh.map(|r| r.forward_s)),
+                ours_forward_gradient_s: ours
+                    .map(|r| r.forward_gradient_s)
+                    .or(ours_mesh.map(|r| r.forward_gradient_s)),
+                l_rel_diff: ours_l.map(|l| (j.l - l).abs() / l.abs()),
+                grad_rel_diff,
+            });
+        }
+    }
+
+    print_tables(&acc, &mesh, &jax, &cfg);
+    let total = clock.elapsed().as_secs_f64();
+    let mut rows: Vec<Row> = acc.iter().cloned().map(Row::Accuracy).collect();
+    rows.extend(mesh.iter().cloned().map(Row::Mesh));
+    rows.extend(jax.iter().cloned().map(Row::Jax));
+    write_output(args.out.as_deref(), &rows, &cfg, total)?;
+    if let Some(dir) = &args.png_dir {
+        for p in draw_plots(dir, &acc, &mesh, &jax, &cfg)? {
+            println!("wrote {}", p.display());
+        }
+    }
+    if let Some(out) = &args.out {
+        println!("wrote {}", out.display());
+    }
+    println!("total wall time {:.1} s", clock.elapsed().as_secs_f64());
+    Ok(())
+}
