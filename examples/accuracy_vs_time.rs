@@ -16,7 +16,7 @@ use anyhow::{anyhow, ensure, Context, Result};
 use autodiff::{Tape, Tensor, Var};
 use clap::{Parser, Subcommand};
 use cloth::cost::trajectory_irregularity;
-use cloth::{Controls, Model, Scene};
+use cloth::{Controls, Evaluation, Model, Scene};
 use clothopt::plan::{self, PlanOptions};
 use clothopt::plot::{draw_xy, RefLine, Series, XyFigure};
 use serde::{Deserialize, Serialize};
@@ -98,7 +98,7 @@ struct Config {
 #[derive(Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 enum Row {
-    Accuracy(AccuracyRow),
+    Accuracy(Box<AccuracyRow>),
     Mesh(MeshRow),
     Jax(JaxRow),
 }
@@ -306,7 +306,7 @@ fn time_runs<T>(reps: usize, budget_s: f64, mut f: impl FnMut() -> Result<T>) ->
 
 /// One forward pass and ∇L only: [`Model::evaluate`] with `gradients` minus its second backward
 /// pass (dC/dU). The same work as the JAX benchmark's value-and-gradient of L.
-fn forward_grad_l(model: &Model, u: &Controls, delta: f64) -> Result<(f64, Tensor)> {
+fn forward_grad_l(model: &Model, u: &Controls, delta: f64) -> Result<Evaluation> {
     let states = model.simulate(u)?;
     let metrics = model.metrics(&states, u, delta);
     let beta = model.task.beta;
@@ -319,7 +319,12 @@ fn forward_grad_l(model: &Model, u: &Controls, delta: f64) -> Result<(f64, Tenso
     for (g, t) in grad.data_mut().iter_mut().zip(t_grad.data()) {
         *g += model.task.alpha * t;
     }
-    Ok((metrics.l, grad))
+    Ok(Evaluation {
+        metrics,
+        states,
+        grad_l: Some(grad),
+        grad_c: None,
+    })
 }
 
 /// A `/proc/self/status` field in kB (`VmHWM`, `VmRSS`); `None` where there is no procfs.
@@ -400,9 +405,9 @@ fn measure_mesh(
         let hwm0 = proc_status_kb("VmHWM");
         let mut l = f64::NAN;
         let fg = time_runs(reps, budget_s, || {
-            let (value, grad) = forward_grad_l(&model, &start, delta)?;
-            l = value;
-            Ok(grad)
+            let ev = forward_grad_l(&model, &start, delta)?;
+            l = ev.metrics.l;
+            Ok(ev)
         })?;
         let hwm1 = proc_status_kb("VmHWM");
         let fwd = time_runs(reps, budget_s, || Ok(model.evaluate(&start, delta, false)?))?;
@@ -464,10 +469,7 @@ fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<us
         cfg.reference_iterations
     );
     let clock = Instant::now();
-    let reference = ref_model.evaluate(&point, delta, true)?;
-    let ref_time = clock.elapsed().as_secs_f64();
-    let clock = Instant::now();
-    forward_grad_l(&ref_model, &point, delta)?;
+    let reference = forward_grad_l(&ref_model, &point, delta)?;
     let ref_fg = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     ref_model.evaluate(&point, delta, false)?;
@@ -492,7 +494,7 @@ fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<us
         grad_rel_err: 0.0,
         forward: Timing::once(ref_fwd),
         forward_grad_l: Timing::once(ref_fg),
-        evaluate_gradients: has_safety.then(|| Timing::once(ref_time)),
+        evaluate_gradients: None,
         threads,
         plan: None,
         plan_skipped: Some("the reference".into()),
@@ -510,7 +512,9 @@ fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<us
             .ok_or_else(|| anyhow!("evaluate returned no gradient"))?;
         let (max_c, rms_c, per_step) = stretch.residual(&ev.states);
         // ∇L alone must be evaluate's ∇L (same operations, one cotangent fewer).
-        let (_, grad_only) = forward_grad_l(&model, &point, delta)?;
+        let grad_only = forward_grad_l(&model, &point, delta)?
+            .grad_l
+            .ok_or_else(|| anyhow!("no gradient returned"))?;
         let mismatch = rel_err(&grad_only, &grad);
         ensure!(
             mismatch <= 1e-12,
@@ -676,7 +680,9 @@ fn print_tables(acc: &[AccuracyRow], mesh: &[MeshRow], jax: &[JaxRow], cfg: &Con
     }
     println!("(max|C|, RMS C: stretch residual |x_i − x_j| − l⁰ over all edges and all steps' ends (rest lengths");
     println!(" 0.111 and 0.157). ∇L err: ‖∇L − ∇L_ref‖/‖∇L_ref‖. fwd: rollout + metrics; fwd+∇L: also ∇L (as JAX's");
-    println!(" benchmark); +∇C: evaluate(.., true), which also pulls back dC/dU. Reference rows: 1 run each.");
+    println!(
+        " benchmark); +∇C: evaluate(.., true), which also pulls back dC/dU. Reference rows: 1 run."
+    );
     println!(" Points: u_obstacle's initial guess; swing at a smooth ramp u_t = (0, 0.25, 0.05)·(0.6 + 0.08t), because");
     println!(" its all-zero guess is a flat, unstable equilibrium where ∇L is meaningless (‖∇L‖ ≈ 0.7 at 5, 2e3 at");
     println!(" 100, 1e10 at ≥ 1000 iterations). u_obstacle's constant guess puts T = Σ‖u_t − u_t−1‖ at its kink, whose");
@@ -1073,7 +1079,10 @@ fn main() -> Result<()> {
         let (rows, g) = sweep_scene(name, &cfg)?;
         acc.extend(rows);
         grads.insert(name, g);
-        let rows: Vec<Row> = acc.iter().cloned().map(Row::Accuracy).collect();
+        let rows: Vec<Row> = acc
+            .iter()
+            .map(|r| Row::Accuracy(Box::new(r.clone())))
+            .collect();
         write_output(
             args.out.as_deref(),
             &rows,
@@ -1149,7 +1158,10 @@ fn main() -> Result<()> {
     let jax_time = jax_clock.elapsed().as_secs_f64();
     print_tables(&acc, &mesh, &jax, &cfg);
     let total = clock.elapsed().as_secs_f64();
-    let mut rows: Vec<Row> = acc.iter().cloned().map(Row::Accuracy).collect();
+    let mut rows: Vec<Row> = acc
+        .iter()
+        .map(|r| Row::Accuracy(Box::new(r.clone())))
+        .collect();
     rows.extend(mesh.iter().cloned().map(Row::Mesh));
     rows.extend(jax.iter().cloned().map(Row::Jax));
     write_output(args.out.as_deref(), &rows, &cfg, total)?;
