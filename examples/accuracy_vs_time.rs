@@ -1072,6 +1072,15 @@ fn main() -> Result<()> {
     if let Some(dir) = &args.png_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
+    // Fail now rather than after minutes of measuring.
+    if let Some(out) = &args.out {
+        let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
+        ensure!(
+            dir.is_none_or(Path::is_dir),
+            "--out {}: the directory does not exist",
+            out.display()
+        );
+    }
 
     let mut acc = Vec::new();
     let mut grads = HashMap::new();
