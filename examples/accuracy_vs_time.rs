@@ -1079,12 +1079,16 @@ fn main() -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     // Fail now rather than after minutes of measuring.
-    if let Some(out) = &args.out {
-        let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
+    if let Some(dir) = args
+        .out
+        .as_deref()
+        .and_then(Path::parent)
+        .filter(|d| !d.as_os_str().is_empty())
+    {
         ensure!(
-            dir.is_none_or(Path::is_dir),
-            "--out {}: the directory does not exist",
-            out.display()
+            dir.is_dir(),
+            "--out: the directory {} does not exist",
+            dir.display()
         );
     }
 
