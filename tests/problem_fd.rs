@@ -91,3 +91,35 @@ fn scalar_safety_derivatives_match_central_differences() {
 fn aggregate_safety_derivatives_match_central_differences() {
     check(SafetyForm::Aggregate, true);
 }
+
+#[test]
+fn drop_keeps_every_control_point_above_the_floor_with_linear_rows() {
+    let scene = Scene::builtin("drop").unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    assert_eq!(
+        model.colliders.planes.len(),
+        1,
+        "the ground is a collider the problem must see"
+    );
+    let mut p = TrajectoryProblem::new(&model, TaskOptions::for_model(&model));
+    // No safety obstacles; one row per control point per step: 2 × 10.
+    assert_eq!(p.num_inequalities(), 20);
+    // Pushing both control points down by 0.2 per step violates the rows from step 8 on (z₀ = 1.5).
+    let n = p.num_variables();
+    let x: Vec<f64> = (0..n)
+        .map(|i| if i % 3 == 2 { -0.2 } else { 0.0 })
+        .collect();
+    let mut c = vec![0.0; 20];
+    p.inequalities(&x, &mut c).unwrap();
+    let violated = c.iter().filter(|&&v| v < 0.0).count();
+    assert_eq!(
+        violated,
+        2 * 3,
+        "steps 8, 9, 10 for both control points: {c:?}"
+    );
+    assert!(
+        (c[9] - (1.5 - 2.0)).abs() < 1e-12,
+        "z after 10 steps = 1.5 − 10·0.2: {}",
+        c[9]
+    );
+}

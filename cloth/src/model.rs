@@ -219,6 +219,7 @@ impl Model {
         let (colliders, safety) = split_obstacles(&scene.obstacles);
         if !colliders.is_empty() {
             let free: Vec<usize> = (0..n).filter(|&p| model.inv_mass[p] > 0.0).collect();
+            model.colliders = colliders.clone();
             model.add_constraints(
                 "collider",
                 Collision { sdf: colliders },
