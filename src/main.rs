@@ -86,6 +86,10 @@ enum Command {
         /// Write the result JSON here.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Start from these controls: a controls file or a previous result (default: the scene's
+        /// initial guess).
+        #[arg(long)]
+        start: Option<PathBuf>,
         /// Scaled KKT tolerance for `converged`.
         #[arg(long, default_value_t = 1e-4)]
         tol: f64,
@@ -95,6 +99,10 @@ enum Command {
         /// Print one line per optimizer iteration to stderr.
         #[arg(long)]
         verbose: bool,
+        /// Leave the wall-clock time out of the result JSON and the summary, so that the same
+        /// command writes byte-identical results (any thread count).
+        #[arg(long)]
+        no_timing: bool,
     },
     /// Export a result: dense way-points of the control points (CSV) and/or one OBJ mesh per step.
     Export {
@@ -112,6 +120,22 @@ enum Command {
     },
 }
 
+/// Checks a numeric flag: `ok(value)` or an error naming the flag.
+fn check_flag(flag: &str, value: Option<f64>, ok: fn(f64) -> bool, expected: &str) -> Result<()> {
+    match value {
+        Some(v) if !ok(v) => bail!("{flag} must be {expected}, got {v}"),
+        _ => Ok(()),
+    }
+}
+
+fn finite_non_negative(v: f64) -> bool {
+    v.is_finite() && v >= 0.0
+}
+
+fn finite_positive(v: f64) -> bool {
+    v.is_finite() && v > 0.0
+}
+
 fn load_scene(name: &str) -> Result<Scene> {
     let path = Path::new(name);
     if path.exists() || name.ends_with(".json") {
@@ -124,8 +148,8 @@ fn load_scene(name: &str) -> Result<Scene> {
     }
 }
 
+/// A controls file, or any JSON object with a `controls` key (such as a result).
 #[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
 struct ControlsFile {
     controls: Vec<Vec<[f64; 3]>>,
 }
@@ -190,6 +214,7 @@ fn run(cli: Cli) -> Result<()> {
                     &scene,
                     &ev.states,
                     &format!("{} (simulated)", scene.name),
+                    scene.task.delta,
                     &png,
                 )?;
             }
@@ -200,6 +225,10 @@ fn run(cli: Cli) -> Result<()> {
             delta,
             iterations,
         } => {
+            check_flag("--delta", delta, finite_non_negative, "a finite number ≥ 0")?;
+            if iterations == Some(0) {
+                bail!("--iterations must be at least 1, got 0");
+            }
             let mut scene = load_scene(&scene)?;
             if let Some(n) = iterations {
                 scene.physics.iterations = n;
@@ -229,18 +258,27 @@ fn run(cli: Cli) -> Result<()> {
             solver,
             out,
             tol,
+            start,
             png,
             verbose,
+            no_timing,
         } => {
+            let non_negative = "a finite number ≥ 0";
+            check_flag("--delta", delta, finite_non_negative, non_negative)?;
+            check_flag("--alpha", alpha, finite_non_negative, non_negative)?;
+            check_flag("--beta", beta, finite_non_negative, non_negative)?;
+            check_flag("--kappa", kappa, finite_positive, "a finite number > 0")?;
+            check_flag("--active-band", active_band, |v| v >= 0.0, "a number ≥ 0")?;
+            check_flag("--tol", Some(tol), finite_positive, "a finite number > 0")?;
+            if iterations == 0 {
+                bail!("--iterations must be at least 1, got 0");
+            }
             let scene = load_scene(&scene)?;
             let model = Model::from_scene(&scene)?;
             let mut options = PlanOptions::for_model(&model);
             options.iterations = iterations;
             options.solver = solver;
             if let Some(d) = delta {
-                if !(d.is_finite() && d >= 0.0) {
-                    bail!("--delta must be a finite number ≥ 0, got {d}");
-                }
                 options.task.delta = d;
             }
             options.task.alpha = alpha.unwrap_or(options.task.alpha);
@@ -250,7 +288,7 @@ fn run(cli: Cli) -> Result<()> {
             options.tol_optimality = tol;
             options.task.kappa = kappa.unwrap_or(options.task.kappa);
             options.task.active_band = active_band.unwrap_or(options.task.active_band);
-            let start = initial_controls(&scene, &model)?;
+            let start = load_controls(&scene, &model, start.as_deref())?;
             let bar = ProgressBar::new(iterations as u64);
             bar.set_style(
                 ProgressStyle::with_template(
@@ -258,7 +296,7 @@ fn run(cli: Cli) -> Result<()> {
                 )
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
             );
-            let result = plan::plan(&model, &scene, &start, &options, |info| {
+            let mut result = plan::plan(&model, &scene, &start, &options, |info| {
                 if verbose {
                     bar.suspend(|| {
                         eprintln!(
@@ -281,14 +319,22 @@ fn run(cli: Cli) -> Result<()> {
                 ));
             })?;
             bar.finish_and_clear();
+            if no_timing {
+                result.wall_s = f64::NAN;
+            }
             let m = &result.metrics;
             println!(
                 "scene {}  δ = {}  status {}  ({})",
                 result.scene, result.delta, result.status, result.message
             );
+            let wall = if no_timing {
+                String::new()
+            } else {
+                format!("  wall {:.2} s", result.wall_s)
+            };
             println!(
-                "iterations {}  simulations {}  gradients {}  wall {:.2} s",
-                result.iterations, result.evaluations, result.gradient_evaluations, result.wall_s
+                "iterations {}  simulations {}  gradients {}{wall}",
+                result.iterations, result.evaluations, result.gradient_evaluations
             );
             println!("{:>10} {:>12}", "metric", "value");
             for (k, v) in [
@@ -302,8 +348,8 @@ fn run(cli: Cli) -> Result<()> {
             ] {
                 println!("{k:>10} {v:>12.6}");
             }
-            if let Some(out) = out {
-                plan::write_json_atomic(&out, &result)?;
+            if let Some(out) = &out {
+                plan::write_json_atomic(out, &result)?;
             }
             if let Some(png) = png {
                 let states = plan::states_of(&result)?;
@@ -311,10 +357,19 @@ fn run(cli: Cli) -> Result<()> {
                     "{}  δ = {}  ({})",
                     result.scene, result.delta, result.status
                 );
-                draw(&model, &scene, &states, &title, &png)?;
+                draw(&model, &scene, &states, &title, result.delta, &png)?;
             }
-            if result.status == "infeasible" {
-                bail!("no feasible trajectory found: {}", result.message);
+            if !result.is_feasible() {
+                let written = out
+                    .as_ref()
+                    .map(|p| format!("; the best point found is in {}", p.display()))
+                    .unwrap_or_default();
+                bail!(
+                    "no feasible trajectory found (status {}: {}): constraint violation {:.3e} at the returned controls{written}",
+                    result.status,
+                    result.message,
+                    result.constraint_violation
+                );
             }
         }
         Command::Export {
@@ -392,6 +447,7 @@ fn draw(
     scene: &Scene,
     states: &[autodiff::Tensor],
     title: &str,
+    delta: f64,
     png: &Path,
 ) -> Result<()> {
     let figure = RolloutFigure::new(
@@ -399,7 +455,7 @@ fn draw(
         (scene.cloth.rows, scene.cloth.cols),
         states,
         title,
-        Some(scene.task.delta),
+        Some(delta),
     );
     figure.draw_3d(png)?;
     let top = top_view_path(png);

@@ -52,6 +52,41 @@ impl PlanOptions {
     }
 }
 
+impl PlanOptions {
+    /// Checks every option, naming the first bad one: `δ`, `α`, `β` finite and ≥ 0; `κ` finite
+    /// and positive (the soft minimum divides by it); the active band not NaN and ≥ 0; at least
+    /// one iteration; a finite positive step bound and tolerance. [`plan`] calls it, so a bad
+    /// option is an error instead of a panic or a silently NaN objective.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        let t = &self.task;
+        let non_negative = [("delta", t.delta), ("alpha", t.alpha), ("beta", t.beta)];
+        for (name, v) in non_negative {
+            anyhow::ensure!(
+                v.is_finite() && v >= 0.0,
+                "{name} must be a finite number ≥ 0, got {v}"
+            );
+        }
+        let positive = [
+            ("kappa", t.kappa),
+            ("step_bound", self.step_bound),
+            ("tol_optimality", self.tol_optimality),
+        ];
+        for (name, v) in positive {
+            anyhow::ensure!(
+                v.is_finite() && v > 0.0,
+                "{name} must be a finite number > 0, got {v}"
+            );
+        }
+        anyhow::ensure!(
+            t.active_band >= 0.0,
+            "active_band must be a number ≥ 0, got {}",
+            t.active_band
+        );
+        anyhow::ensure!(self.iterations > 0, "iterations must be at least 1, got 0");
+        Ok(())
+    }
+}
+
 /// A planning run's outcome: what the result JSON holds.
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct PlanResult {
@@ -69,10 +104,16 @@ pub struct PlanResult {
     pub evaluations: usize,
     /// Gradient evaluations (backward passes).
     pub gradient_evaluations: usize,
-    /// Wall-clock seconds of the optimization.
+    /// Wall-clock seconds of the optimization; NaN when timing is not reported (`optimize
+    /// --no-timing`), and then left out of the JSON so that identical runs write identical bytes.
+    #[serde(skip_serializing_if = "is_nan", default = "not_timed")]
     pub wall_s: f64,
     /// Final KKT residual reported by the solver.
     pub kkt_residual: f64,
+    /// Max-norm violation of the optimizer's inequality rows (safety rows, control points against
+    /// collider planes) at the returned controls; 0 when they all hold. See [`PlanResult::is_feasible`].
+    #[serde(default)]
+    pub constraint_violation: f64,
     /// The paper's metrics at the returned controls.
     pub metrics: Metrics,
     /// Cloth grid `[rows, cols]` (particle `r·cols + c`).
@@ -89,7 +130,27 @@ pub struct PlanResult {
     pub solver_status: Option<Status>,
 }
 
+fn not_timed() -> f64 {
+    f64::NAN
+}
+
+fn is_nan(v: &f64) -> bool {
+    v.is_nan()
+}
+
+/// Largest constraint violation a plan may have and still count as feasible: the SQP's own
+/// feasibility tolerance (`SqpSettings::tol_feasibility`, unscaled constraints).
+pub const FEASIBILITY_TOLERANCE: f64 = 1e-8;
+
 impl PlanResult {
+    /// True when the returned controls satisfy the optimizer's constraints (violation at most
+    /// [`FEASIBILITY_TOLERANCE`]) and the solver did not declare the problem infeasible. Whatever
+    /// the status (`converged`, `iteration_limit`, …), a plan that is not feasible is not safe to
+    /// execute.
+    pub fn is_feasible(&self) -> bool {
+        self.status != "infeasible" && self.constraint_violation <= FEASIBILITY_TOLERANCE
+    }
+
     /// True when the solver converged and the safety constraint holds (`C ≥ −1e−6`,
     /// `min SDF ≥ δ − 1e−3` when the scene has safety obstacles).
     pub fn is_safe_and_converged(&self) -> bool {
@@ -151,6 +212,12 @@ pub fn plan(
     options: &PlanOptions,
     mut progress: impl FnMut(&IterationInfo),
 ) -> anyhow::Result<PlanResult> {
+    options.validate()?;
+    anyhow::ensure!(
+        model.n_controls() > 0,
+        "scene `{}` has no control particles: there is nothing to optimize",
+        scene.name
+    );
     model.check_controls(start)?;
     let mut problem = TrajectoryProblem::new(model, options.task.clone());
     let clock = Instant::now();
@@ -195,6 +262,7 @@ pub fn plan(
         gradient_evaluations: problem.gradient_evaluations,
         wall_s,
         kkt_residual: solution.kkt_residual,
+        constraint_violation: solution.constraint_violation,
         metrics: evaluation.metrics,
         grid: [scene.cloth.rows, scene.cloth.cols],
         control_particles: model.controls.as_slice().to_vec(),

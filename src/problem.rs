@@ -65,6 +65,9 @@ impl TaskOptions {
     }
 }
 
+/// An owned per-step cost (see [`StepCost`]).
+type BoxedStepCost<'a> = Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + 'a>;
+
 /// Interpolation parameters of the swept-path samples between two steps.
 const SWEPT_SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
 
@@ -238,18 +241,16 @@ impl<'a> TrajectoryProblem<'a> {
                     .collect(),
                 _ => Vec::new(),
             };
-            let per_step: Vec<Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + '_>> =
-                active
-                    .iter()
-                    .map(|&row| {
-                        Box::new(move |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
-                            (t == row + 1)
-                                .then(|| this.record_step_safety(tape, xp, xv))
-                                .flatten()
-                        })
-                            as Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + '_>
-                    })
-                    .collect();
+            let per_step: Vec<BoxedStepCost<'_>> = active
+                .iter()
+                .map(|&row| {
+                    Box::new(move |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
+                        (t == row + 1)
+                            .then(|| this.record_step_safety(tape, xp, xv))
+                            .flatten()
+                    }) as BoxedStepCost<'_>
+                })
+                .collect();
             // Aggregate: Σ_t w_t s_t with the softmax weights w_t of the per-step rows s_t.
             let weights = soft_min_weights(&forward.per_step, self.options.kappa);
             let aggregate = |tape: &mut Tape, t: usize, xp: Var, xv: Var| {

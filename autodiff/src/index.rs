@@ -8,6 +8,7 @@ pub struct RowIndex {
     arity: usize,
     idx: Vec<usize>,
     disjoint: bool,
+    bound: usize,
 }
 
 impl RowIndex {
@@ -27,10 +28,12 @@ impl RowIndex {
             sorted.sort_unstable();
             sorted.windows(2).all(|w| w[0] != w[1])
         };
+        let bound = idx.iter().max().map_or(0, |m| m + 1);
         RowIndex {
             arity,
             idx,
             disjoint,
+            bound,
         }
     }
 
@@ -40,32 +43,38 @@ impl RowIndex {
     }
 
     /// Indices per batch row.
+    #[inline]
     pub fn arity(&self) -> usize {
         self.arity
     }
 
     /// Number of batch rows.
+    #[inline]
     pub fn rows(&self) -> usize {
         self.idx.len() / self.arity
     }
 
     /// The indices of batch row `k`.
+    #[inline]
     pub fn row(&self, k: usize) -> &[usize] {
         &self.idx[k * self.arity..(k + 1) * self.arity]
     }
 
     /// All indices, row-major.
+    #[inline]
     pub fn as_slice(&self) -> &[usize] {
         &self.idx
     }
 
     /// True when no index appears twice (the rows can be updated in parallel).
+    #[inline]
     pub fn is_disjoint(&self) -> bool {
         self.disjoint
     }
 
     /// One past the largest index (0 when empty).
+    #[inline]
     pub fn bound(&self) -> usize {
-        self.idx.iter().max().map_or(0, |m| m + 1)
+        self.bound
     }
 }

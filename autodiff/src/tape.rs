@@ -930,7 +930,7 @@ impl Tape {
             Op::RowSum { a } => {
                 let (r, c) = shapes[*a];
                 let data = (0..r)
-                    .flat_map(|i| std::iter::repeat(g.data()[i]).take(c))
+                    .flat_map(|i| std::iter::repeat_n(g.data()[i], c))
                     .collect();
                 accumulate(&mut adj[*a], Tensor::new(r, c, data));
             }

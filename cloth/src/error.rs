@@ -19,6 +19,15 @@ pub enum ClothError {
     /// The controls do not match the scene.
     #[error("controls: {0}")]
     Controls(String),
+    /// The rollout stayed finite, but a cost or a gradient of it overflowed (controls or scene
+    /// values too large for `f64`); `quantity` names it (e.g. `G`, or `dL/dU at step 3, control 1`).
+    #[error("{quantity} is not finite ({value}): the rollout's values exceed the range of f64")]
+    NonFinite {
+        /// What is not finite.
+        quantity: String,
+        /// Its value.
+        value: f64,
+    },
     /// The simulation produced a non-finite position.
     #[error("simulation diverged at step {step}: particle {particle} is at {position:?}")]
     Diverged {

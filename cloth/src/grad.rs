@@ -55,6 +55,23 @@ pub struct Evaluation {
     pub grad_c: Option<Tensor>,
 }
 
+/// Reports the first non-finite entry of a gradient with respect to the controls.
+fn check_gradient(name: &str, g: &Tensor) -> Result<(), ClothError> {
+    let width = g.cols().max(1);
+    match g.data().iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(ClothError::NonFinite {
+            quantity: format!(
+                "{name} at step {}, control {}, component {}",
+                i / width + 1,
+                (i % width) / 3,
+                i % 3
+            ),
+            value: g.data()[i],
+        }),
+    }
+}
+
 impl Model {
     /// The paper's metrics of a simulated rollout (`states` from [`Model::simulate`]).
     pub fn metrics(&self, states: &[Tensor], controls: &Controls, delta: f64) -> Metrics {
@@ -98,6 +115,10 @@ impl Model {
 
     /// Simulates `controls` and evaluates the paper's metrics with safety margin `delta`;
     /// with `gradients`, also `dL/dU` and `dC/dU`.
+    ///
+    /// # Errors
+    /// As [`Model::simulate`]; and [`ClothError::NonFinite`] when the rollout is finite but a metric
+    /// (`G`, `T`, `E`, `C`, `L`) or a gradient entry is not, so no NaN or ∞ is returned silently.
     pub fn evaluate(
         &self,
         controls: &Controls,
@@ -106,6 +127,15 @@ impl Model {
     ) -> Result<Evaluation, ClothError> {
         let states = self.simulate(controls)?;
         let metrics = self.metrics(&states, controls, delta);
+        let m = &metrics;
+        for (quantity, value) in [("G", m.g), ("T", m.t), ("E", m.e), ("C", m.c), ("L", m.l)] {
+            if !value.is_finite() {
+                return Err(ClothError::NonFinite {
+                    quantity: quantity.into(),
+                    value,
+                });
+            }
+        }
         let (mut grad_l, mut grad_c) = (None, None);
         if gradients {
             let beta = self.task.beta;
@@ -119,8 +149,11 @@ impl Model {
             for (a, b) in gl.data_mut().iter_mut().zip(t_grad.data()) {
                 *a += self.task.alpha * b;
             }
+            let gc = grads.remove(0);
+            check_gradient("dL/dU", &gl)?;
+            check_gradient("dC/dU", &gc)?;
             grad_l = Some(gl);
-            grad_c = Some(grads.remove(0));
+            grad_c = Some(gc);
         }
         Ok(Evaluation {
             metrics,

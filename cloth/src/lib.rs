@@ -27,5 +27,7 @@ pub mod sim;
 pub use error::ClothError;
 pub use grad::{Evaluation, Metrics};
 pub use model::Model;
+/// The `nalgebra` this crate is built with: constraints take `nalgebra::Vector3<R>` points.
+pub use nalgebra;
 pub use scene::Scene;
 pub use sim::Controls;

@@ -84,7 +84,8 @@ impl<C: Constraint> RowFn for Projection<C> {
     #[inline]
     fn eval<R: Real>(&self, row: usize, input: &[R], out: &mut [R]) {
         let d = 3 * C::ARITY;
-        out.copy_from_slice(input);
+        // `d` is a compile-time constant per constraint type: these loops unroll to moves.
+        let unchanged = |out: &mut [R]| out[..=d].copy_from_slice(&input[..=d]);
         let mut g = [R::zero(); MAX_D];
         let c = value_and_gradient(
             self.constraint.as_ref(),
@@ -93,11 +94,11 @@ impl<C: Constraint> RowFn for Projection<C> {
             &mut g,
         );
         if C::INEQUALITY && c.value() >= 0.0 {
-            return;
+            return unchanged(out);
         }
         let denom = self.weighted_sq(row, &g) + self.compliance;
         if denom.value() == 0.0 {
-            return;
+            return unchanged(out);
         }
         let lambda = input[d];
         let dlambda = (-c - lambda * self.compliance) / denom;
@@ -179,8 +180,8 @@ fn hessian_vector_n<C: Constraint, const D: usize, const A: usize>(
         std::array::from_fn(|i| Vector3::new(seed(3 * i), seed(3 * i + 1), seed(3 * i + 2)));
     let r = c.c(instance, &p);
     let mut hv = [0.0; MAX_D];
-    for j in 0..D {
-        hv[j] = r.eps[j].eps[0];
+    for (h, e) in hv.iter_mut().zip(&r.eps) {
+        *h = e.eps[0];
     }
     hv
 }

@@ -16,7 +16,7 @@ impl Scene {
     ///
     /// Control and target particles move to the particle at the nearest fractional grid position
     /// (corners stay corners); target positions are unchanged, so `G` measures the same material
-    /// points.
+    /// points. When coarsening maps several targets to one particle, the first of them is kept.
     pub fn refined(&self, rows: usize, cols: usize) -> Result<Scene, SceneError> {
         let (r0, c0) = (self.cloth.rows, self.cloth.cols);
         let map = |[r, c]: [usize; 2]| [map_axis(r, r0, rows), map_axis(c, c0, cols)];
@@ -24,8 +24,15 @@ impl Scene {
         scene.cloth.rows = rows;
         scene.cloth.cols = cols;
         scene.controls = self.controls.iter().copied().map(map).collect();
-        for t in &mut scene.task.targets {
-            t.particle = map(t.particle);
+        scene.task.targets.clear();
+        for t in &self.task.targets {
+            let particle = map(t.particle);
+            if scene.task.targets.iter().all(|k| k.particle != particle) {
+                scene.task.targets.push(crate::scene::Target {
+                    particle,
+                    ..t.clone()
+                });
+            }
         }
         scene.name = format!("{}@{rows}x{cols}", self.name);
         scene.validate()?;

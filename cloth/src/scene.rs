@@ -32,6 +32,12 @@ pub const MAX_PARTICLES: usize = 1 << 24;
 /// Largest accepted `task.horizon` (number of time steps).
 pub const MAX_HORIZON: usize = 1 << 20;
 
+/// Largest accepted magnitude of a length-like value: every coordinate and vector component
+/// (positions, `right`, `down`, gravity, targets, sphere centres, plane points and normals, initial
+/// controls), sphere radii and `task.delta`. Beyond it squared distances and energies approach the
+/// range of `f64`, and a rollout overflows instead of failing validation.
+pub const MAX_COORDINATE: f64 = 1e9;
+
 /// Errors from reading, parsing or validating a scene.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
@@ -60,11 +66,29 @@ pub enum SceneError {
         source: std::io::Error,
     },
     /// [`Scene::builtin`] was asked for a name that is not built in.
-    #[error("unknown built-in scene `{name}` (available: {})", builtin_list())]
+    #[error(
+        "unknown built-in scene `{}` (available: {})",
+        one_line(name),
+        builtin_list()
+    )]
     UnknownBuiltin {
         /// The requested name.
         name: String,
     },
+}
+
+/// `text` with control characters (newlines, tabs, …) escaped, so an error quoting user input
+/// (an unknown field name, a scene name) stays on one line.
+fn one_line(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 fn builtin_list() -> String {
@@ -422,9 +446,22 @@ fn check_finite(field: &str, x: f64) -> Result<(), SceneError> {
     }
 }
 
+/// Finite, with magnitude at most [`MAX_COORDINATE`].
+fn check_coordinate(field: &str, x: f64) -> Result<(), SceneError> {
+    check_finite(field, x)?;
+    if x.abs() <= MAX_COORDINATE {
+        Ok(())
+    } else {
+        Err(invalid(
+            field,
+            format!("magnitude {x:e} exceeds the limit of {MAX_COORDINATE:e}"),
+        ))
+    }
+}
+
 fn check_vec3(field: &str, v: &[f64; 3]) -> Result<(), SceneError> {
     for (k, &x) in v.iter().enumerate() {
-        check_finite(&format!("{field}[{k}]"), x)?;
+        check_coordinate(&format!("{field}[{k}]"), x)?;
     }
     Ok(())
 }
@@ -458,138 +495,12 @@ fn check_stiffness(field: &str, k: &Stiffness) -> Result<(), SceneError> {
     }
 }
 
-/// Pretty-prints `value` as JSON whose `f64`s read back bit-identically with serde_json as far as its
-/// parser allows. Arrays holding only numbers (or other scalars) are kept on one line.
-///
-/// Without its `float_roundtrip` feature (not enabled in this workspace) serde_json parses a decimal
-/// `D·10⁻ᵏ` as `(D as f64) / 10ᵏ` (two roundings) and misreads some shortest round-trip representations
-/// by one ulp (e.g. `1.0833333333333335`). Each float is therefore written as its shortest representation
-/// when that reads back exactly, otherwise as a nearby 17–19 significant-digit decimal that both rounds
-/// correctly to it and reads back exactly. About 0.25% of arbitrary doubles have no such decimal; they are
-/// written in shortest form and read back within one ulp (exactly once `float_roundtrip` is enabled). Every
-/// value of the built-in scenes reads back exactly.
-pub fn to_json_pretty_exact<T: Serialize + ?Sized>(value: &T) -> Result<String, serde_json::Error> {
-    let mut out = Vec::new();
-    let mut ser = serde_json::Serializer::with_formatter(&mut out, ExactFloatFormatter::default());
-    value.serialize(&mut ser)?;
-    let text = String::from_utf8(out).map_err(|e| {
-        <serde_json::Error as serde::ser::Error>::custom(format!("non-UTF-8 JSON output: {e}"))
-    })?;
-    Ok(inline_scalar_arrays(&text))
-}
-
-/// serde_json's pretty formatter with exact float output.
-#[derive(Default)]
-struct ExactFloatFormatter(serde_json::ser::PrettyFormatter<'static>);
-
-impl serde_json::ser::Formatter for ExactFloatFormatter {
-    fn write_f64<W: ?Sized + std::io::Write>(
-        &mut self,
-        w: &mut W,
-        value: f64,
-    ) -> std::io::Result<()> {
-        w.write_all(exact_decimal(value).as_bytes())
-    }
-    fn begin_array<W: ?Sized + std::io::Write>(&mut self, w: &mut W) -> std::io::Result<()> {
-        self.0.begin_array(w)
-    }
-    fn end_array<W: ?Sized + std::io::Write>(&mut self, w: &mut W) -> std::io::Result<()> {
-        self.0.end_array(w)
-    }
-    fn begin_array_value<W: ?Sized + std::io::Write>(
-        &mut self,
-        w: &mut W,
-        first: bool,
-    ) -> std::io::Result<()> {
-        self.0.begin_array_value(w, first)
-    }
-    fn end_array_value<W: ?Sized + std::io::Write>(&mut self, w: &mut W) -> std::io::Result<()> {
-        self.0.end_array_value(w)
-    }
-    fn begin_object<W: ?Sized + std::io::Write>(&mut self, w: &mut W) -> std::io::Result<()> {
-        self.0.begin_object(w)
-    }
-    fn end_object<W: ?Sized + std::io::Write>(&mut self, w: &mut W) -> std::io::Result<()> {
-        self.0.end_object(w)
-    }
-    fn begin_object_key<W: ?Sized + std::io::Write>(
-        &mut self,
-        w: &mut W,
-        first: bool,
-    ) -> std::io::Result<()> {
-        self.0.begin_object_key(w, first)
-    }
-    fn end_object_key<W: ?Sized + std::io::Write>(&mut self, w: &mut W) -> std::io::Result<()> {
-        self.0.end_object_key(w)
-    }
-    fn begin_object_value<W: ?Sized + std::io::Write>(&mut self, w: &mut W) -> std::io::Result<()> {
-        self.0.begin_object_value(w)
-    }
-    fn end_object_value<W: ?Sized + std::io::Write>(&mut self, w: &mut W) -> std::io::Result<()> {
-        self.0.end_object_value(w)
-    }
-}
-
-/// True if `s` parses to exactly `x` both with serde_json (as configured in this build) and with a
-/// correctly rounding parser (`str::parse`, which is what serde_json's `float_roundtrip` matches).
-fn reads_back_as(s: &str, x: f64) -> bool {
-    let eq = |y: f64| y.to_bits() == x.to_bits();
-    s.parse::<f64>().is_ok_and(eq) && serde_json::from_str::<f64>(s).is_ok_and(eq)
-}
-
-/// Renders `digits · 10^exp10` (digits: a nonempty ASCII digit string, kept verbatim including trailing
-/// zeros, which matter to serde_json's parser) as a JSON number.
-fn render_decimal(negative: bool, digits: &str, exp10: i32) -> String {
-    let sign = if negative { "-" } else { "" };
-    let n = digits.len() as i32;
-    let point = n + exp10; // digits before the decimal point
-    if (-5..=0).contains(&point) {
-        format!("{sign}0.{}{digits}", "0".repeat((-point) as usize))
-    } else if point > 0 && point < n {
-        let (a, b) = digits.split_at(point as usize);
-        format!("{sign}{a}.{b}")
-    } else if point >= n && point <= 21 {
-        format!("{sign}{digits}{}.0", "0".repeat((point - n) as usize))
-    } else {
-        let (a, b) = digits.split_at(1);
-        let b = if b.is_empty() { "0" } else { b };
-        format!("{sign}{a}.{b}e{}", point - 1)
-    }
-}
-
-/// A decimal for `x` that serde_json reads back exactly (see [`to_json_pretty_exact`]), or `None` when none
-/// exists: without `float_roundtrip`, about 0.25% of doubles cannot be reached by serde_json's two-rounding
-/// parser from any decimal of at most 19 significant digits.
-fn exact_decimal_checked(x: f64) -> Option<String> {
-    let shortest = format!("{x:?}");
-    if !x.is_finite() || reads_back_as(&shortest, x) {
-        return Some(shortest);
-    }
-    for sig_digits in 17..=19usize {
-        // x rounded to `sig_digits` significant digits: "d.ddd…e±E"
-        let sci = format!("{:.*e}", sig_digits - 1, x.abs());
-        let (mantissa, exp) = sci.split_once('e')?;
-        let exp: i32 = exp.parse().ok()?;
-        let center: u64 = mantissa.replace('.', "").parse().ok()?;
-        let exp10 = exp - (sig_digits as i32 - 1);
-        for k in 0..400u64 {
-            for cand in [center.checked_add(k), center.checked_sub(k)]
-                .into_iter()
-                .flatten()
-            {
-                let s = render_decimal(x < 0.0, &cand.to_string(), exp10);
-                if reads_back_as(&s, x) {
-                    return Some(s);
-                }
-            }
-        }
-    }
-    None
-}
-
-/// [`exact_decimal_checked`], falling back to the shortest (correctly rounding) representation.
-fn exact_decimal(x: f64) -> String {
-    exact_decimal_checked(x).unwrap_or_else(|| format!("{x:?}"))
+/// Pretty-prints `value` as JSON with arrays of scalars on one line. With serde_json's
+/// `float_roundtrip` feature (enabled in this workspace) every `f64` reads back bit-identically.
+pub fn to_json_pretty_compact<T: Serialize + ?Sized>(
+    value: &T,
+) -> Result<String, serde_json::Error> {
+    Ok(inline_scalar_arrays(&serde_json::to_string_pretty(value)?))
 }
 
 /// Puts every JSON array that contains no strings, objects or arrays on a single line: `[1.0, 2.0, 3.0]`.
@@ -651,7 +562,9 @@ fn parse_error(text: &str, err: &serde_json::Error) -> SceneError {
             }
         }
     }
-    SceneError::Parse { message }
+    SceneError::Parse {
+        message: one_line(&message),
+    }
 }
 
 impl Scene {
@@ -690,19 +603,22 @@ impl Scene {
         BUILTIN_NAMES
     }
 
-    /// The scene as pretty-printed JSON (see [`to_json_pretty_exact`]); [`Scene::from_json_str`] reads it
-    /// back to an equal scene (bit-identical floats, up to the rare one-ulp caveat documented there).
+    /// The scene as pretty-printed JSON; [`Scene::from_json_str`] reads it back to an equal scene
+    /// (bit-identical floats).
     pub fn to_json_pretty(&self) -> String {
         // Serializing these plain data types cannot fail whatever their values (no maps, no fallible
         // custom serializers; non-finite floats are written as `null`), so this never panics.
-        to_json_pretty_exact(self).expect("serializing a Scene is infallible")
+        to_json_pretty_compact(self).expect("serializing a Scene is infallible")
     }
 
     /// Checks every value; the first problem found is returned as [`SceneError::Invalid`] naming the field.
     ///
-    /// Rejects: non-finite numbers anywhere; `rows`/`cols` of 0 or more than [`MAX_PARTICLES`]
-    /// particles; a zero `right` (when `cols > 1`) or `down` (when `rows > 1`), or parallel `right` and
-    /// `down`; `particle_mass ≤ 0`; non-positive stiffness; `dt ≤ 0`; `iterations = 0`; control particles
+    /// Rejects: non-finite numbers anywhere; length-like values (coordinates, vector components,
+    /// radii, `delta`) beyond [`MAX_COORDINATE`] in magnitude; `rows`/`cols` of 0 or more than
+    /// [`MAX_PARTICLES`] particles; a zero `right` (when `cols > 1`) or `down` (when `rows > 1`), or
+    /// parallel `right` and `down`; `particle_mass ≤ 0` or so small that its inverse overflows;
+    /// non-positive stiffness, or one so small that the compliance `1/(k·dt²)` overflows; `dt ≤ 0`, or
+    /// `dt²` not a normal number up to [`MAX_COORDINATE`]; `iterations = 0`; control particles
     /// out of range or repeated; sphere sets that are empty, whose radii and centres differ in number, or
     /// with a radius `≤ 0`; a zero plane normal; `horizon` of 0 or above [`MAX_HORIZON`]; no targets, a
     /// target out of range or repeated; negative `alpha`, `beta`, `delta`; initial controls of the wrong
@@ -761,7 +677,14 @@ impl Scene {
                 ));
             }
         }
-        check_positive("cloth.particle_mass", c.particle_mass)
+        check_positive("cloth.particle_mass", c.particle_mass)?;
+        if !(1.0 / c.particle_mass).is_finite() {
+            return Err(invalid(
+                "cloth.particle_mass",
+                format!("{:e} is too small: its inverse overflows", c.particle_mass),
+            ));
+        }
+        Ok(())
     }
 
     fn validate_material(&self) -> Result<(), SceneError> {
@@ -775,9 +698,37 @@ impl Scene {
     fn validate_physics(&self) -> Result<(), SceneError> {
         let p = &self.physics;
         check_positive("physics.dt", p.dt)?;
+        let dt2 = p.dt * p.dt;
+        if !(dt2.is_normal() && dt2 <= MAX_COORDINATE) {
+            return Err(invalid(
+                "physics.dt",
+                format!(
+                    "{:e} is out of range: dt² must be a normal number at most {MAX_COORDINATE:e}",
+                    p.dt
+                ),
+            ));
+        }
         check_vec3("physics.gravity", &p.gravity)?;
         if p.iterations == 0 {
             return Err(invalid("physics.iterations", "must be at least 1, got 0"));
+        }
+        // The XPBD compliance α̃ = 1/(k·dt²) must be a finite number (a projection divides by it).
+        let mut stiffnesses = vec![("material.stretch", self.material.stretch)];
+        if let Some(b) = &self.material.bending {
+            stiffnesses.push(("material.bending.stiffness", b.stiffness));
+        }
+        for (field, k) in stiffnesses {
+            let compliance = k.compliance(p.dt);
+            if !compliance.is_finite() {
+                return Err(invalid(
+                    field,
+                    format!(
+                        "{:e} is too small for physics.dt = {:e}: the compliance 1/(k·dt²) overflows",
+                        k.value(),
+                        p.dt
+                    ),
+                ));
+            }
         }
         Ok(())
     }
@@ -840,6 +791,7 @@ impl Scene {
                     }
                     for (j, &r) in s.radii.iter().enumerate() {
                         check_positive(&format!("{base}.radii[{j}]"), r)?;
+                        check_coordinate(&format!("{base}.radii[{j}]"), r)?;
                     }
                 }
                 Obstacle::Plane(p) => {
@@ -889,6 +841,7 @@ impl Scene {
         check_non_negative("task.alpha", t.alpha)?;
         check_non_negative("task.beta", t.beta)?;
         check_non_negative("task.delta", t.delta)?;
+        check_coordinate("task.delta", t.delta)?;
         let m = self.controls.len();
         match &t.initial_controls {
             InitialControls::Zeros => {}
@@ -1606,70 +1559,25 @@ mod tests {
     }
 
     #[test]
-    fn exact_json_floats_read_back_bit_identically() {
-        // shortest representations that serde_json's default parser misreads by one ulp
-        for x in [
+    fn json_floats_read_back_bit_identically() {
+        // Values serde_json misreads by one ulp without `float_roundtrip`.
+        let xs: [f64; 5] = [
             1.0833333333333335,
-            0.38888888888888884,
-            -0.38888888888888884,
-        ] {
-            let s = exact_decimal_checked(x).expect("representable");
-            assert!(reads_back_as(&s, x), "{x:?} -> {s}");
+            0.6666666666666667,
+            0.1 + 0.2,
+            1e-300,
+            -2.5e17,
+        ];
+        let text = to_json_pretty_compact(&xs.to_vec()).unwrap();
+        let back: Vec<f64> = serde_json::from_str(&text).unwrap();
+        for (x, y) in xs.iter().zip(&back) {
+            assert_eq!(x.to_bits(), y.to_bits(), "{x} read back as {y}");
         }
-        assert_eq!(exact_decimal(0.1), "0.1");
-        assert_eq!(exact_decimal(1e4), "10000.0");
-        assert_eq!(exact_decimal(1e-5), "1e-5");
-        assert_eq!(exact_decimal(-0.0), "-0.0");
-        // A deterministic pseudo-random sweep over typical magnitudes and over arbitrary bit patterns.
-        // The output always rounds correctly to x; serde_json (default features) reads it back exactly
-        // except for the rare values no decimal of at most 19 digits reaches through its two-rounding
-        // parser (about 0.25%; none once serde_json's `float_roundtrip` feature is on), and then within
-        // one ulp.
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
-        let (mut tried, mut misses) = (0, 0);
-        for i in 0..40_000 {
-            let r = next();
-            let x = if i % 2 == 0 {
-                (r >> 11) as f64 / (1u64 << 53) as f64 * 20.0 - 10.0
-            } else {
-                f64::from_bits(r)
-            };
-            if !x.is_finite() {
-                continue;
-            }
-            tried += 1;
-            let s = exact_decimal(x);
-            assert_eq!(
-                s.parse::<f64>().map(f64::to_bits),
-                Ok(x.to_bits()),
-                "{x:?} -> {s}"
-            );
-            let back: f64 = serde_json::from_str(&s).unwrap_or_else(|e| panic!("{s}: {e}"));
-            if exact_decimal_checked(x).is_some() {
-                assert_eq!(back.to_bits(), x.to_bits(), "{x:?} -> {s}");
-            } else {
-                misses += 1;
-                assert!(
-                    back.to_bits().abs_diff(x.to_bits()) <= 1,
-                    "{x:?} -> {s} -> {back:?}"
-                );
-            }
-        }
-        assert!(
-            misses * 100 < tried,
-            "{misses} of {tried} not exactly representable"
-        );
     }
 
     #[test]
     fn inline_arrays_only_when_scalar() {
-        let text = to_json_pretty_exact(
+        let text = to_json_pretty_compact(
             &json!({"a": [1.5, 2, 3], "b": [[1, 2], [3, 4]], "c": ["x", "[y]"],
                                                 "d": []}),
         )

@@ -22,12 +22,28 @@
 //! Clarabel has no warm start, but it can re-solve after a data update with the same sparsity: the
 //! penalty weights `ν` live only in `q` ([`QpSubproblem::update_penalty`]) and a second-order correction only
 //! changes `b` ([`QpSubproblem::update_constraint_values`]), so both reuse the factorization structure.
+//!
+//! Two guards against Clarabel's numerical failures on perfectly well-posed data:
+//!
+//! * Inequalities whose Jacobian row is all zero at `x` are left out of the conic problem: their
+//!   linearization `cᵢ + 0·d ≥ 0` does not depend on `d` (it holds for every step or for none), and a
+//!   row `cᵢ = 0`, `0·d + sᵢ = cᵢ` would force its cone slack to zero — an empty interior that the
+//!   interior-point method handles badly. Their multipliers are reported as 0 and their (constant)
+//!   linearized violation is accounted for by the caller, who evaluates it from `c` and `J` directly.
+//! * A solve that ends in `MaxIterations`, `InsufficientProgress`, `NumericalError` or (for the
+//!   subproblems that are feasible by construction, i.e. not a second-order correction) an
+//!   infeasibility verdict is retried from scratch with fallback settings ([`FALLBACKS`]). Clarabel
+//!   0.11's Ruiz equilibration can send its interior-point iteration into a limit cycle (the duality
+//!   gap stalls at ~1e-2 while μ → 0, until `MaxIterations`) on small, well-conditioned QPs; the same
+//!   problem without equilibration solves in ~10 iterations (oxfordcontrol/Clarabel.rs#217 reports
+//!   the same behaviour).
 
 use crate::linalg::Jacobian;
 use crate::problem::NormData;
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
-    DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+    DefaultSettings, DefaultSettingsBuilder, DefaultSolution, DefaultSolver, IPSolver,
+    SolverStatus, SupportedConeT,
 };
 
 /// The data of one subproblem, borrowed from the SQP state.
@@ -108,7 +124,6 @@ pub(crate) struct QpBuildError(pub String);
 struct Layout {
     n: usize,
     k: usize,
-    m: usize,
     q: usize,
     nvar: usize,
     row_ineq: usize,
@@ -117,14 +132,60 @@ struct Layout {
     row_soc: usize,
 }
 
+/// Fallback settings tried, in order, when Clarabel fails with its defaults (see the module docs):
+/// `(equilibrate, max_step_fraction, static_regularization_constant)`.
+const FALLBACKS: [(bool, f64, f64); 3] =
+    [(false, 0.99, 1e-8), (true, 0.9, 1e-8), (false, 0.9, 1e-7)];
+
+/// The conic data, kept so that a failed solve can be repeated with fallback settings.
+struct ConicData {
+    p: CscMatrix<f64>,
+    q: Vec<f64>,
+    a: CscMatrix<f64>,
+    b: Vec<f64>,
+    cones: Vec<SupportedConeT<f64>>,
+}
+
 /// A built subproblem owning its Clarabel solver.
 pub(crate) struct QpSubproblem {
     solver: DefaultSolver<f64>,
+    conic: ConicData,
+    tolerance: f64,
+    max_iterations: u32,
     layout: Layout,
     mode: QpMode,
     norm_dims: Vec<usize>,
+    /// Total number of inequalities of the SQP problem.
+    m_total: usize,
+    /// Inequalities in the conic problem, in order: those whose Jacobian row is not all zero.
+    kept: Vec<usize>,
     /// Inequalities with an elastic slack: those violated at `x` (the others hold at `d = 0`).
-    elastic: Vec<usize>,
+    elastic_ids: Vec<usize>,
+    /// `d = 0` with the elastic slacks is feasible: false after a second-order correction changed `b`,
+    /// whose infeasibility verdicts are then genuine and not worth a retry.
+    feasible_by_construction: bool,
+}
+
+/// Clarabel settings: the defaults used for every first attempt, or a fallback.
+fn clarabel_settings(
+    tolerance: f64,
+    max_iterations: u32,
+    fallback: Option<(bool, f64, f64)>,
+) -> Result<DefaultSettings<f64>, QpBuildError> {
+    let mut b = DefaultSettingsBuilder::<f64>::default();
+    b.verbose(false)
+        .presolve_enable(false)
+        .max_iter(max_iterations)
+        .tol_gap_abs(tolerance)
+        .tol_gap_rel(tolerance)
+        .tol_feas(tolerance);
+    if let Some((equilibrate, step, reg)) = fallback {
+        b.equilibrate_enable(equilibrate)
+            .max_step_fraction(step)
+            .static_regularization_constant(reg);
+    }
+    b.build()
+        .map_err(|e| QpBuildError(format!("Clarabel settings: {e}")))
 }
 
 /// Triplets pushed in increasing row order, compressed to CSC by a stable counting sort on columns
@@ -205,7 +266,6 @@ impl QpSubproblem {
         max_iterations: u32,
     ) -> Result<Self, QpBuildError> {
         let n = data.n;
-        let m = data.ineq.len();
         let q = data.eq.len();
         let with_norms = matches!(mode, QpMode::Optimality);
         let k = if with_norms { data.norms.len() } else { 0 };
@@ -214,9 +274,19 @@ impl QpSubproblem {
         } else {
             Vec::new()
         };
+        // Rows with an all-zero Jacobian are not part of the conic problem (see the module docs).
+        let m_total = data.ineq.len();
+        let row_norms = data.ineq_jac.row_inf_norms();
+        let kept: Vec<usize> = (0..m_total).filter(|&i| row_norms[i] > 0.0).collect();
+        let m = kept.len();
+        let mut ineq_row = vec![usize::MAX; m_total];
+        for (r, &i) in kept.iter().enumerate() {
+            ineq_row[i] = r;
+        }
         // Only constraints violated at x need an elastic slack: d = 0 satisfies the others, so the QP
         // stays feasible with far fewer variables and rows when most constraints hold (the usual case).
-        let elastic: Vec<usize> = (0..m).filter(|&i| data.ineq[i] < 0.0).collect();
+        let elastic: Vec<usize> = (0..m).filter(|&r| data.ineq[kept[r]] < 0.0).collect();
+        let elastic_ids: Vec<usize> = elastic.iter().map(|&r| kept[r]).collect();
         let me = elastic.len();
         let nvar = n + k + me + 2 * q;
         let row_ineq = q;
@@ -228,7 +298,6 @@ impl QpSubproblem {
         let layout = Layout {
             n,
             k,
-            m,
             q,
             nvar,
             row_ineq,
@@ -260,7 +329,7 @@ impl QpSubproblem {
                 for (kk, nd) in data.norms.iter().enumerate() {
                     qv[col_s + kk] = nd.weight;
                 }
-                elastic_costs(weights, &elastic, m, q, &mut qv[col_t..]);
+                elastic_costs(weights, &elastic_ids, m_total, q, &mut qv[col_t..]);
             }
             QpMode::Feasibility => qv[col_t..].fill(1.0),
         }
@@ -277,11 +346,16 @@ impl QpSubproblem {
             *bi = -hi;
         }
         // Inequalities: −J_c d − t ≤ c
-        data.ineq_jac
-            .for_each_nonzero(|i, j, v| a.push(row_ineq + i, j, -v));
-        b[row_ineq..row_ineq + m].copy_from_slice(data.ineq);
-        for (kk, &i) in elastic.iter().enumerate() {
-            a.push(row_ineq + i, col_t + kk, -1.0);
+        data.ineq_jac.for_each_nonzero(|i, j, v| {
+            if ineq_row[i] != usize::MAX {
+                a.push(row_ineq + ineq_row[i], j, -v);
+            }
+        });
+        for (r, &i) in kept.iter().enumerate() {
+            b[row_ineq + r] = data.ineq[i];
+        }
+        for (kk, &r) in elastic.iter().enumerate() {
+            a.push(row_ineq + r, col_t + kk, -1.0);
         }
         // Slacks ≥ 0
         for i in 0..me + 2 * q {
@@ -322,23 +396,27 @@ impl QpSubproblem {
             cones.push(SupportedConeT::SecondOrderConeT(p + 1));
         }
 
-        let settings = DefaultSettingsBuilder::<f64>::default()
-            .verbose(false)
-            .presolve_enable(false)
-            .max_iter(max_iterations)
-            .tol_gap_abs(tolerance)
-            .tol_gap_rel(tolerance)
-            .tol_feas(tolerance)
-            .build()
-            .map_err(|e| QpBuildError(format!("Clarabel settings: {e}")))?;
+        let settings = clarabel_settings(tolerance, max_iterations, None)?;
         let solver = DefaultSolver::new(&p_mat, &qv, &a_mat, &b, &cones, settings)
             .map_err(|e| QpBuildError(format!("Clarabel setup: {e}")))?;
         Ok(Self {
             solver,
+            conic: ConicData {
+                p: p_mat,
+                q: qv,
+                a: a_mat,
+                b,
+                cones,
+            },
+            tolerance,
+            max_iterations,
             layout,
             mode,
             norm_dims,
-            elastic,
+            m_total,
+            kept,
+            elastic_ids,
+            feasible_by_construction: true,
         })
     }
 
@@ -354,11 +432,19 @@ impl QpSubproblem {
         for (kk, nd) in data.norms.iter().enumerate().take(l.k) {
             qv[l.n + kk] = nd.weight;
         }
-        elastic_costs(weights, &self.elastic, l.m, l.q, &mut qv[l.n + l.k..]);
+        elastic_costs(
+            weights,
+            &self.elastic_ids,
+            self.m_total,
+            l.q,
+            &mut qv[l.n + l.k..],
+        );
         self.mode = QpMode::Optimality;
         self.solver
             .update_q(&qv)
-            .map_err(|e| QpBuildError(format!("Clarabel update_q: {e}")))
+            .map_err(|e| QpBuildError(format!("Clarabel update_q: {e}")))?;
+        self.conic.q = qv;
+        Ok(())
     }
 
     /// Replaces the constraint values `c`, `h` in the right-hand side (second-order correction:
@@ -375,7 +461,9 @@ impl QpSubproblem {
         for i in 0..l.q {
             b[i] = -eq[i];
         }
-        b[l.row_ineq..l.row_ineq + l.m].copy_from_slice(ineq);
+        for (r, &i) in self.kept.iter().enumerate() {
+            b[l.row_ineq + r] = ineq[i];
+        }
         for j in 0..l.n {
             b[l.row_box_up + j] = data.step_upper[j];
             b[l.row_box_lo + j] = -data.step_lower[j];
@@ -388,13 +476,59 @@ impl QpSubproblem {
         }
         self.solver
             .update_b(&b)
-            .map_err(|e| QpBuildError(format!("Clarabel update_b: {e}")))
+            .map_err(|e| QpBuildError(format!("Clarabel update_b: {e}")))?;
+        self.conic.b = b;
+        self.feasible_by_construction = false;
+        Ok(())
     }
 
-    /// Runs Clarabel and extracts the solution.
+    /// Runs Clarabel and extracts the solution. If Clarabel fails numerically, the same data is
+    /// solved again from scratch with each of the [`FALLBACKS`] settings until one succeeds; if none
+    /// does, the outcome is the failure status of the first attempt.
     pub(crate) fn solve(&mut self) -> QpSolution {
         self.solver.solve();
-        let sol = &self.solver.solution;
+        let first = self.extract(&self.solver.solution);
+        let retry = match first.outcome {
+            QpOutcome::Solved | QpOutcome::AlmostSolved => false,
+            QpOutcome::Failed(
+                SolverStatus::MaxIterations
+                | SolverStatus::InsufficientProgress
+                | SolverStatus::NumericalError,
+            ) => true,
+            QpOutcome::Failed(
+                SolverStatus::PrimalInfeasible
+                | SolverStatus::AlmostPrimalInfeasible
+                | SolverStatus::DualInfeasible
+                | SolverStatus::AlmostDualInfeasible,
+            ) => self.feasible_by_construction,
+            // MaxTime (no limit is set), CallbackTerminated, Unsolved.
+            QpOutcome::Failed(_) => false,
+        };
+        if !retry {
+            return first;
+        }
+        for fallback in FALLBACKS {
+            let Ok(settings) =
+                clarabel_settings(self.tolerance, self.max_iterations, Some(fallback))
+            else {
+                continue;
+            };
+            let c = &self.conic;
+            let Ok(mut solver) = DefaultSolver::new(&c.p, &c.q, &c.a, &c.b, &c.cones, settings)
+            else {
+                continue;
+            };
+            solver.solve();
+            let sol = self.extract(&solver.solution);
+            if sol.outcome.is_usable() {
+                return sol;
+            }
+        }
+        first
+    }
+
+    /// A Clarabel solution in the SQP's conventions.
+    fn extract(&self, sol: &DefaultSolution<f64>) -> QpSolution {
         let l = self.layout;
         let outcome = match sol.status {
             SolverStatus::Solved => QpOutcome::Solved,
@@ -404,7 +538,11 @@ impl QpSubproblem {
         let x = &sol.x;
         let z = &sol.z;
         let d = x[..l.n].to_vec();
-        let lambda = z[l.row_ineq..l.row_ineq + l.m].to_vec();
+        // Rows left out of the conic problem (all-zero Jacobian row) get multiplier 0.
+        let mut lambda = vec![0.0; self.m_total];
+        for (r, &i) in self.kept.iter().enumerate() {
+            lambda[i] = z[l.row_ineq + r];
+        }
         let mu = z[..l.q].iter().map(|v| -v).collect();
         let box_upper = z[l.row_box_up..l.row_box_up + l.n].to_vec();
         let box_lower = z[l.row_box_lo..l.row_box_lo + l.n].to_vec();

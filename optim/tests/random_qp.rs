@@ -5,6 +5,10 @@
 //! set `b_i = a_iᵀx*` on `S`, `b_i = a_iᵀx* − slack_i` off it, and `g = Aᵀλ − Qx*`. Then `x*` is the
 //! unique optimum. Given the exact Hessian as its initial matrix, the SQP must find it in one or two
 //! iterations from any start.
+//!
+//! A second property injects degenerate rows — all-zero rows (`0 ≥ 0` when active, `0 ≥ −slack`
+//! otherwise) and exact duplicates of earlier rows (identical constraints when both are active) —
+//! which are legitimate input: the optimum is still unique, only the multipliers are not.
 
 use optim::{DenseMatrix, EvalError, Jacobian, Problem, SqpSettings, SqpSolver, Status};
 use proptest::prelude::*;
@@ -70,7 +74,25 @@ fn qp_strategy() -> impl Strategy<Value = (usize, usize, usize, Vec<f64>)> {
     })
 }
 
+/// Row `i` of `A` as drawn, or all zero (`0`), or a copy of an earlier row (`1 + j`, `j < i`).
+#[derive(Clone, Copy, Debug)]
+enum RowKind {
+    Drawn,
+    Zero,
+    Copy(usize),
+}
+
 fn build(n: usize, m: usize, k: usize, raw: &[f64]) -> (RandomQp, Vec<f64>, Vec<f64>) {
+    build_with_rows(n, m, k, raw, &vec![RowKind::Drawn; m])
+}
+
+fn build_with_rows(
+    n: usize,
+    m: usize,
+    k: usize,
+    raw: &[f64],
+    kinds: &[RowKind],
+) -> (RandomQp, Vec<f64>, Vec<f64>) {
     let mut it = raw.iter().copied();
     let mut next = || it.next().unwrap_or(0.0);
     let l: Vec<f64> = (0..n * n).map(|_| next()).collect();
@@ -81,7 +103,17 @@ fn build(n: usize, m: usize, k: usize, raw: &[f64]) -> (RandomQp, Vec<f64>, Vec<
         }
         q[i * n + i] += 1.0;
     }
-    let a_data: Vec<f64> = (0..m * n).map(|_| next()).collect();
+    let mut a_data: Vec<f64> = (0..m * n).map(|_| next()).collect();
+    for (i, kind) in kinds.iter().enumerate() {
+        match *kind {
+            RowKind::Drawn => {}
+            RowKind::Zero => a_data[i * n..(i + 1) * n].fill(0.0),
+            RowKind::Copy(j) => {
+                assert!(j < i);
+                a_data.copy_within(j * n..(j + 1) * n, i * n);
+            }
+        }
+    }
     let a = DenseMatrix::from_row_major(m, n, a_data).expect("shape");
     let x_star: Vec<f64> = (0..n).map(|_| 2.0 * next()).collect();
     let x0: Vec<f64> = (0..n).map(|_| 3.0 * next()).collect();
@@ -119,11 +151,17 @@ fn build(n: usize, m: usize, k: usize, raw: &[f64]) -> (RandomQp, Vec<f64>, Vec<
 
 /// Smallest singular-value proxy: reject draws whose active rows are nearly dependent (the optimum is
 /// then still unique but the multipliers are ill-determined and "1e-6" is no longer meaningful).
+/// Exactly zero rows and exact copies of earlier active rows are deliberate degeneracies (see
+/// [`RowKind`]), not near-dependence, and are skipped.
 fn well_conditioned(qp: &RandomQp, k: usize) -> bool {
     // Gram–Schmidt on the active rows.
     let mut basis: Vec<Vec<f64>> = Vec::new();
     for i in 0..k {
-        let mut v = qp.a.row(i).to_vec();
+        let row = qp.a.row(i);
+        if row.iter().all(|&v| v == 0.0) || (0..i).any(|j| qp.a.row(j) == row) {
+            continue;
+        }
+        let mut v = row.to_vec();
         let norm0 = v.iter().map(|x| x * x).sum::<f64>().sqrt();
         for bv in &basis {
             let p: f64 = v.iter().zip(bv).map(|(a, b)| a * b).sum();
@@ -140,20 +178,73 @@ fn well_conditioned(qp: &RandomQp, k: usize) -> bool {
     true
 }
 
+/// `m` row kinds: mostly drawn, some zero, some copies of a random earlier row.
+fn row_kinds(m: usize) -> impl Strategy<Value = Vec<RowKind>> {
+    prop::collection::vec((0u8..4, any::<prop::sample::Index>()), m).prop_map(|v| {
+        v.into_iter()
+            .enumerate()
+            .map(|(i, (t, idx))| match t {
+                1 => RowKind::Zero,
+                2 if i > 0 => RowKind::Copy(idx.index(i)),
+                _ => RowKind::Drawn,
+            })
+            .collect()
+    })
+}
+
+fn degenerate_qp_strategy() -> impl Strategy<Value = (usize, usize, usize, Vec<f64>, Vec<RowKind>)>
+{
+    qp_strategy()
+        .prop_flat_map(|(n, m, k, raw)| (Just(n), Just(m), Just(k), Just(raw), row_kinds(m)))
+}
+
+fn check_solved(qp: &mut RandomQp, x_star: &[f64], x0: &[f64]) -> Result<(), TestCaseError> {
+    let solver = SqpSolver::new(SqpSettings::default()).unwrap();
+    let sol = solver.solve(qp, x0).unwrap();
+    prop_assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    prop_assert!(sol.iterations <= 2, "took {} iterations", sol.iterations);
+    let scale = 1.0 + x_star.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    for (x, xs) in sol.x.iter().zip(x_star) {
+        prop_assert!(
+            (x - xs).abs() <= 1e-6 * scale,
+            "x = {:?}, x* = {:?}",
+            sol.x,
+            x_star
+        );
+    }
+    Ok(())
+}
+
+/// 256 cases per property, or `PROPTEST_CASES` (an explicit count would otherwise override it), with
+/// the rejection budget of `well_conditioned` scaled along.
+fn config() -> ProptestConfig {
+    let cases = std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(256);
+    ProptestConfig {
+        cases,
+        max_global_rejects: cases.max(1024),
+        ..ProptestConfig::default()
+    }
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(256))]
+    #![proptest_config(config())]
 
     #[test]
     fn random_convex_qp_solved_in_one_or_two_iterations((n, m, k, raw) in qp_strategy()) {
         let (mut qp, x_star, x0) = build(n, m, k, &raw);
         prop_assume!(well_conditioned(&qp, k));
-        let solver = SqpSolver::new(SqpSettings::default()).unwrap();
-        let sol = solver.solve(&mut qp, &x0).unwrap();
-        prop_assert_eq!(sol.status, Status::Converged, "{}", sol.message);
-        prop_assert!(sol.iterations <= 2, "took {} iterations", sol.iterations);
-        let scale = 1.0 + x_star.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-        for (x, xs) in sol.x.iter().zip(&x_star) {
-            prop_assert!((x - xs).abs() <= 1e-6 * scale, "x = {:?}, x* = {:?}", sol.x, x_star);
-        }
+        check_solved(&mut qp, &x_star, &x0)?;
+    }
+
+    #[test]
+    fn random_convex_qp_with_zero_and_duplicate_rows(
+        (n, m, k, raw, kinds) in degenerate_qp_strategy()
+    ) {
+        let (mut qp, x_star, x0) = build_with_rows(n, m, k, &raw, &kinds);
+        prop_assume!(well_conditioned(&qp, k));
+        check_solved(&mut qp, &x_star, &x0)?;
     }
 }

@@ -532,3 +532,212 @@ fn clarabel_failures_are_reported_not_hidden() {
     assert_eq!(sol.status, Status::Stalled, "{}", sol.message);
     assert!(sol.message.contains("MaxIterations"), "{}", sol.message);
 }
+
+/// `min ½xᵀQx + gᵀx  s.t.  Ax ≥ b` with linear constraints given as data.
+struct LinearQp {
+    q: DenseMatrix,
+    g: Vec<f64>,
+    a: DenseMatrix,
+    b: Vec<f64>,
+}
+
+impl Problem for LinearQp {
+    fn num_variables(&self) -> usize {
+        self.g.len()
+    }
+    fn num_inequalities(&self) -> usize {
+        self.b.len()
+    }
+    fn initial_hessian(&self) -> Option<DenseMatrix> {
+        Some(self.q.clone())
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        let n = x.len();
+        Ok((0..n)
+            .map(|i| {
+                x[i] * (self.g[i] + 0.5 * (0..n).map(|j| self.q.get(i, j) * x[j]).sum::<f64>())
+            })
+            .sum())
+    }
+    fn gradient(&mut self, x: &[f64], grad: &mut [f64]) -> Result<(), EvalError> {
+        for (i, gi) in grad.iter_mut().enumerate() {
+            *gi = self.g[i] + self.q.row(i).iter().zip(x).map(|(q, x)| q * x).sum::<f64>();
+        }
+        Ok(())
+    }
+    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        for (i, ci) in c.iter_mut().enumerate() {
+            *ci = self.a.row(i).iter().zip(x).map(|(a, x)| a * x).sum::<f64>() - self.b[i];
+        }
+        Ok(())
+    }
+    fn inequality_jacobian(&mut self, _x: &[f64], jac: &mut Jacobian) -> Result<(), EvalError> {
+        *jac = Jacobian::Dense(self.a.clone());
+        Ok(())
+    }
+}
+
+/// The random convex QP (n = 5, m = 6, 3 active rows at `x*`) on which the first QP subproblem made
+/// Clarabel 0.11.1 cycle until `MaxIterations` with its default settings (its Ruiz equilibration; the
+/// same data solves in ~10 interior-point iterations without it). Shrunk by proptest from
+/// `tests/random_qp.rs`; every number is the exact `f64` that test built.
+fn clarabel_cycling_qp() -> (LinearQp, Vec<f64>, Vec<f64>) {
+    let q = vec![
+        1.9781326765955214,
+        0.0,
+        -0.5040413190788106,
+        0.0,
+        0.0,
+        0.0,
+        1.8115628561957942,
+        0.8691944337974458,
+        -0.8847525037956445,
+        -0.6193257772255863,
+        -0.5040413190788106,
+        0.8691944337974458,
+        2.8735665263738457,
+        -0.9475815036586605,
+        -0.6633060078613126,
+        0.0,
+        -0.8847525037956445,
+        -0.9475815036586605,
+        1.9645426561806696,
+        0.6751787959272069,
+        0.0,
+        -0.6193257772255863,
+        -0.6633060078613126,
+        0.6751787959272069,
+        1.4726244127707337,
+    ];
+    let g = vec![
+        2.0009020930206427,
+        -3.5283041984871266,
+        0.5264067663401049,
+        1.8125929747804945,
+        -1.6666687674267222,
+    ];
+    let a = vec![
+        vec![0.0, 0.9578297189722299, 0.0, 0.0, 0.0],
+        vec![
+            0.7048027184804828,
+            -0.35131590098222076,
+            0.573496694978836,
+            0.0,
+            -0.9130132061546171,
+        ],
+        vec![
+            0.442961742269267,
+            -0.49973545806128394,
+            0.5890376787240341,
+            0.13188383658815703,
+            -0.6626846462721255,
+        ],
+        vec![
+            0.48898432784058915,
+            -0.8697493238466748,
+            0.0,
+            0.40873107406070996,
+            -0.4361235913758201,
+        ],
+        vec![
+            0.43585563187349824,
+            -0.27781556798459844,
+            0.6209104117874865,
+            0.0,
+            0.0,
+        ],
+        vec![0.0, -0.8999829656535497, 0.8657201409561787, 0.0, 0.0],
+    ];
+    let b = vec![
+        1.6916354040968078,
+        -0.6204635378837348,
+        -0.8825892293737787,
+        -2.5951018827525525,
+        -1.0185851942761937,
+        -2.1850888409036564,
+    ];
+    let x_star = vec![0.0, 1.7661128805984072, 0.0, 0.0, 0.0];
+    let x0 = vec![
+        -1.1524925112569986,
+        -2.8054880263757647,
+        -2.4079757413242246,
+        1.3185849973991368,
+        0.0,
+    ];
+    let qp = LinearQp {
+        q: DenseMatrix::from_row_major(5, 5, q).unwrap(),
+        g,
+        a: DenseMatrix::from_rows(&a).unwrap(),
+        b,
+    };
+    (qp, x_star, x0)
+}
+
+fn assert_solves_to(qp: &mut LinearQp, x_star: &[f64], x0: &[f64]) {
+    let sol = solver().solve(qp, x0).unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    assert!(sol.iterations <= 2, "took {} iterations", sol.iterations);
+    assert!(sol.kkt_residual <= 1e-6 && sol.constraint_violation <= 1e-8);
+    for (x, xs) in sol.x.iter().zip(x_star) {
+        assert!(
+            (x - xs).abs() <= 1e-6 * 3.0,
+            "x = {:?}, x* = {x_star:?}",
+            sol.x
+        );
+    }
+}
+
+#[test]
+fn qp_on_which_clarabel_cycles_is_solved_by_the_fallback_settings() {
+    let (mut qp, x_star, x0) = clarabel_cycling_qp();
+    assert_solves_to(&mut qp, &x_star, &x0);
+}
+
+/// The same problem with degenerate rows appended: `0 ≥ 0` (an all-zero row, active everywhere),
+/// `0 ≥ −1` (all-zero, never active), exact duplicates of the active rows 0 and 1 and of the inactive
+/// row 3. The feasible set and the optimum are unchanged; only the multipliers are no longer unique.
+#[test]
+fn zero_and_duplicate_constraint_rows_are_solved() {
+    let (qp, x_star, x0) = clarabel_cycling_qp();
+    let mut rows: Vec<Vec<f64>> = (0..6).map(|i| qp.a.row(i).to_vec()).collect();
+    let mut b = qp.b.clone();
+    for (row, bi) in [
+        (vec![0.0; 5], 0.0),
+        (vec![0.0; 5], -1.0),
+        (rows[0].clone(), b[0]),
+        (rows[1].clone(), b[1]),
+        (rows[3].clone(), b[3]),
+    ] {
+        rows.push(row);
+        b.push(bi);
+    }
+    let mut degenerate = LinearQp {
+        a: DenseMatrix::from_rows(&rows).unwrap(),
+        b,
+        ..qp
+    };
+    assert_solves_to(&mut degenerate, &x_star, &x0);
+}
+
+/// An all-zero row that is violated (`0 ≥ 1`) cannot be repaired by any step: locally infeasible,
+/// with best violation 1, and never `Converged`.
+#[test]
+fn violated_zero_constraint_row_is_reported_infeasible() {
+    let (qp, _, x0) = clarabel_cycling_qp();
+    let mut rows: Vec<Vec<f64>> = (0..6).map(|i| qp.a.row(i).to_vec()).collect();
+    rows.push(vec![0.0; 5]);
+    let mut b = qp.b.clone();
+    b.push(1.0);
+    let mut p = LinearQp {
+        a: DenseMatrix::from_rows(&rows).unwrap(),
+        b,
+        ..qp
+    };
+    let sol = solver().solve(&mut p, &x0).unwrap();
+    match sol.status {
+        Status::Infeasible { best_violation } => {
+            assert!((best_violation - 1.0).abs() < 1e-9, "{best_violation}");
+        }
+        other => panic!("expected Infeasible, got {other:?}: {}", sol.message),
+    }
+}

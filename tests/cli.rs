@@ -1,0 +1,215 @@
+//! End-to-end tests of the `clothopt` binary on small scenes.
+
+use cloth::Scene;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_clothopt"))
+}
+
+/// A fresh scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("clothopt-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn run(cmd: &mut Command) -> Output {
+    cmd.output().expect("the binary runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// `u_obstacle` at 5×5 with 20 solver iterations per step: the safety task, small enough for tests.
+fn small_obstacle_scene(dir: &Path) -> PathBuf {
+    let mut scene = Scene::builtin("u_obstacle").unwrap().refined(5, 5).unwrap();
+    scene.physics.iterations = 20;
+    scene.task.delta = 0.1;
+    let path = dir.join("small.json");
+    std::fs::write(&path, scene.to_json_pretty()).unwrap();
+    path
+}
+
+#[test]
+fn scenes_lists_the_three_built_ins() {
+    let o = run(bin().arg("scenes"));
+    assert!(o.status.success());
+    let text = stdout(&o);
+    for name in ["u_obstacle", "swing", "drop"] {
+        assert!(text.contains(name), "{name} missing from:\n{text}");
+    }
+    assert_eq!(text.lines().count(), 3);
+}
+
+#[test]
+fn simulate_writes_a_result_with_t_plus_one_states() {
+    let dir = scratch("simulate");
+    let scene = small_obstacle_scene(&dir);
+    let out = dir.join("sim.json");
+    let o = run(bin().arg("simulate").arg(&scene).arg("--out").arg(&out));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(v["states"].as_array().unwrap().len(), 11);
+    assert_eq!(v["states"][0].as_array().unwrap().len(), 25);
+    assert_eq!(v["controls"].as_array().unwrap().len(), 10);
+    assert!(v["metrics"]["G"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn a_bad_scene_is_rejected_in_one_line_naming_the_field_and_writes_nothing() {
+    let dir = scratch("bad");
+    let mut scene: Value =
+        serde_json::from_str(&Scene::builtin("swing").unwrap().to_json_pretty()).unwrap();
+    scene["physics"]["dt"] = Value::from(-0.1);
+    let path = dir.join("bad.json");
+    std::fs::write(&path, scene.to_string()).unwrap();
+    let out = dir.join("never.json");
+    let o = run(bin().arg("simulate").arg(&path).arg("--out").arg(&out));
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("physics.dt"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!out.exists());
+
+    let mut unknown: Value =
+        serde_json::from_str(&Scene::builtin("swing").unwrap().to_json_pretty()).unwrap();
+    unknown["physics"]["gravityy"] = Value::from(1.0);
+    std::fs::write(&path, unknown.to_string()).unwrap();
+    let o = run(bin().arg("simulate").arg(&path));
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("gravityy"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_controls_file_of_the_wrong_shape_is_rejected() {
+    let dir = scratch("controls");
+    let path = dir.join("u.json");
+    std::fs::write(&path, r#"{"controls": [[[0, 0, 0]]]}"#).unwrap();
+    let o = run(bin().args(["simulate", "swing", "--controls"]).arg(&path));
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("expected 10 steps × 2 control points"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+fn grad_json(scene: &Path, controls: &Path) -> Value {
+    let o = run(bin().arg("grad").arg(scene).arg("--controls").arg(controls));
+    assert!(o.status.success(), "{}", stderr(&o));
+    serde_json::from_str(&stdout(&o)).unwrap()
+}
+
+#[test]
+fn grad_agrees_with_central_differences_through_the_cli() {
+    let dir = scratch("grad");
+    let scene = small_obstacle_scene(&dir);
+    // Distinct consecutive controls, away from the T kinks.
+    let base: Vec<Vec<[f64; 3]>> = (0..10)
+        .map(|t| {
+            vec![
+                [0.01 * t as f64, 0.3, 0.02],
+                [-0.01, 0.3 - 0.01 * t as f64, 0.0],
+            ]
+        })
+        .collect();
+    let dirn: Vec<Vec<[f64; 3]>> = (0..10)
+        .map(|t| vec![[0.3, -0.2, 0.1 * (t % 3) as f64], [0.1, 0.25, -0.15]])
+        .collect();
+    let write = |name: &str, s: f64| {
+        let u: Vec<Vec<[f64; 3]>> = base
+            .iter()
+            .zip(&dirn)
+            .map(|(b, d)| {
+                b.iter()
+                    .zip(d)
+                    .map(|(p, q)| [p[0] + s * q[0], p[1] + s * q[1], p[2] + s * q[2]])
+                    .collect()
+            })
+            .collect();
+        let path = dir.join(name);
+        std::fs::write(&path, serde_json::json!({ "controls": u }).to_string()).unwrap();
+        path
+    };
+    let h = 1e-6;
+    let at = grad_json(&scene, &write("u0.json", 0.0));
+    let plus = grad_json(&scene, &write("up.json", h));
+    let minus = grad_json(&scene, &write("um.json", -h));
+    let grad = &at["grad_L"];
+    assert_eq!(grad.as_array().unwrap().len(), 10);
+    assert_eq!(grad[0].as_array().unwrap().len(), 2);
+    let mut directional = 0.0;
+    for (t, d) in dirn.iter().enumerate() {
+        for (k, q) in d.iter().enumerate() {
+            for j in 0..3 {
+                directional += grad[t][k][j].as_f64().unwrap() * q[j];
+            }
+        }
+    }
+    let fd = (plus["L"].as_f64().unwrap() - minus["L"].as_f64().unwrap()) / (2.0 * h);
+    assert!(
+        (directional - fd).abs() <= 1e-6 * fd.abs().max(1.0),
+        "grad·d = {directional}, FD = {fd}"
+    );
+    for key in ["L", "G", "T", "E", "C", "min_sdf", "grad_C"] {
+        assert!(!at[key].is_null(), "{key} missing");
+    }
+}
+
+#[test]
+fn optimize_reaches_a_feasible_converged_plan_on_a_small_obstacle_scene() {
+    let dir = scratch("optimize");
+    let scene = small_obstacle_scene(&dir);
+    let out = dir.join("result.json");
+    let o = run(bin()
+        .arg("optimize")
+        .arg(&scene)
+        .args(["--iterations", "150", "--out"])
+        .arg(&out));
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let m = &v["metrics"];
+    assert_eq!(v["status"], "converged", "{}", stdout(&o));
+    assert!(m["C"].as_f64().unwrap() >= -1e-6);
+    assert!(m["min_sdf"].as_f64().unwrap() >= 0.1 - 1e-3);
+    let start_l = 4.0;
+    assert!(m["L"].as_f64().unwrap() < start_l, "L = {}", m["L"]);
+    for key in [
+        "scene",
+        "delta",
+        "iterations",
+        "evaluations",
+        "wall_s",
+        "controls",
+        "states",
+    ] {
+        assert!(!v[key].is_null(), "{key} missing");
+    }
+
+    // The result exports to way-points and meshes.
+    let csv = dir.join("wp.csv");
+    let objs = dir.join("objs");
+    let o = run(bin()
+        .arg("export")
+        .arg(&out)
+        .arg("--waypoints")
+        .arg(&csv)
+        .arg("--obj")
+        .arg(&objs)
+        .args(["--per-step", "5"]));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(&csv).unwrap().lines().count(),
+        1 + 10 * 5 + 1
+    );
+    assert_eq!(std::fs::read_dir(&objs).unwrap().count(), 11);
+}

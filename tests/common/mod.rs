@@ -1,0 +1,78 @@
+//! Helpers shared by the root package's stability, honesty, bad-input and determinism tests.
+
+#![allow(dead_code)]
+
+use cloth::scene::{InitialControls, Target};
+use cloth::Scene;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The `clothopt` binary.
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_clothopt"))
+}
+
+/// Runs a command to completion.
+pub fn run(cmd: &mut Command) -> Output {
+    cmd.output().expect("the binary runs")
+}
+
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A fresh scratch directory for one test (`tag` keeps test files apart).
+pub fn scratch(tag: &str, name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("clothopt-{tag}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The names of the files in `dir`, sorted.
+pub fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// A hanging `rows × cols` cloth (side 1, plane `y = −1.5`, top at `z = 2`), gripped at its two
+/// top corners (one corner if `cols = 1`), stretch 1e4, distance bending 1e2 (the `swing`
+/// material), `T = horizon`, targets on the bottom row, zero initial guess.
+pub fn small(rows: usize, cols: usize, horizon: usize, iterations: usize) -> Scene {
+    let mut s = Scene::builtin("swing").unwrap();
+    s.name = format!("small{rows}x{cols}");
+    s.cloth.rows = rows;
+    s.cloth.cols = cols;
+    s.physics.iterations = iterations;
+    s.task.horizon = horizon;
+    s.controls = if cols > 1 {
+        vec![[0, 0], [0, cols - 1]]
+    } else {
+        vec![[0, 0]]
+    };
+    let den = (cols.max(2) - 1) as f64;
+    s.task.targets = (0..cols)
+        .map(|c| Target {
+            particle: [rows - 1, c],
+            position: [-0.5 + c as f64 / den, 1.0, 1.5],
+        })
+        .collect();
+    s.task.initial_controls = InitialControls::Zeros;
+    s.validate().unwrap();
+    s
+}
+
+/// Writes `scene` as JSON into `dir/name` and returns the path.
+pub fn write_scene(dir: &Path, name: &str, scene: &Scene) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, scene.to_json_pretty()).unwrap();
+    path
+}

@@ -1,0 +1,144 @@
+//! The same command gives byte-identical result JSON across runs and thread counts (issue 7,
+//! item 5).
+//!
+//! `wall_s` (wall-clock time) differs between any two runs, so `clothopt optimize --no-timing`
+//! leaves it out of the result; everything else is compared as whole-file bytes: status,
+//! message, iteration and evaluation counts, KKT residual, constraint violation, metrics,
+//! controls and every state.
+//!
+//! The scene is large enough that the parallel paths really run: `u_obstacle` at 34×34 has colour
+//! sets of more than [`PARALLEL_MIN_ROWS`] constraints and more than that many particles (the
+//! per-particle signed distances), so with `RAYON_NUM_THREADS=2` rows are split across threads
+//! (asserted below) — with 1 thread they are not.
+
+mod common;
+
+use autodiff::rowfn::PARALLEL_MIN_ROWS;
+use cloth::{Model, Scene};
+use common::*;
+use serde_json::Value;
+use std::path::Path;
+
+/// `u_obstacle` at 34×34, 3 solver iterations per step, T = 3.
+fn scene() -> Scene {
+    let mut s = Scene::builtin("u_obstacle")
+        .unwrap()
+        .refined(34, 34)
+        .unwrap();
+    s.physics.iterations = 3;
+    s.task.horizon = 3;
+    s.task.initial_controls = cloth::scene::InitialControls::Constant(vec![[0.0, 0.3, 0.0]; 2]);
+    s.validate().unwrap();
+    s
+}
+
+/// `clothopt optimize SCENE --iterations 4 --no-timing --out OUT` with `threads` rayon threads;
+/// returns the result file's bytes.
+fn optimize(scene: &Path, out: &Path, threads: usize) -> Vec<u8> {
+    let o = run(bin()
+        .env("RAYON_NUM_THREADS", threads.to_string())
+        .arg("optimize")
+        .arg(scene)
+        .args(["--iterations", "4", "--no-timing", "--out"])
+        .arg(out));
+    assert!(o.status.success(), "{}\n{}", stdout(&o), stderr(&o));
+    assert!(!stdout(&o).contains("wall"), "{}", stdout(&o));
+    std::fs::read(out).unwrap()
+}
+
+#[test]
+fn optimize_writes_identical_bytes_across_runs_and_thread_counts() {
+    let scene = scene();
+    let model = Model::from_scene(&scene).unwrap();
+    let largest_set = model
+        .groups
+        .iter()
+        .flat_map(|g| &g.sets)
+        .map(|s| s.index.rows())
+        .max()
+        .unwrap();
+    assert!(
+        largest_set >= PARALLEL_MIN_ROWS && model.n_particles() >= PARALLEL_MIN_ROWS,
+        "largest set {largest_set}, {} particles: the parallel path would not run",
+        model.n_particles()
+    );
+
+    let dir = scratch("determinism", "optimize");
+    let path = write_scene(&dir, "scene.json", &scene);
+    let runs = [
+        (1, "a1.json"),
+        (2, "a2.json"),
+        (2, "b2.json"),
+        (1, "b1.json"),
+    ];
+    let bytes: Vec<Vec<u8>> = runs
+        .iter()
+        .map(|&(threads, name)| optimize(&path, &dir.join(name), threads))
+        .collect();
+    let v: Value = serde_json::from_slice(&bytes[0]).unwrap();
+    assert!(v.get("wall_s").is_none(), "--no-timing keeps wall_s out");
+    assert!(
+        v["iterations"].as_u64().unwrap() >= 1,
+        "the optimizer moved"
+    );
+    assert_eq!(v["states"].as_array().unwrap().len(), 4);
+    println!(
+        "status {}, {} iterations, {} simulations, L {}, {} bytes",
+        v["status"],
+        v["iterations"],
+        v["evaluations"],
+        v["metrics"]["L"],
+        bytes[0].len()
+    );
+    for (b, (threads, name)) in bytes.iter().zip(runs).skip(1) {
+        assert!(
+            b == &bytes[0],
+            "{name} ({threads} threads) differs from a1.json (1 thread)"
+        );
+    }
+    // Without --no-timing the file differs only by the wall_s field.
+    let o = run(bin()
+        .arg("optimize")
+        .arg(&path)
+        .args(["--iterations", "4", "--out"])
+        .arg(dir.join("timed.json")));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut timed: Value =
+        serde_json::from_slice(&std::fs::read(dir.join("timed.json")).unwrap()).unwrap();
+    assert!(timed["wall_s"].as_f64().unwrap() > 0.0);
+    timed.as_object_mut().unwrap().remove("wall_s");
+    assert_eq!(timed, v);
+    // A result without wall_s reads back as a PlanResult (timing NaN: not measured).
+    let back: clothopt::plan::PlanResult = serde_json::from_slice(&bytes[0]).unwrap();
+    assert!(back.wall_s.is_nan());
+    assert_eq!(serde_json::to_vec_pretty(&back).unwrap(), bytes[0]);
+}
+
+#[test]
+fn simulate_and_grad_are_identical_across_thread_counts() {
+    let dir = scratch("determinism", "simulate");
+    let path = write_scene(&dir, "scene.json", &scene());
+    let mut sims = Vec::new();
+    let mut grads = Vec::new();
+    for threads in [1, 2, 1, 2] {
+        let out = dir.join(format!("sim{}.json", sims.len()));
+        let o = run(bin()
+            .env("RAYON_NUM_THREADS", threads.to_string())
+            .arg("simulate")
+            .arg(&path)
+            .arg("--out")
+            .arg(&out));
+        assert!(o.status.success(), "{}", stderr(&o));
+        sims.push(std::fs::read(&out).unwrap());
+        let o = run(bin()
+            .env("RAYON_NUM_THREADS", threads.to_string())
+            .arg("grad")
+            .arg(&path));
+        assert!(o.status.success(), "{}", stderr(&o));
+        grads.push(o.stdout);
+    }
+    assert!(sims.iter().all(|s| s == &sims[0]));
+    assert!(grads.iter().all(|g| g == &grads[0]));
+    let g: Value = serde_json::from_slice(&grads[0]).unwrap();
+    assert!(g["grad_L"][0][0][0].as_f64().unwrap().abs() > 0.0);
+}
