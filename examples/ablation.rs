@@ -21,8 +21,6 @@
 use anyhow::{bail, Context, Result};
 use autodiff::Tensor;
 use clap::{Parser, ValueEnum};
-use cloth::scene::Obstacle;
-use cloth::sdf::{Plane, SphereSet};
 use cloth::{Model, Scene};
 use clothopt::figures::RolloutFigure;
 use clothopt::plan::{self, PlanOptions, PlanResult, SolverKind};
@@ -167,28 +165,10 @@ struct Task {
     g_start: f64,
 }
 
-/// Compiles `name`'s built-in scene. `Model::from_scene` projects collider planes in the simulator
-/// but leaves `Model::colliders` empty, and `TrajectoryProblem` reads the planes from there for
-/// the rows that keep the control points (pinned particles, never projected) above them: without
-/// them `drop`'s control points go through the floor (measured: z = −0.089). Filled here from the
-/// scene, as `Model::from_scene` splits the obstacles, only when the model left it empty.
+/// Compiles `name`'s built-in scene with the example's per-task settings.
 fn load_task(name: &str, args: &Args) -> Result<Task> {
     let scene = Scene::builtin(name).with_context(|| format!("task {name}"))?;
-    let mut model = Model::from_scene(&scene)?;
-    if model.colliders.is_empty() {
-        for obstacle in scene.obstacles.iter().filter(|o| o.role().is_collider()) {
-            match obstacle {
-                Obstacle::Plane(p) => model.colliders.planes.push(Plane {
-                    point: p.point,
-                    normal: p.normalized(),
-                }),
-                Obstacle::Spheres(s) => model.colliders.spheres.push(SphereSet {
-                    centers: s.centers.clone(),
-                    radii: s.radii.clone(),
-                }),
-            }
-        }
-    }
+    let model = Model::from_scene(&scene)?;
     let mut settings = TaskSettings::for_task(name, &model);
     settings.step_bound = args.step_bound.unwrap_or(settings.step_bound);
     settings.iterations = args.iterations.unwrap_or(settings.iterations);
