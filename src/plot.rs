@@ -1167,7 +1167,11 @@ pub fn draw_trajectory_panels(
         let (grid, legend_area) = titled.split_horizontally((cols as u32 * pw) as i32);
         let cells = grid.split_evenly((rows, cols));
         for (fig, cell) in panels.iter().zip(&cells) {
-            let area = cell.titled(&fig.title, text(17.0)).map_err(de)?;
+            // The 3-D axes put their tick labels and titles left of the area: leave room for them.
+            let area = cell
+                .titled(&fig.title, text(17.0))
+                .map_err(de)?
+                .margin(0, 0, 36, 0);
             scene_3d(root, &area, fig, &b, 14.0)?;
         }
         let (lx, ly) = legend_area.get_base_pixel();
