@@ -7,6 +7,7 @@ use clothopt::figures::{top_view_path, RolloutFigure};
 use clothopt::plan::{self, controls_from_nested, initial_controls, PlanOptions, SolverKind};
 use clothopt::problem::SafetyForm;
 use indicatif::{ProgressBar, ProgressStyle};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 #[derive(Parser)]
@@ -243,7 +244,13 @@ fn run(cli: Cli) -> Result<()> {
                 "L": m.l, "G": m.g, "T": m.t, "E": m.e, "C": m.c, "min_sdf": m.min_sdf,
                 "grad_L": nested(ev.grad_l), "grad_C": nested(ev.grad_c),
             });
-            println!("{out}");
+            // A reader that stops early (`| head`) ends the output; that is not an error.
+            let mut stdout = std::io::stdout().lock();
+            if let Err(e) = writeln!(stdout, "{out}").and_then(|_| stdout.flush()) {
+                if e.kind() != std::io::ErrorKind::BrokenPipe {
+                    return Err(e.into());
+                }
+            }
         }
         Command::Optimize {
             scene,
