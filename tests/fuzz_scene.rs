@@ -12,7 +12,9 @@
 //!   and gradient is finite, or the simulator returns [`ClothError::Diverged`] naming a step in
 //!   `1..=T` and a particle in `0..N` (a rollout that leaves the range of `f64`).
 
+mod common;
 use cloth::{ClothError, Model, Scene};
+use common::noise;
 use proptest::prelude::*;
 use serde_json::{Map, Value};
 
@@ -210,19 +212,6 @@ fn has_extreme_number(v: &Value) -> bool {
         Value::Object(m) => m.values().any(has_extreme_number),
         _ => false,
     }
-}
-
-/// Deterministic pseudo-random values.
-fn noise(seed: u64, n: usize) -> Vec<f64> {
-    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    (0..n)
-        .map(|_| {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        })
-        .collect()
 }
 
 /// What happened to one input (for the statistics printed at the end).

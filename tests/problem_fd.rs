@@ -1,21 +1,11 @@
 //! `TrajectoryProblem`'s objective gradient and constraint Jacobian against central differences.
 
+mod common;
 use cloth::{Model, Scene};
 use clothopt::plan::initial_controls;
 use clothopt::problem::{SafetyForm, TaskOptions, TrajectoryProblem};
+use common::noise;
 use optim::{Jacobian, Problem};
-
-fn direction(seed: u64, n: usize) -> Vec<f64> {
-    let mut s = seed.wrapping_mul(0x9E3779B97F4A7C15) | 1;
-    (0..n)
-        .map(|_| {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        })
-        .collect()
-}
 
 fn check(form: SafetyForm, swept: bool) {
     let scene = Scene::builtin("u_obstacle").unwrap();
@@ -33,7 +23,7 @@ fn check(form: SafetyForm, swept: bool) {
     for (t, chunk) in x.chunks_mut(6).enumerate() {
         chunk[1] += 0.1 * (t as f64 / 10.0);
     }
-    for (v, d) in x.iter_mut().zip(direction(7, n)) {
+    for (v, d) in x.iter_mut().zip(noise(7, n)) {
         *v += 0.02 * d;
     }
     let mut g = vec![0.0; n];
@@ -45,7 +35,7 @@ fn check(form: SafetyForm, swept: bool) {
     };
     let h = 1e-6;
     for seed in 0..3 {
-        let d = direction(100 + seed, n);
+        let d = noise(100 + seed, n);
         let at = |s: f64, p: &mut TrajectoryProblem| {
             let xs: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + s * b).collect();
             let f = p.objective(&xs).unwrap();

@@ -105,48 +105,25 @@ impl<F: RowFn> DynRowFn for F {
     }
     fn eval_batch(&self, input: &[f64], output: &mut [f64]) {
         let (n_in, n_out) = (RowFn::n_in(self), RowFn::n_out(self));
-        if n_out == 0 {
-            return;
-        }
-        let run = |first: usize, out: &mut [f64]| {
+        for_each_row_chunk(output, n_out, |first, out| {
             for (k, o) in out.chunks_exact_mut(n_out).enumerate() {
                 let r = first + k;
                 self.eval(r, &input[r * n_in..(r + 1) * n_in], o);
             }
-        };
-        if output.len() / n_out < PARALLEL_MIN_ROWS {
-            run(0, output);
-        } else {
-            output
-                .par_chunks_mut(ROWS_PER_TASK * n_out)
-                .enumerate()
-                .for_each(|(t, out)| run(t * ROWS_PER_TASK, out));
-        }
+        });
     }
     fn vjp_batch(&self, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
         let (n_in, n_out) = (RowFn::n_in(self), RowFn::n_out(self));
-        if n_in == 0 {
-            return;
-        }
-        let run = |first: usize, ia: &mut [f64]| {
+        for_each_row_chunk(in_adj, n_in, |first, ia| {
             for (k, a) in ia.chunks_exact_mut(n_in).enumerate() {
                 let r = first + k;
-                self.vjp(
-                    r,
+                let (x, oa) = (
                     &input[r * n_in..(r + 1) * n_in],
                     &out_adj[r * n_out..(r + 1) * n_out],
-                    a,
                 );
+                self.vjp(r, x, oa, a);
             }
-        };
-        if in_adj.len() / n_in < PARALLEL_MIN_ROWS {
-            run(0, in_adj);
-        } else {
-            in_adj
-                .par_chunks_mut(ROWS_PER_TASK * n_in)
-                .enumerate()
-                .for_each(|(t, ia)| run(t * ROWS_PER_TASK, ia));
-        }
+        });
     }
     fn update_batch(
         &self,
@@ -199,6 +176,22 @@ impl<F: RowFn> DynRowFn for F {
             }
             copy_small(carry.row_mut(k), &y[arity * sc..]);
         }
+    }
+}
+
+/// Calls `run(first_row, rows)` on consecutive chunks of `data` (rows of `width` values): the
+/// whole of it on this thread below [`PARALLEL_MIN_ROWS`] rows, else fixed chunks of
+/// `ROWS_PER_TASK` rows on the rayon pool (fixed, so results never depend on the thread count).
+fn for_each_row_chunk(data: &mut [f64], width: usize, run: impl Fn(usize, &mut [f64]) + Sync) {
+    if width == 0 {
+        return;
+    }
+    if data.len() / width < PARALLEL_MIN_ROWS {
+        run(0, data);
+    } else {
+        data.par_chunks_mut(ROWS_PER_TASK * width)
+            .enumerate()
+            .for_each(|(t, chunk)| run(t * ROWS_PER_TASK, chunk));
     }
 }
 

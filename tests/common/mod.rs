@@ -76,3 +76,16 @@ pub fn write_scene(dir: &Path, name: &str, scene: &Scene) -> PathBuf {
     std::fs::write(&path, scene.to_json_pretty()).unwrap();
     path
 }
+
+/// Deterministic pseudo-random values in [-1, 1) (xorshift), so tests need no RNG crate.
+pub fn noise(seed: u64, n: usize) -> Vec<f64> {
+    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    (0..n)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        })
+        .collect()
+}
