@@ -27,7 +27,7 @@ struct Args {
     #[arg(long)]
     png_dir: Option<PathBuf>,
     /// Optimizer iteration limit per run.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 300)]
     iterations: usize,
 }
 
