@@ -75,7 +75,8 @@ enum Command {
         /// Also keep the straight paths between steps at least δ away.
         #[arg(long)]
         swept: bool,
-        /// Sharpness κ (1/length) of the soft minimum in the per-step and aggregate forms.
+        /// Sharpness κ (1/length) of the soft minimum in the per-step and aggregate forms (default
+        /// 3000); above 200 the planner first solves at κ = 200 and refines from that plan.
         #[arg(long)]
         kappa: Option<f64>,
         /// Per-step rows farther than this from active skip their gradient (length units).

@@ -1,6 +1,6 @@
 //! Running a cloth task through an optimizer and packaging the result.
 
-use crate::problem::{TaskOptions, TrajectoryProblem};
+use crate::problem::{SafetyForm, TaskOptions, TrajectoryProblem};
 use autodiff::Tensor;
 use cloth::{Controls, Metrics, Model, Scene};
 use optim::{
@@ -37,6 +37,12 @@ pub struct PlanOptions {
     /// objective stops changing in its 8th digit on the built-in scenes; much tighter values hit
     /// the accuracy of the QP multipliers at the trajectory term's kinks (≈1e-5) and end `stalled`.
     pub tol_optimality: f64,
+    /// Continuation in the soft minimum's sharpness: with the per-step or aggregate safety form,
+    /// first solve at this κ (smoother, more conservative; tolerance ×10), then at `task.kappa` from
+    /// that plan. `None` solves at `task.kappa` directly. Default 200 (with `task.kappa` = 3000):
+    /// measured on u_obstacle, solving at 3000 directly stalls at δ = 0.4, at 200 alone the plan
+    /// is ~1% conservative (L 0.8795 vs 0.8692 at δ = 0.2).
+    pub kappa_warmup: Option<f64>,
 }
 
 impl PlanOptions {
@@ -48,6 +54,7 @@ impl PlanOptions {
             solver: SolverKind::Sqp,
             step_bound: 0.5,
             tol_optimality: 1e-4,
+            kappa_warmup: Some(200.0),
         }
     }
 }
@@ -68,6 +75,7 @@ impl PlanOptions {
         }
         let positive = [
             ("kappa", t.kappa),
+            ("kappa_warmup", self.kappa_warmup.unwrap_or(1.0)),
             ("step_bound", self.step_bound),
             ("tol_optimality", self.tol_optimality),
         ];
@@ -219,12 +227,39 @@ pub fn plan(
         scene.name
     );
     model.check_controls(start)?;
-    let mut problem = TrajectoryProblem::new(model, options.task.clone());
     let clock = Instant::now();
-    let callback = |info: &IterationInfo| {
+    let mut callback = |info: &IterationInfo| {
         progress(info);
         ControlFlow::Continue(())
     };
+    // Continuation in κ: a smooth, conservative soft minimum first, then the sharp one from there.
+    let soft_safety = matches!(
+        options.task.safety,
+        Some(SafetyForm::PerStep | SafetyForm::Aggregate)
+    );
+    let mut x0 = start.data().to_vec();
+    let (mut warm_iterations, mut warm_simulations, mut warm_gradients) = (0, 0, 0);
+    if let (SolverKind::Sqp, Some(kappa), true) =
+        (options.solver, options.kappa_warmup, soft_safety)
+    {
+        if kappa < options.task.kappa {
+            let mut task = options.task.clone();
+            task.kappa = kappa;
+            let mut warm = TrajectoryProblem::new(model, task);
+            let settings = SqpSettings::builder()
+                .max_iterations(options.iterations)
+                .step_bound_scale(options.step_bound)
+                .tol_optimality(10.0 * options.tol_optimality)
+                .build()?;
+            let solution =
+                SqpSolver::new(settings)?.solve_with_callback(&mut warm, &x0, &mut callback)?;
+            x0 = solution.x;
+            warm_iterations = solution.iterations;
+            warm_simulations = warm.simulations;
+            warm_gradients = warm.gradient_evaluations;
+        }
+    }
+    let mut problem = TrajectoryProblem::new(model, options.task.clone());
     let solution = match options.solver {
         SolverKind::Sqp => {
             let settings = SqpSettings::builder()
@@ -232,7 +267,7 @@ pub fn plan(
                 .step_bound_scale(options.step_bound)
                 .tol_optimality(options.tol_optimality)
                 .build()?;
-            SqpSolver::new(settings)?.solve_with_callback(&mut problem, start.data(), callback)?
+            SqpSolver::new(settings)?.solve_with_callback(&mut problem, &x0, callback)?
         }
         SolverKind::Lbfgs => {
             anyhow::ensure!(
@@ -243,7 +278,7 @@ pub fn plan(
             let settings = LbfgsSettings::builder()
                 .max_iterations(options.iterations)
                 .build()?;
-            LbfgsSolver::new(settings)?.solve_with_callback(&mut problem, start.data(), callback)?
+            LbfgsSolver::new(settings)?.solve_with_callback(&mut problem, &x0, callback)?
         }
     };
     let wall_s = clock.elapsed().as_secs_f64();
@@ -257,9 +292,9 @@ pub fn plan(
         delta: options.task.delta,
         status: solution.status.name().to_string(),
         message: solution.message.clone(),
-        iterations: solution.iterations,
-        evaluations: problem.simulations,
-        gradient_evaluations: problem.gradient_evaluations,
+        iterations: warm_iterations + solution.iterations,
+        evaluations: warm_simulations + problem.simulations,
+        gradient_evaluations: warm_gradients + problem.gradient_evaluations,
         wall_s,
         kkt_residual: solution.kkt_residual,
         constraint_violation: solution.constraint_violation,

@@ -54,7 +54,7 @@ pub struct TaskOptions {
 
 impl TaskOptions {
     /// The scene's own weights and margin, the per-step safety form when the scene has safety
-    /// obstacles, κ = 200, no active band (every per-step row gets its gradient).
+    /// obstacles, κ = 3000, no active band (every per-step row gets its gradient).
     pub fn for_model(model: &Model) -> Self {
         TaskOptions {
             delta: model.task.delta,
@@ -62,7 +62,7 @@ impl TaskOptions {
             beta: model.task.beta,
             safety: model.safety.is_some().then_some(SafetyForm::PerStep),
             swept: false,
-            kappa: 200.0,
+            kappa: 3000.0,
             active_band: f64::INFINITY,
         }
     }
