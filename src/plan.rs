@@ -246,11 +246,7 @@ pub fn plan(
             let mut task = options.task.clone();
             task.kappa = kappa;
             let mut warm = TrajectoryProblem::new(model, task);
-            let settings = SqpSettings::builder()
-                .max_iterations(options.iterations)
-                .step_bound_scale(options.step_bound)
-                .tol_optimality(10.0 * options.tol_optimality)
-                .build()?;
+            let settings = sqp_settings(options, 10.0 * options.tol_optimality)?;
             let solution =
                 SqpSolver::new(settings)?.solve_with_callback(&mut warm, &x0, &mut callback)?;
             x0 = solution.x;
@@ -262,11 +258,7 @@ pub fn plan(
     let mut problem = TrajectoryProblem::new(model, options.task.clone());
     let solution = match options.solver {
         SolverKind::Sqp => {
-            let settings = SqpSettings::builder()
-                .max_iterations(options.iterations)
-                .step_bound_scale(options.step_bound)
-                .tol_optimality(options.tol_optimality)
-                .build()?;
+            let settings = sqp_settings(options, options.tol_optimality)?;
             SqpSolver::new(settings)?.solve_with_callback(&mut problem, &x0, callback)?
         }
         SolverKind::Lbfgs => {
@@ -305,6 +297,15 @@ pub fn plan(
         states: Some(evaluation.states.iter().map(state_points).collect()),
         solver_status: Some(solution.status),
     })
+}
+
+/// The SQP settings of a planning run, with KKT tolerance `tol`.
+fn sqp_settings(options: &PlanOptions, tol: f64) -> anyhow::Result<SqpSettings> {
+    Ok(SqpSettings::builder()
+        .max_iterations(options.iterations)
+        .step_bound_scale(options.step_bound)
+        .tol_optimality(tol)
+        .build()?)
 }
 
 /// The states of a result as tensors (`N × 3` each).
