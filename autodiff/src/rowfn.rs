@@ -94,6 +94,16 @@ pub trait DynRowFn: Send + Sync {
         carry: &mut Tensor,
         saved: Option<&mut Vec<f64>>,
     );
+    /// The adjoint of [`DynRowFn::update_batch`], in place: on entry `state_adj` and `carry_adj`
+    /// hold the adjoints of the updated state and carry; on exit, those of the state and carry
+    /// before the update. `inputs` are the values `update_batch` saved.
+    fn vjp_update_batch(
+        &self,
+        index: &RowIndex,
+        inputs: &[f64],
+        state_adj: &mut Tensor,
+        carry_adj: &mut Tensor,
+    );
 }
 
 impl<F: RowFn> DynRowFn for F {
@@ -132,50 +142,188 @@ impl<F: RowFn> DynRowFn for F {
         carry: &mut Tensor,
         saved: Option<&mut Vec<f64>>,
     ) {
-        let rows = index.rows();
-        if rows >= PARALLEL_MIN_ROWS {
-            // Gather, evaluate in parallel, scatter.
-            let mut local = Vec::new();
-            let inputs = saved.unwrap_or(&mut local);
-            gather_update_inputs(index, state, carry, inputs);
-            let mut outputs = vec![0.0; inputs.len()];
-            self.eval_batch(inputs, &mut outputs);
-            scatter_update_outputs(index, &outputs, state, carry);
-            return;
-        }
-        // Small batch: one row at a time through a stack buffer; a recording also keeps the inputs.
-        let (sc, cc, arity) = (state.cols(), carry.cols(), index.arity());
-        let width = arity * sc + cc;
-        let mut saved = saved;
-        if let Some(s) = saved.as_deref_mut() {
-            s.clear();
-            s.reserve(rows * width);
-        }
-        let mut buf_in = [0.0; STACK_ROW];
-        let mut buf_out = [0.0; STACK_ROW];
-        let (mut heap_in, mut heap_out) = (Vec::new(), Vec::new());
-        let (x, y): (&mut [f64], &mut [f64]) = if width <= STACK_ROW {
-            (&mut buf_in[..width], &mut buf_out[..width])
-        } else {
-            heap_in.resize(width, 0.0);
-            heap_out.resize(width, 0.0);
-            (&mut heap_in, &mut heap_out)
-        };
-        for k in 0..rows {
-            let idx = index.row(k);
-            for (j, &p) in idx.iter().enumerate() {
-                copy_small(&mut x[j * sc..(j + 1) * sc], state.row(p));
+        // Points (3 columns) with one carried value: fixed row widths, so every copy is a move.
+        if state.cols() == 3 && carry.cols() == 1 {
+            let (s, c) = (state.data_mut(), carry.data_mut());
+            match index.arity() {
+                1 => return update_points::<F, 1>(self, index, s, c, saved),
+                2 => return update_points::<F, 2>(self, index, s, c, saved),
+                3 => return update_points::<F, 3>(self, index, s, c, saved),
+                4 => return update_points::<F, 4>(self, index, s, c, saved),
+                _ => {}
             }
-            copy_small(&mut x[arity * sc..], carry.row(k));
-            if let Some(s) = saved.as_deref_mut() {
-                s.extend_from_slice(x);
-            }
-            self.eval(k, x, y);
-            for (j, &p) in idx.iter().enumerate() {
-                copy_small(state.row_mut(p), &y[j * sc..(j + 1) * sc]);
-            }
-            copy_small(carry.row_mut(k), &y[arity * sc..]);
         }
+        // Any other layout: gather, evaluate, scatter.
+        let mut local = Vec::new();
+        let inputs = saved.unwrap_or(&mut local);
+        gather_update_inputs(index, state, carry, inputs);
+        let mut outputs = vec![0.0; inputs.len()];
+        self.eval_batch(inputs, &mut outputs);
+        scatter_update_outputs(index, &outputs, state, carry);
+    }
+    fn vjp_update_batch(
+        &self,
+        index: &RowIndex,
+        inputs: &[f64],
+        state_adj: &mut Tensor,
+        carry_adj: &mut Tensor,
+    ) {
+        if state_adj.cols() == 3 && carry_adj.cols() == 1 {
+            let (s, c) = (state_adj.data_mut(), carry_adj.data_mut());
+            match index.arity() {
+                1 => return vjp_update_points::<F, 1>(self, index, inputs, s, c),
+                2 => return vjp_update_points::<F, 2>(self, index, inputs, s, c),
+                3 => return vjp_update_points::<F, 3>(self, index, inputs, s, c),
+                4 => return vjp_update_points::<F, 4>(self, index, inputs, s, c),
+                _ => {}
+            }
+        }
+        let mut out_adj = Vec::new();
+        gather_update_inputs(index, state_adj, carry_adj, &mut out_adj);
+        let mut in_adj = vec![0.0; inputs.len()];
+        self.vjp_batch(inputs, &out_adj, &mut in_adj);
+        scatter_update_outputs(index, &in_adj, state_adj, carry_adj);
+    }
+}
+
+/// Largest row of [`update_points`]: four points and one carried value.
+const MAX_POINT_ROW: usize = 13;
+
+/// [`DynRowFn::update_batch`] for rows of `A` points (3 values each) and one carried value,
+/// writing in place. Rows share no point, so chunks of rows run in parallel on the same state.
+#[inline(always)]
+fn update_points<F: RowFn, const A: usize>(
+    f: &F,
+    index: &RowIndex,
+    state: &mut [f64],
+    carry: &mut [f64],
+    saved: Option<&mut Vec<f64>>,
+) {
+    let width = 3 * A + 1;
+    let rows = index.rows();
+    let saved = saved.map(|s| {
+        s.clear();
+        s.resize(rows * width, 0.0);
+        SharedRows::new(s)
+    });
+    let (state, carry) = (SharedRows::new(state), SharedRows::new(carry));
+    let idx = index.as_slice();
+    for_row_ranges(rows, |range| {
+        let (mut x, mut y) = ([0.0; MAX_POINT_ROW], [0.0; MAX_POINT_ROW]);
+        for k in range {
+            let p = &idx[A * k..A * k + A];
+            // SAFETY: `check_update` asserted the index is disjoint and in range, so row `k`'s
+            // points and carried value are touched by this iteration alone.
+            unsafe {
+                for j in 0..A {
+                    x[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p[j], 3));
+                }
+                x[3 * A] = carry.slice(k, 1)[0];
+                if let Some(s) = saved {
+                    s.slice(width * k, width).copy_from_slice(&x[..width]);
+                }
+                f.eval(k, &x[..width], &mut y[..width]);
+                for j in 0..A {
+                    state
+                        .slice(3 * p[j], 3)
+                        .copy_from_slice(&y[3 * j..3 * j + 3]);
+                }
+                carry.slice(k, 1)[0] = y[3 * A];
+            }
+        }
+    });
+}
+
+/// [`DynRowFn::vjp_update_batch`] for the layout of [`update_points`].
+#[inline(always)]
+fn vjp_update_points<F: RowFn, const A: usize>(
+    f: &F,
+    index: &RowIndex,
+    inputs: &[f64],
+    state_adj: &mut [f64],
+    carry_adj: &mut [f64],
+) {
+    let width = 3 * A + 1;
+    let rows = index.rows();
+    assert_eq!(inputs.len(), rows * width, "vjp_update_batch: saved inputs");
+    assert!(
+        index.is_disjoint() && 3 * index.bound() <= state_adj.len() && carry_adj.len() == rows,
+        "vjp_update_batch: index does not fit the adjoints"
+    );
+    let (state, carry) = (SharedRows::new(state_adj), SharedRows::new(carry_adj));
+    let idx = index.as_slice();
+    for_row_ranges(rows, |range| {
+        let (mut oa, mut ia) = ([0.0; MAX_POINT_ROW], [0.0; MAX_POINT_ROW]);
+        for k in range {
+            let p = &idx[A * k..A * k + A];
+            // SAFETY: as in `update_points` (asserted above).
+            unsafe {
+                for j in 0..A {
+                    oa[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p[j], 3));
+                }
+                oa[3 * A] = carry.slice(k, 1)[0];
+                ia[..width].fill(0.0);
+                f.vjp(
+                    k,
+                    &inputs[width * k..width * k + width],
+                    &oa[..width],
+                    &mut ia[..width],
+                );
+                for j in 0..A {
+                    state
+                        .slice(3 * p[j], 3)
+                        .copy_from_slice(&ia[3 * j..3 * j + 3]);
+                }
+                carry.slice(k, 1)[0] = ia[3 * A];
+            }
+        }
+    });
+}
+
+/// A buffer that several rayon tasks write at once, each to values no other task touches.
+#[derive(Clone, Copy)]
+struct SharedRows {
+    ptr: *mut f64,
+    len: usize,
+}
+
+// SAFETY: only used for writes to disjoint ranges (see `update_points`).
+unsafe impl Send for SharedRows {}
+unsafe impl Sync for SharedRows {}
+
+impl SharedRows {
+    fn new(data: &mut [f64]) -> Self {
+        SharedRows {
+            ptr: data.as_mut_ptr(),
+            len: data.len(),
+        }
+    }
+
+    /// `n` values from `start`.
+    ///
+    /// # Safety
+    /// No other live reference may overlap them.
+    #[inline(always)]
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn slice<'a>(self, start: usize, n: usize) -> &'a mut [f64] {
+        assert!(
+            start + n <= self.len,
+            "SharedRows: {start}+{n} > {}",
+            self.len
+        );
+        std::slice::from_raw_parts_mut(self.ptr.add(start), n)
+    }
+}
+
+/// Calls `run` on the rows `0..rows`: at once on this thread below [`PARALLEL_MIN_ROWS`] rows,
+/// else in fixed ranges of `ROWS_PER_TASK` rows on the rayon pool.
+fn for_row_ranges(rows: usize, run: impl Fn(std::ops::Range<usize>) + Sync) {
+    if rows < PARALLEL_MIN_ROWS {
+        run(0..rows);
+    } else {
+        (0..rows.div_ceil(ROWS_PER_TASK))
+            .into_par_iter()
+            .for_each(|t| run(t * ROWS_PER_TASK..((t + 1) * ROWS_PER_TASK).min(rows)));
     }
 }
 
@@ -194,21 +342,6 @@ fn for_each_row_chunk(data: &mut [f64], width: usize, run: impl Fn(usize, &mut [
             .for_each(|(t, chunk)| run(t * ROWS_PER_TASK, chunk));
     }
 }
-
-/// Copies a short row; widths 1 and 3 (a multiplier, a point) compile to plain moves instead of a
-/// `memcpy` call, which dominated the cost of small Gauss–Seidel updates.
-#[inline(always)]
-fn copy_small(dst: &mut [f64], src: &[f64]) {
-    match src.len() {
-        0 => {}
-        1 => dst[0] = src[0],
-        3 => dst[..3].copy_from_slice(&src[..3]),
-        _ => dst.copy_from_slice(src),
-    }
-}
-
-/// Row widths up to this go through stack buffers in [`DynRowFn::update_batch`].
-const STACK_ROW: usize = 32;
 
 /// Batches with fewer rows than this run on the calling thread; larger ones are split across the
 /// rayon pool. Rows are independent, so the result is bitwise the same either way.

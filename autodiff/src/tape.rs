@@ -22,7 +22,7 @@
 use crate::index::RowIndex;
 use crate::rowfn::{eval_rows, vjp_rows, DynRowFn};
 use crate::tensor::Tensor;
-use crate::update::{gather_update_inputs, scatter_update_outputs, update_rows};
+use crate::update::update_rows;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -794,8 +794,6 @@ impl Tape {
             first = first.max(id + 1);
         }
         let shapes: Vec<(usize, usize)> = self.nodes.iter().map(|node| node.shape).collect();
-        let mut scratch_out = Vec::new();
-        let mut scratch_in = Vec::new();
         for id in (0..first).rev() {
             let g = match (&self.nodes[id].op, adj[id].take()) {
                 // The carry's adjoint waits in its slot for the update node just before it.
@@ -809,7 +807,7 @@ impl Tape {
                 }
                 (_, None) => continue,
             };
-            self.backward_node(id, g, &mut adj, &shapes, &mut scratch_out, &mut scratch_in);
+            self.backward_node(id, g, &mut adj, &shapes);
         }
         Gradients {
             epoch: self.epoch,
@@ -825,8 +823,6 @@ impl Tape {
         mut g: Tensor,
         adj: &mut [Option<Tensor>],
         shapes: &[(usize, usize)],
-        scratch_out: &mut Vec<f64>,
-        scratch_in: &mut Vec<f64>,
     ) {
         let val = |i: usize| &self.nodes[i].value;
         match &self.nodes[id].op {
@@ -1018,18 +1014,13 @@ impl Tape {
             } => {
                 // Adjoint of the new carry, if anything downstream read it.
                 let carry_shape = shapes[id + 1];
-                let g_carry = adj[id + 1]
+                let mut g_carry = adj[id + 1]
                     .take()
                     .unwrap_or_else(|| Tensor::zeros(carry_shape.0, carry_shape.1));
-                let mut g_carry_old = Tensor::zeros(carry_shape.0, carry_shape.1);
-                gather_update_inputs(index, &g, &g_carry, scratch_out);
-                scratch_in.clear();
-                scratch_in.resize(inputs.len(), 0.0);
-                vjp_rows(f.as_ref(), inputs, scratch_out, scratch_in);
                 // Untouched state rows pass through; touched rows and the carry take the VJP.
-                scatter_update_outputs(index, scratch_in, &mut g, &mut g_carry_old);
+                f.vjp_update_batch(index, inputs, &mut g, &mut g_carry);
                 accumulate(&mut adj[*state], g);
-                accumulate(&mut adj[*carry], g_carry_old);
+                accumulate(&mut adj[*carry], g_carry);
             }
             Op::UpdateCarry => unreachable!("carry adjoints are consumed by their update node"),
         }

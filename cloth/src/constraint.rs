@@ -49,13 +49,14 @@ fn value_and_gradient_n<C: Constraint, R: Real, const D: usize, const A: usize>(
     x: &[R],
     grad: &mut [R],
 ) -> R {
-    let p: [Vector3<Dual<R, D>>; A] = std::array::from_fn(|i| {
-        Vector3::new(
-            Dual::variable(x[3 * i], 3 * i),
-            Dual::variable(x[3 * i + 1], 3 * i + 1),
-            Dual::variable(x[3 * i + 2], 3 * i + 2),
-        )
-    });
+    // A plain loop, not `array::from_fn`: its closure was not inlined, which kept every seed
+    // in memory and cost more than the constraint itself.
+    let mut p = [Vector3::<Dual<R, D>>::zeros(); A];
+    for (i, pi) in p.iter_mut().enumerate() {
+        for k in 0..3 {
+            pi[k] = Dual::variable(x[3 * i + k], 3 * i + k);
+        }
+    }
     let v = c.c(instance, &p);
     grad[..D].copy_from_slice(&v.eps);
     v.re

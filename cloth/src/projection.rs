@@ -167,17 +167,20 @@ fn hessian_vector_n<C: Constraint, const D: usize, const A: usize>(
     v: &[f64],
 ) -> [f64; MAX_D] {
     type Inner = Dual<f64, 1>;
-    let seed = |j: usize| {
-        Dual::variable(
-            Inner {
-                re: x[j],
-                eps: [v[j]],
-            },
-            j,
-        )
-    };
-    let p: [Vector3<Dual<Inner, D>>; A] =
-        std::array::from_fn(|i| Vector3::new(seed(3 * i), seed(3 * i + 1), seed(3 * i + 2)));
+    // A plain loop, not `array::from_fn` (see `value_and_gradient`).
+    let mut p = [Vector3::<Dual<Inner, D>>::zeros(); A];
+    for (i, pi) in p.iter_mut().enumerate() {
+        for k in 0..3 {
+            let j = 3 * i + k;
+            pi[k] = Dual::variable(
+                Inner {
+                    re: x[j],
+                    eps: [v[j]],
+                },
+                j,
+            );
+        }
+    }
     let r = c.c(instance, &p);
     let mut hv = [0.0; MAX_D];
     for (h, e) in hv.iter_mut().zip(&r.eps) {
