@@ -199,16 +199,17 @@ fn update_points<F: RowFn, const A: usize>(
     carry: &mut [f64],
     saved: Option<&mut Vec<f64>>,
 ) {
-    let width = 3 * A + 1;
     let rows = index.rows();
     let saved = saved.map(|s| {
         s.clear();
-        s.resize(rows * width, 0.0);
+        s.resize(rows * (3 * A + 1), 0.0);
         SharedRows::new(s)
     });
     let (state, carry) = (SharedRows::new(state), SharedRows::new(carry));
     let idx = index.as_slice();
     for_row_ranges(rows, |range| {
+        // Computed here, not captured, so every copy below has a compile-time length.
+        let width = 3 * A + 1;
         let (mut x, mut y) = ([0.0; MAX_POINT_ROW], [0.0; MAX_POINT_ROW]);
         for k in range {
             let p = &idx[A * k..A * k + A];
@@ -243,9 +244,8 @@ fn vjp_update_points<F: RowFn, const A: usize>(
     state_adj: &mut [f64],
     carry_adj: &mut [f64],
 ) {
-    let width = 3 * A + 1;
     let rows = index.rows();
-    assert_eq!(inputs.len(), rows * width, "vjp_update_batch: saved inputs");
+    assert_eq!(inputs.len(), rows * (3 * A + 1), "vjp_update_batch: saved inputs");
     assert!(
         index.is_disjoint() && 3 * index.bound() <= state_adj.len() && carry_adj.len() == rows,
         "vjp_update_batch: index does not fit the adjoints"
@@ -253,6 +253,7 @@ fn vjp_update_points<F: RowFn, const A: usize>(
     let (state, carry) = (SharedRows::new(state_adj), SharedRows::new(carry_adj));
     let idx = index.as_slice();
     for_row_ranges(rows, |range| {
+        let width = 3 * A + 1;
         let (mut oa, mut ia) = ([0.0; MAX_POINT_ROW], [0.0; MAX_POINT_ROW]);
         for k in range {
             let p = &idx[A * k..A * k + A];

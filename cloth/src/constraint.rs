@@ -26,7 +26,7 @@ pub trait Constraint: Send + Sync + 'static {
 }
 
 /// `C` and `∇C` of one instance: `grad[3·i + k] = ∂C/∂pᵢₖ`. `x` holds `3·ARITY` coordinates.
-#[inline]
+#[inline(always)]
 pub fn value_and_gradient<C: Constraint, R: Real>(
     c: &C,
     instance: usize,

@@ -6,6 +6,7 @@ use crate::error::ClothError;
 use crate::model::Model;
 use crate::sim::Controls;
 use autodiff::{Tape, Tensor, Var};
+use rayon::prelude::*;
 
 /// A scalar function of a rollout that is a sum of per-step terms `Σ_t f(t, x^(t))`.
 ///
@@ -214,20 +215,35 @@ impl Model {
             let x = self.record_step(&mut tape, x_prev, u);
             let terms: Vec<Option<Var>> =
                 costs.iter().map(|f| f(&mut tape, t, x_prev, x)).collect();
-            for (i, term) in terms.iter().enumerate() {
-                let mut seeds = Vec::with_capacity(2);
-                if let Some(adj) = adjoints[i].take() {
-                    seeds.push((x, adj));
+            // Each cost's pull-back reads the same recording: they run in parallel.
+            let seeds: Vec<Vec<(Var, Tensor)>> = terms
+                .iter()
+                .zip(adjoints.iter_mut())
+                .map(|(term, adjoint)| {
+                    let mut seeds = Vec::with_capacity(2);
+                    if let Some(adj) = adjoint.take() {
+                        seeds.push((x, adj));
+                    }
+                    if let Some(c) = term {
+                        seeds.push((*c, Tensor::scalar(1.0)));
+                    }
+                    seeds
+                })
+                .collect();
+            let pulled: Vec<Option<(Tensor, Tensor)>> = seeds
+                .par_iter()
+                .map(|seeds| {
+                    (!seeds.is_empty()).then(|| {
+                        let g = tape.vjp(seeds);
+                        (g.wrt(u), g.wrt(x_prev))
+                    })
+                })
+                .collect();
+            for (i, p) in pulled.into_iter().enumerate() {
+                if let Some((du, dx_prev)) = p {
+                    grads[i].row_mut(t - 1).copy_from_slice(du.data());
+                    adjoints[i] = Some(dx_prev);
                 }
-                if let Some(c) = term {
-                    seeds.push((*c, Tensor::scalar(1.0)));
-                }
-                if seeds.is_empty() {
-                    continue;
-                }
-                let g = tape.vjp(&seeds);
-                grads[i].row_mut(t - 1).copy_from_slice(g.wrt(u).data());
-                adjoints[i] = Some(g.wrt(x_prev));
             }
         }
         grads

@@ -81,7 +81,7 @@ impl<C: Constraint> RowFn for Projection<C> {
         3 * C::ARITY + 1
     }
 
-    #[inline]
+    #[inline(always)]
     fn eval<R: Real>(&self, row: usize, input: &[R], out: &mut [R]) {
         let d = 3 * C::ARITY;
         // `d` is a compile-time constant per constraint type: these loops unroll to moves.
@@ -109,6 +109,7 @@ impl<C: Constraint> RowFn for Projection<C> {
         out[d] = lambda + dlambda;
     }
 
+    #[inline(always)]
     fn vjp(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
         let d = 3 * C::ARITY;
         // The identity part of the update.
@@ -149,6 +150,7 @@ impl<C: Constraint> RowFn for Projection<C> {
 }
 
 /// `∇²C(x)·v` for one instance, by forward-over-forward duals.
+#[inline(always)]
 pub fn hessian_vector<C: Constraint>(c: &C, instance: usize, x: &[f64], v: &[f64]) -> [f64; MAX_D] {
     match C::ARITY {
         1 => hessian_vector_n::<C, 3, 1>(c, instance, x, v),
