@@ -25,6 +25,6 @@ pub mod update;
 pub use dual::Dual;
 pub use index::RowIndex;
 pub use real::Real;
-pub use rowfn::{vjp_by_duals, DynRowFn, RowFn};
+pub use rowfn::{in_pool, vjp_by_duals, DynRowFn, RowFn};
 pub use tape::{Gradients, Tape, Var};
 pub use tensor::Tensor;

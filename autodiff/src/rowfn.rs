@@ -245,7 +245,11 @@ fn vjp_update_points<F: RowFn, const A: usize>(
     carry_adj: &mut [f64],
 ) {
     let rows = index.rows();
-    assert_eq!(inputs.len(), rows * (3 * A + 1), "vjp_update_batch: saved inputs");
+    assert_eq!(
+        inputs.len(),
+        rows * (3 * A + 1),
+        "vjp_update_batch: saved inputs"
+    );
     assert!(
         index.is_disjoint() && 3 * index.bound() <= state_adj.len() && carry_adj.len() == rows,
         "vjp_update_batch: index does not fit the adjoints"
@@ -316,10 +320,24 @@ impl SharedRows {
     }
 }
 
+/// Runs `work` on a thread of the rayon pool (directly when already on one).
+///
+/// Long sequences of small parallel sections — a Gauss–Seidel sweep splits every colour set —
+/// should run inside the pool: splitting from outside hands each section to the pool and blocks
+/// the caller, an operating-system round trip that cost more than the projections themselves.
+pub fn in_pool<T: Send>(work: impl FnOnce() -> T + Send) -> T {
+    if rayon::current_thread_index().is_some() || rayon::current_num_threads() == 1 {
+        work()
+    } else {
+        rayon::scope(|_| work())
+    }
+}
+
 /// Calls `run` on the rows `0..rows`: at once on this thread below [`PARALLEL_MIN_ROWS`] rows,
 /// else in fixed ranges of `ROWS_PER_TASK` rows on the rayon pool.
 fn for_row_ranges(rows: usize, run: impl Fn(std::ops::Range<usize>) + Sync) {
-    if rows < PARALLEL_MIN_ROWS {
+    // One thread: no hand-off to the pool (it cost more than the projections themselves).
+    if rows < PARALLEL_MIN_ROWS || rayon::current_num_threads() == 1 {
         run(0..rows);
     } else {
         (0..rows.div_ceil(ROWS_PER_TASK))
@@ -335,7 +353,7 @@ fn for_each_row_chunk(data: &mut [f64], width: usize, run: impl Fn(usize, &mut [
     if width == 0 {
         return;
     }
-    if data.len() / width < PARALLEL_MIN_ROWS {
+    if data.len() / width < PARALLEL_MIN_ROWS || rayon::current_num_threads() == 1 {
         run(0, data);
     } else {
         data.par_chunks_mut(ROWS_PER_TASK * width)

@@ -5,7 +5,7 @@ use crate::cost::trajectory_irregularity;
 use crate::error::ClothError;
 use crate::model::Model;
 use crate::sim::Controls;
-use autodiff::{Tape, Tensor, Var};
+use autodiff::{in_pool, Tape, Tensor, Var};
 use rayon::prelude::*;
 
 /// A scalar function of a rollout that is a sum of per-step terms `Σ_t f(t, x^(t))`.
@@ -199,6 +199,15 @@ impl Model {
     /// rollout `states` (from [`Model::simulate`]): each step is re-recorded from its checkpoint,
     /// pulled back once per cost, and dropped.
     pub fn gradients(
+        &self,
+        states: &[Tensor],
+        controls: &Controls,
+        costs: &[StepCost<'_>],
+    ) -> Vec<Tensor> {
+        in_pool(|| self.gradients_in_pool(states, controls, costs))
+    }
+
+    fn gradients_in_pool(
         &self,
         states: &[Tensor],
         controls: &Controls,

@@ -8,7 +8,7 @@
 use crate::error::ClothError;
 use crate::model::Model;
 use autodiff::update::update_rows;
-use autodiff::{Tape, Tensor, Var};
+use autodiff::{in_pool, Tape, Tensor, Var};
 
 /// Controls: one row per time step, `3 × n_controls` displacements per row.
 pub type Controls = Tensor;
@@ -115,15 +115,17 @@ impl Model {
     /// particle).
     pub fn simulate(&self, controls: &Controls) -> Result<Vec<Tensor>, ClothError> {
         self.check_controls(controls)?;
-        let mut states = Vec::with_capacity(self.task.horizon + 1);
-        states.push(self.rest.clone());
-        let mut scratch = StepScratch::default();
-        for t in 0..self.task.horizon {
-            let x = self.step(&states[t], &self.step_controls(controls, t), &mut scratch);
-            check_finite(&x, t + 1)?;
-            states.push(x);
-        }
-        Ok(states)
+        in_pool(|| {
+            let mut states = Vec::with_capacity(self.task.horizon + 1);
+            states.push(self.rest.clone());
+            let mut scratch = StepScratch::default();
+            for t in 0..self.task.horizon {
+                let x = self.step(&states[t], &self.step_controls(controls, t), &mut scratch);
+                check_finite(&x, t + 1)?;
+                states.push(x);
+            }
+            Ok(states)
+        })
     }
 }
 
