@@ -212,7 +212,7 @@ impl<R: Real, const N: usize> Real for Dual<R, N> {
         let ds = if self.re.value() == 0.0 {
             R::zero()
         } else {
-            R::one() / (s * 2.0)
+            (s * 2.0).recip()
         };
         self.chain(s, ds)
     }
@@ -253,6 +253,15 @@ impl<R: Real, const N: usize> Real for Dual<R, N> {
             self.re.powi(n - 1) * (n as f64)
         };
         self.chain(self.re.powi(n), d)
+    }
+    #[inline(always)]
+    fn recip(self) -> Self {
+        let r = self.re.recip();
+        let mut eps = self.eps;
+        for e in eps.iter_mut() {
+            *e = -(*e * r) * r;
+        }
+        Dual { re: r, eps }
     }
     #[inline(always)]
     fn atan2(self, x: Self) -> Self {

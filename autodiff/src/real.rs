@@ -93,6 +93,10 @@ pub trait Real:
     fn square(self) -> Self {
         self * self
     }
+    /// `1 / self`, with a single division also for duals.
+    fn recip(self) -> Self {
+        Self::one() / self
+    }
 }
 
 impl Real for f64 {
@@ -135,5 +139,9 @@ impl Real for f64 {
     #[inline(always)]
     fn atan2(self, x: Self) -> Self {
         f64::atan2(self, x)
+    }
+    #[inline(always)]
+    fn recip(self) -> Self {
+        1.0 / self
     }
 }

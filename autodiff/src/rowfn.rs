@@ -36,7 +36,48 @@ pub trait RowFn: Send + Sync {
     {
         vjp_by_duals(self, row, inputs, out_adj, in_adj);
     }
+
+    /// Evaluates the consecutive rows `first, first + 1, …` of a block (`inputs`: rows × n_in,
+    /// `outputs`: rows × n_out). The in-place kernels call it with blocks of up to [`ROW_BLOCK`]
+    /// rows. The default evaluates row by row; a function whose row is one long dependency chain
+    /// (a square root, then divisions) may override it to interleave the rows' chains, giving
+    /// the same values as [`RowFn::eval`] bit for bit.
+    #[inline(always)]
+    fn eval_rows(&self, first: usize, inputs: &[f64], outputs: &mut [f64])
+    where
+        Self: Sized,
+    {
+        let (n_in, n_out) = (self.n_in(), self.n_out());
+        for (k, (x, y)) in inputs
+            .chunks_exact(n_in)
+            .zip(outputs.chunks_exact_mut(n_out))
+            .enumerate()
+        {
+            self.eval(first + k, x, y);
+        }
+    }
+
+    /// [`RowFn::vjp`] for the consecutive rows of a block, as [`RowFn::eval_rows`] is to
+    /// [`RowFn::eval`].
+    #[inline(always)]
+    fn vjp_rows(&self, first: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64])
+    where
+        Self: Sized,
+    {
+        let (n_in, n_out) = (self.n_in(), self.n_out());
+        for (k, ((x, oa), ia)) in inputs
+            .chunks_exact(n_in)
+            .zip(out_adj.chunks_exact(n_out))
+            .zip(in_adj.chunks_exact_mut(n_in))
+            .enumerate()
+        {
+            self.vjp(first + k, x, oa, ia);
+        }
+    }
 }
+
+/// Rows per block handed to [`RowFn::eval_rows`] and [`RowFn::vjp_rows`] by the in-place kernels.
+pub const ROW_BLOCK: usize = 8;
 
 /// `in_adj += Jᵀ out_adj` for one row, derived by forward-mode duals in chunks of [`VJP_CHUNK`]
 /// input directions.
@@ -190,7 +231,8 @@ impl<F: RowFn> DynRowFn for F {
 const MAX_POINT_ROW: usize = 13;
 
 /// [`DynRowFn::update_batch`] for rows of `A` points (3 values each) and one carried value,
-/// writing in place. Rows share no point, so chunks of rows run in parallel on the same state.
+/// writing in place, [`ROW_BLOCK`] rows at a time. Rows share no point, so blocks run in any
+/// order and chunks of rows in parallel on the same state.
 #[inline(always)]
 fn update_points<F: RowFn, const A: usize>(
     f: &F,
@@ -210,27 +252,35 @@ fn update_points<F: RowFn, const A: usize>(
     for_row_ranges(rows, |range| {
         // Computed here, not captured, so every copy below has a compile-time length.
         let width = 3 * A + 1;
-        let (mut x, mut y) = ([0.0; MAX_POINT_ROW], [0.0; MAX_POINT_ROW]);
-        for k in range {
-            let p = &idx[A * k..A * k + A];
-            // SAFETY: `check_update` asserted the index is disjoint and in range, so row `k`'s
-            // points and carried value are touched by this iteration alone.
+        let mut x = [0.0; MAX_POINT_ROW * ROW_BLOCK];
+        let mut y = [0.0; MAX_POINT_ROW * ROW_BLOCK];
+        let mut first = range.start;
+        while first < range.end {
+            let n = ROW_BLOCK.min(range.end - first);
+            // SAFETY: `check_update` asserted the index is disjoint and in range, so the block's
+            // points and carried values are touched by this block alone.
             unsafe {
-                for j in 0..A {
-                    x[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p[j], 3));
+                for b in 0..n {
+                    let (k, xb) = (first + b, &mut x[width * b..width * b + width]);
+                    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
+                        xb[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p, 3));
+                    }
+                    xb[3 * A] = carry.slice(k, 1)[0];
                 }
-                x[3 * A] = carry.slice(k, 1)[0];
                 if let Some(s) = saved {
-                    s.slice(width * k, width).copy_from_slice(&x[..width]);
+                    s.slice(width * first, width * n)
+                        .copy_from_slice(&x[..width * n]);
                 }
-                f.eval(k, &x[..width], &mut y[..width]);
-                for j in 0..A {
-                    state
-                        .slice(3 * p[j], 3)
-                        .copy_from_slice(&y[3 * j..3 * j + 3]);
+                f.eval_rows(first, &x[..width * n], &mut y[..width * n]);
+                for b in 0..n {
+                    let (k, yb) = (first + b, &y[width * b..width * b + width]);
+                    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
+                        state.slice(3 * p, 3).copy_from_slice(&yb[3 * j..3 * j + 3]);
+                    }
+                    carry.slice(k, 1)[0] = yb[3 * A];
                 }
-                carry.slice(k, 1)[0] = y[3 * A];
             }
+            first += n;
         }
     });
 }
@@ -258,29 +308,36 @@ fn vjp_update_points<F: RowFn, const A: usize>(
     let idx = index.as_slice();
     for_row_ranges(rows, |range| {
         let width = 3 * A + 1;
-        let (mut oa, mut ia) = ([0.0; MAX_POINT_ROW], [0.0; MAX_POINT_ROW]);
-        for k in range {
-            let p = &idx[A * k..A * k + A];
+        let mut oa = [0.0; MAX_POINT_ROW * ROW_BLOCK];
+        let mut ia = [0.0; MAX_POINT_ROW * ROW_BLOCK];
+        let mut first = range.start;
+        while first < range.end {
+            let n = ROW_BLOCK.min(range.end - first);
             // SAFETY: as in `update_points` (asserted above).
             unsafe {
-                for j in 0..A {
-                    oa[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p[j], 3));
+                for b in 0..n {
+                    let (k, ob) = (first + b, &mut oa[width * b..width * b + width]);
+                    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
+                        ob[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p, 3));
+                    }
+                    ob[3 * A] = carry.slice(k, 1)[0];
                 }
-                oa[3 * A] = carry.slice(k, 1)[0];
-                ia[..width].fill(0.0);
-                f.vjp(
-                    k,
-                    &inputs[width * k..width * k + width],
-                    &oa[..width],
-                    &mut ia[..width],
+                ia[..width * n].fill(0.0);
+                f.vjp_rows(
+                    first,
+                    &inputs[width * first..width * (first + n)],
+                    &oa[..width * n],
+                    &mut ia[..width * n],
                 );
-                for j in 0..A {
-                    state
-                        .slice(3 * p[j], 3)
-                        .copy_from_slice(&ia[3 * j..3 * j + 3]);
+                for b in 0..n {
+                    let (k, ib) = (first + b, &ia[width * b..width * b + width]);
+                    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
+                        state.slice(3 * p, 3).copy_from_slice(&ib[3 * j..3 * j + 3]);
+                    }
+                    carry.slice(k, 1)[0] = ib[3 * A];
                 }
-                carry.slice(k, 1)[0] = ia[3 * A];
             }
+            first += n;
         }
     });
 }
@@ -307,11 +364,12 @@ impl SharedRows {
     /// `n` values from `start`.
     ///
     /// # Safety
-    /// No other live reference may overlap them.
+    /// They must lie inside the buffer (the kernels check their index's bound up front), and no
+    /// other live reference may overlap them.
     #[inline(always)]
     #[allow(clippy::mut_from_ref)]
     unsafe fn slice<'a>(self, start: usize, n: usize) -> &'a mut [f64] {
-        assert!(
+        debug_assert!(
             start + n <= self.len,
             "SharedRows: {start}+{n} > {}",
             self.len

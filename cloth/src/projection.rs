@@ -10,6 +10,7 @@
 //! test checks it against the engine's generic dual-derived VJP.
 
 use crate::constraint::{value_and_gradient, Constraint, MAX_ARITY};
+use autodiff::rowfn::ROW_BLOCK;
 use autodiff::{Dual, Real, RowFn};
 use nalgebra::Vector3;
 use std::sync::Arc;
@@ -83,20 +84,80 @@ impl<C: Constraint> RowFn for Projection<C> {
 
     #[inline(always)]
     fn eval<R: Real>(&self, row: usize, input: &[R], out: &mut [R]) {
-        let d = 3 * C::ARITY;
-        // `d` is a compile-time constant per constraint type: these loops unroll to moves.
-        let unchanged = |out: &mut [R]| out[..=d].copy_from_slice(&input[..=d]);
         let mut g = [R::zero(); MAX_D];
-        let c = value_and_gradient(
+        let c = self.gradient(row, input, &mut g);
+        self.finish_eval(row, input, c, &g, out);
+    }
+
+    #[inline(always)]
+    fn vjp(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+        let mut g = [0.0; MAX_D];
+        let c = self.gradient(row, input, &mut g);
+        self.finish_vjp(row, input, c, &g, out_adj, in_adj);
+    }
+
+    /// Two passes over the block: every row's `C` and `∇C` first, then every row's update, so
+    /// the rows' long dependency chains (square root, then divisions) overlap.
+    #[inline(always)]
+    fn eval_rows(&self, first: usize, inputs: &[f64], outputs: &mut [f64]) {
+        let w = 3 * C::ARITY + 1;
+        let (mut c, mut g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
+        let rows = inputs.len() / w;
+        for b in 0..rows {
+            c[b] = self.gradient(first + b, &inputs[w * b..w * b + w], &mut g[b]);
+        }
+        for b in 0..rows {
+            let (x, y) = (&inputs[w * b..w * b + w], &mut outputs[w * b..w * b + w]);
+            self.finish_eval(first + b, x, c[b], &g[b], y);
+        }
+    }
+
+    /// Two passes over the block, as [`Projection::eval_rows`].
+    #[inline(always)]
+    fn vjp_rows(&self, first: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+        let w = 3 * C::ARITY + 1;
+        let (mut c, mut g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
+        let rows = inputs.len() / w;
+        for b in 0..rows {
+            c[b] = self.gradient(first + b, &inputs[w * b..w * b + w], &mut g[b]);
+        }
+        for b in 0..rows {
+            let r = w * b..w * b + w;
+            self.finish_vjp(
+                first + b,
+                &inputs[r.clone()],
+                c[b],
+                &g[b],
+                &out_adj[r.clone()],
+                &mut in_adj[r],
+            );
+        }
+    }
+}
+
+impl<C: Constraint> Projection<C> {
+    /// `C` and `∇C` of row `row` at its input positions.
+    #[inline(always)]
+    fn gradient<R: Real>(&self, row: usize, input: &[R], g: &mut [R; MAX_D]) -> R {
+        let d = 3 * C::ARITY;
+        value_and_gradient(
             self.constraint.as_ref(),
             self.instances[row],
             &input[..d],
-            &mut g,
-        );
+            g,
+        )
+    }
+
+    /// The update of row `row` from its `C` and `∇C`.
+    #[inline(always)]
+    fn finish_eval<R: Real>(&self, row: usize, input: &[R], c: R, g: &[R; MAX_D], out: &mut [R]) {
+        let d = 3 * C::ARITY;
+        // `d` is a compile-time constant per constraint type: these loops unroll to moves.
+        let unchanged = |out: &mut [R]| out[..=d].copy_from_slice(&input[..=d]);
         if C::INEQUALITY && c.value() >= 0.0 {
             return unchanged(out);
         }
-        let denom = self.weighted_sq(row, &g) + self.compliance;
+        let denom = self.weighted_sq(row, g) + self.compliance;
         if denom.value() == 0.0 {
             return unchanged(out);
         }
@@ -109,20 +170,26 @@ impl<C: Constraint> RowFn for Projection<C> {
         out[d] = lambda + dlambda;
     }
 
+    /// The adjoint of row `row`'s update, given its `C` and `∇C`.
     #[inline(always)]
-    fn vjp(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+    fn finish_vjp(
+        &self,
+        row: usize,
+        input: &[f64],
+        c: f64,
+        g: &[f64; MAX_D],
+        out_adj: &[f64],
+        in_adj: &mut [f64],
+    ) {
         let d = 3 * C::ARITY;
         // The identity part of the update.
-        for (a, o) in in_adj.iter_mut().zip(out_adj) {
+        for (a, o) in in_adj[..=d].iter_mut().zip(&out_adj[..=d]) {
             *a += o;
         }
-        let inst = self.instances[row];
-        let mut g = [0.0; MAX_D];
-        let c = value_and_gradient(self.constraint.as_ref(), inst, &input[..d], &mut g);
         if C::INEQUALITY && c >= 0.0 {
             return;
         }
-        let denom = self.weighted_sq(row, &g) + self.compliance;
+        let denom = self.weighted_sq(row, g) + self.compliance;
         if denom == 0.0 {
             return;
         }
@@ -142,6 +209,7 @@ impl<C: Constraint> RowFn for Projection<C> {
             a_g[j] = w[j / 3] * (dlambda * out_adj[j] + 2.0 * a_den * g[j]);
         }
         // Positions: −a_num·∇C (through C) + ∇²C·a_g (through ∇C).
+        let inst = self.instances[row];
         let hv = hessian_vector(self.constraint.as_ref(), inst, &input[..d], &a_g[..d]);
         for j in 0..d {
             in_adj[j] += -a_num * g[j] + hv[j];
