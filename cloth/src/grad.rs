@@ -207,6 +207,26 @@ impl Model {
         in_pool(|| self.gradients_in_pool(states, controls, costs))
     }
 
+    /// Bytes one recorded Gauss–Seidel iteration keeps for the backward pass.
+    pub fn recorded_bytes_per_iteration(&self) -> usize {
+        let per_set = |s: &crate::model::ProjectionSet| {
+            s.index.rows() * s.projection.n_in() * std::mem::size_of::<f64>()
+        };
+        self.groups.iter().flat_map(|g| &g.sets).map(per_set).sum()
+    }
+
+    /// Iterations recorded at once by [`Model::gradients`]: the whole step when its recording fits
+    /// [`Model::checkpoint_budget`], else equal blocks that do.
+    pub fn iterations_per_block(&self) -> usize {
+        let per = self.recorded_bytes_per_iteration().max(1);
+        let fit = (self.checkpoint_budget / per).max(1);
+        if fit >= self.iterations {
+            self.iterations.max(1)
+        } else {
+            self.iterations.div_ceil(self.iterations.div_ceil(fit))
+        }
+    }
+
     fn gradients_in_pool(
         &self,
         states: &[Tensor],
@@ -215,46 +235,128 @@ impl Model {
     ) -> Vec<Tensor> {
         let horizon = self.task.horizon;
         let mut grads: Vec<Tensor> = costs.iter().map(|_| self.zero_controls()).collect();
-        let mut adjoints: Vec<Option<Tensor>> = costs.iter().map(|_| None).collect();
+        // Per cost: the adjoint of the state (and of the multipliers, inside a step) where the
+        // pull-back has reached.
+        let mut adjoints: Vec<Adjoint> = costs.iter().map(|_| Adjoint::default()).collect();
+        let block = self.iterations_per_block();
+        let starts: Vec<usize> = (0..self.iterations.max(1)).step_by(block).collect();
         let mut tape = Tape::new();
         for t in (1..=horizon).rev() {
-            tape.clear();
-            let x_prev = tape.leaf(states[t - 1].clone());
-            let u = tape.leaf(self.step_controls(controls, t - 1));
-            let x = self.record_step(&mut tape, x_prev, u);
-            let terms: Vec<Option<Var>> =
-                costs.iter().map(|f| f(&mut tape, t, x_prev, x)).collect();
-            // Each cost's pull-back reads the same recording: they run in parallel.
-            let seeds: Vec<Vec<(Var, Tensor)>> = terms
-                .iter()
-                .zip(adjoints.iter_mut())
-                .map(|(term, adjoint)| {
-                    let mut seeds = Vec::with_capacity(2);
-                    if let Some(adj) = adjoint.take() {
-                        seeds.push((x, adj));
-                    }
-                    if let Some(c) = term {
-                        seeds.push((*c, Tensor::scalar(1.0)));
-                    }
-                    seeds
-                })
-                .collect();
-            let pulled: Vec<Option<(Tensor, Tensor)>> = seeds
-                .par_iter()
-                .map(|seeds| {
-                    (!seeds.is_empty()).then(|| {
-                        let g = tape.vjp(seeds);
-                        (g.wrt(u), g.wrt(x_prev))
+            let u_t = self.step_controls(controls, t - 1);
+            // Checkpoints (state, multipliers) at the start of every block but the first.
+            let mut checkpoints = Vec::with_capacity(starts.len() - 1);
+            if starts.len() > 1 {
+                let mut x = self.begin_step(&states[t - 1], &u_t);
+                let mut lambdas = self.zero_lambdas();
+                for w in starts.windows(2) {
+                    self.sweep(&mut x, &mut lambdas, w[1] - w[0]);
+                    checkpoints.push((x.clone(), lambdas.clone()));
+                }
+            }
+            for b in (0..starts.len()).rev() {
+                let (first, last) = (b == 0, b + 1 == starts.len());
+                let iterations = starts.get(b + 1).unwrap_or(&self.iterations) - starts[b];
+                tape.clear();
+                let x_prev = tape.leaf(states[t - 1].clone());
+                let u = tape.leaf(u_t.clone());
+                let (x_in, lambdas_in) = if first {
+                    let x = self.record_begin_step(&mut tape, x_prev, u);
+                    (x, self.record_zero_lambdas(&mut tape))
+                } else {
+                    let (x, l) = &checkpoints[b - 1];
+                    let x = tape.leaf(x.clone());
+                    (x, l.iter().map(|l| tape.leaf(l.clone())).collect())
+                };
+                let mut lambdas = lambdas_in.clone();
+                let x = self.record_sweeps(&mut tape, x_in, &mut lambdas, iterations);
+                let terms: Vec<Option<Var>> = costs
+                    .iter()
+                    .map(|f| {
+                        if last {
+                            f(&mut tape, t, x_prev, x)
+                        } else {
+                            None
+                        }
                     })
-                })
-                .collect();
-            for (i, p) in pulled.into_iter().enumerate() {
-                if let Some((du, dx_prev)) = p {
-                    grads[i].row_mut(t - 1).copy_from_slice(du.data());
-                    adjoints[i] = Some(dx_prev);
+                    .collect();
+                // Each cost's pull-back reads the same recording: they run in parallel.
+                let seeds: Vec<Vec<(Var, Tensor)>> = terms
+                    .iter()
+                    .zip(adjoints.iter_mut())
+                    .map(|(term, adjoint)| {
+                        let mut seeds = Vec::new();
+                        if let Some(adj) = adjoint.state.take() {
+                            seeds.push((x, adj));
+                        }
+                        for (l, adj) in lambdas.iter().zip(adjoint.lambdas.drain(..)) {
+                            seeds.push((*l, adj));
+                        }
+                        if let Some(c) = term {
+                            seeds.push((*c, Tensor::scalar(1.0)));
+                        }
+                        seeds
+                    })
+                    .collect();
+                let pulled: Vec<Option<Pulled>> = seeds
+                    .par_iter()
+                    .map(|seeds| {
+                        (!seeds.is_empty()).then(|| {
+                            let g = tape.vjp(seeds);
+                            Pulled {
+                                state: g.wrt(if first { x_prev } else { x_in }),
+                                lambdas: if first {
+                                    Vec::new()
+                                } else {
+                                    lambdas_in.iter().map(|&l| g.wrt(l)).collect()
+                                },
+                                controls: first.then(|| g.wrt(u)),
+                                // Costs read `x_prev` in the last block; the first block adds the
+                                // dynamics' part.
+                                x_prev: (last && !first).then(|| g.wrt(x_prev)),
+                            }
+                        })
+                    })
+                    .collect();
+                for ((p, adjoint), grad) in pulled.into_iter().zip(&mut adjoints).zip(&mut grads) {
+                    let Some(p) = p else { continue };
+                    adjoint.lambdas = p.lambdas;
+                    if let Some(extra) = p.x_prev {
+                        adjoint.x_prev = Some(extra);
+                    }
+                    let mut state = p.state;
+                    if let Some(du) = p.controls {
+                        grad.row_mut(t - 1).copy_from_slice(du.data());
+                        if let Some(extra) = adjoint.x_prev.take() {
+                            state.add_assign(&extra);
+                        }
+                    }
+                    adjoint.state = Some(state);
                 }
             }
         }
         grads
     }
+}
+
+/// One cost's adjoint during [`Model::gradients`].
+#[derive(Default)]
+struct Adjoint {
+    /// Of the state where the pull-back has reached.
+    state: Option<Tensor>,
+    /// Of the multipliers there (inside a step; empty at a step's start).
+    lambdas: Vec<Tensor>,
+    /// Of the step's `x_prev` through the cost terms, waiting for the step's first block.
+    x_prev: Option<Tensor>,
+}
+
+/// What one cost's pull-back through one block gives.
+struct Pulled {
+    /// Adjoint of the block's input state (`x_prev` for a step's first block).
+    state: Tensor,
+    /// Adjoints of the block's input multipliers (none for a step's first block).
+    lambdas: Vec<Tensor>,
+    /// Gradient with respect to the step's controls (the first block only).
+    controls: Option<Tensor>,
+    /// Adjoint of `x_prev` through the cost terms (the last block, when it is not the first).
+    x_prev: Option<Tensor>,
 }

@@ -81,7 +81,14 @@ pub struct Model {
     pub colliders: Union,
     /// The task.
     pub task: TaskSpec,
+    /// Largest recording, in bytes, [`Model::gradients`] keeps for the backward pass. A step whose
+    /// recording is larger is recorded in blocks of iterations from checkpoints of a plain
+    /// forward sweep (one more forward pass per step, memory ∝ one block).
+    pub checkpoint_budget: usize,
 }
+
+/// Default [`Model::checkpoint_budget`]: 16 MiB (`u_obstacle` steps fit up to a 20 × 20 mesh).
+pub const DEFAULT_CHECKPOINT_BUDGET: usize = 16 << 20;
 
 /// `½ k C²` of each constraint of a type.
 struct Energy<C> {
@@ -177,6 +184,7 @@ impl Model {
                 beta: task.beta,
                 delta: task.delta,
             },
+            checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
         };
 
         let edges = mesh.stretch_edges();

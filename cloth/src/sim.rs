@@ -6,7 +6,7 @@
 //! kernel on the same inputs, so their states agree bit for bit.
 
 use crate::error::ClothError;
-use crate::model::Model;
+use crate::model::{Model, ProjectionSet};
 use autodiff::update::update_rows;
 use autodiff::{in_pool, Tape, Tensor, Var};
 
@@ -53,6 +53,14 @@ impl Model {
 
     /// One time step on plain `f64` data.
     pub fn step(&self, x_prev: &Tensor, u: &Tensor, scratch: &mut StepScratch) -> Tensor {
+        let mut x = self.begin_step(x_prev, u);
+        scratch.lambdas = self.zero_lambdas();
+        self.sweep(&mut x, &mut scratch.lambdas, self.iterations);
+        x
+    }
+
+    /// The state a step's sweeps start from: `x_prev` moved by gravity, control particles by `u`.
+    pub fn begin_step(&self, x_prev: &Tensor, u: &Tensor) -> Tensor {
         let mut x = x_prev.clone();
         if let Some(g) = self.gravity_step {
             for row in x.data_mut().chunks_exact_mut(3) {
@@ -66,21 +74,39 @@ impl Model {
                 x.row_mut(p)[j] = x_prev.get(p, j) + u.get(k, j);
             }
         }
-        let sets = self.groups.iter().flat_map(|g| &g.sets);
-        scratch.lambdas.clear();
-        scratch
-            .lambdas
-            .extend(sets.clone().map(|s| Tensor::zeros(s.index.rows(), 1)));
-        for _ in 0..self.iterations {
-            for (set, lambda) in sets.clone().zip(scratch.lambdas.iter_mut()) {
-                update_rows(set.projection.as_ref(), &set.index, &mut x, lambda, None);
+        x
+    }
+
+    /// Zero multipliers `λ`, one tensor per colour set in sweep order.
+    pub fn zero_lambdas(&self) -> Vec<Tensor> {
+        self.sets()
+            .map(|s| Tensor::zeros(s.index.rows(), 1))
+            .collect()
+    }
+
+    /// `iterations` Gauss–Seidel sweeps over every colour set, in place.
+    pub fn sweep(&self, x: &mut Tensor, lambdas: &mut [Tensor], iterations: usize) {
+        for _ in 0..iterations {
+            for (set, lambda) in self.sets().zip(lambdas.iter_mut()) {
+                update_rows(set.projection.as_ref(), &set.index, x, lambda, None);
             }
         }
-        x
+    }
+
+    /// Every colour set of every group, in sweep order.
+    fn sets(&self) -> impl Iterator<Item = &ProjectionSet> + Clone {
+        self.groups.iter().flat_map(|g| &g.sets)
     }
 
     /// Records one time step on `tape` from the state `x_prev` and controls `u` (`n_controls × 3`).
     pub fn record_step(&self, tape: &mut Tape, x_prev: Var, u: Var) -> Var {
+        let x = self.record_begin_step(tape, x_prev, u);
+        let mut lambdas = self.record_zero_lambdas(tape);
+        self.record_sweeps(tape, x, &mut lambdas, self.iterations)
+    }
+
+    /// Records [`Model::begin_step`].
+    pub fn record_begin_step(&self, tape: &mut Tape, x_prev: Var, u: Var) -> Var {
         let mut x = match self.gravity_step {
             Some(g) => {
                 let g = tape.leaf(Tensor::new(1, 3, g.to_vec()));
@@ -93,13 +119,27 @@ impl Model {
             let moved = tape.add(held, u);
             x = tape.assign_rows(x, &self.controls, moved);
         }
-        let sets: Vec<_> = self.groups.iter().flat_map(|g| &g.sets).collect();
-        let mut lambdas: Vec<Var> = sets
-            .iter()
-            .map(|s| tape.leaf(Tensor::zeros(s.index.rows(), 1)))
-            .collect();
-        for _ in 0..self.iterations {
-            for (set, lambda) in sets.iter().zip(lambdas.iter_mut()) {
+        x
+    }
+
+    /// Zero multipliers as leaves of `tape`.
+    pub fn record_zero_lambdas(&self, tape: &mut Tape) -> Vec<Var> {
+        self.zero_lambdas()
+            .into_iter()
+            .map(|l| tape.leaf(l))
+            .collect()
+    }
+
+    /// Records [`Model::sweep`]: returns the new state; `lambdas` become the new multipliers.
+    pub fn record_sweeps(
+        &self,
+        tape: &mut Tape,
+        mut x: Var,
+        lambdas: &mut [Var],
+        iterations: usize,
+    ) -> Var {
+        for _ in 0..iterations {
+            for (set, lambda) in self.sets().zip(lambdas.iter_mut()) {
                 let (nx, nl) = tape.update_rows(&set.projection, &set.index, x, *lambda);
                 x = nx;
                 *lambda = nl;
