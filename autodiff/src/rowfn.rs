@@ -74,7 +74,28 @@ pub trait RowFn: Send + Sync {
             self.vjp(first + k, x, oa, ia);
         }
     }
+
+    /// [`RowFn::vjp`] of one row for several seeds at once: `out_adj` holds `seeds` output
+    /// adjoints one after another (`seeds × n_out`), `in_adj` the matching `seeds × n_in`. The
+    /// default pulls them back one by one; a function may override it to share the work the
+    /// seeds have in common.
+    #[inline(always)]
+    fn vjp_seeds(&self, row: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64])
+    where
+        Self: Sized,
+    {
+        let (n_in, n_out) = (self.n_in(), self.n_out());
+        for (oa, ia) in out_adj
+            .chunks_exact(n_out)
+            .zip(in_adj.chunks_exact_mut(n_in))
+        {
+            self.vjp(row, inputs, oa, ia);
+        }
+    }
 }
+
+/// Seeds per call of [`RowFn::vjp_seeds`] from the in-place kernels.
+pub const SEED_CHUNK: usize = 8;
 
 /// Rows per block handed to [`RowFn::eval_rows`] and [`RowFn::vjp_rows`] by the in-place kernels.
 pub const ROW_BLOCK: usize = 8;
@@ -144,6 +165,15 @@ pub trait DynRowFn: Send + Sync {
         inputs: &[f64],
         state_adj: &mut Tensor,
         carry_adj: &mut Tensor,
+    );
+    /// [`DynRowFn::vjp_update_batch`] for several independent adjoints at once (one state and
+    /// one carry adjoint per seed).
+    fn vjp_update_batch_seeds(
+        &self,
+        index: &RowIndex,
+        inputs: &[f64],
+        state_adj: &mut [Tensor],
+        carry_adj: &mut [Tensor],
     );
 }
 
@@ -224,6 +254,43 @@ impl<F: RowFn> DynRowFn for F {
         let mut in_adj = vec![0.0; inputs.len()];
         self.vjp_batch(inputs, &out_adj, &mut in_adj);
         scatter_update_outputs(index, &in_adj, state_adj, carry_adj);
+    }
+    fn vjp_update_batch_seeds(
+        &self,
+        index: &RowIndex,
+        inputs: &[f64],
+        state_adj: &mut [Tensor],
+        carry_adj: &mut [Tensor],
+    ) {
+        assert_eq!(
+            state_adj.len(),
+            carry_adj.len(),
+            "one carry adjoint per seed"
+        );
+        let points =
+            state_adj.iter().all(|t| t.cols() == 3) && carry_adj.iter().all(|t| t.cols() == 1);
+        if state_adj.len() > 1 && points {
+            for (s, c) in state_adj
+                .chunks_mut(SEED_CHUNK)
+                .zip(carry_adj.chunks_mut(SEED_CHUNK))
+            {
+                match index.arity() {
+                    1 => vjp_update_points_seeds::<F, 1>(self, index, inputs, s, c),
+                    2 => vjp_update_points_seeds::<F, 2>(self, index, inputs, s, c),
+                    3 => vjp_update_points_seeds::<F, 3>(self, index, inputs, s, c),
+                    4 => vjp_update_points_seeds::<F, 4>(self, index, inputs, s, c),
+                    _ => {
+                        for (s, c) in s.iter_mut().zip(c.iter_mut()) {
+                            self.vjp_update_batch(index, inputs, s, c);
+                        }
+                    }
+                }
+            }
+            return;
+        }
+        for (s, c) in state_adj.iter_mut().zip(carry_adj.iter_mut()) {
+            self.vjp_update_batch(index, inputs, s, c);
+        }
     }
 }
 
@@ -338,6 +405,73 @@ fn vjp_update_points<F: RowFn, const A: usize>(
                 }
             }
             first += n;
+        }
+    });
+}
+
+/// [`DynRowFn::vjp_update_batch_seeds`] for the layout of [`update_points`], up to
+/// [`SEED_CHUNK`] seeds: each row's saved inputs are read once and handed to
+/// [`RowFn::vjp_seeds`] with every seed's output adjoint.
+fn vjp_update_points_seeds<F: RowFn, const A: usize>(
+    f: &F,
+    index: &RowIndex,
+    inputs: &[f64],
+    state_adj: &mut [Tensor],
+    carry_adj: &mut [Tensor],
+) {
+    let rows = index.rows();
+    let seeds = state_adj.len();
+    assert!(seeds <= SEED_CHUNK, "at most SEED_CHUNK seeds at once");
+    assert_eq!(
+        inputs.len(),
+        rows * (3 * A + 1),
+        "vjp_update_batch: saved inputs"
+    );
+    assert!(
+        index.is_disjoint()
+            && state_adj.iter().all(|s| index.bound() <= s.rows())
+            && carry_adj.iter().all(|c| c.rows() == rows),
+        "vjp_update_batch: index does not fit the adjoints"
+    );
+    let states: Vec<SharedRows> = state_adj
+        .iter_mut()
+        .map(|t| SharedRows::new(t.data_mut()))
+        .collect();
+    let carries: Vec<SharedRows> = carry_adj
+        .iter_mut()
+        .map(|t| SharedRows::new(t.data_mut()))
+        .collect();
+    let idx = index.as_slice();
+    for_row_ranges(rows, |range| {
+        let width = 3 * A + 1;
+        let mut oa = [0.0; MAX_POINT_ROW * SEED_CHUNK];
+        let mut ia = [0.0; MAX_POINT_ROW * SEED_CHUNK];
+        for k in range {
+            let p = &idx[A * k..A * k + A];
+            // SAFETY: as in `update_points` (asserted above), for every seed's buffers.
+            unsafe {
+                for (s, (state, carry)) in states.iter().zip(&carries).enumerate() {
+                    let ob = &mut oa[width * s..width * s + width];
+                    for (j, &q) in p.iter().enumerate() {
+                        ob[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * q, 3));
+                    }
+                    ob[3 * A] = carry.slice(k, 1)[0];
+                    ia[width * s..width * s + width].fill(0.0);
+                }
+                f.vjp_seeds(
+                    k,
+                    &inputs[width * k..width * k + width],
+                    &oa[..width * seeds],
+                    &mut ia[..width * seeds],
+                );
+                for (s, (state, carry)) in states.iter().zip(&carries).enumerate() {
+                    let ib = &ia[width * s..width * s + width];
+                    for (j, &q) in p.iter().enumerate() {
+                        state.slice(3 * q, 3).copy_from_slice(&ib[3 * j..3 * j + 3]);
+                    }
+                    carry.slice(k, 1)[0] = ib[3 * A];
+                }
+            }
         }
     });
 }

@@ -778,42 +778,93 @@ impl Tape {
     /// # Panics
     /// If a seed's shape differs from its output's.
     pub fn vjp(&self, seeds: &[(Var, Tensor)]) -> Gradients {
+        let mut g = self.vjp_many(std::slice::from_ref(&seeds.to_vec()));
+        g.pop()
+            .expect("one set of seeds gives one set of gradients")
+    }
+
+    /// Several independent vector–Jacobian products in one backward pass: element `k` of the
+    /// result is [`Tape::vjp`] of `seeds[k]`. Each Gauss–Seidel node pulls all of them back
+    /// together ([`DynRowFn::vjp_update_batch_seeds`]), so work a row's adjoint needs whatever the
+    /// seed (its constraint's value and gradient) is done once.
+    ///
+    /// # Panics
+    /// If a seed's shape differs from its output's.
+    pub fn vjp_many(&self, seeds: &[Vec<(Var, Tensor)>]) -> Vec<Gradients> {
         let n = self.nodes.len();
-        let mut adj: Vec<Option<Tensor>> = (0..n).map(|_| None).collect();
+        let mut adjs: Vec<Vec<Option<Tensor>>> = seeds
+            .iter()
+            .map(|_| (0..n).map(|_| None).collect())
+            .collect();
         let mut first = 0;
-        for (v, seed) in seeds {
-            assert_eq!(v.epoch, self.epoch, "vjp: seed Var from another recording");
-            let id = v.id as usize;
-            let shape = self.nodes[id].shape;
-            assert_eq!(
-                seed.shape(),
-                shape,
-                "vjp: seed shape differs from its output's"
-            );
-            accumulate(&mut adj[id], seed.clone());
-            first = first.max(id + 1);
+        for (adj, seeds) in adjs.iter_mut().zip(seeds) {
+            for (v, seed) in seeds {
+                assert_eq!(v.epoch, self.epoch, "vjp: seed Var from another recording");
+                let id = v.id as usize;
+                let shape = self.nodes[id].shape;
+                assert_eq!(
+                    seed.shape(),
+                    shape,
+                    "vjp: seed shape differs from its output's"
+                );
+                accumulate(&mut adj[id], seed.clone());
+                first = first.max(id + 1);
+            }
         }
         let shapes: Vec<(usize, usize)> = self.nodes.iter().map(|node| node.shape).collect();
         for id in (0..first).rev() {
-            let g = match (&self.nodes[id].op, adj[id].take()) {
+            match &self.nodes[id].op {
                 // The carry's adjoint waits in its slot for the update node just before it.
-                (Op::UpdateCarry, g) => {
-                    adj[id] = g;
-                    continue;
+                Op::UpdateCarry => {}
+                Op::UpdateRows {
+                    f,
+                    index,
+                    state,
+                    carry,
+                    inputs,
+                } => {
+                    let active: Vec<usize> = (0..adjs.len())
+                        .filter(|&k| adjs[k][id].is_some() || adjs[k][id + 1].is_some())
+                        .collect();
+                    if active.is_empty() {
+                        continue;
+                    }
+                    let zeros = |(r, c): (usize, usize)| Tensor::zeros(r, c);
+                    let mut state_adj: Vec<Tensor> = active
+                        .iter()
+                        .map(|&k| adjs[k][id].take().unwrap_or_else(|| zeros(shapes[id])))
+                        .collect();
+                    let mut carry_adj: Vec<Tensor> = active
+                        .iter()
+                        .map(|&k| {
+                            adjs[k][id + 1]
+                                .take()
+                                .unwrap_or_else(|| zeros(shapes[id + 1]))
+                        })
+                        .collect();
+                    // Untouched state rows pass through; touched rows and the carry take the VJP.
+                    f.vjp_update_batch_seeds(index, inputs, &mut state_adj, &mut carry_adj);
+                    for ((&k, g), gc) in active.iter().zip(state_adj).zip(carry_adj) {
+                        accumulate(&mut adjs[k][*state], g);
+                        accumulate(&mut adjs[k][*carry], gc);
+                    }
                 }
-                (_, Some(g)) => g,
-                (Op::UpdateRows { .. }, None) if adj[id + 1].is_some() => {
-                    Tensor::zeros(shapes[id].0, shapes[id].1)
+                _ => {
+                    for adj in adjs.iter_mut() {
+                        if let Some(g) = adj[id].take() {
+                            self.backward_node(id, g, adj, &shapes);
+                        }
+                    }
                 }
-                (_, None) => continue,
-            };
-            self.backward_node(id, g, &mut adj, &shapes);
+            }
         }
-        Gradients {
-            epoch: self.epoch,
-            adj,
-            shapes,
-        }
+        adjs.into_iter()
+            .map(|adj| Gradients {
+                epoch: self.epoch,
+                adj,
+                shapes: shapes.clone(),
+            })
+            .collect()
     }
 
     /// Pushes the adjoint `g` of node `id` to its inputs.
@@ -1005,23 +1056,7 @@ impl Tape {
                 vjp_rows(f.as_ref(), x.data(), g.data(), gi.data_mut());
                 accumulate(&mut adj[*input], gi);
             }
-            Op::UpdateRows {
-                f,
-                index,
-                state,
-                carry,
-                inputs,
-            } => {
-                // Adjoint of the new carry, if anything downstream read it.
-                let carry_shape = shapes[id + 1];
-                let mut g_carry = adj[id + 1]
-                    .take()
-                    .unwrap_or_else(|| Tensor::zeros(carry_shape.0, carry_shape.1));
-                // Untouched state rows pass through; touched rows and the carry take the VJP.
-                f.vjp_update_batch(index, inputs, &mut g, &mut g_carry);
-                accumulate(&mut adj[*state], g);
-                accumulate(&mut adj[*carry], g_carry);
-            }
+            Op::UpdateRows { .. } => unreachable!("update nodes are pulled back by vjp_many"),
             Op::UpdateCarry => unreachable!("carry adjoints are consumed by their update node"),
         }
     }

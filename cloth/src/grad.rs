@@ -5,7 +5,7 @@ use crate::cost::trajectory_irregularity;
 use crate::error::ClothError;
 use crate::model::Model;
 use crate::sim::Controls;
-use autodiff::{in_pool, Tape, Tensor, Var};
+use autodiff::{in_pool, Gradients, Tape, Tensor, Var};
 use rayon::prelude::*;
 
 /// A scalar function of a rollout that is a sum of per-step terms `Σ_t f(t, x^(t))`.
@@ -279,8 +279,9 @@ impl Model {
                         }
                     })
                     .collect();
-                // Each cost's pull-back reads the same recording: they run in parallel.
-                let seeds: Vec<Vec<(Var, Tensor)>> = terms
+                // Every cost's pull-back reads the same recording: they run together, in one
+                // group per thread.
+                let mut seeds: Vec<Vec<(Var, Tensor)>> = terms
                     .iter()
                     .zip(adjoints.iter_mut())
                     .map(|(term, adjoint)| {
@@ -297,11 +298,21 @@ impl Model {
                         seeds
                     })
                     .collect();
-                let pulled: Vec<Option<Pulled>> = seeds
+                let live: Vec<usize> = (0..seeds.len()).filter(|&i| !seeds[i].is_empty()).collect();
+                let group = live.len().div_ceil(rayon::current_num_threads()).max(1);
+                let groups: Vec<Vec<Vec<(Var, Tensor)>>> = live
+                    .chunks(group)
+                    .map(|g| g.iter().map(|&i| std::mem::take(&mut seeds[i])).collect())
+                    .collect();
+                let gradients: Vec<Gradients> = groups
                     .par_iter()
-                    .map(|seeds| {
-                        (!seeds.is_empty()).then(|| {
-                            let g = tape.vjp(seeds);
+                    .flat_map_iter(|g| tape.vjp_many(g))
+                    .collect();
+                let mut gradients = gradients.into_iter();
+                let pulled: Vec<Option<Pulled>> = (0..seeds.len())
+                    .map(|i| {
+                        live.contains(&i).then(|| {
+                            let g = gradients.next().expect("one result per live seed");
                             Pulled {
                                 state: g.wrt(if first { x_prev } else { x_in }),
                                 lambdas: if first {

@@ -133,6 +133,17 @@ impl<C: Constraint> RowFn for Projection<C> {
             );
         }
     }
+    /// `C` and `∇C` once for all the seeds.
+    #[inline(always)]
+    fn vjp_seeds(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+        let w = 3 * C::ARITY + 1;
+        let mut g = [0.0; MAX_D];
+        let c = self.gradient(row, input, &mut g);
+        let step = self.step_of(row, input, c, &g);
+        for (oa, ia) in out_adj.chunks_exact(w).zip(in_adj.chunks_exact_mut(w)) {
+            self.seed_vjp(row, input, &g, step, oa, ia);
+        }
+    }
 }
 
 impl<C: Constraint> Projection<C> {
@@ -181,20 +192,44 @@ impl<C: Constraint> Projection<C> {
         out_adj: &[f64],
         in_adj: &mut [f64],
     ) {
+        let step = self.step_of(row, input, c, g);
+        self.seed_vjp(row, input, g, step, out_adj, in_adj);
+    }
+
+    /// The row's denominator `Σᵢ wᵢ|∇ᵢC|² + α̃` and `Δλ`, or `None` when the row does not move.
+    #[inline(always)]
+    fn step_of(&self, row: usize, input: &[f64], c: f64, g: &[f64; MAX_D]) -> Option<(f64, f64)> {
+        if C::INEQUALITY && c >= 0.0 {
+            return None;
+        }
+        let denom = self.weighted_sq(row, g) + self.compliance;
+        if denom == 0.0 {
+            return None;
+        }
+        let dlambda = (-c - input[3 * C::ARITY] * self.compliance) / denom;
+        Some((denom, dlambda))
+    }
+
+    /// The adjoint of one seed through row `row`, given its `∇C` and [`Projection::step_of`].
+    #[inline(always)]
+    fn seed_vjp(
+        &self,
+        row: usize,
+        input: &[f64],
+        g: &[f64; MAX_D],
+        step: Option<(f64, f64)>,
+        out_adj: &[f64],
+        in_adj: &mut [f64],
+    ) {
         let d = 3 * C::ARITY;
         // The identity part of the update.
         for (a, o) in in_adj[..=d].iter_mut().zip(&out_adj[..=d]) {
             *a += o;
         }
-        if C::INEQUALITY && c >= 0.0 {
+        let Some((denom, dlambda)) = step else {
             return;
-        }
-        let denom = self.weighted_sq(row, g) + self.compliance;
-        if denom == 0.0 {
-            return;
-        }
+        };
         let w = &self.inv_mass[row * C::ARITY..(row + 1) * C::ARITY];
-        let dlambda = (-c - input[d] * self.compliance) / denom;
         // Adjoint of Δλ, then of its numerator and denominator.
         let mut a_dl = out_adj[d];
         for j in 0..d {
