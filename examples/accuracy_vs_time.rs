@@ -13,10 +13,9 @@
 //! `cargo run --release --example accuracy_vs_time [-- --out FILE --png-dir DIR --quick --jax PYTHON]`
 
 use anyhow::{anyhow, ensure, Context, Result};
-use autodiff::{Tape, Tensor, Var};
+use autodiff::Tensor;
 use clap::{Parser, Subcommand};
-use cloth::cost::trajectory_irregularity;
-use cloth::{Controls, Evaluation, Model, Scene};
+use cloth::{Controls, Model, Scene};
 use clothopt::plan::{self, PlanOptions};
 use clothopt::plot::{draw_xy, RefLine, Series, XyFigure};
 use serde::{Deserialize, Serialize};
@@ -310,29 +309,6 @@ fn time_runs<T>(reps: usize, budget_s: f64, mut f: impl FnMut() -> Result<T>) ->
     })
 }
 
-/// One forward pass and ∇L only: [`Model::evaluate`] with `gradients` minus its second backward
-/// pass (dC/dU). The same work as the JAX benchmark's value-and-gradient of L.
-fn forward_grad_l(model: &Model, u: &Controls, delta: f64) -> Result<Evaluation> {
-    let states = model.simulate(u)?;
-    let metrics = model.metrics(&states, u, delta);
-    let beta = model.task.beta;
-    let loss = |tape: &mut Tape, t: usize, _: Var, x: Var| model.record_loss(tape, t, x, beta);
-    let mut grad = model
-        .gradients(&states, u, &[&loss])
-        .pop()
-        .ok_or_else(|| anyhow!("no gradient returned"))?;
-    let (_, t_grad) = trajectory_irregularity(u);
-    for (g, t) in grad.data_mut().iter_mut().zip(t_grad.data()) {
-        *g += model.task.alpha * t;
-    }
-    Ok(Evaluation {
-        metrics,
-        states,
-        grad_l: Some(grad),
-        grad_c: None,
-    })
-}
-
 /// A `/proc/self/status` field in kB (`VmHWM`, `VmRSS`); `None` where there is no procfs.
 fn proc_status_kb(field: &str) -> Option<f64> {
     let text = std::fs::read_to_string("/proc/self/status").ok()?;
@@ -411,7 +387,7 @@ fn measure_mesh(
         let hwm0 = proc_status_kb("VmHWM");
         let mut l = f64::NAN;
         let fg = time_runs(reps, budget_s, || {
-            let ev = forward_grad_l(&model, &start, delta)?;
+            let ev = model.evaluate_loss_gradient(&start, delta)?;
             l = ev.metrics.l;
             Ok(ev)
         })?;
@@ -475,7 +451,7 @@ fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<us
         cfg.reference_iterations
     );
     let clock = Instant::now();
-    let reference = forward_grad_l(&ref_model, &point, delta)?;
+    let reference = ref_model.evaluate_loss_gradient(&point, delta)?;
     let ref_fg = clock.elapsed().as_secs_f64();
     let clock = Instant::now();
     ref_model.evaluate(&point, delta, false)?;
@@ -518,17 +494,20 @@ fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<us
             .ok_or_else(|| anyhow!("evaluate returned no gradient"))?;
         let (max_c, rms_c, per_step) = stretch.residual(&ev.states);
         // ∇L alone must be evaluate's ∇L (same operations, one cotangent fewer).
-        let grad_only = forward_grad_l(&model, &point, delta)?
+        let grad_only = model
+            .evaluate_loss_gradient(&point, delta)?
             .grad_l
             .ok_or_else(|| anyhow!("no gradient returned"))?;
         let mismatch = rel_err(&grad_only, &grad);
         ensure!(
             mismatch <= 1e-12,
-            "forward_grad_l differs from evaluate's ∇L by {mismatch:.1e}"
+            "evaluate_loss_gradient differs from evaluate's ∇L by {mismatch:.1e}"
         );
         let inf = f64::INFINITY;
         let fwd = time_runs(cfg.reps, inf, || Ok(model.evaluate(&point, delta, false)?))?;
-        let fg = time_runs(cfg.reps, inf, || forward_grad_l(&model, &point, delta))?;
+        let fg = time_runs(cfg.reps, inf, || {
+            Ok(model.evaluate_loss_gradient(&point, delta)?)
+        })?;
         let eval_g = if has_safety {
             Some(time_runs(cfg.reps, inf, || {
                 Ok(model.evaluate(&point, delta, true)?)

@@ -1,5 +1,11 @@
-//! Forward and forward + gradient of a whole rollout of `u_obstacle` (T = 10, 100 iterations) at
-//! mesh sizes n = 10, 20, 40. Run: `cargo bench -p cloth --bench rollout`.
+//! Whole rollouts of `u_obstacle` (T = 10, 100 Gauss–Seidel iterations per step) at mesh sizes
+//! n = 10, 20, 40, from the scene's initial guess:
+//! - `forward`: simulate and evaluate the metrics (`Model::evaluate(.., false)`);
+//! - `forward_grad_l`: the same plus `dL/dU` (`Model::evaluate_loss_gradient`, one backward pass —
+//!   the "forward + ∇L");
+//! - `forward_grad_l_c`: plus `dC/dU` too (`Model::evaluate(.., true)`, the two pulled back together).
+//!
+//! Single thread, as the targets are stated: `RAYON_NUM_THREADS=1 cargo bench -p cloth --bench rollout`.
 
 use autodiff::Tensor;
 use cloth::{Model, Scene};
@@ -27,7 +33,10 @@ fn rollout(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("forward", n), &n, |b, _| {
             b.iter(|| black_box(model.evaluate(&u, delta, false).expect("finite")))
         });
-        group.bench_with_input(BenchmarkId::new("forward_gradient", n), &n, |b, _| {
+        group.bench_with_input(BenchmarkId::new("forward_grad_l", n), &n, |b, _| {
+            b.iter(|| black_box(model.evaluate_loss_gradient(&u, delta).expect("finite")))
+        });
+        group.bench_with_input(BenchmarkId::new("forward_grad_l_c", n), &n, |b, _| {
             b.iter(|| black_box(model.evaluate(&u, delta, true).expect("finite")))
         });
     }

@@ -126,6 +126,29 @@ impl Model {
         delta: f64,
         gradients: bool,
     ) -> Result<Evaluation, ClothError> {
+        self.evaluate_with(controls, delta, gradients, gradients)
+    }
+
+    /// [`Model::evaluate`] with `dL/dU` only: one forward and one backward pass, the work of a
+    /// value-and-gradient of `L` (what an unconstrained optimizer needs).
+    ///
+    /// # Errors
+    /// As [`Model::evaluate`].
+    pub fn evaluate_loss_gradient(
+        &self,
+        controls: &Controls,
+        delta: f64,
+    ) -> Result<Evaluation, ClothError> {
+        self.evaluate_with(controls, delta, true, false)
+    }
+
+    fn evaluate_with(
+        &self,
+        controls: &Controls,
+        delta: f64,
+        want_l: bool,
+        want_c: bool,
+    ) -> Result<Evaluation, ClothError> {
         let states = self.simulate(controls)?;
         let metrics = self.metrics(&states, controls, delta);
         let m = &metrics;
@@ -137,25 +160,33 @@ impl Model {
                 });
             }
         }
-        let (mut grad_l, mut grad_c) = (None, None);
-        if gradients {
-            let beta = self.task.beta;
-            let loss =
-                |tape: &mut Tape, t: usize, _: Var, x: Var| self.record_loss(tape, t, x, beta);
-            let safety =
-                |tape: &mut Tape, _: usize, _: Var, x: Var| self.record_safety(tape, x, delta);
-            let mut grads = self.gradients(&states, controls, &[&loss, &safety]);
-            let mut gl = grads.remove(0);
-            let (_, t_grad) = trajectory_irregularity(controls);
-            for (a, b) in gl.data_mut().iter_mut().zip(t_grad.data()) {
-                *a += self.task.alpha * b;
-            }
-            let gc = grads.remove(0);
-            check_gradient("dL/dU", &gl)?;
-            check_gradient("dC/dU", &gc)?;
-            grad_l = Some(gl);
-            grad_c = Some(gc);
+        let beta = self.task.beta;
+        let loss = |tape: &mut Tape, t: usize, _: Var, x: Var| self.record_loss(tape, t, x, beta);
+        let safety = |tape: &mut Tape, _: usize, _: Var, x: Var| self.record_safety(tape, x, delta);
+        let mut costs: Vec<StepCost<'_>> = Vec::new();
+        if want_l {
+            costs.push(&loss);
         }
+        if want_c {
+            costs.push(&safety);
+        }
+        let mut grads = self.gradients(&states, controls, &costs).into_iter();
+        let grad_l = want_l
+            .then(|| {
+                let mut gl = grads.next().expect("one gradient per cost");
+                let (_, t_grad) = trajectory_irregularity(controls);
+                for (a, b) in gl.data_mut().iter_mut().zip(t_grad.data()) {
+                    *a += self.task.alpha * b;
+                }
+                check_gradient("dL/dU", &gl).map(|()| gl)
+            })
+            .transpose()?;
+        let grad_c = want_c
+            .then(|| {
+                let gc = grads.next().expect("one gradient per cost");
+                check_gradient("dC/dU", &gc).map(|()| gc)
+            })
+            .transpose()?;
         Ok(Evaluation {
             metrics,
             states,
@@ -204,6 +235,9 @@ impl Model {
         controls: &Controls,
         costs: &[StepCost<'_>],
     ) -> Vec<Tensor> {
+        if costs.is_empty() {
+            return Vec::new();
+        }
         in_pool(|| self.gradients_in_pool(states, controls, costs))
     }
 
