@@ -46,8 +46,8 @@ struct Args {
     /// Optimizer iteration limit per plan [default: 150; 30 with --quick].
     #[arg(long)]
     plan_iterations: Option<usize>,
-    /// Plan only for n_iter up to this (larger settings take minutes per plan).
-    #[arg(long, default_value_t = 200)]
+    /// Plan only for n_iter up to this (a plan costs about n_iter/100 × the 100-iteration plan).
+    #[arg(long, default_value_t = 1000)]
     plan_max_n_iter: usize,
     /// Iterations of the converged reference [default: 5000; 1000 with --quick].
     #[arg(long)]
