@@ -214,15 +214,9 @@ impl<F: RowFn> DynRowFn for F {
         saved: Option<&mut Vec<f64>>,
     ) {
         // Points (3 columns) with one carried value: fixed row widths, so every copy is a move.
-        if state.cols() == 3 && carry.cols() == 1 {
+        if points_layout(index, state, carry) {
             let (s, c) = (state.data_mut(), carry.data_mut());
-            match index.arity() {
-                1 => return update_points::<F, 1>(self, index, s, c, saved),
-                2 => return update_points::<F, 2>(self, index, s, c, saved),
-                3 => return update_points::<F, 3>(self, index, s, c, saved),
-                4 => return update_points::<F, 4>(self, index, s, c, saved),
-                _ => {}
-            }
+            return by_arity!(index.arity(), update_points(self, index, s, c, saved));
         }
         // Any other layout: gather, evaluate, scatter.
         let mut local = Vec::new();
@@ -239,15 +233,9 @@ impl<F: RowFn> DynRowFn for F {
         state_adj: &mut Tensor,
         carry_adj: &mut Tensor,
     ) {
-        if state_adj.cols() == 3 && carry_adj.cols() == 1 {
+        if points_layout(index, state_adj, carry_adj) {
             let (s, c) = (state_adj.data_mut(), carry_adj.data_mut());
-            match index.arity() {
-                1 => return vjp_update_points::<F, 1>(self, index, inputs, s, c),
-                2 => return vjp_update_points::<F, 2>(self, index, inputs, s, c),
-                3 => return vjp_update_points::<F, 3>(self, index, inputs, s, c),
-                4 => return vjp_update_points::<F, 4>(self, index, inputs, s, c),
-                _ => {}
-            }
+            return by_arity!(index.arity(), vjp_update_points(self, index, inputs, s, c));
         }
         let mut out_adj = Vec::new();
         gather_update_inputs(index, state_adj, carry_adj, &mut out_adj);
@@ -267,24 +255,19 @@ impl<F: RowFn> DynRowFn for F {
             carry_adj.len(),
             "one carry adjoint per seed"
         );
-        let points =
-            state_adj.iter().all(|t| t.cols() == 3) && carry_adj.iter().all(|t| t.cols() == 1);
+        let points = state_adj
+            .iter()
+            .zip(carry_adj.iter())
+            .all(|(s, c)| points_layout(index, s, c));
         if state_adj.len() > 1 && points {
             for (s, c) in state_adj
                 .chunks_mut(SEED_CHUNK)
                 .zip(carry_adj.chunks_mut(SEED_CHUNK))
             {
-                match index.arity() {
-                    1 => vjp_update_points_seeds::<F, 1>(self, index, inputs, s, c),
-                    2 => vjp_update_points_seeds::<F, 2>(self, index, inputs, s, c),
-                    3 => vjp_update_points_seeds::<F, 3>(self, index, inputs, s, c),
-                    4 => vjp_update_points_seeds::<F, 4>(self, index, inputs, s, c),
-                    _ => {
-                        for (s, c) in s.iter_mut().zip(c.iter_mut()) {
-                            self.vjp_update_batch(index, inputs, s, c);
-                        }
-                    }
-                }
+                by_arity!(
+                    index.arity(),
+                    vjp_update_points_seeds(self, index, inputs, s, c)
+                );
             }
             return;
         }
@@ -293,6 +276,26 @@ impl<F: RowFn> DynRowFn for F {
         }
     }
 }
+
+/// True when an update's rows are `1..=4` points (3 columns) and one carried value: the layout
+/// the fixed-width kernels below serve.
+fn points_layout(index: &RowIndex, state: &Tensor, carry: &Tensor) -> bool {
+    state.cols() == 3 && carry.cols() == 1 && (1..=4).contains(&index.arity())
+}
+
+/// `kernel::<F, A>(args)` for the arity `A` (1 to 4) of a [`points_layout`] update.
+macro_rules! by_arity {
+    ($arity:expr, $kernel:ident ( $($arg:expr),* )) => {
+        match $arity {
+            1 => $kernel::<F, 1>($($arg),*),
+            2 => $kernel::<F, 2>($($arg),*),
+            3 => $kernel::<F, 3>($($arg),*),
+            4 => $kernel::<F, 4>($($arg),*),
+            a => unreachable!("points_layout admits arities 1 to 4, not {a}"),
+        }
+    };
+}
+use by_arity;
 
 /// Largest row of [`update_points`]: four points and one carried value.
 const MAX_POINT_ROW: usize = 13;
@@ -328,11 +331,8 @@ fn update_points<F: RowFn, const A: usize>(
             // points and carried values are touched by this block alone.
             unsafe {
                 for b in 0..n {
-                    let (k, xb) = (first + b, &mut x[width * b..width * b + width]);
-                    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
-                        xb[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p, 3));
-                    }
-                    xb[3 * A] = carry.slice(k, 1)[0];
+                    let xb = &mut x[width * b..width * b + width];
+                    gather_point_row::<A>(idx, first + b, state, carry, xb);
                 }
                 if let Some(s) = saved {
                     s.slice(width * first, width * n)
@@ -340,11 +340,8 @@ fn update_points<F: RowFn, const A: usize>(
                 }
                 f.eval_rows(first, &x[..width * n], &mut y[..width * n]);
                 for b in 0..n {
-                    let (k, yb) = (first + b, &y[width * b..width * b + width]);
-                    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
-                        state.slice(3 * p, 3).copy_from_slice(&yb[3 * j..3 * j + 3]);
-                    }
-                    carry.slice(k, 1)[0] = yb[3 * A];
+                    let yb = &y[width * b..width * b + width];
+                    scatter_point_row::<A>(idx, first + b, state, carry, yb);
                 }
             }
             first += n;
@@ -361,6 +358,68 @@ fn vjp_update_points<F: RowFn, const A: usize>(
     state_adj: &mut [f64],
     carry_adj: &mut [f64],
 ) {
+    check_adjoints::<A>(index, inputs, state_adj.len(), carry_adj.len());
+    let (state, carry) = (SharedRows::new(state_adj), SharedRows::new(carry_adj));
+    for_point_blocks::<A>(index, state, carry, |first, oa, ia| {
+        let width = 3 * A + 1;
+        let rows = oa.len() / width;
+        f.vjp_rows(
+            first,
+            &inputs[width * first..width * (first + rows)],
+            oa,
+            ia,
+        );
+    });
+}
+
+/// Runs `body(first, rows_in, rows_out)` over an in-place update's rows in blocks of up to
+/// [`ROW_BLOCK`]: `rows_in` holds the block's gathered rows (`A` points and a carried value
+/// each), `rows_out` starts zeroed and is written back to the same rows after `body`.
+///
+/// The caller has checked that `index` is disjoint and in range for `state` and `carry`.
+#[inline(always)]
+fn for_point_blocks<const A: usize>(
+    index: &RowIndex,
+    state: SharedRows,
+    carry: SharedRows,
+    body: impl Fn(usize, &[f64], &mut [f64]) + Sync,
+) {
+    let idx = index.as_slice();
+    for_row_ranges(index.rows(), |range| {
+        // Computed here, not captured, so every copy below has a compile-time length.
+        let width = 3 * A + 1;
+        let mut x = [0.0; MAX_POINT_ROW * ROW_BLOCK];
+        let mut y = [0.0; MAX_POINT_ROW * ROW_BLOCK];
+        let mut first = range.start;
+        while first < range.end {
+            let n = ROW_BLOCK.min(range.end - first);
+            // SAFETY: the index is disjoint and in range (checked by the caller), so the block's
+            // points and carried values are touched by this block alone.
+            unsafe {
+                for b in 0..n {
+                    let xb = &mut x[width * b..width * b + width];
+                    gather_point_row::<A>(idx, first + b, state, carry, xb);
+                }
+                y[..width * n].fill(0.0);
+                body(first, &x[..width * n], &mut y[..width * n]);
+                for b in 0..n {
+                    let yb = &y[width * b..width * b + width];
+                    scatter_point_row::<A>(idx, first + b, state, carry, yb);
+                }
+            }
+            first += n;
+        }
+    });
+}
+
+/// Checks that saved inputs and adjoints (of `state_len` and `carry_len` values) fit an
+/// in-place update of `A` points per row, so the kernels may index them unchecked.
+fn check_adjoints<const A: usize>(
+    index: &RowIndex,
+    inputs: &[f64],
+    state_len: usize,
+    carry_len: usize,
+) {
     let rows = index.rows();
     assert_eq!(
         inputs.len(),
@@ -368,45 +427,9 @@ fn vjp_update_points<F: RowFn, const A: usize>(
         "vjp_update_batch: saved inputs"
     );
     assert!(
-        index.is_disjoint() && 3 * index.bound() <= state_adj.len() && carry_adj.len() == rows,
+        index.is_disjoint() && 3 * index.bound() <= state_len && carry_len == rows,
         "vjp_update_batch: index does not fit the adjoints"
     );
-    let (state, carry) = (SharedRows::new(state_adj), SharedRows::new(carry_adj));
-    let idx = index.as_slice();
-    for_row_ranges(rows, |range| {
-        let width = 3 * A + 1;
-        let mut oa = [0.0; MAX_POINT_ROW * ROW_BLOCK];
-        let mut ia = [0.0; MAX_POINT_ROW * ROW_BLOCK];
-        let mut first = range.start;
-        while first < range.end {
-            let n = ROW_BLOCK.min(range.end - first);
-            // SAFETY: as in `update_points` (asserted above).
-            unsafe {
-                for b in 0..n {
-                    let (k, ob) = (first + b, &mut oa[width * b..width * b + width]);
-                    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
-                        ob[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p, 3));
-                    }
-                    ob[3 * A] = carry.slice(k, 1)[0];
-                }
-                ia[..width * n].fill(0.0);
-                f.vjp_rows(
-                    first,
-                    &inputs[width * first..width * (first + n)],
-                    &oa[..width * n],
-                    &mut ia[..width * n],
-                );
-                for b in 0..n {
-                    let (k, ib) = (first + b, &ia[width * b..width * b + width]);
-                    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
-                        state.slice(3 * p, 3).copy_from_slice(&ib[3 * j..3 * j + 3]);
-                    }
-                    carry.slice(k, 1)[0] = ib[3 * A];
-                }
-            }
-            first += n;
-        }
-    });
 }
 
 /// [`DynRowFn::vjp_update_batch_seeds`] for the layout of [`update_points`], up to
@@ -419,20 +442,11 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize>(
     state_adj: &mut [Tensor],
     carry_adj: &mut [Tensor],
 ) {
-    let rows = index.rows();
     let seeds = state_adj.len();
     assert!(seeds <= SEED_CHUNK, "at most SEED_CHUNK seeds at once");
-    assert_eq!(
-        inputs.len(),
-        rows * (3 * A + 1),
-        "vjp_update_batch: saved inputs"
-    );
-    assert!(
-        index.is_disjoint()
-            && state_adj.iter().all(|s| index.bound() <= s.rows())
-            && carry_adj.iter().all(|c| c.rows() == rows),
-        "vjp_update_batch: index does not fit the adjoints"
-    );
+    for (s, c) in state_adj.iter().zip(carry_adj.iter()) {
+        check_adjoints::<A>(index, inputs, s.data().len(), c.data().len());
+    }
     let states: Vec<SharedRows> = state_adj
         .iter_mut()
         .map(|t| SharedRows::new(t.data_mut()))
@@ -442,20 +456,16 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize>(
         .map(|t| SharedRows::new(t.data_mut()))
         .collect();
     let idx = index.as_slice();
-    for_row_ranges(rows, |range| {
+    for_row_ranges(index.rows(), |range| {
         let width = 3 * A + 1;
         let mut oa = [0.0; MAX_POINT_ROW * SEED_CHUNK];
         let mut ia = [0.0; MAX_POINT_ROW * SEED_CHUNK];
         for k in range {
-            let p = &idx[A * k..A * k + A];
             // SAFETY: as in `update_points` (asserted above), for every seed's buffers.
             unsafe {
-                for (s, (state, carry)) in states.iter().zip(&carries).enumerate() {
+                for (s, (&state, &carry)) in states.iter().zip(&carries).enumerate() {
                     let ob = &mut oa[width * s..width * s + width];
-                    for (j, &q) in p.iter().enumerate() {
-                        ob[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * q, 3));
-                    }
-                    ob[3 * A] = carry.slice(k, 1)[0];
+                    gather_point_row::<A>(idx, k, state, carry, ob);
                     ia[width * s..width * s + width].fill(0.0);
                 }
                 f.vjp_seeds(
@@ -464,16 +474,52 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize>(
                     &oa[..width * seeds],
                     &mut ia[..width * seeds],
                 );
-                for (s, (state, carry)) in states.iter().zip(&carries).enumerate() {
+                for (s, (&state, &carry)) in states.iter().zip(&carries).enumerate() {
                     let ib = &ia[width * s..width * s + width];
-                    for (j, &q) in p.iter().enumerate() {
-                        state.slice(3 * q, 3).copy_from_slice(&ib[3 * j..3 * j + 3]);
-                    }
-                    carry.slice(k, 1)[0] = ib[3 * A];
+                    scatter_point_row::<A>(idx, k, state, carry, ib);
                 }
             }
         }
     });
+}
+
+/// Copies row `k`'s `A` points and carried value into `dst` (`3A + 1` values).
+///
+/// # Safety
+/// As [`SharedRows::slice`]: the index is in range for `state` and `carry`, and no other task
+/// touches row `k`'s values.
+#[inline(always)]
+unsafe fn gather_point_row<const A: usize>(
+    idx: &[usize],
+    k: usize,
+    state: SharedRows,
+    carry: SharedRows,
+    dst: &mut [f64],
+) {
+    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
+        dst[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p, 3));
+    }
+    dst[3 * A] = carry.slice(k, 1)[0];
+}
+
+/// Writes `src` (`3A + 1` values) back to row `k`'s points and carried value.
+///
+/// # Safety
+/// As [`gather_point_row`].
+#[inline(always)]
+unsafe fn scatter_point_row<const A: usize>(
+    idx: &[usize],
+    k: usize,
+    state: SharedRows,
+    carry: SharedRows,
+    src: &[f64],
+) {
+    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
+        state
+            .slice(3 * p, 3)
+            .copy_from_slice(&src[3 * j..3 * j + 3]);
+    }
+    carry.slice(k, 1)[0] = src[3 * A];
 }
 
 /// A buffer that several rayon tasks write at once, each to values no other task touches.

@@ -109,27 +109,40 @@ fn project_vjp(x: &[f64], rest: f64, w: [f64; 2], oa: &[f64; 7]) -> [f64; 7] {
     ia
 }
 
+/// Row `k`'s two points and carried value.
+#[inline(always)]
+fn gather(s: &Set, x: &[f64], l: &[f64], k: usize) -> [f64; 7] {
+    let (i, j) = (s.index.row(k)[0], s.index.row(k)[1]);
+    [
+        x[3 * i],
+        x[3 * i + 1],
+        x[3 * i + 2],
+        x[3 * j],
+        x[3 * j + 1],
+        x[3 * j + 2],
+        l[k],
+    ]
+}
+
+/// Writes row `k`'s two points and carried value back.
+#[inline(always)]
+fn scatter(s: &Set, x: &mut [f64], l: &mut [f64], k: usize, v: &[f64; 7]) {
+    let (i, j) = (s.index.row(k)[0], s.index.row(k)[1]);
+    x[3 * i..3 * i + 3].copy_from_slice(&v[..3]);
+    x[3 * j..3 * j + 3].copy_from_slice(&v[3..6]);
+    l[k] = v[6];
+}
+
 /// The hand-written set update, in place; with `saved`, keeps each row's inputs.
 fn hand_update(s: &Set, state: &mut Tensor, lambda: &mut Tensor, mut saved: Option<&mut Vec<f64>>) {
     let (x, l) = (state.data_mut(), lambda.data_mut());
     for k in 0..ROWS {
-        let (i, j) = (s.index.row(k)[0], s.index.row(k)[1]);
-        let input = [
-            x[3 * i],
-            x[3 * i + 1],
-            x[3 * i + 2],
-            x[3 * j],
-            x[3 * j + 1],
-            x[3 * j + 2],
-            l[k],
-        ];
+        let input = gather(s, x, l, k);
         if let Some(v) = saved.as_deref_mut() {
             v.extend_from_slice(&input);
         }
         let out = project(&input, s.rest[k], [s.w[2 * k], s.w[2 * k + 1]]);
-        x[3 * i..3 * i + 3].copy_from_slice(&out[..3]);
-        x[3 * j..3 * j + 3].copy_from_slice(&out[3..6]);
-        l[k] = out[6];
+        scatter(s, x, l, k, &out);
     }
 }
 
@@ -137,25 +150,14 @@ fn hand_update(s: &Set, state: &mut Tensor, lambda: &mut Tensor, mut saved: Opti
 fn hand_vjp(s: &Set, saved: &[f64], state_adj: &mut Tensor, lambda_adj: &mut Tensor) {
     let (g, gl) = (state_adj.data_mut(), lambda_adj.data_mut());
     for k in 0..ROWS {
-        let (i, j) = (s.index.row(k)[0], s.index.row(k)[1]);
-        let oa = [
-            g[3 * i],
-            g[3 * i + 1],
-            g[3 * i + 2],
-            g[3 * j],
-            g[3 * j + 1],
-            g[3 * j + 2],
-            gl[k],
-        ];
+        let oa = gather(s, g, gl, k);
         let ia = project_vjp(
             &saved[7 * k..7 * k + 7],
             s.rest[k],
             [s.w[2 * k], s.w[2 * k + 1]],
             &oa,
         );
-        g[3 * i..3 * i + 3].copy_from_slice(&ia[..3]);
-        g[3 * j..3 * j + 3].copy_from_slice(&ia[3..6]);
-        gl[k] = ia[6];
+        scatter(s, g, gl, k, &ia);
     }
 }
 

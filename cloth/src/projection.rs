@@ -102,10 +102,7 @@ impl<C: Constraint> RowFn for Projection<C> {
     fn eval_rows(&self, first: usize, inputs: &[f64], outputs: &mut [f64]) {
         let w = 3 * C::ARITY + 1;
         let (mut c, mut g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
-        let rows = inputs.len() / w;
-        for b in 0..rows {
-            c[b] = self.gradient(first + b, &inputs[w * b..w * b + w], &mut g[b]);
-        }
+        let rows = self.block_gradients(first, inputs, &mut c, &mut g);
         for b in 0..rows {
             let (x, y) = (&inputs[w * b..w * b + w], &mut outputs[w * b..w * b + w]);
             self.finish_eval(first + b, x, c[b], &g[b], y);
@@ -117,10 +114,7 @@ impl<C: Constraint> RowFn for Projection<C> {
     fn vjp_rows(&self, first: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
         let w = 3 * C::ARITY + 1;
         let (mut c, mut g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
-        let rows = inputs.len() / w;
-        for b in 0..rows {
-            c[b] = self.gradient(first + b, &inputs[w * b..w * b + w], &mut g[b]);
-        }
+        let rows = self.block_gradients(first, inputs, &mut c, &mut g);
         for b in 0..rows {
             let r = w * b..w * b + w;
             self.finish_vjp(
@@ -147,6 +141,24 @@ impl<C: Constraint> RowFn for Projection<C> {
 }
 
 impl<C: Constraint> Projection<C> {
+    /// `C` and `∇C` of every row of a block (at most [`ROW_BLOCK`] rows) into `c` and `g`;
+    /// returns the row count.
+    #[inline(always)]
+    fn block_gradients(
+        &self,
+        first: usize,
+        inputs: &[f64],
+        c: &mut [f64; ROW_BLOCK],
+        g: &mut [[f64; MAX_D]; ROW_BLOCK],
+    ) -> usize {
+        let w = 3 * C::ARITY + 1;
+        let rows = inputs.len() / w;
+        for b in 0..rows {
+            c[b] = self.gradient(first + b, &inputs[w * b..w * b + w], &mut g[b]);
+        }
+        rows
+    }
+
     /// `C` and `∇C` of row `row` at its input positions.
     #[inline(always)]
     fn gradient<R: Real>(&self, row: usize, input: &[R], g: &mut [R; MAX_D]) -> R {

@@ -9,6 +9,9 @@
 
 use autodiff::{Tape, Tensor, Var};
 use cloth::{Model, Scene};
+use common::initial_controls;
+
+mod common;
 
 fn model(name: &str) -> (Model, Tensor) {
     let mut scene = Scene::builtin(name).unwrap().refined(6, 6).unwrap();
@@ -16,12 +19,7 @@ fn model(name: &str) -> (Model, Tensor) {
     scene.physics.iterations = 20;
     scene.validate().unwrap();
     let model = Model::from_scene(&scene).unwrap();
-    let u = scene.initial_controls_array();
-    let u = Tensor::new(
-        u.len(),
-        3 * scene.controls.len(),
-        u.into_iter().flatten().flatten().collect(),
-    );
+    let u = initial_controls(&scene);
     (model, u)
 }
 

@@ -1,8 +1,10 @@
 //! `Model::evaluate_loss_gradient` (one backward pass) gives `Model::evaluate`'s metrics and
 //! `dL/dU` bit for bit, and no `dC/dU`.
 
-use autodiff::Tensor;
 use cloth::{Model, Scene};
+use common::initial_controls;
+
+mod common;
 
 #[test]
 fn loss_gradient_alone_is_evaluates_bit_for_bit() {
@@ -10,12 +12,7 @@ fn loss_gradient_alone_is_evaluates_bit_for_bit() {
     scene.task.horizon = 4;
     scene.physics.iterations = 15;
     let model = Model::from_scene(&scene).unwrap();
-    let u = scene.initial_controls_array();
-    let u = Tensor::new(
-        u.len(),
-        3 * scene.controls.len(),
-        u.into_iter().flatten().flatten().collect(),
-    );
+    let u = initial_controls(&scene);
     let both = model.evaluate(&u, 0.2, true).unwrap();
     let alone = model.evaluate_loss_gradient(&u, 0.2).unwrap();
     assert_eq!(both.metrics, alone.metrics);
