@@ -249,11 +249,12 @@ impl Model {
         self.groups.iter().flat_map(|g| &g.sets).map(per_set).sum()
     }
 
-    /// Iterations recorded at once by [`Model::gradients`]: the whole step when its recording fits
-    /// [`Model::checkpoint_budget`], else equal blocks that do.
+    /// Iterations recorded at once by [`Model::gradients`]: the whole step when two recordings
+    /// (one pulled back while the next is recorded) fit [`Model::checkpoint_budget`], else equal
+    /// blocks that do.
     pub fn iterations_per_block(&self) -> usize {
         let per = self.recorded_bytes_per_iteration().max(1);
-        let fit = (self.checkpoint_budget / per).max(1);
+        let fit = (self.checkpoint_budget / 2 / per).max(1);
         if fit >= self.iterations {
             self.iterations.max(1)
         } else {
@@ -267,119 +268,215 @@ impl Model {
         controls: &Controls,
         costs: &[StepCost<'_>],
     ) -> Vec<Tensor> {
-        let horizon = self.task.horizon;
         let mut grads: Vec<Tensor> = costs.iter().map(|_| self.zero_controls()).collect();
         // Per cost: the adjoint of the state (and of the multipliers, inside a step) where the
         // pull-back has reached.
         let mut adjoints: Vec<Adjoint> = costs.iter().map(|_| Adjoint::default()).collect();
         let block = self.iterations_per_block();
         let starts: Vec<usize> = (0..self.iterations.max(1)).step_by(block).collect();
-        let mut tape = Tape::new();
-        for t in (1..=horizon).rev() {
-            let u_t = self.step_controls(controls, t - 1);
-            // Checkpoints (state, multipliers) at the start of every block but the first.
-            let mut checkpoints = Vec::with_capacity(starts.len() - 1);
-            if starts.len() > 1 {
-                let mut x = self.begin_step(&states[t - 1], &u_t);
-                let mut lambdas = self.zero_lambdas();
-                for w in starts.windows(2) {
-                    self.sweep(&mut x, &mut lambdas, w[1] - w[0]);
-                    checkpoints.push((x.clone(), lambdas.clone()));
-                }
-            }
-            for b in (0..starts.len()).rev() {
-                let (first, last) = (b == 0, b + 1 == starts.len());
-                let iterations = starts.get(b + 1).unwrap_or(&self.iterations) - starts[b];
-                tape.clear();
-                let x_prev = tape.leaf(states[t - 1].clone());
-                let u = tape.leaf(u_t.clone());
-                let (x_in, lambdas_in) = if first {
-                    let x = self.record_begin_step(&mut tape, x_prev, u);
-                    (x, self.record_zero_lambdas(&mut tape))
-                } else {
-                    let (x, l) = &checkpoints[b - 1];
-                    let x = tape.leaf(x.clone());
-                    (x, l.iter().map(|l| tape.leaf(l.clone())).collect())
-                };
-                let mut lambdas = lambdas_in.clone();
-                let x = self.record_sweeps(&mut tape, x_in, &mut lambdas, iterations);
-                let terms: Vec<Option<Var>> = costs
-                    .iter()
-                    .map(|f| {
-                        if last {
-                            f(&mut tape, t, x_prev, x)
-                        } else {
-                            None
-                        }
-                    })
-                    .collect();
-                // Every cost's pull-back reads the same recording: they run together, in one
-                // group per thread.
-                let mut seeds: Vec<Vec<(Var, Tensor)>> = terms
-                    .iter()
-                    .zip(adjoints.iter_mut())
-                    .map(|(term, adjoint)| {
-                        let mut seeds = Vec::new();
-                        if let Some(adj) = adjoint.state.take() {
-                            seeds.push((x, adj));
-                        }
-                        for (l, adj) in lambdas.iter().zip(adjoint.lambdas.drain(..)) {
-                            seeds.push((*l, adj));
-                        }
-                        if let Some(c) = term {
-                            seeds.push((*c, Tensor::scalar(1.0)));
-                        }
-                        seeds
-                    })
-                    .collect();
-                let live: Vec<usize> = (0..seeds.len()).filter(|&i| !seeds[i].is_empty()).collect();
-                let group = live.len().div_ceil(rayon::current_num_threads()).max(1);
-                let groups: Vec<Vec<Vec<(Var, Tensor)>>> = live
-                    .chunks(group)
-                    .map(|g| g.iter().map(|&i| std::mem::take(&mut seeds[i])).collect())
-                    .collect();
-                let gradients: Vec<Gradients> = groups
-                    .par_iter()
-                    .flat_map_iter(|g| tape.vjp_many(g))
-                    .collect();
-                let mut gradients = gradients.into_iter();
-                let pulled: Vec<Option<Pulled>> = (0..seeds.len())
-                    .map(|i| {
-                        live.contains(&i).then(|| {
-                            let g = gradients.next().expect("one result per live seed");
-                            Pulled {
-                                state: g.wrt(if first { x_prev } else { x_in }),
-                                lambdas: if first {
-                                    Vec::new()
-                                } else {
-                                    lambdas_in.iter().map(|&l| g.wrt(l)).collect()
-                                },
-                                controls: first.then(|| g.wrt(u)),
-                                // Costs read `x_prev` in the last block; the first block adds the
-                                // dynamics' part.
-                                x_prev: (last && !first).then(|| g.wrt(x_prev)),
-                            }
-                        })
-                    })
-                    .collect();
-                for ((p, adjoint), grad) in pulled.into_iter().zip(&mut adjoints).zip(&mut grads) {
-                    let Some(p) = p else { continue };
-                    adjoint.lambdas = p.lambdas;
-                    if let Some(extra) = p.x_prev {
-                        adjoint.x_prev = Some(extra);
-                    }
-                    let mut state = p.state;
-                    if let Some(du) = p.controls {
-                        grad.row_mut(t - 1).copy_from_slice(du.data());
-                        if let Some(extra) = adjoint.x_prev.take() {
-                            state.add_assign(&extra);
-                        }
-                    }
-                    adjoint.state = Some(state);
-                }
+        // Segments in the order the pull-back visits them: last step first, last block first.
+        let segments: Vec<Segment> = (1..=self.task.horizon)
+            .rev()
+            .flat_map(|t| {
+                let starts = &starts;
+                (0..starts.len()).rev().map(move |b| Segment {
+                    t,
+                    block: b,
+                    first: b == 0,
+                    last: b + 1 == starts.len(),
+                    iterations: starts.get(b + 1).unwrap_or(&self.iterations) - starts[b],
+                })
+            })
+            .collect();
+        let mut recorder = Recorder {
+            model: self,
+            states,
+            controls,
+            costs,
+            starts: &starts,
+            checkpoints: None,
+        };
+        // While one segment is pulled back, the next one is recorded on the other thread.
+        let mut spare = Tape::new();
+        let mut current = recorder.record(&segments[0], Tape::new());
+        for (k, seg) in segments.iter().enumerate() {
+            let mut pull = || self.pull_back(&current, seg, &mut adjoints, &mut grads);
+            let mut record = || {
+                segments
+                    .get(k + 1)
+                    .map(|s| recorder.record(s, std::mem::take(&mut spare)))
+            };
+            let next = if rayon::current_num_threads() > 1 {
+                rayon::join(pull, record).1
+            } else {
+                pull();
+                record()
+            };
+            if let Some(next) = next {
+                spare = std::mem::replace(&mut current, next).tape;
             }
         }
         grads
+    }
+
+    /// Pulls every cost's adjoint back through one recorded segment.
+    fn pull_back(
+        &self,
+        rec: &Recording,
+        seg: &Segment,
+        adjoints: &mut [Adjoint],
+        grads: &mut [Tensor],
+    ) {
+        // Every cost's pull-back reads the same recording: they run together, in one group per
+        // thread.
+        let mut seeds: Vec<Vec<(Var, Tensor)>> = rec
+            .terms
+            .iter()
+            .zip(adjoints.iter_mut())
+            .map(|(term, adjoint)| {
+                let mut seeds = Vec::new();
+                if let Some(adj) = adjoint.state.take() {
+                    seeds.push((rec.x, adj));
+                }
+                for (l, adj) in rec.lambdas.iter().zip(adjoint.lambdas.drain(..)) {
+                    seeds.push((*l, adj));
+                }
+                if let Some(c) = term {
+                    seeds.push((*c, Tensor::scalar(1.0)));
+                }
+                seeds
+            })
+            .collect();
+        let live: Vec<usize> = (0..seeds.len()).filter(|&i| !seeds[i].is_empty()).collect();
+        let group = live.len().div_ceil(rayon::current_num_threads()).max(1);
+        let groups: Vec<Vec<Vec<(Var, Tensor)>>> = live
+            .chunks(group)
+            .map(|g| g.iter().map(|&i| std::mem::take(&mut seeds[i])).collect())
+            .collect();
+        let tape = &rec.tape;
+        let gradients: Vec<Gradients> = groups
+            .par_iter()
+            .flat_map_iter(|g| tape.vjp_many(g))
+            .collect();
+        let mut gradients = gradients.into_iter();
+        let (first, last) = (seg.first, seg.last);
+        for (i, (adjoint, grad)) in adjoints.iter_mut().zip(grads.iter_mut()).enumerate() {
+            if !live.contains(&i) {
+                continue;
+            }
+            let g = gradients.next().expect("one result per live seed");
+            let mut state = g.wrt(if first { rec.x_prev } else { rec.x_in });
+            if !first {
+                adjoint.lambdas = rec.lambdas_in.iter().map(|&l| g.wrt(l)).collect();
+            }
+            // Costs read `x_prev` in the last block; the first block adds the dynamics' part.
+            if last && !first {
+                adjoint.x_prev = Some(g.wrt(rec.x_prev));
+            }
+            if first {
+                grad.row_mut(seg.t - 1).copy_from_slice(g.wrt(rec.u).data());
+                if let Some(extra) = adjoint.x_prev.take() {
+                    state.add_assign(&extra);
+                }
+            }
+            adjoint.state = Some(state);
+        }
+    }
+}
+
+/// A block of one step's iterations, the unit [`Model::gradients`] records and pulls back.
+struct Segment {
+    /// The step (1-based).
+    t: usize,
+    /// The block within the step.
+    block: usize,
+    /// The step's first block (it starts from `x_prev` and the controls).
+    first: bool,
+    /// The step's last block (the costs are recorded on it).
+    last: bool,
+    /// Gauss–Seidel iterations in the block.
+    iterations: usize,
+}
+
+/// One recorded segment and the variables the pull-back needs.
+struct Recording {
+    tape: Tape,
+    x_prev: Var,
+    u: Var,
+    /// The block's input state (after gravity and controls for a first block).
+    x_in: Var,
+    /// The block's input multipliers.
+    lambdas_in: Vec<Var>,
+    /// The block's output state and multipliers.
+    x: Var,
+    lambdas: Vec<Var>,
+    /// Each cost's term (last blocks only).
+    terms: Vec<Option<Var>>,
+}
+
+/// Records segments; keeps the current step's block checkpoints.
+struct Recorder<'a> {
+    model: &'a Model,
+    states: &'a [Tensor],
+    controls: &'a Controls,
+    costs: &'a [StepCost<'a>],
+    starts: &'a [usize],
+    /// `(step, checkpoints)` of the step being recorded.
+    checkpoints: Option<(usize, Vec<Checkpoint>)>,
+}
+
+/// State and multipliers at the start of a block of iterations (every block but a step's first).
+type Checkpoint = (Tensor, Vec<Tensor>);
+
+impl Recorder<'_> {
+    fn record(&mut self, seg: &Segment, mut tape: Tape) -> Recording {
+        let (m, t) = (self.model, seg.t);
+        let u_t = m.step_controls(self.controls, t - 1);
+        if self.starts.len() > 1 && self.checkpoints.as_ref().map(|c| c.0) != Some(t) {
+            let mut x = m.begin_step(&self.states[t - 1], &u_t);
+            let mut lambdas = m.zero_lambdas();
+            let mut checkpoints = Vec::with_capacity(self.starts.len() - 1);
+            for w in self.starts.windows(2) {
+                m.sweep(&mut x, &mut lambdas, w[1] - w[0]);
+                checkpoints.push((x.clone(), lambdas.clone()));
+            }
+            self.checkpoints = Some((t, checkpoints));
+        }
+        tape.clear();
+        let x_prev = tape.leaf(self.states[t - 1].clone());
+        let u = tape.leaf(u_t);
+        let (x_in, lambdas_in) = if seg.first {
+            let x = m.record_begin_step(&mut tape, x_prev, u);
+            (x, m.record_zero_lambdas(&mut tape))
+        } else {
+            let (_, checkpoints) = self.checkpoints.as_ref().expect("checkpoints of this step");
+            let (x, l) = &checkpoints[seg.block - 1];
+            let x = tape.leaf(x.clone());
+            (x, l.iter().map(|l| tape.leaf(l.clone())).collect())
+        };
+        let mut lambdas = lambdas_in.clone();
+        let x = m.record_sweeps(&mut tape, x_in, &mut lambdas, seg.iterations);
+        let terms = self
+            .costs
+            .iter()
+            .map(|f| {
+                if seg.last {
+                    f(&mut tape, t, x_prev, x)
+                } else {
+                    None
+                }
+            })
+            .collect();
+        Recording {
+            tape,
+            x_prev,
+            u,
+            x_in,
+            lambdas_in,
+            x,
+            lambdas,
+            terms,
+        }
     }
 }
 
@@ -391,17 +488,5 @@ struct Adjoint {
     /// Of the multipliers there (inside a step; empty at a step's start).
     lambdas: Vec<Tensor>,
     /// Of the step's `x_prev` through the cost terms, waiting for the step's first block.
-    x_prev: Option<Tensor>,
-}
-
-/// What one cost's pull-back through one block gives.
-struct Pulled {
-    /// Adjoint of the block's input state (`x_prev` for a step's first block).
-    state: Tensor,
-    /// Adjoints of the block's input multipliers (none for a step's first block).
-    lambdas: Vec<Tensor>,
-    /// Gradient with respect to the step's controls (the first block only).
-    controls: Option<Tensor>,
-    /// Adjoint of `x_prev` through the cost terms (the last block, when it is not the first).
     x_prev: Option<Tensor>,
 }

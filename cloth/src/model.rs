@@ -81,14 +81,16 @@ pub struct Model {
     pub colliders: Union,
     /// The task.
     pub task: TaskSpec,
-    /// Largest recording, in bytes, [`Model::gradients`] keeps for the backward pass. A step whose
-    /// recording is larger is recorded in blocks of iterations from checkpoints of a plain
-    /// forward sweep (one more forward pass per step, memory ∝ one block).
+    /// Bytes [`Model::gradients`] may keep in recordings for the backward pass (two at a time:
+    /// one pulled back while the next is recorded). A step whose recording would not fit half of
+    /// it is recorded in blocks of iterations from checkpoints of a plain forward sweep (one more
+    /// forward pass per step, memory ∝ one block).
     pub checkpoint_budget: usize,
 }
 
-/// Default [`Model::checkpoint_budget`]: 16 MiB (`u_obstacle` steps fit up to a 20 × 20 mesh).
-pub const DEFAULT_CHECKPOINT_BUDGET: usize = 16 << 20;
+/// Default [`Model::checkpoint_budget`]: 32 MiB (`u_obstacle` steps fit whole up to a 20 × 20
+/// mesh).
+pub const DEFAULT_CHECKPOINT_BUDGET: usize = 32 << 20;
 
 /// `½ k C²` of each constraint of a type.
 struct Energy<C> {

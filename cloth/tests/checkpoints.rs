@@ -26,7 +26,7 @@ fn model(name: &str) -> (Model, Tensor) {
 /// The three costs' gradients with blocks of `block` iterations.
 fn gradients(model: &Model, u: &Tensor, block: usize) -> Vec<Tensor> {
     let mut m = model.clone();
-    m.checkpoint_budget = block * m.recorded_bytes_per_iteration();
+    m.checkpoint_budget = 2 * block * m.recorded_bytes_per_iteration();
     assert_eq!(m.iterations_per_block(), block.min(m.iterations));
     let states = m.simulate(u).unwrap();
     let beta = m.task.beta;
