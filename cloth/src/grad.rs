@@ -296,22 +296,29 @@ impl Model {
             starts: &starts,
             checkpoints: None,
         };
+        let mut current = recorder.record(&segments[0], Tape::new());
+        if rayon::current_num_threads() == 1 {
+            // One thread: one recording at a time, its tape reused for the next.
+            for (k, seg) in segments.iter().enumerate() {
+                self.pull_back(&current, seg, &mut adjoints, &mut grads);
+                if let Some(next) = segments.get(k + 1) {
+                    let tape = std::mem::take(&mut current.tape);
+                    current = recorder.record(next, tape);
+                }
+            }
+            return grads;
+        }
         // While one segment is pulled back, the next one is recorded on the other thread.
         let mut spare = Tape::new();
-        let mut current = recorder.record(&segments[0], Tape::new());
         for (k, seg) in segments.iter().enumerate() {
-            let mut pull = || self.pull_back(&current, seg, &mut adjoints, &mut grads);
-            let mut record = || {
-                segments
-                    .get(k + 1)
-                    .map(|s| recorder.record(s, std::mem::take(&mut spare)))
-            };
-            let next = if rayon::current_num_threads() > 1 {
-                rayon::join(pull, record).1
-            } else {
-                pull();
-                record()
-            };
+            let (_, next) = rayon::join(
+                || self.pull_back(&current, seg, &mut adjoints, &mut grads),
+                || {
+                    segments
+                        .get(k + 1)
+                        .map(|s| recorder.record(s, std::mem::take(&mut spare)))
+                },
+            );
             if let Some(next) = next {
                 spare = std::mem::replace(&mut current, next).tape;
             }
