@@ -812,6 +812,8 @@ impl Tape {
             }
         }
         let shapes: Vec<(usize, usize)> = self.nodes.iter().map(|node| node.shape).collect();
+        // Reused by every update node (no allocation per node).
+        let (mut active, mut state_adj, mut carry_adj) = (Vec::new(), Vec::new(), Vec::new());
         for id in (0..first).rev() {
             match &self.nodes[id].op {
                 // The carry's adjoint waits in its slot for the update node just before it.
@@ -823,28 +825,34 @@ impl Tape {
                     carry,
                     inputs,
                 } => {
-                    let active: Vec<usize> = (0..adjs.len())
-                        .filter(|&k| adjs[k][id].is_some() || adjs[k][id + 1].is_some())
-                        .collect();
+                    active.clear();
+                    active.extend(
+                        (0..adjs.len())
+                            .filter(|&k| adjs[k][id].is_some() || adjs[k][id + 1].is_some()),
+                    );
                     if active.is_empty() {
                         continue;
                     }
                     let zeros = |(r, c): (usize, usize)| Tensor::zeros(r, c);
-                    let mut state_adj: Vec<Tensor> = active
-                        .iter()
-                        .map(|&k| adjs[k][id].take().unwrap_or_else(|| zeros(shapes[id])))
-                        .collect();
-                    let mut carry_adj: Vec<Tensor> = active
-                        .iter()
-                        .map(|&k| {
-                            adjs[k][id + 1]
-                                .take()
-                                .unwrap_or_else(|| zeros(shapes[id + 1]))
-                        })
-                        .collect();
+                    state_adj.clear();
+                    state_adj.extend(
+                        active
+                            .iter()
+                            .map(|&k| adjs[k][id].take().unwrap_or_else(|| zeros(shapes[id]))),
+                    );
+                    carry_adj.clear();
+                    carry_adj.extend(active.iter().map(|&k| {
+                        adjs[k][id + 1]
+                            .take()
+                            .unwrap_or_else(|| zeros(shapes[id + 1]))
+                    }));
                     // Untouched state rows pass through; touched rows and the carry take the VJP.
                     f.vjp_update_batch_seeds(index, inputs, &mut state_adj, &mut carry_adj);
-                    for ((&k, g), gc) in active.iter().zip(state_adj).zip(carry_adj) {
+                    for ((&k, g), gc) in active
+                        .iter()
+                        .zip(state_adj.drain(..))
+                        .zip(carry_adj.drain(..))
+                    {
                         accumulate(&mut adjs[k][*state], g);
                         accumulate(&mut adjs[k][*carry], gc);
                     }
