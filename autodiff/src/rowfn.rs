@@ -460,14 +460,16 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize>(
     for (s, c) in state_adj.iter().zip(carry_adj.iter()) {
         check_adjoints::<A>(index, inputs, s.data().len(), c.data().len());
     }
-    let states: Vec<SharedRows> = state_adj
-        .iter_mut()
-        .map(|t| SharedRows::new(t.data_mut()))
-        .collect();
-    let carries: Vec<SharedRows> = carry_adj
-        .iter_mut()
-        .map(|t| SharedRows::new(t.data_mut()))
-        .collect();
+    // Fixed arrays, not vectors: this runs once per update node and seed chunk.
+    let (mut states, mut carries) = (
+        [SharedRows::EMPTY; SEED_CHUNK],
+        [SharedRows::EMPTY; SEED_CHUNK],
+    );
+    for (k, (s, c)) in state_adj.iter_mut().zip(carry_adj.iter_mut()).enumerate() {
+        states[k] = SharedRows::new(s.data_mut());
+        carries[k] = SharedRows::new(c.data_mut());
+    }
+    let (states, carries) = (&states[..seeds], &carries[..seeds]);
     let idx = index.as_slice();
     for_row_ranges(index.rows(), |range| {
         let width = 3 * A + 1;
@@ -476,7 +478,7 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize>(
         for k in range {
             // SAFETY: as in `update_points` (asserted above), for every seed's buffers.
             unsafe {
-                for (s, (&state, &carry)) in states.iter().zip(&carries).enumerate() {
+                for (s, (&state, &carry)) in states.iter().zip(carries).enumerate() {
                     let ob = &mut oa[width * s..width * s + width];
                     gather_point_row::<A>(idx, k, state, carry, ob);
                     ia[width * s..width * s + width].fill(0.0);
@@ -487,7 +489,7 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize>(
                     &oa[..width * seeds],
                     &mut ia[..width * seeds],
                 );
-                for (s, (&state, &carry)) in states.iter().zip(&carries).enumerate() {
+                for (s, (&state, &carry)) in states.iter().zip(carries).enumerate() {
                     let ib = &ia[width * s..width * s + width];
                     scatter_point_row::<A>(idx, k, state, carry, ib);
                 }
@@ -547,6 +549,12 @@ unsafe impl Send for SharedRows {}
 unsafe impl Sync for SharedRows {}
 
 impl SharedRows {
+    /// No buffer (a placeholder in fixed arrays).
+    const EMPTY: SharedRows = SharedRows {
+        ptr: std::ptr::null_mut(),
+        len: 0,
+    };
+
     fn new(data: &mut [f64]) -> Self {
         SharedRows {
             ptr: data.as_mut_ptr(),
