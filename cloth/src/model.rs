@@ -8,7 +8,7 @@ use crate::coloring::{greedy_coloring, independent_sets};
 use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_ARITY};
 use crate::error::ClothError;
 use crate::projection::Projection;
-use crate::scene::{BendingModel, Obstacle, Scene};
+use crate::scene::{BendingModel, Obstacle, Scene, Stiffness};
 use crate::sdf::{Plane, SignedDistance, SphereSet, Union};
 use autodiff::{DynRowFn, Real, RowFn, RowIndex, Tensor};
 use nalgebra::Vector3;
@@ -316,10 +316,16 @@ impl Model {
             return Err(invalid(format!("constraint {k} names a particle twice")));
         }
         let compliance = if stiffness.is_infinite() {
-            0.0
+            Stiffness::Infinite
         } else {
-            (1.0 / stiffness) / (self.dt * self.dt)
-        };
+            Stiffness::Finite(stiffness)
+        }
+        .compliance(self.dt);
+        if !compliance.is_finite() {
+            return Err(invalid(format!(
+                "stiffness {stiffness} is too small: its compliance 1/(k·dt²) is not finite"
+            )));
+        }
         let constraint = Arc::new(constraint);
         let colors = greedy_coloring(&rows, self.n_particles());
         let sets = independent_sets(&colors)

@@ -356,3 +356,18 @@ fn zero_rest_length_tether_in_a_rollout_has_finite_gradients() {
         }
     }
 }
+
+/// A user's constraint with a positive stiffness so small that its compliance `1/(k·dt²)` is not
+/// finite is rejected with an error naming it, not a panic (and bad stiffness in general).
+#[test]
+fn add_constraints_rejects_stiffness_whose_compliance_is_not_finite() {
+    let scene = Scene::builtin("swing").unwrap();
+    for k in [1e-320, 0.0, -1.0, f64::NAN] {
+        let mut model = Model::from_scene(&scene).unwrap();
+        let err = model
+            .add_constraints("tether", Distance { rest: vec![0.5] }, vec![0, 1], k)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("tether") && err.contains("stiffness"), "{k}: {err}");
+    }
+}
