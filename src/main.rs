@@ -391,6 +391,9 @@ fn run(cli: Cli) -> Result<()> {
             let parsed: ExportInput = serde_json::from_str(&text)
                 .with_context(|| format!("{}: not a clothopt result", result.display()))?;
             let [rows, cols] = parsed.grid;
+            if parsed.states.is_empty() {
+                bail!("{}: the result has no states to export", result.display());
+            }
             if let Some(bad) = parsed.states.iter().position(|s| s.len() != rows * cols) {
                 bail!(
                     "{}: states[{bad}] has {} points for a {rows} × {cols} grid",

@@ -618,4 +618,19 @@ fn nothing_to_optimize_and_unknown_scenes() {
         .args(["--waypoints"])
         .arg(&out));
     fails_cleanly(&o, &["not a clothopt result"], &dir, &["scene.json"]);
+    // A result without states (hand-edited): an error, not an index panic.
+    let result = dir.join("empty.json");
+    let empty = r#"{"grid": [2, 2], "control_particles": [0], "states": []}"#;
+    std::fs::write(&result, empty).unwrap();
+    let o = run(bin()
+        .arg("export")
+        .arg(&result)
+        .args(["--waypoints"])
+        .arg(&out));
+    fails_cleanly(
+        &o,
+        &["has no states to export"],
+        &dir,
+        &["scene.json", "empty.json"],
+    );
 }

@@ -368,6 +368,9 @@ fn add_constraints_rejects_stiffness_whose_compliance_is_not_finite() {
             .add_constraints("tether", Distance { rest: vec![0.5] }, vec![0, 1], k)
             .unwrap_err()
             .to_string();
-        assert!(err.contains("tether") && err.contains("stiffness"), "{k}: {err}");
+        assert!(
+            err.contains("tether") && err.contains("stiffness"),
+            "{k}: {err}"
+        );
     }
 }
