@@ -116,7 +116,8 @@ pub struct PlanResult {
     /// --no-timing`), and then left out of the JSON so that identical runs write identical bytes.
     #[serde(skip_serializing_if = "is_nan", default = "not_timed")]
     pub wall_s: f64,
-    /// Final KKT residual reported by the solver.
+    /// Final KKT residual reported by the solver (NaN when it has none, `null` in JSON).
+    #[serde(deserialize_with = "null_as_nan")]
     pub kkt_residual: f64,
     /// Max-norm violation of the optimizer's inequality rows (safety rows, control points against
     /// collider planes) at the returned controls; 0 when they all hold. See [`PlanResult::is_feasible`].
@@ -144,6 +145,12 @@ fn not_timed() -> f64 {
 
 fn is_nan(v: &f64) -> bool {
     v.is_nan()
+}
+
+/// A number that JSON may hold as `null` (how `serde_json` writes NaN and ∞): `null` reads as NaN.
+fn null_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v: Option<f64> = serde::Deserialize::deserialize(d)?;
+    Ok(v.unwrap_or(f64::NAN))
 }
 
 /// Largest constraint violation a plan may have and still count as feasible: the SQP's own

@@ -142,3 +142,26 @@ fn simulate_and_grad_are_identical_across_thread_counts() {
     let g: Value = serde_json::from_slice(&grads[0]).unwrap();
     assert!(g["grad_L"][0][0][0].as_f64().unwrap().abs() > 0.0);
 }
+
+/// A result whose metrics hold ∞ (no safety obstacle: min SDF ∞, written as `null`) reads back as a
+/// `PlanResult` and writes the same bytes again.
+#[test]
+fn a_result_without_safety_obstacles_reads_back() {
+    let dir = scratch("determinism", "readback");
+    let out = dir.join("swing.json");
+    let o = run(bin()
+        .args([
+            "optimize",
+            "swing",
+            "--iterations",
+            "2",
+            "--no-timing",
+            "--out",
+        ])
+        .arg(&out));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&out).unwrap();
+    let back: clothopt::plan::PlanResult = serde_json::from_slice(&bytes).unwrap();
+    assert!(back.metrics.min_sdf.is_infinite() && back.metrics.min_sdf_swept.is_infinite());
+    assert_eq!(serde_json::to_vec_pretty(&back).unwrap(), bytes);
+}

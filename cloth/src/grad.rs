@@ -33,14 +33,23 @@ pub struct Metrics {
     /// Safety `C = −Σ_t Σ_i relu(δ − SDF)` (0 without safety obstacles).
     #[serde(rename = "C")]
     pub c: f64,
-    /// Smallest signed distance of any particle at any step 1..T (∞ without safety obstacles).
+    /// Smallest signed distance of any particle at any step 1..T (∞ without safety obstacles;
+    /// JSON writes ∞ as `null`, which reads back as ∞).
+    #[serde(deserialize_with = "null_as_infinity")]
     pub min_sdf: f64,
     /// Smallest signed distance along the straight path of every particle between consecutive
-    /// steps 0..T, exact for sphere sets and planes (∞ without safety obstacles).
+    /// steps 0..T, exact for sphere sets and planes (∞ without safety obstacles, `null` in JSON).
+    #[serde(deserialize_with = "null_as_infinity")]
     pub min_sdf_swept: f64,
     /// `L = G + αT + βE`.
     #[serde(rename = "L")]
     pub l: f64,
+}
+
+/// A number that JSON may hold as `null` (how `serde_json` writes ∞): `null` reads as ∞.
+fn null_as_infinity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v: Option<f64> = serde::Deserialize::deserialize(d)?;
+    Ok(v.unwrap_or(f64::INFINITY))
 }
 
 /// Metrics, states and (optionally) gradients of `L` and `C` with respect to the controls.
