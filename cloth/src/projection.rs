@@ -175,17 +175,11 @@ impl<C: Constraint> Projection<C> {
     #[inline(always)]
     fn finish_eval<R: Real>(&self, row: usize, input: &[R], c: R, g: &[R; MAX_D], out: &mut [R]) {
         let d = 3 * C::ARITY;
-        // `d` is a compile-time constant per constraint type: these loops unroll to moves.
-        let unchanged = |out: &mut [R]| out[..=d].copy_from_slice(&input[..=d]);
-        if C::INEQUALITY && c.value() >= 0.0 {
-            return unchanged(out);
-        }
-        let denom = self.weighted_sq(row, g) + self.compliance;
-        if denom.value() == 0.0 {
-            return unchanged(out);
-        }
+        let Some((_, dlambda)) = self.step_of(row, input, c, g) else {
+            // `d` is a compile-time constant per constraint type: this unrolls to moves.
+            return out[..=d].copy_from_slice(&input[..=d]);
+        };
         let lambda = input[d];
-        let dlambda = (-c - lambda * self.compliance) / denom;
         let w = &self.inv_mass[row * C::ARITY..(row + 1) * C::ARITY];
         for j in 0..d {
             out[j] = input[j] + g[j] * w[j / 3] * dlambda;
@@ -210,12 +204,12 @@ impl<C: Constraint> Projection<C> {
 
     /// The row's denominator `Σᵢ wᵢ|∇ᵢC|² + α̃` and `Δλ`, or `None` when the row does not move.
     #[inline(always)]
-    fn step_of(&self, row: usize, input: &[f64], c: f64, g: &[f64; MAX_D]) -> Option<(f64, f64)> {
-        if C::INEQUALITY && c >= 0.0 {
+    fn step_of<R: Real>(&self, row: usize, input: &[R], c: R, g: &[R; MAX_D]) -> Option<(R, R)> {
+        if C::INEQUALITY && c.value() >= 0.0 {
             return None;
         }
         let denom = self.weighted_sq(row, g) + self.compliance;
-        if denom == 0.0 {
+        if denom.value() == 0.0 {
             return None;
         }
         let dlambda = (-c - input[3 * C::ARITY] * self.compliance) / denom;

@@ -54,7 +54,16 @@ impl Model {
     /// One time step on plain `f64` data.
     pub fn step(&self, x_prev: &Tensor, u: &Tensor, scratch: &mut StepScratch) -> Tensor {
         let mut x = self.begin_step(x_prev, u);
-        scratch.lambdas = self.zero_lambdas();
+        // λ ← 0, reusing the previous step's tensors.
+        let fits =
+            (scratch.lambdas.iter().map(Tensor::rows)).eq(self.sets().map(|s| s.index.rows()));
+        if fits {
+            for l in &mut scratch.lambdas {
+                l.data_mut().fill(0.0);
+            }
+        } else {
+            scratch.lambdas = self.zero_lambdas();
+        }
         self.sweep(&mut x, &mut scratch.lambdas, self.iterations);
         x
     }
