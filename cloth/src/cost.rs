@@ -45,11 +45,16 @@ impl Model {
     /// Records `−Σᵢ relu(δ − SDF(xᵢ))` (≥ 0 only when every particle is at least `δ` away).
     pub fn record_safety(&self, tape: &mut Tape, x: Var, delta: f64) -> Option<Var> {
         let sdf = self.record_sdf(tape, x)?;
+        Some(Self::record_safety_of_sdf(tape, sdf, delta))
+    }
+
+    /// [`Model::record_safety`] from already recorded signed distances `sdf` (`N × 1`).
+    pub fn record_safety_of_sdf(tape: &mut Tape, sdf: Var, delta: f64) -> Var {
         let gap = tape.neg(sdf);
         let gap = tape.add_scalar(gap, delta);
         let violation = tape.relu(gap);
         let total = tape.sum(violation);
-        Some(tape.neg(total))
+        tape.neg(total)
     }
 
     /// Records `G = ‖x_target − x̄‖` over the task's target particles.

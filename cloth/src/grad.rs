@@ -106,8 +106,7 @@ impl Model {
                         .fold(f64::INFINITY, f64::min),
                 );
                 m.min_sdf_swept = m.min_sdf_swept.min(self.min_sdf_between(&states[t - 1], x));
-            }
-            if let Some(c) = self.record_safety(&mut tape, xv, delta) {
+                let c = Model::record_safety_of_sdf(&mut tape, sdf, delta);
                 m.c += tape.value(c).item();
             }
             if t == self.task.horizon {
