@@ -160,6 +160,9 @@ impl LbfgsSolver {
         let mut last_step = 0.0;
         let mut last_alpha = 0.0;
         let mut fresh_memory = true;
+        // A memory reset after a failed line search repeats an iteration; the callback sees each
+        // iteration number once.
+        let mut reported: Option<usize> = None;
 
         let projected_gradient = |x: &[f64], g: &[f64], ev: &Evaluator<'_, P>| -> Vec<f64> {
             (0..n)
@@ -174,20 +177,23 @@ impl LbfgsSolver {
                 g.clone()
             };
             let pg_norm = norm_inf(&pg);
-            let info = IterationInfo {
-                iteration: iterations,
-                objective: f,
-                constraint_violation: 0.0,
-                kkt_residual: pg_norm,
-                step_norm: last_step,
-                step_length: last_alpha,
-                penalty: 0.0,
-                linearized_violation: 0.0,
-                function_evaluations: ev.function_evaluations,
-                gradient_evaluations: ev.gradient_evaluations,
-            };
-            if callback(&info).is_break() {
-                break (Status::Interrupted, "stopped by the callback".to_string());
+            if reported != Some(iterations) {
+                reported = Some(iterations);
+                let info = IterationInfo {
+                    iteration: iterations,
+                    objective: f,
+                    constraint_violation: 0.0,
+                    kkt_residual: pg_norm,
+                    step_norm: last_step,
+                    step_length: last_alpha,
+                    penalty: 0.0,
+                    linearized_violation: 0.0,
+                    function_evaluations: ev.function_evaluations,
+                    gradient_evaluations: ev.gradient_evaluations,
+                };
+                if callback(&info).is_break() {
+                    break (Status::Interrupted, "stopped by the callback".to_string());
+                }
             }
             if pg_norm <= st.tol_gradient {
                 break (

@@ -318,6 +318,8 @@ impl SqpSolver {
         let mut best_violation = pt.violation_inf();
         let mut mult = empty_mult.clone();
         let mut kkt = f64::INFINITY;
+        // A Hessian reset repeats an iteration; the callback sees each iteration number once.
+        let mut reported: Option<usize> = None;
 
         let (status, message) = loop {
             let xinf = norm_inf(&x);
@@ -357,20 +359,23 @@ impl SqpSolver {
             }
             let viol = pt.violation_inf();
             best_violation = best_violation.min(viol);
-            let info = IterationInfo {
-                iteration: iterations,
-                objective: pt.objective(),
-                constraint_violation: viol,
-                kkt_residual: kkt,
-                step_norm: last_step_norm,
-                step_length: last_alpha,
-                penalty: step.penalty.iter().fold(0.0, |a: f64, b| a.max(*b)),
-                linearized_violation: step.lin_violation,
-                function_evaluations: ev.function_evaluations,
-                gradient_evaluations: ev.gradient_evaluations,
-            };
-            if callback(&info).is_break() {
-                break (Status::Interrupted, "stopped by the callback".into());
+            if reported != Some(iterations) {
+                reported = Some(iterations);
+                let info = IterationInfo {
+                    iteration: iterations,
+                    objective: pt.objective(),
+                    constraint_violation: viol,
+                    kkt_residual: kkt,
+                    step_norm: last_step_norm,
+                    step_length: last_alpha,
+                    penalty: step.penalty.iter().fold(0.0, |a: f64, b| a.max(*b)),
+                    linearized_violation: step.lin_violation,
+                    function_evaluations: ev.function_evaluations,
+                    gradient_evaluations: ev.gradient_evaluations,
+                };
+                if callback(&info).is_break() {
+                    break (Status::Interrupted, "stopped by the callback".into());
+                }
             }
             if viol <= s.tol_feasibility && kkt <= s.tol_optimality {
                 break (
@@ -548,7 +553,9 @@ impl SqpSolver {
             let fsol = fqp.solve();
             let lv_min = if fsol.outcome.is_usable() {
                 let v = linearized_violation(pt, dv, &fsol.d);
-                infeasible_stationary = lv0 - v <= s.tol_optimality * lv0.max(1.0);
+                // Stationary for the violation only if the LP cannot remove it either (when the
+                // violation itself is below tol_optimality, the relative test alone always holds).
+                infeasible_stationary = v > lin_tol && lv0 - v <= s.tol_optimality * lv0.max(1.0);
                 v.min(lin_violation)
             } else {
                 0.0
