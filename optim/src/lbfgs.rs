@@ -54,12 +54,8 @@ fn evaluate<P: Problem + ?Sized>(
     x: &[f64],
 ) -> Result<(f64, Vec<f64>), EvalError> {
     let v = ev.values(x)?;
-    ev.gradient_evaluations += 1;
-    let mut g = vec![0.0; ev.n];
-    ev.problem.gradient(x, &mut g)?;
-    if let Some(i) = g.iter().position(|v| !v.is_finite()) {
-        return Err(EvalError::new(format!("gradient entry {i} is not finite")));
-    }
+    // No constraints (checked by the solver): only the gradient is evaluated.
+    let mut g = ev.derivatives(x)?.g;
     for (nd, r) in ev.norms.iter().zip(&v.residuals) {
         let nr = norm2(r);
         if nr > 0.0 {
