@@ -216,7 +216,6 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
         }
         let mut jc = Jacobian::dense(self.m, self.n);
         if self.m > 0 {
-            jc.clear();
             self.problem.inequality_jacobian(x, &mut jc)?;
             jc.validate(self.m, self.n).map_err(EvalError::new)?;
             jc.scale_rows(&self.c_scale);

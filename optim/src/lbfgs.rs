@@ -54,12 +54,8 @@ fn evaluate<P: Problem + ?Sized>(
     x: &[f64],
 ) -> Result<(f64, Vec<f64>), EvalError> {
     let v = ev.values(x)?;
-    ev.gradient_evaluations += 1;
-    let mut g = vec![0.0; ev.n];
-    ev.problem.gradient(x, &mut g)?;
-    if let Some(i) = g.iter().position(|v| !v.is_finite()) {
-        return Err(EvalError::new(format!("gradient entry {i} is not finite")));
-    }
+    // No constraints (checked by the solver): only the gradient is evaluated.
+    let mut g = ev.derivatives(x)?.g;
     for (nd, r) in ev.norms.iter().zip(&v.residuals) {
         let nr = norm2(r);
         if nr > 0.0 {
@@ -160,6 +156,9 @@ impl LbfgsSolver {
         let mut last_step = 0.0;
         let mut last_alpha = 0.0;
         let mut fresh_memory = true;
+        // A memory reset after a failed line search repeats an iteration; the callback sees each
+        // iteration number once.
+        let mut reported: Option<usize> = None;
 
         let projected_gradient = |x: &[f64], g: &[f64], ev: &Evaluator<'_, P>| -> Vec<f64> {
             (0..n)
@@ -174,20 +173,23 @@ impl LbfgsSolver {
                 g.clone()
             };
             let pg_norm = norm_inf(&pg);
-            let info = IterationInfo {
-                iteration: iterations,
-                objective: f,
-                constraint_violation: 0.0,
-                kkt_residual: pg_norm,
-                step_norm: last_step,
-                step_length: last_alpha,
-                penalty: 0.0,
-                linearized_violation: 0.0,
-                function_evaluations: ev.function_evaluations,
-                gradient_evaluations: ev.gradient_evaluations,
-            };
-            if callback(&info).is_break() {
-                break (Status::Interrupted, "stopped by the callback".to_string());
+            if reported != Some(iterations) {
+                reported = Some(iterations);
+                let info = IterationInfo {
+                    iteration: iterations,
+                    objective: f,
+                    constraint_violation: 0.0,
+                    kkt_residual: pg_norm,
+                    step_norm: last_step,
+                    step_length: last_alpha,
+                    penalty: 0.0,
+                    linearized_violation: 0.0,
+                    function_evaluations: ev.function_evaluations,
+                    gradient_evaluations: ev.gradient_evaluations,
+                };
+                if callback(&info).is_break() {
+                    break (Status::Interrupted, "stopped by the callback".to_string());
+                }
             }
             if pg_norm <= st.tol_gradient {
                 break (

@@ -200,14 +200,6 @@ impl Jacobian {
         }
     }
 
-    /// Resets to zero (dense) or empties (sparse), keeping the shape.
-    pub(crate) fn clear(&mut self) {
-        match self {
-            Jacobian::Dense(m) => m.fill(0.0),
-            Jacobian::Sparse(m) => m.clear(),
-        }
-    }
-
     /// Checks shape, indices and finiteness.
     pub(crate) fn validate(&self, rows: usize, cols: usize) -> Result<(), String> {
         if self.nrows() != rows || self.ncols() != cols {

@@ -75,6 +75,23 @@ fn elastic_costs(weights: &[f64], elastic: &[usize], m: usize, q: usize, out: &m
     out[me + q..me + 2 * q].copy_from_slice(&weights[m..m + q]);
 }
 
+/// `q` of the optimality subproblem: `[g | w_k | elastic costs (see [`elastic_costs`])]`.
+fn optimality_q(
+    data: &QpData<'_>,
+    weights: &[f64],
+    elastic_ids: &[usize],
+    m_total: usize,
+    l: &Layout,
+) -> Vec<f64> {
+    let mut qv = vec![0.0; l.nvar];
+    qv[..l.n].copy_from_slice(data.gradient);
+    for (kk, nd) in data.norms.iter().enumerate().take(l.k) {
+        qv[l.n + kk] = nd.weight;
+    }
+    elastic_costs(weights, elastic_ids, m_total, l.q, &mut qv[l.n + l.k..]);
+    qv
+}
+
 /// Which problem to build.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum QpMode {
@@ -153,7 +170,6 @@ pub(crate) struct QpSubproblem {
     tolerance: f64,
     max_iterations: u32,
     layout: Layout,
-    mode: QpMode,
     norm_dims: Vec<usize>,
     /// Total number of inequalities of the SQP problem.
     m_total: usize,
@@ -322,17 +338,14 @@ impl QpSubproblem {
         let p_mat = p_trip.into_csc(nvar, nvar);
 
         // q
-        let mut qv = vec![0.0; nvar];
-        match mode {
-            QpMode::Optimality => {
-                qv[..n].copy_from_slice(data.gradient);
-                for (kk, nd) in data.norms.iter().enumerate() {
-                    qv[col_s + kk] = nd.weight;
-                }
-                elastic_costs(weights, &elastic_ids, m_total, q, &mut qv[col_t..]);
+        let qv = match mode {
+            QpMode::Optimality => optimality_q(data, weights, &elastic_ids, m_total, &layout),
+            QpMode::Feasibility => {
+                let mut qv = vec![0.0; nvar];
+                qv[col_t..].fill(1.0);
+                qv
             }
-            QpMode::Feasibility => qv[col_t..].fill(1.0),
-        }
+        };
 
         // A, b (rows pushed in increasing order)
         let jac_nnz_hint = n * (m + q);
@@ -411,7 +424,6 @@ impl QpSubproblem {
             tolerance,
             max_iterations,
             layout,
-            mode,
             norm_dims,
             m_total,
             kept,
@@ -426,20 +438,7 @@ impl QpSubproblem {
         data: &QpData<'_>,
         weights: &[f64],
     ) -> Result<(), QpBuildError> {
-        let l = self.layout;
-        let mut qv = vec![0.0; l.nvar];
-        qv[..l.n].copy_from_slice(data.gradient);
-        for (kk, nd) in data.norms.iter().enumerate().take(l.k) {
-            qv[l.n + kk] = nd.weight;
-        }
-        elastic_costs(
-            weights,
-            &self.elastic_ids,
-            self.m_total,
-            l.q,
-            &mut qv[l.n + l.k..],
-        );
-        self.mode = QpMode::Optimality;
+        let qv = optimality_q(data, weights, &self.elastic_ids, self.m_total, &self.layout);
         self.solver
             .update_q(&qv)
             .map_err(|e| QpBuildError(format!("Clarabel update_q: {e}")))?;
@@ -561,12 +560,6 @@ impl QpSubproblem {
             box_upper,
             norm_duals,
         }
-    }
-
-    /// The mode this subproblem was built (or last updated) for.
-    #[allow(dead_code)]
-    pub(crate) fn mode(&self) -> QpMode {
-        self.mode
     }
 }
 

@@ -271,6 +271,7 @@ impl SqpSolver {
         let mut bfgs = DampedBfgs::new(n, initial_hessian, s.bfgs_damping);
         let norms = ev.norms.clone();
 
+        // The starting point; from the first evaluation on, the iterate is `pt.x`.
         let mut x = x0.to_vec();
         ev.project(&mut x);
         let empty_mult = Multipliers {
@@ -318,12 +319,16 @@ impl SqpSolver {
         let mut best_violation = pt.violation_inf();
         let mut mult = empty_mult.clone();
         let mut kkt = f64::INFINITY;
+        // A Hessian reset repeats an iteration; the callback sees each iteration number once.
+        let mut reported: Option<usize> = None;
 
         let (status, message) = loop {
-            let xinf = norm_inf(&x);
+            let xinf = norm_inf(&pt.x);
             let delta = s.step_bound_scale * xinf.max(1.0);
-            let step_lower: Vec<f64> = (0..n).map(|j| (ev.lower[j] - x[j]).max(-delta)).collect();
-            let step_upper: Vec<f64> = (0..n).map(|j| (ev.upper[j] - x[j]).min(delta)).collect();
+            let step_lower: Vec<f64> = (0..n)
+                .map(|j| (ev.lower[j] - pt.x[j]).max(-delta))
+                .collect();
+            let step_upper: Vec<f64> = (0..n).map(|j| (ev.upper[j] - pt.x[j]).min(delta)).collect();
             let data = QpData {
                 n,
                 hessian: bfgs.matrix(),
@@ -352,25 +357,29 @@ impl SqpSolver {
             };
             let qp_usable = step.sol.outcome.is_usable();
             if qp_usable {
-                mult = extract_multipliers(&step.sol, &x, &ev.lower, &ev.upper, delta, &ev.norms);
+                mult =
+                    extract_multipliers(&step.sol, &pt.x, &ev.lower, &ev.upper, delta, &ev.norms);
                 kkt = kkt_residual(&pt, &dv, &mult, &ev.norms, &ev.lower, &ev.upper);
             }
             let viol = pt.violation_inf();
             best_violation = best_violation.min(viol);
-            let info = IterationInfo {
-                iteration: iterations,
-                objective: pt.objective(),
-                constraint_violation: viol,
-                kkt_residual: kkt,
-                step_norm: last_step_norm,
-                step_length: last_alpha,
-                penalty: step.penalty.iter().fold(0.0, |a: f64, b| a.max(*b)),
-                linearized_violation: step.lin_violation,
-                function_evaluations: ev.function_evaluations,
-                gradient_evaluations: ev.gradient_evaluations,
-            };
-            if callback(&info).is_break() {
-                break (Status::Interrupted, "stopped by the callback".into());
+            if reported != Some(iterations) {
+                reported = Some(iterations);
+                let info = IterationInfo {
+                    iteration: iterations,
+                    objective: pt.objective(),
+                    constraint_violation: viol,
+                    kkt_residual: kkt,
+                    step_norm: last_step_norm,
+                    step_length: last_alpha,
+                    penalty: step.penalty.iter().fold(0.0, |a: f64, b| a.max(*b)),
+                    linearized_violation: step.lin_violation,
+                    function_evaluations: ev.function_evaluations,
+                    gradient_evaluations: ev.gradient_evaluations,
+                };
+                if callback(&info).is_break() {
+                    break (Status::Interrupted, "stopped by the callback".into());
+                }
             }
             if viol <= s.tol_feasibility && kkt <= s.tol_optimality {
                 break (
@@ -440,16 +449,14 @@ impl SqpSolver {
                     derivatives,
                     alpha,
                 } => {
-                    let s_vec: Vec<f64> = values.x.iter().zip(&x).map(|(a, b)| a - b).collect();
-                    let step_mult =
-                        extract_multipliers(&step.sol, &x, &ev.lower, &ev.upper, delta, &ev.norms);
-                    let gl_old = lagrangian_gradient(&dv, &step_mult);
-                    let gl_new = lagrangian_gradient(&derivatives, &step_mult);
+                    let s_vec: Vec<f64> = values.x.iter().zip(&pt.x).map(|(a, b)| a - b).collect();
+                    // `mult` are this step's multipliers (the QP was usable to get here).
+                    let gl_old = lagrangian_gradient(&dv, &mult);
+                    let gl_new = lagrangian_gradient(&derivatives, &mult);
                     let y: Vec<f64> = gl_new.iter().zip(&gl_old).map(|(a, b)| a - b).collect();
                     bfgs.update(&s_vec, &y);
                     last_step_norm = norm_inf(&s_vec);
                     last_alpha = alpha;
-                    x = values.x.clone();
                     pt = *values;
                     dv = *derivatives;
                     iterations += 1;
@@ -503,7 +510,7 @@ impl SqpSolver {
             objective: pt.objective(),
             constraint_violation: pt.violation_inf(),
             kkt_residual: kkt,
-            x,
+            x: pt.x,
             iterations,
             function_evaluations: ev.function_evaluations,
             gradient_evaluations: ev.gradient_evaluations,
@@ -548,7 +555,9 @@ impl SqpSolver {
             let fsol = fqp.solve();
             let lv_min = if fsol.outcome.is_usable() {
                 let v = linearized_violation(pt, dv, &fsol.d);
-                infeasible_stationary = lv0 - v <= s.tol_optimality * lv0.max(1.0);
+                // Stationary for the violation only if the LP cannot remove it either (when the
+                // violation itself is below tol_optimality, the relative test alone always holds).
+                infeasible_stationary = v > lin_tol && lv0 - v <= s.tol_optimality * lv0.max(1.0);
                 v.min(lin_violation)
             } else {
                 0.0

@@ -138,3 +138,42 @@ fn iteration_limit_is_not_convergence() {
     assert_eq!(sol.status, Status::IterationLimit);
     assert!(sol.kkt_residual > 1e-6);
 }
+
+/// `x₀² + 10 x₁²` whose objective evaluations all fail after the first `budget`.
+struct FailsAfter {
+    budget: usize,
+}
+
+impl Problem for FailsAfter {
+    fn num_variables(&self) -> usize {
+        2
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        if self.budget == 0 {
+            return Err(EvalError::new("out of budget"));
+        }
+        self.budget -= 1;
+        Ok(x[0] * x[0] + 10.0 * x[1] * x[1])
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        g[0] = 2.0 * x[0];
+        g[1] = 20.0 * x[1];
+        Ok(())
+    }
+}
+
+#[test]
+fn callback_sees_each_iteration_once_across_a_memory_reset() {
+    let mut seen = Vec::new();
+    let sol = solver()
+        .solve_with_callback(&mut FailsAfter { budget: 4 }, &[1.0, 1.0], |info| {
+            seen.push(info.iteration);
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+    // The line search fails with a non-empty memory, which is reset and the iteration repeated.
+    assert_eq!(sol.status, Status::EvaluationFailed, "{}", sol.message);
+    assert!(sol.iterations >= 1);
+    let expected: Vec<usize> = (0..=sol.iterations).collect();
+    assert_eq!(seen, expected);
+}
