@@ -216,7 +216,9 @@ pub fn controls_from_nested(
 
 /// The scene's initial guess as a controls tensor.
 pub fn initial_controls(scene: &Scene, model: &Model) -> Result<Controls, cloth::ClothError> {
-    controls_from_nested(model, &scene.initial_controls_array())
+    let c = scene.initial_controls();
+    model.check_controls(&c)?;
+    Ok(c)
 }
 
 /// Optimizes `model`'s task from `start`, calling `progress` after every iteration.

@@ -16,13 +16,7 @@ fn setup(n: usize) -> (Model, Tensor, f64) {
     let base = Scene::builtin("u_obstacle").expect("built-in scene");
     let scene = base.refined(n, n).expect("refined scene");
     let model = Model::from_scene(&scene).expect("model");
-    let u = scene.initial_controls_array();
-    let u = Tensor::new(
-        u.len(),
-        3 * scene.controls.len(),
-        u.into_iter().flatten().flatten().collect(),
-    );
-    (model, u, scene.task.delta)
+    (model, scene.initial_controls(), scene.task.delta)
 }
 
 fn rollout(c: &mut Criterion) {

@@ -952,6 +952,14 @@ impl Scene {
             InitialControls::Explicit(steps) => steps.clone(),
         }
     }
+
+    /// The initial control guess as a controls tensor (`horizon × 3·controls`, see
+    /// [`crate::Controls`]).
+    pub fn initial_controls(&self) -> autodiff::Tensor {
+        let u = self.initial_controls_array();
+        let values = u.iter().flatten().flatten().copied().collect();
+        autodiff::Tensor::new(u.len(), 3 * self.controls.len(), values)
+    }
 }
 
 #[cfg(test)]

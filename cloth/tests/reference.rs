@@ -5,12 +5,7 @@ use autodiff::Tensor;
 use cloth::{Model, Scene};
 
 fn initial(scene: &Scene) -> Tensor {
-    let u = scene.initial_controls_array();
-    Tensor::new(
-        u.len(),
-        3 * scene.controls.len(),
-        u.into_iter().flatten().flatten().collect(),
-    )
+    scene.initial_controls()
 }
 
 #[test]

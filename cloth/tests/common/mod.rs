@@ -106,12 +106,7 @@ pub fn plane(point: [f64; 3], normal: [f64; 3], role: ObstacleRole) -> Obstacle 
 
 /// The scene's initial control guess as a tensor.
 pub fn initial_controls(scene: &Scene) -> Tensor {
-    let u = scene.initial_controls_array();
-    Tensor::new(
-        u.len(),
-        3 * scene.controls.len(),
-        u.into_iter().flatten().flatten().collect(),
-    )
+    scene.initial_controls()
 }
 
 /// Controls from a flat list of values (`horizon × 3·n_controls`).
