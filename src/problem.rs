@@ -7,7 +7,7 @@
 //! - linear rows keeping every control point on the free side of every collider plane at every
 //!   step (the simulator pins control particles, so only this keeps them out of the floor).
 
-use autodiff::{Tape, Tensor, Var};
+use autodiff::{soft_min_value, soft_min_weights, Tape, Tensor, Var};
 use cloth::grad::StepCost;
 use cloth::{ClothError, Controls, Model};
 use optim::{EvalError, Jacobian, NormTerm, Problem};
@@ -202,7 +202,7 @@ impl<'a> TrajectoryProblem<'a> {
                     safety.copy_from_slice(&per_step)
                 }
                 Some(SafetyForm::Aggregate) if !safety.is_empty() => {
-                    safety[0] = soft_min(&per_step, self.options.kappa);
+                    safety[0] = soft_min_value(&per_step, self.options.kappa);
                 }
                 _ => {}
             }
@@ -306,23 +306,6 @@ impl<'a> TrajectoryProblem<'a> {
     pub fn states(&mut self, x: &[f64]) -> Result<Vec<Tensor>, EvalError> {
         Ok(self.ensure_forward(x)?.states.clone())
     }
-}
-
-/// `−(1/κ) log Σ exp(−κ vᵢ)`, stable.
-fn soft_min(v: &[f64], kappa: f64) -> f64 {
-    let m = v.iter().copied().fold(f64::INFINITY, f64::min);
-    m - v
-        .iter()
-        .map(|&x| (-kappa * (x - m)).exp())
-        .sum::<f64>()
-        .ln()
-        / kappa
-}
-
-/// The gradient of [`soft_min`]: softmax weights of `−κ v`, summing to 1.
-fn soft_min_weights(v: &[f64], kappa: f64) -> Vec<f64> {
-    let s = soft_min(v, kappa);
-    v.iter().map(|&x| (-kappa * (x - s)).exp()).collect()
 }
 
 fn eval_error(e: ClothError) -> EvalError {

@@ -26,5 +26,5 @@ pub use dual::Dual;
 pub use index::RowIndex;
 pub use real::Real;
 pub use rowfn::{in_pool, vjp_by_duals, DynRowFn, RowFn};
-pub use tape::{Gradients, Tape, Var};
+pub use tape::{soft_min_value, soft_min_weights, Gradients, Tape, Var};
 pub use tensor::Tensor;

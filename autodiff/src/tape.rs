@@ -1029,12 +1029,8 @@ impl Tape {
             }
             Op::SoftMin { a, kappa } => {
                 let x = val(*a);
-                let s = soft_min_value(x.data(), *kappa);
-                let w = x
-                    .data()
-                    .iter()
-                    .map(|&xi| g.item() * (-kappa * (xi - s)).exp())
-                    .collect();
+                let mut w = soft_min_weights(x.data(), *kappa);
+                w.iter_mut().for_each(|wi| *wi *= g.item());
                 accumulate(&mut adj[*a], Tensor::new(x.rows(), x.cols(), w));
             }
             Op::ConcatRows { parts } => {
@@ -1070,11 +1066,18 @@ impl Tape {
     }
 }
 
-/// `−(1/κ) log Σ exp(−κ xᵢ)`, shifted by the minimum so no exponential overflows.
-fn soft_min_value(x: &[f64], kappa: f64) -> f64 {
+/// `−(1/κ) log Σ exp(−κ xᵢ)`, shifted by the minimum so no exponential overflows: the value of
+/// [`Tape::soft_min`].
+pub fn soft_min_value(x: &[f64], kappa: f64) -> f64 {
     let m = x.iter().copied().fold(f64::INFINITY, f64::min);
     let sum: f64 = x.iter().map(|&xi| (-kappa * (xi - m)).exp()).sum();
     m - sum.ln() / kappa
+}
+
+/// The gradient of [`soft_min_value`]: the softmax weights `exp(−κ(xᵢ − s))`, summing to 1.
+pub fn soft_min_weights(x: &[f64], kappa: f64) -> Vec<f64> {
+    let s = soft_min_value(x, kappa);
+    x.iter().map(|&xi| (-kappa * (xi - s)).exp()).collect()
 }
 
 /// Files a cleared node's buffer among the spare ones (buffers without capacity are dropped).
