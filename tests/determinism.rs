@@ -50,13 +50,7 @@ fn optimize(scene: &Path, out: &Path, threads: usize) -> Vec<u8> {
 fn optimize_writes_identical_bytes_across_runs_and_thread_counts() {
     let scene = scene();
     let model = Model::from_scene(&scene).unwrap();
-    let largest_set = model
-        .groups
-        .iter()
-        .flat_map(|g| &g.sets)
-        .map(|s| s.index.rows())
-        .max()
-        .unwrap();
+    let largest_set = model.sets().map(|s| s.index.rows()).max().unwrap();
     assert!(
         largest_set >= PARALLEL_MIN_ROWS && model.n_particles() >= PARALLEL_MIN_ROWS,
         "largest set {largest_set}, {} particles: the parallel path would not run",

@@ -254,7 +254,7 @@ impl Model {
         let per_set = |s: &crate::model::ProjectionSet| {
             s.index.rows() * s.projection.n_in() * std::mem::size_of::<f64>()
         };
-        self.groups.iter().flat_map(|g| &g.sets).map(per_set).sum()
+        self.sets().map(per_set).sum()
     }
 
     /// Iterations recorded at once by [`Model::gradients`]: the whole step when two recordings

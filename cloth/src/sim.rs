@@ -103,7 +103,7 @@ impl Model {
     }
 
     /// Every colour set of every group, in sweep order.
-    fn sets(&self) -> impl Iterator<Item = &ProjectionSet> + Clone {
+    pub fn sets(&self) -> impl Iterator<Item = &ProjectionSet> + Clone {
         self.groups.iter().flat_map(|g| &g.sets)
     }
 

@@ -120,13 +120,7 @@ fn evaluate_is_bitwise_identical_with_one_and_two_threads() {
     scene.validate().unwrap();
     let model = Model::from_scene(&scene).unwrap();
     // The big sets cross the parallel threshold, so the 2-thread pool really splits them.
-    let largest = model
-        .groups
-        .iter()
-        .flat_map(|g| &g.sets)
-        .map(|s| s.index.rows())
-        .max()
-        .unwrap();
+    let largest = model.sets().map(|s| s.index.rows()).max().unwrap();
     assert!(
         largest >= PARALLEL_MIN_ROWS,
         "largest set has {largest} rows < {PARALLEL_MIN_ROWS}"

@@ -172,30 +172,14 @@ pub fn replay_watching(
     let mut states = vec![model.rest.clone()];
     let mut pattern = Vec::new();
     let mut margin = f64::INFINITY;
+    let sets: Vec<(&str, &cloth::model::ProjectionSet)> = model
+        .groups
+        .iter()
+        .flat_map(|g| g.sets.iter().map(move |s| (g.name.as_str(), s)))
+        .collect();
     for t in 0..model.task.horizon {
-        let prev = &states[t];
-        let mut x = prev.clone();
-        if let Some(g) = model.gravity_step {
-            for row in x.data_mut().chunks_exact_mut(3) {
-                for k in 0..3 {
-                    row[k] += g[k];
-                }
-            }
-        }
-        for (k, &p) in model.controls.as_slice().iter().enumerate() {
-            for j in 0..3 {
-                x.row_mut(p)[j] = prev.get(p, j) + controls.get(t, 3 * k + j);
-            }
-        }
-        let sets: Vec<(&str, &cloth::model::ProjectionSet)> = model
-            .groups
-            .iter()
-            .flat_map(|g| g.sets.iter().map(move |s| (g.name.as_str(), s)))
-            .collect();
-        let mut lambdas: Vec<Tensor> = sets
-            .iter()
-            .map(|(_, s)| Tensor::zeros(s.index.rows(), 1))
-            .collect();
+        let mut x = model.begin_step(&states[t], &model.step_controls(controls, t));
+        let mut lambdas = model.zero_lambdas();
         for _ in 0..model.iterations {
             for ((name, set), lambda) in sets.iter().zip(lambdas.iter_mut()) {
                 if *name == watch {
