@@ -29,12 +29,7 @@ impl RolloutFigure {
         title: &str,
         delta: Option<f64>,
     ) -> Self {
-        let points = |x: &Tensor| -> Vec<[f64; 3]> {
-            x.data()
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect()
-        };
+        let points = crate::plan::state_points;
         let last = states.len().saturating_sub(1);
         let mut picks = vec![0, last / 2, last];
         picks.dedup();

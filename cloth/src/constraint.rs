@@ -62,12 +62,6 @@ fn value_and_gradient_n<C: Constraint, R: Real, const D: usize, const A: usize>(
     v.re
 }
 
-/// Positions of a constraint's particles as vectors, from `3·arity` coordinates.
-#[inline]
-pub fn points<R: Real>(x: &[R]) -> impl Iterator<Item = Vector3<R>> + '_ {
-    x.chunks_exact(3).map(|q| Vector3::new(q[0], q[1], q[2]))
-}
-
 /// `|v|` through [`Real::sqrt`], so a zero vector has gradient 0.
 #[inline]
 pub fn norm<R: Real>(v: &Vector3<R>) -> R {

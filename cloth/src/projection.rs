@@ -56,11 +56,6 @@ impl<C: Constraint> Projection<C> {
         }
     }
 
-    /// Number of rows (constraints) in the set.
-    pub fn rows(&self) -> usize {
-        self.instances.len()
-    }
-
     /// Σᵢ wᵢ|gᵢ|² for row `row`.
     #[inline(always)]
     fn weighted_sq<R: Real>(&self, row: usize, g: &[R]) -> R {
@@ -260,7 +255,7 @@ impl<C: Constraint> Projection<C> {
 
 /// `∇²C(x)·v` for one instance, by forward-over-forward duals.
 #[inline(always)]
-pub fn hessian_vector<C: Constraint>(c: &C, instance: usize, x: &[f64], v: &[f64]) -> [f64; MAX_D] {
+fn hessian_vector<C: Constraint>(c: &C, instance: usize, x: &[f64], v: &[f64]) -> [f64; MAX_D] {
     match C::ARITY {
         1 => hessian_vector_n::<C, 3, 1>(c, instance, x, v),
         2 => hessian_vector_n::<C, 6, 2>(c, instance, x, v),
