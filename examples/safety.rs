@@ -89,10 +89,7 @@ struct Run {
 
 /// Converged and feasible first, then the smaller `L`.
 fn better(a: &PlanResult, b: &PlanResult) -> bool {
-    let good = |r: &PlanResult| {
-        r.status == "converged" && r.metrics.c >= -1e-6 && r.metrics.min_sdf >= r.delta - 1e-3
-    };
-    match (good(a), good(b)) {
+    match (a.is_safe_and_converged(), b.is_safe_and_converged()) {
         (true, false) => true,
         (false, true) => false,
         _ => a.metrics.l < b.metrics.l,
@@ -191,7 +188,7 @@ fn main() -> Result<()> {
     let mut all_ok = true;
     for run in &runs {
         let r = &run.result;
-        let feasible = r.metrics.c >= -1e-6 && r.metrics.min_sdf >= r.delta - 1e-3;
+        let feasible = r.is_safe();
         let swept_ok = !run.swept || r.metrics.min_sdf_swept >= r.delta - 1e-2;
         let peer = PEERS
             .iter()

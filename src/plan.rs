@@ -166,12 +166,16 @@ impl PlanResult {
         self.status != "infeasible" && self.constraint_violation <= FEASIBILITY_TOLERANCE
     }
 
-    /// True when the solver converged and the safety constraint holds (`C ≥ −1e−6`,
-    /// `min SDF ≥ δ − 1e−3` when the scene has safety obstacles).
+    /// True when the safety constraint holds: `C ≥ −1e−6` and `min SDF ≥ δ − 1e−3` (always
+    /// without safety obstacles).
+    pub fn is_safe(&self) -> bool {
+        self.metrics.min_sdf.is_infinite()
+            || (self.metrics.c >= -1e-6 && self.metrics.min_sdf >= self.delta - 1e-3)
+    }
+
+    /// True when the solver converged and the plan [is safe](PlanResult::is_safe).
     pub fn is_safe_and_converged(&self) -> bool {
-        let safe = self.metrics.min_sdf.is_infinite()
-            || (self.metrics.c >= -1e-6 && self.metrics.min_sdf >= self.delta - 1e-3);
-        self.status == "converged" && safe
+        self.status == "converged" && self.is_safe()
     }
 }
 
@@ -242,10 +246,12 @@ pub fn plan(
         ControlFlow::Continue(())
     };
     // Continuation in κ: a smooth, conservative soft minimum first, then the sharp one from there.
-    let soft_safety = matches!(
-        options.task.safety,
-        Some(SafetyForm::PerStep | SafetyForm::Aggregate)
-    );
+    // (Without safety obstacles there is nothing to warm up.)
+    let soft_safety = model.safety.is_some()
+        && matches!(
+            options.task.safety,
+            Some(SafetyForm::PerStep | SafetyForm::Aggregate)
+        );
     let mut x0 = start.data().to_vec();
     let (mut warm_iterations, mut warm_simulations, mut warm_gradients) = (0, 0, 0);
     if let (SolverKind::Sqp, Some(kappa), true) =
