@@ -4,7 +4,7 @@
 use crate::cost::trajectory_irregularity;
 use crate::error::ClothError;
 use crate::model::Model;
-use crate::sim::Controls;
+use crate::sim::{control_entry, Controls};
 use autodiff::{in_pool, Gradients, Tape, Tensor, Var};
 use rayon::prelude::*;
 
@@ -67,16 +67,10 @@ pub struct Evaluation {
 
 /// Reports the first non-finite entry of a gradient with respect to the controls.
 fn check_gradient(name: &str, g: &Tensor) -> Result<(), ClothError> {
-    let width = g.cols().max(1);
     match g.data().iter().position(|v| !v.is_finite()) {
         None => Ok(()),
         Some(i) => Err(ClothError::NonFinite {
-            quantity: format!(
-                "{name} at step {}, control {}, component {}",
-                i / width + 1,
-                (i % width) / 3,
-                i % 3
-            ),
+            quantity: format!("{name} at {}", control_entry(i, g.cols())),
             value: g.data()[i],
         }),
     }

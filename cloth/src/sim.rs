@@ -32,10 +32,8 @@ impl Model {
         }
         if let Some(i) = controls.data().iter().position(|v| !v.is_finite()) {
             return Err(ClothError::Controls(format!(
-                "step {} control {} component {} is not finite",
-                i / (3 * k),
-                (i % (3 * k)) / 3,
-                i % 3
+                "{} is not finite",
+                control_entry(i, 3 * k)
             )));
         }
         Ok(())
@@ -176,6 +174,18 @@ impl Model {
             Ok(states)
         })
     }
+}
+
+/// Names entry `i` of a controls-shaped tensor with rows of `width` values: "step t, control k,
+/// component j", with steps counted from 1 (row `t − 1` acts during step `t`).
+pub(crate) fn control_entry(i: usize, width: usize) -> String {
+    let width = width.max(1);
+    format!(
+        "step {}, control {}, component {}",
+        i / width + 1,
+        (i % width) / 3,
+        i % 3
+    )
 }
 
 /// Reports the first non-finite particle of a state.

@@ -374,3 +374,19 @@ fn add_constraints_rejects_stiffness_whose_compliance_is_not_finite() {
         );
     }
 }
+
+/// A non-finite control is reported with the same coordinates as a non-finite gradient entry:
+/// steps counted from 1 (row `t − 1` acts during step `t`).
+#[test]
+fn a_non_finite_control_names_its_step_control_and_component() {
+    let scene = Scene::builtin("swing").unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    let mut u = initial_controls(&scene);
+    let width = u.cols();
+    u.data_mut()[2 * width + 3 + 1] = f64::NAN;
+    let err = model.simulate(&u).unwrap_err().to_string();
+    assert!(
+        err.contains("step 3, control 1, component 1 is not finite"),
+        "{err}"
+    );
+}
