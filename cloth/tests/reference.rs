@@ -3,6 +3,9 @@
 
 use autodiff::Tensor;
 use cloth::{Model, Scene};
+use common::XorShift;
+
+mod common;
 
 fn initial(scene: &Scene) -> Tensor {
     scene.initial_controls()
@@ -22,17 +25,9 @@ fn u_obstacle_initial_guess_matches_reference() {
     assert!((m.e - 2178.99196760).abs() < 1e-7, "E = {}", m.e);
 }
 
-/// A deterministic pseudo-random direction in [-1, 1]^n (xorshift), so the test needs no RNG crate.
+/// A deterministic pseudo-random direction in [-1, 1]^n.
 fn direction(seed: u64, n: usize) -> Vec<f64> {
-    let mut s = seed.wrapping_mul(0x9E3779B97F4A7C15) | 1;
-    (0..n)
-        .map(|_| {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        })
-        .collect()
+    XorShift::new(seed).direction(n)
 }
 
 #[test]
