@@ -10,7 +10,7 @@
 //! test checks it against the engine's generic dual-derived VJP.
 
 use crate::constraint::{value_and_gradient, Constraint, MAX_ARITY};
-use autodiff::rowfn::ROW_BLOCK;
+use autodiff::rowfn::{ROW_BLOCK, SEED_CHUNK};
 use autodiff::{Dual, Real, RowFn};
 use nalgebra::Vector3;
 use std::sync::Arc;
@@ -104,33 +104,76 @@ impl<C: Constraint> RowFn for Projection<C> {
         }
     }
 
-    /// Two passes over the block, as [`Projection::eval_rows`].
+    /// Passes over the block as in [`Projection::eval_rows`]: every row's `C` and `∇C`, then
+    /// every row's adjoint up to the direction of its `∇²C·v`, then the (independent, so
+    /// overlapping) Hessian–vector products, then the position adjoints.
     #[inline(always)]
     fn vjp_rows(&self, first: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
         let w = 3 * C::ARITY + 1;
         let (mut c, mut g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
         let rows = self.block_gradients(first, inputs, &mut c, &mut g);
+        let (mut a_num, mut a_g) = ([None; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
         for b in 0..rows {
-            let r = w * b..w * b + w;
-            self.finish_vjp(
-                first + b,
-                &inputs[r.clone()],
-                c[b],
+            let (row, r) = (first + b, w * b..w * b + w);
+            let step = self.step_of(row, &inputs[r.clone()], c[b], &g[b]);
+            a_num[b] = self.seed_head(
+                row,
                 &g[b],
+                step,
                 &out_adj[r.clone()],
                 &mut in_adj[r],
+                &mut a_g[b],
             );
         }
+        let mut hv = [[0.0; MAX_D]; ROW_BLOCK];
+        for b in 0..rows {
+            if a_num[b].is_some() {
+                self.hessian_vector(first + b, &inputs[w * b..w * b + w], &a_g[b], &mut hv[b]);
+            }
+        }
+        for b in 0..rows {
+            if let Some(a_num) = a_num[b] {
+                Self::seed_tail(&g[b], a_num, &hv[b], &mut in_adj[w * b..w * b + w]);
+            }
+        }
     }
-    /// `C` and `∇C` once for all the seeds.
+
+    /// `C`, `∇C` and `Δλ` once for all the seeds, whose Hessian–vector products then overlap
+    /// as the rows' do in [`Projection::vjp_rows`].
     #[inline(always)]
     fn vjp_seeds(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
         let w = 3 * C::ARITY + 1;
         let mut g = [0.0; MAX_D];
         let c = self.gradient(row, input, &mut g);
         let step = self.step_of(row, input, c, &g);
-        for (oa, ia) in out_adj.chunks_exact(w).zip(in_adj.chunks_exact_mut(w)) {
-            self.seed_vjp(row, input, &g, step, oa, ia);
+        let seeds = out_adj.len() / w;
+        assert!(
+            seeds <= SEED_CHUNK,
+            "Projection::vjp_seeds: at most SEED_CHUNK seeds"
+        );
+        let (mut a_num, mut a_g) = ([None; SEED_CHUNK], [[0.0; MAX_D]; SEED_CHUNK]);
+        for s in 0..seeds {
+            let r = w * s..w * s + w;
+            a_num[s] = self.seed_head(
+                row,
+                &g,
+                step,
+                &out_adj[r.clone()],
+                &mut in_adj[r],
+                &mut a_g[s],
+            );
+        }
+        if step.is_none() {
+            return;
+        }
+        let mut hv = [[0.0; MAX_D]; SEED_CHUNK];
+        for s in 0..seeds {
+            self.hessian_vector(row, input, &a_g[s], &mut hv[s]);
+        }
+        for s in 0..seeds {
+            if let Some(a_num) = a_num[s] {
+                Self::seed_tail(&g, a_num, &hv[s], &mut in_adj[w * s..w * s + w]);
+            }
         }
     }
 }
@@ -222,14 +265,33 @@ impl<C: Constraint> Projection<C> {
         out_adj: &[f64],
         in_adj: &mut [f64],
     ) {
+        let mut a_g = [0.0; MAX_D];
+        if let Some(a_num) = self.seed_head(row, g, step, out_adj, in_adj, &mut a_g) {
+            let mut hv = [0.0; MAX_D];
+            self.hessian_vector(row, input, &a_g, &mut hv);
+            Self::seed_tail(g, a_num, &hv, in_adj);
+        }
+    }
+
+    /// The first part of one seed's adjoint through row `row`: the identity part and `λ`'s
+    /// adjoint into `in_adj`, and the adjoint `a_g` of `∇C`. Returns the adjoint of `Δλ`'s
+    /// numerator, or `None` when the row does not move (then the identity part is all).
+    #[inline(always)]
+    fn seed_head(
+        &self,
+        row: usize,
+        g: &[f64; MAX_D],
+        step: Option<(f64, f64)>,
+        out_adj: &[f64],
+        in_adj: &mut [f64],
+        a_g: &mut [f64; MAX_D],
+    ) -> Option<f64> {
         let d = 3 * C::ARITY;
         // The identity part of the update.
         for (a, o) in in_adj[..=d].iter_mut().zip(&out_adj[..=d]) {
             *a += o;
         }
-        let Some((denom, dlambda)) = step else {
-            return;
-        };
+        let (denom, dlambda) = step?;
         let w = &self.inv_mass[row * C::ARITY..(row + 1) * C::ARITY];
         // Adjoint of Δλ, then of its numerator and denominator.
         let mut a_dl = out_adj[d];
@@ -240,38 +302,45 @@ impl<C: Constraint> Projection<C> {
         let a_den = -a_dl * dlambda / denom;
         in_adj[d] -= self.compliance * a_num;
         // Adjoint of ∇C: from pᵢ += wᵢ∇ᵢC Δλ and from the denominator Σ wᵢ|∇ᵢC|².
-        let mut a_g = [0.0; MAX_D];
         for j in 0..d {
             a_g[j] = w[j / 3] * (dlambda * out_adj[j] + 2.0 * a_den * g[j]);
         }
-        // Positions: −a_num·∇C (through C) + ∇²C·a_g (through ∇C).
-        let inst = self.instances[row];
-        let hv = hessian_vector(self.constraint.as_ref(), inst, &input[..d], &a_g[..d]);
-        for j in 0..d {
+        Some(a_num)
+    }
+
+    /// The position adjoints of one seed: `−a_num·∇C` (through `C`) `+ ∇²C·a_g` (through `∇C`),
+    /// given `hv = ∇²C·a_g`.
+    #[inline(always)]
+    fn seed_tail(g: &[f64; MAX_D], a_num: f64, hv: &[f64; MAX_D], in_adj: &mut [f64]) {
+        for j in 0..3 * C::ARITY {
             in_adj[j] += -a_num * g[j] + hv[j];
+        }
+    }
+
+    /// `∇²C·v` of row `row` at its input positions, into `hv`.
+    #[inline(always)]
+    fn hessian_vector(&self, row: usize, input: &[f64], v: &[f64; MAX_D], hv: &mut [f64; MAX_D]) {
+        let d = 3 * C::ARITY;
+        let (c, inst) = (self.constraint.as_ref(), self.instances[row]);
+        match C::ARITY {
+            1 => hessian_vector_n::<C, 3, 1>(c, inst, &input[..d], v, hv),
+            2 => hessian_vector_n::<C, 6, 2>(c, inst, &input[..d], v, hv),
+            3 => hessian_vector_n::<C, 9, 3>(c, inst, &input[..d], v, hv),
+            4 => hessian_vector_n::<C, 12, 4>(c, inst, &input[..d], v, hv),
+            a => panic!("constraint arity {a} is not supported (1 to {MAX_ARITY})"),
         }
     }
 }
 
-/// `∇²C(x)·v` for one instance, by forward-over-forward duals.
-#[inline(always)]
-fn hessian_vector<C: Constraint>(c: &C, instance: usize, x: &[f64], v: &[f64]) -> [f64; MAX_D] {
-    match C::ARITY {
-        1 => hessian_vector_n::<C, 3, 1>(c, instance, x, v),
-        2 => hessian_vector_n::<C, 6, 2>(c, instance, x, v),
-        3 => hessian_vector_n::<C, 9, 3>(c, instance, x, v),
-        4 => hessian_vector_n::<C, 12, 4>(c, instance, x, v),
-        a => panic!("constraint arity {a} is not supported (1 to {MAX_ARITY})"),
-    }
-}
-
+/// `∇²C(x)·v` for one instance into `hv`, by forward-over-forward duals.
 #[inline(always)]
 fn hessian_vector_n<C: Constraint, const D: usize, const A: usize>(
     c: &C,
     instance: usize,
     x: &[f64],
-    v: &[f64],
-) -> [f64; MAX_D] {
+    v: &[f64; MAX_D],
+    hv: &mut [f64; MAX_D],
+) {
     type Inner = Dual<f64, 1>;
     // A plain loop, not `array::from_fn` (see `value_and_gradient`).
     let mut p = [Vector3::<Dual<Inner, D>>::zeros(); A];
@@ -288,9 +357,7 @@ fn hessian_vector_n<C: Constraint, const D: usize, const A: usize>(
         }
     }
     let r = c.c(instance, &p);
-    let mut hv = [0.0; MAX_D];
     for (h, e) in hv.iter_mut().zip(&r.eps) {
         *h = e.eps[0];
     }
-    hv
 }
