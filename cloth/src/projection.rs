@@ -125,15 +125,14 @@ impl<C: Constraint> RowFn for Projection<C> {
                 &mut a_g[b],
             );
         }
-        let mut hv = [[0.0; MAX_D]; ROW_BLOCK];
         for b in 0..rows {
             if a_num[b].is_some() {
-                self.hessian_vector(first + b, &inputs[w * b..w * b + w], &a_g[b], &mut hv[b]);
+                self.hessian_vector(first + b, &inputs[w * b..w * b + w], &mut a_g[b]);
             }
         }
         for b in 0..rows {
             if let Some(a_num) = a_num[b] {
-                Self::seed_tail(&g[b], a_num, &hv[b], &mut in_adj[w * b..w * b + w]);
+                Self::seed_tail(&g[b], a_num, &a_g[b], &mut in_adj[w * b..w * b + w]);
             }
         }
     }
@@ -166,13 +165,12 @@ impl<C: Constraint> RowFn for Projection<C> {
         if step.is_none() {
             return;
         }
-        let mut hv = [[0.0; MAX_D]; SEED_CHUNK];
-        for s in 0..seeds {
-            self.hessian_vector(row, input, &a_g[s], &mut hv[s]);
+        for a_g in &mut a_g[..seeds] {
+            self.hessian_vector(row, input, a_g);
         }
         for s in 0..seeds {
             if let Some(a_num) = a_num[s] {
-                Self::seed_tail(&g, a_num, &hv[s], &mut in_adj[w * s..w * s + w]);
+                Self::seed_tail(&g, a_num, &a_g[s], &mut in_adj[w * s..w * s + w]);
             }
         }
     }
@@ -267,9 +265,8 @@ impl<C: Constraint> Projection<C> {
     ) {
         let mut a_g = [0.0; MAX_D];
         if let Some(a_num) = self.seed_head(row, g, step, out_adj, in_adj, &mut a_g) {
-            let mut hv = [0.0; MAX_D];
-            self.hessian_vector(row, input, &a_g, &mut hv);
-            Self::seed_tail(g, a_num, &hv, in_adj);
+            self.hessian_vector(row, input, &mut a_g);
+            Self::seed_tail(g, a_num, &a_g, in_adj);
         }
     }
 
@@ -317,29 +314,28 @@ impl<C: Constraint> Projection<C> {
         }
     }
 
-    /// `∇²C·v` of row `row` at its input positions, into `hv`.
+    /// `∇²C·v` of row `row` at its input positions, in place: `v` in, the product out.
     #[inline(always)]
-    fn hessian_vector(&self, row: usize, input: &[f64], v: &[f64; MAX_D], hv: &mut [f64; MAX_D]) {
+    fn hessian_vector(&self, row: usize, input: &[f64], v: &mut [f64; MAX_D]) {
         let d = 3 * C::ARITY;
         let (c, inst) = (self.constraint.as_ref(), self.instances[row]);
         match C::ARITY {
-            1 => hessian_vector_n::<C, 3, 1>(c, inst, &input[..d], v, hv),
-            2 => hessian_vector_n::<C, 6, 2>(c, inst, &input[..d], v, hv),
-            3 => hessian_vector_n::<C, 9, 3>(c, inst, &input[..d], v, hv),
-            4 => hessian_vector_n::<C, 12, 4>(c, inst, &input[..d], v, hv),
+            1 => hessian_vector_n::<C, 3, 1>(c, inst, &input[..d], v),
+            2 => hessian_vector_n::<C, 6, 2>(c, inst, &input[..d], v),
+            3 => hessian_vector_n::<C, 9, 3>(c, inst, &input[..d], v),
+            4 => hessian_vector_n::<C, 12, 4>(c, inst, &input[..d], v),
             a => panic!("constraint arity {a} is not supported (1 to {MAX_ARITY})"),
         }
     }
 }
 
-/// `∇²C(x)·v` for one instance into `hv`, by forward-over-forward duals.
+/// `∇²C(x)·v` for one instance, in place in `v`, by forward-over-forward duals.
 #[inline(always)]
 fn hessian_vector_n<C: Constraint, const D: usize, const A: usize>(
     c: &C,
     instance: usize,
     x: &[f64],
-    v: &[f64; MAX_D],
-    hv: &mut [f64; MAX_D],
+    v: &mut [f64; MAX_D],
 ) {
     type Inner = Dual<f64, 1>;
     // A plain loop, not `array::from_fn` (see `value_and_gradient`).
@@ -357,7 +353,7 @@ fn hessian_vector_n<C: Constraint, const D: usize, const A: usize>(
         }
     }
     let r = c.c(instance, &p);
-    for (h, e) in hv.iter_mut().zip(&r.eps) {
+    for (h, e) in v.iter_mut().zip(&r.eps) {
         *h = e.eps[0];
     }
 }
