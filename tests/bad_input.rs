@@ -13,7 +13,7 @@ use cloth::scene::SceneError;
 use cloth::Scene;
 use common::*;
 use serde_json::{json, Value};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
 /// Asserts the clean failure described in the module docs; `inputs` are the files the test
@@ -53,7 +53,7 @@ fn small_swing() -> Value {
 
 /// Runs `clothopt simulate SCENE --out out.json` on `text` in a fresh directory; returns the
 /// output and the directory.
-fn simulate_text(name: &str, text: &str) -> (Output, PathBuf) {
+fn simulate_text(name: &str, text: &str) -> (Output, common::Scratch) {
     let dir = scratch("bad", name);
     let path = dir.join("scene.json");
     std::fs::write(&path, text).unwrap();

@@ -25,12 +25,25 @@ pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-/// A fresh scratch directory for one test (`tag` keeps test files apart).
-pub fn scratch(tag: &str, name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("clothopt-{tag}-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh scratch directory for one test, removed with everything in it when dropped.
+pub struct Scratch(tempfile::TempDir);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+/// A fresh scratch directory for one test (`tag` and `name` appear in its name).
+pub fn scratch(tag: &str, name: &str) -> Scratch {
+    let prefix = format!("clothopt-{tag}-{name}-");
+    Scratch(
+        tempfile::Builder::new()
+            .prefix(&prefix)
+            .tempdir()
+            .expect("a scratch directory"),
+    )
 }
 
 /// The names of the files in `dir`, sorted.
