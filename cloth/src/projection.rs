@@ -77,11 +77,12 @@ impl<C: Constraint> RowFn for Projection<C> {
         3 * C::ARITY + 1
     }
 
+    /// `∇C` and `C` go into `out` first and are replaced by the update there: no scratch.
     #[inline(always)]
     fn eval<R: Real>(&self, row: usize, input: &[R], out: &mut [R]) {
-        let mut g = [R::zero(); MAX_D];
-        let c = self.gradient(row, input, &mut g);
-        self.finish_eval(row, input, c, &g, out);
+        let d = 3 * C::ARITY;
+        out[d] = self.gradient(row, input, &mut out[..d]);
+        self.finish_eval(row, input, out);
     }
 
     #[inline(always)]
@@ -91,16 +92,20 @@ impl<C: Constraint> RowFn for Projection<C> {
         self.finish_vjp(row, input, c, &g, out_adj, in_adj);
     }
 
-    /// Two passes over the block: every row's `C` and `∇C` first, then every row's update, so
-    /// the rows' long dependency chains (square root, then divisions) overlap.
+    /// Two passes over the block: every row's `C` and `∇C` first (into the row's outputs, as
+    /// in [`Projection::eval`]), then every row's update, so the rows' long dependency chains
+    /// (square root, then divisions) overlap.
     #[inline(always)]
     fn eval_rows(&self, first: usize, inputs: &[f64], outputs: &mut [f64]) {
-        let w = 3 * C::ARITY + 1;
-        let (mut c, mut g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
-        let rows = self.block_gradients(first, inputs, &mut c, &mut g);
+        let (w, d) = (3 * C::ARITY + 1, 3 * C::ARITY);
+        let rows = inputs.len() / w;
         for b in 0..rows {
             let (x, y) = (&inputs[w * b..w * b + w], &mut outputs[w * b..w * b + w]);
-            self.finish_eval(first + b, x, c[b], &g[b], y);
+            y[d] = self.gradient(first + b, x, &mut y[..d]);
+        }
+        for b in 0..rows {
+            let (x, y) = (&inputs[w * b..w * b + w], &mut outputs[w * b..w * b + w]);
+            self.finish_eval(first + b, x, y);
         }
     }
 
@@ -178,7 +183,7 @@ impl<C: Constraint> RowFn for Projection<C> {
 
 impl<C: Constraint> Projection<C> {
     /// `C` and `∇C` of every row of a block (at most [`ROW_BLOCK`] rows) into `c` and `g`;
-    /// returns the row count.
+    /// returns the row count. (The forward keeps them in its outputs instead.)
     #[inline(always)]
     fn block_gradients(
         &self,
@@ -195,9 +200,9 @@ impl<C: Constraint> Projection<C> {
         rows
     }
 
-    /// `C` and `∇C` of row `row` at its input positions.
+    /// `C` and `∇C` (into `g[..3·ARITY]`) of row `row` at its input positions.
     #[inline(always)]
-    fn gradient<R: Real>(&self, row: usize, input: &[R], g: &mut [R; MAX_D]) -> R {
+    fn gradient<R: Real>(&self, row: usize, input: &[R], g: &mut [R]) -> R {
         let d = 3 * C::ARITY;
         value_and_gradient(
             self.constraint.as_ref(),
@@ -207,18 +212,18 @@ impl<C: Constraint> Projection<C> {
         )
     }
 
-    /// The update of row `row` from its `C` and `∇C`.
+    /// The update of row `row` in place in `out`, which holds `(∇C, C)` on entry.
     #[inline(always)]
-    fn finish_eval<R: Real>(&self, row: usize, input: &[R], c: R, g: &[R; MAX_D], out: &mut [R]) {
+    fn finish_eval<R: Real>(&self, row: usize, input: &[R], out: &mut [R]) {
         let d = 3 * C::ARITY;
-        let Some((_, dlambda)) = self.step_of(row, input, c, g) else {
+        let Some((_, dlambda)) = self.step_of(row, input, out[d], &out[..d]) else {
             // `d` is a compile-time constant per constraint type: this unrolls to moves.
             return out[..=d].copy_from_slice(&input[..=d]);
         };
         let lambda = input[d];
         let w = &self.inv_mass[row * C::ARITY..(row + 1) * C::ARITY];
         for j in 0..d {
-            out[j] = input[j] + g[j] * w[j / 3] * dlambda;
+            out[j] = input[j] + out[j] * w[j / 3] * dlambda;
         }
         out[d] = lambda + dlambda;
     }
@@ -240,7 +245,7 @@ impl<C: Constraint> Projection<C> {
 
     /// The row's denominator `Σᵢ wᵢ|∇ᵢC|² + α̃` and `Δλ`, or `None` when the row does not move.
     #[inline(always)]
-    fn step_of<R: Real>(&self, row: usize, input: &[R], c: R, g: &[R; MAX_D]) -> Option<(R, R)> {
+    fn step_of<R: Real>(&self, row: usize, input: &[R], c: R, g: &[R]) -> Option<(R, R)> {
         if C::INEQUALITY && c.value() >= 0.0 {
             return None;
         }
