@@ -254,6 +254,9 @@ pub fn plan(
         );
     let mut x0 = start.data().to_vec();
     let (mut warm_iterations, mut warm_simulations, mut warm_gradients) = (0, 0, 0);
+    // The warm-up's quasi-Newton Hessian starts the sharp stage: only the safety rows' curvature
+    // changes with κ, and rebuilding the rest from the identity took about 30 more iterations.
+    let mut warm_hessian = None;
     if let (SolverKind::Sqp, Some(kappa), true) =
         (options.solver, options.kappa_warmup, soft_safety)
     {
@@ -265,12 +268,14 @@ pub fn plan(
             let solution =
                 SqpSolver::new(settings)?.solve_with_callback(&mut warm, &x0, &mut callback)?;
             x0 = solution.x;
+            warm_hessian = solution.hessian;
             warm_iterations = solution.iterations;
             warm_simulations = warm.simulations;
             warm_gradients = warm.gradient_evaluations;
         }
     }
-    let mut problem = TrajectoryProblem::new(model, options.task.clone());
+    let mut problem =
+        TrajectoryProblem::new(model, options.task.clone()).with_initial_hessian(warm_hessian);
     let solution = match options.solver {
         SolverKind::Sqp => {
             let settings = sqp_settings(options, options.tol_optimality)?;

@@ -10,7 +10,7 @@
 use autodiff::{soft_min_value, soft_min_weights, Tape, Tensor, Var};
 use cloth::grad::StepCost;
 use cloth::{ClothError, Controls, Model};
-use optim::{EvalError, Jacobian, NormTerm, Problem};
+use optim::{DenseMatrix, EvalError, Jacobian, NormTerm, Problem};
 
 /// How the obstacle-avoidance constraint reaches the optimizer.
 #[derive(
@@ -106,6 +106,8 @@ pub struct TrajectoryProblem<'a> {
     linear: Vec<LinearRow>,
     forward: Option<Forward>,
     backward: Option<Backward>,
+    /// The solver's starting approximation of the Lagrangian's Hessian, if any.
+    initial_hessian: Option<DenseMatrix>,
     /// Rollouts simulated so far.
     pub simulations: usize,
     /// Gradient evaluations (backward passes over the rollout) so far.
@@ -122,9 +124,18 @@ impl<'a> TrajectoryProblem<'a> {
             linear,
             forward: None,
             backward: None,
+            initial_hessian: None,
             simulations: 0,
             gradient_evaluations: 0,
         }
+    }
+
+    /// Hands the solver `hessian` as its starting approximation of the Lagrangian's Hessian
+    /// (`n × n`, symmetric positive definite), e.g. the previous continuation stage's
+    /// [`optim::Solution::hessian`].
+    pub fn with_initial_hessian(mut self, hessian: Option<DenseMatrix>) -> Self {
+        self.initial_hessian = hessian;
+        self
     }
 
     /// The options.
@@ -344,6 +355,10 @@ impl Problem for TrajectoryProblem<'_> {
 
     fn num_inequalities(&self) -> usize {
         self.safety_rows() + self.linear.len()
+    }
+
+    fn initial_hessian(&self) -> Option<DenseMatrix> {
+        self.initial_hessian.clone()
     }
 
     fn norm_terms(&self) -> Vec<NormTerm> {

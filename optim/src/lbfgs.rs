@@ -147,6 +147,7 @@ impl LbfgsSolver {
                     gradient_evaluations: ev.gradient_evaluations,
                     multipliers: Multipliers::default(),
                     solve_time: start.elapsed().as_secs_f64(),
+                    hessian: None,
                 })
             }
         };
@@ -369,6 +370,7 @@ impl LbfgsSolver {
                 norm_terms: Vec::new(),
             },
             solve_time: start.elapsed().as_secs_f64(),
+            hessian: None,
         })
     }
 

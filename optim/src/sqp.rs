@@ -24,7 +24,7 @@
 use crate::bfgs::DampedBfgs;
 use crate::error::OptimError;
 use crate::eval::{Evaluator, PointDerivatives, PointValues};
-use crate::linalg::{dot, is_positive_definite, norm2, norm_inf, symv};
+use crate::linalg::{dot, is_positive_definite, norm2, norm_inf, symv, DenseMatrix};
 use crate::problem::{NormData, Problem};
 use crate::qp::{QpData, QpMode, QpSolution, QpSubproblem};
 use crate::settings::SqpSettings;
@@ -293,6 +293,7 @@ impl SqpSolver {
             gradient_evaluations: ev.gradient_evaluations,
             multipliers: empty_mult.clone(),
             solve_time: start.elapsed().as_secs_f64(),
+            hessian: None,
         };
         let mut pt = match ev.values(&x) {
             Ok(v) => v,
@@ -516,6 +517,7 @@ impl SqpSolver {
             gradient_evaluations: ev.gradient_evaluations,
             multipliers: mult,
             solve_time: start.elapsed().as_secs_f64(),
+            hessian: DenseMatrix::from_row_major(n, n, bfgs.matrix().to_vec()),
         })
     }
 

@@ -1,5 +1,6 @@
 //! What a run reports: the [`Status`], per-iteration [`IterationInfo`] and the final [`Solution`].
 
+use crate::DenseMatrix;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -127,4 +128,9 @@ pub struct Solution {
     pub multipliers: Multipliers,
     /// Wall-clock time of the run in seconds.
     pub solve_time: f64,
+    /// SQP: the final quasi-Newton approximation `B ≈ ∇²ₓₓL` (`n × n`, symmetric positive
+    /// definite), to warm-start a related solve through [`crate::Problem::initial_hessian`] —
+    /// e.g. the next stage of a continuation. `None` for L-BFGS and a failed start.
+    #[serde(skip)]
+    pub hessian: Option<DenseMatrix>,
 }

@@ -1,6 +1,6 @@
 //! SQP behaviour on problems with known solutions.
 
-use optim::test_problems::hock_schittkowski;
+use optim::test_problems::{hock_schittkowski, rosenbrock_start, Rosenbrock};
 use optim::{
     Bounds, ControlFlow, DenseMatrix, EvalError, Jacobian, NormTerm, OptimError, Problem,
     SparseMatrix, SqpSettings, SqpSolver, Status,
@@ -825,4 +825,71 @@ fn violated_zero_constraint_row_is_reported_infeasible() {
         }
         other => panic!("expected Infeasible, got {other:?}: {}", sol.message),
     }
+}
+
+/// [`Rosenbrock`] with a chosen starting Hessian approximation.
+struct WarmRosenbrock(Rosenbrock, Option<DenseMatrix>);
+
+impl Problem for WarmRosenbrock {
+    fn num_variables(&self) -> usize {
+        self.0.num_variables()
+    }
+    fn initial_hessian(&self) -> Option<DenseMatrix> {
+        self.1.clone()
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        self.0.objective(x)
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        self.0.gradient(x, g)
+    }
+}
+
+/// A run stopped early returns its quasi-Newton Hessian (symmetric positive definite), and a
+/// run resumed from its point with that Hessian needs fewer iterations than one restarted from
+/// the identity: what the planner's κ continuation relies on.
+#[test]
+fn final_hessian_warm_starts_a_resumed_solve() {
+    let n = 6;
+    let stop_early = SqpSolver::new(SqpSettings::builder().max_iterations(25).build().unwrap())
+        .unwrap()
+        .solve(
+            &mut WarmRosenbrock(Rosenbrock { n }, None),
+            &rosenbrock_start(n),
+        )
+        .unwrap();
+    assert_eq!(stop_early.status, Status::IterationLimit);
+    let b = stop_early
+        .hessian
+        .clone()
+        .expect("the SQP returns its Hessian");
+    assert_eq!((b.nrows(), b.ncols()), (n, n));
+    for i in 0..n {
+        for j in 0..n {
+            assert_eq!(b.get(i, j), b.get(j, i), "symmetric");
+        }
+    }
+    let resume = |hessian: Option<DenseMatrix>| {
+        solver()
+            .solve(
+                &mut WarmRosenbrock(Rosenbrock { n }, hessian),
+                &stop_early.x,
+            )
+            .unwrap()
+    };
+    let (cold, warm) = (resume(None), resume(Some(b)));
+    assert_eq!(cold.status, Status::Converged);
+    assert_eq!(warm.status, Status::Converged);
+    assert!(
+        warm.iterations < cold.iterations,
+        "warm {} vs cold {} iterations",
+        warm.iterations,
+        cold.iterations
+    );
+    // L-BFGS keeps no dense Hessian.
+    let lbfgs = optim::LbfgsSolver::new(optim::LbfgsSettings::default())
+        .unwrap()
+        .solve(&mut Rosenbrock { n }, &rosenbrock_start(n))
+        .unwrap();
+    assert!(lbfgs.hessian.is_none());
 }
