@@ -59,6 +59,17 @@ impl DenseMatrix {
         self.cols
     }
 
+    /// Square, symmetric to `1e-12` of its largest entry, and positive definite (a Cholesky
+    /// factorization succeeds): what an initial Hessian must be.
+    pub fn is_symmetric_positive_definite(&self) -> bool {
+        let (n, data) = (self.rows, &self.data);
+        let scale = norm_inf(data).max(1.0);
+        self.cols == n
+            && (0..n)
+                .all(|i| (0..i).all(|j| (data[i * n + j] - data[j * n + i]).abs() <= 1e-12 * scale))
+            && is_positive_definite(data, n)
+    }
+
     /// Entry `(i, j)`. Panics if out of range (an index bug, not a data error).
     pub fn get(&self, i: usize, j: usize) -> f64 {
         assert!(

@@ -24,7 +24,7 @@
 use crate::bfgs::DampedBfgs;
 use crate::error::OptimError;
 use crate::eval::{Evaluator, PointDerivatives, PointValues};
-use crate::linalg::{dot, is_positive_definite, norm2, norm_inf, symv, DenseMatrix};
+use crate::linalg::{dot, norm2, norm_inf, symv, DenseMatrix};
 use crate::problem::{NormData, Problem};
 use crate::qp::{QpData, QpMode, QpSolution, QpSubproblem};
 use crate::settings::SqpSettings;
@@ -255,17 +255,12 @@ impl SqpSolver {
                         },
                     });
                 }
-                let data = b0.as_slice();
-                let scale = norm_inf(data).max(1.0);
-                let symmetric = (0..n).all(|i| {
-                    (0..n).all(|j| (data[i * n + j] - data[j * n + i]).abs() <= 1e-12 * scale)
-                });
-                if !symmetric || !is_positive_definite(data, n) {
+                if !b0.is_symmetric_positive_definite() {
                     return Err(OptimError::InvalidProblem(
                         "initial Hessian must be symmetric positive definite".into(),
                     ));
                 }
-                Some(data.to_vec())
+                Some(b0.as_slice().to_vec())
             }
         };
         let mut bfgs = DampedBfgs::new(n, initial_hessian, s.bfgs_damping);
@@ -517,7 +512,10 @@ impl SqpSolver {
             gradient_evaluations: ev.gradient_evaluations,
             multipliers: mult,
             solve_time: start.elapsed().as_secs_f64(),
-            hessian: DenseMatrix::from_row_major(n, n, bfgs.matrix().to_vec()),
+            // Only a matrix another solve accepts as its initial Hessian (in floating point a
+            // badly conditioned BFGS matrix can fail the Cholesky test).
+            hessian: DenseMatrix::from_row_major(n, n, bfgs.matrix().to_vec())
+                .filter(DenseMatrix::is_symmetric_positive_definite),
         })
     }
 

@@ -130,7 +130,8 @@ pub struct Solution {
     pub solve_time: f64,
     /// SQP: the final quasi-Newton approximation `B ≈ ∇²ₓₓL` (`n × n`, symmetric positive
     /// definite), to warm-start a related solve through [`crate::Problem::initial_hessian`] —
-    /// e.g. the next stage of a continuation. `None` for L-BFGS and a failed start.
+    /// e.g. the next stage of a continuation. `None` for L-BFGS, a failed start, and a matrix
+    /// too badly conditioned to pass [`DenseMatrix::is_symmetric_positive_definite`].
     #[serde(skip)]
     pub hessian: Option<DenseMatrix>,
 }
