@@ -398,6 +398,19 @@ mod tests {
     use super::*;
 
     #[test]
+    fn symmetric_positive_definite_check() {
+        let m = |rows: &[&[f64]]| {
+            DenseMatrix::from_rows(&rows.iter().map(|r| r.to_vec()).collect::<Vec<_>>()).unwrap()
+        };
+        assert!(m(&[&[2.0, 1.0], &[1.0, 2.0]]).is_symmetric_positive_definite());
+        // Indefinite, singular, asymmetric, not square.
+        assert!(!m(&[&[1.0, 2.0], &[2.0, 1.0]]).is_symmetric_positive_definite());
+        assert!(!m(&[&[1.0, 1.0], &[1.0, 1.0]]).is_symmetric_positive_definite());
+        assert!(!m(&[&[2.0, 1.0], &[1.0 + 1e-9, 2.0]]).is_symmetric_positive_definite());
+        assert!(!m(&[&[2.0, 1.0, 0.0], &[1.0, 2.0, 0.0]]).is_symmetric_positive_definite());
+    }
+
+    #[test]
     fn dense_and_sparse_products_agree() {
         let rows = vec![vec![1.0, 0.0, 2.0], vec![0.0, -3.0, 4.0]];
         let dense = Jacobian::Dense(DenseMatrix::from_rows(&rows).unwrap());
