@@ -89,7 +89,12 @@ impl<C: Constraint> RowFn for Projection<C> {
     fn vjp(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
         let mut g = [0.0; MAX_D];
         let c = self.gradient(row, input, &mut g);
-        self.finish_vjp(row, input, c, &g, out_adj, in_adj);
+        let step = self.step_of(row, input, c, &g);
+        let mut a_g = [0.0; MAX_D];
+        if let Some(a_num) = self.seed_head(row, &g, step, out_adj, in_adj, &mut a_g) {
+            self.hessian_vector(row, input, &mut a_g);
+            Self::seed_tail(&g, a_num, &a_g, in_adj);
+        }
     }
 
     /// Two passes over the block: every row's `C` and `∇C` first (into the row's outputs, as
@@ -115,8 +120,11 @@ impl<C: Constraint> RowFn for Projection<C> {
     #[inline(always)]
     fn vjp_rows(&self, first: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
         let w = 3 * C::ARITY + 1;
+        let rows = inputs.len() / w;
         let (mut c, mut g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
-        let rows = self.block_gradients(first, inputs, &mut c, &mut g);
+        for b in 0..rows {
+            c[b] = self.gradient(first + b, &inputs[w * b..w * b + w], &mut g[b]);
+        }
         let (mut a_num, mut a_g) = ([None; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
         for b in 0..rows {
             let (row, r) = (first + b, w * b..w * b + w);
@@ -182,24 +190,6 @@ impl<C: Constraint> RowFn for Projection<C> {
 }
 
 impl<C: Constraint> Projection<C> {
-    /// `C` and `∇C` of every row of a block (at most [`ROW_BLOCK`] rows) into `c` and `g`;
-    /// returns the row count. (The forward keeps them in its outputs instead.)
-    #[inline(always)]
-    fn block_gradients(
-        &self,
-        first: usize,
-        inputs: &[f64],
-        c: &mut [f64; ROW_BLOCK],
-        g: &mut [[f64; MAX_D]; ROW_BLOCK],
-    ) -> usize {
-        let w = 3 * C::ARITY + 1;
-        let rows = inputs.len() / w;
-        for b in 0..rows {
-            c[b] = self.gradient(first + b, &inputs[w * b..w * b + w], &mut g[b]);
-        }
-        rows
-    }
-
     /// `C` and `∇C` (into `g[..3·ARITY]`) of row `row` at its input positions.
     #[inline(always)]
     fn gradient<R: Real>(&self, row: usize, input: &[R], g: &mut [R]) -> R {
@@ -228,21 +218,6 @@ impl<C: Constraint> Projection<C> {
         out[d] = lambda + dlambda;
     }
 
-    /// The adjoint of row `row`'s update, given its `C` and `∇C`.
-    #[inline(always)]
-    fn finish_vjp(
-        &self,
-        row: usize,
-        input: &[f64],
-        c: f64,
-        g: &[f64; MAX_D],
-        out_adj: &[f64],
-        in_adj: &mut [f64],
-    ) {
-        let step = self.step_of(row, input, c, g);
-        self.seed_vjp(row, input, g, step, out_adj, in_adj);
-    }
-
     /// The row's denominator `Σᵢ wᵢ|∇ᵢC|² + α̃` and `Δλ`, or `None` when the row does not move.
     #[inline(always)]
     fn step_of<R: Real>(&self, row: usize, input: &[R], c: R, g: &[R]) -> Option<(R, R)> {
@@ -255,24 +230,6 @@ impl<C: Constraint> Projection<C> {
         }
         let dlambda = (-c - input[3 * C::ARITY] * self.compliance) / denom;
         Some((denom, dlambda))
-    }
-
-    /// The adjoint of one seed through row `row`, given its `∇C` and [`Projection::step_of`].
-    #[inline(always)]
-    fn seed_vjp(
-        &self,
-        row: usize,
-        input: &[f64],
-        g: &[f64; MAX_D],
-        step: Option<(f64, f64)>,
-        out_adj: &[f64],
-        in_adj: &mut [f64],
-    ) {
-        let mut a_g = [0.0; MAX_D];
-        if let Some(a_num) = self.seed_head(row, g, step, out_adj, in_adj, &mut a_g) {
-            self.hessian_vector(row, input, &mut a_g);
-            Self::seed_tail(g, a_num, &a_g, in_adj);
-        }
     }
 
     /// The first part of one seed's adjoint through row `row`: the identity part and `λ`'s
