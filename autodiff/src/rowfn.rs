@@ -328,33 +328,13 @@ fn update_points<F: RowFn, const A: usize>(
     });
     let saved_rows = saved.as_ref().map(|(rows, _)| *rows);
     let (state, carry) = (SharedRows::new(state), SharedRows::new(carry));
-    let idx = index.as_slice();
-    for_row_ranges(rows, |range| {
-        // Computed here, not captured, so every copy below has a compile-time length.
-        let width = 3 * A + 1;
-        let mut x = [0.0; MAX_POINT_ROW * ROW_BLOCK];
-        let mut y = [0.0; MAX_POINT_ROW * ROW_BLOCK];
-        let mut first = range.start;
-        while first < range.end {
-            let n = ROW_BLOCK.min(range.end - first);
-            // SAFETY: `check_update` asserted the index is disjoint and in range, so the block's
-            // points and carried values are touched by this block alone.
-            unsafe {
-                for b in 0..n {
-                    let xb = &mut x[width * b..width * b + width];
-                    gather_point_row::<A>(idx, first + b, state, carry, xb);
-                }
-                if let Some(s) = saved_rows {
-                    s.write(width * first, &x[..width * n]);
-                }
-                f.eval_rows(first, &x[..width * n], &mut y[..width * n]);
-                for b in 0..n {
-                    let yb = &y[width * b..width * b + width];
-                    scatter_point_row::<A>(idx, first + b, state, carry, yb);
-                }
-            }
-            first += n;
+    // SAFETY (of `for_point_blocks`): `check_update` asserted the index is disjoint and in range.
+    for_point_blocks::<A>(index, state, carry, |first, x, y| {
+        if let Some(s) = saved_rows {
+            // SAFETY: this block's rows of the saved inputs are written by this block alone.
+            unsafe { s.write((3 * A + 1) * first, x) };
         }
+        f.eval_rows(first, x, y);
     });
     if let Some((_, s)) = saved {
         // SAFETY: the blocks above wrote all `len` values (every row once).
@@ -376,6 +356,8 @@ fn vjp_update_points<F: RowFn, const A: usize>(
     for_point_blocks::<A>(index, state, carry, |first, oa, ia| {
         let width = 3 * A + 1;
         let rows = oa.len() / width;
+        // `vjp_rows` accumulates.
+        ia.fill(0.0);
         f.vjp_rows(
             first,
             &inputs[width * first..width * (first + rows)],
@@ -387,7 +369,7 @@ fn vjp_update_points<F: RowFn, const A: usize>(
 
 /// Runs `body(first, rows_in, rows_out)` over an in-place update's rows in blocks of up to
 /// [`ROW_BLOCK`]: `rows_in` holds the block's gathered rows (`A` points and a carried value
-/// each), `rows_out` starts zeroed and is written back to the same rows after `body`.
+/// each); `body` writes all of `rows_out`, which goes back to the same rows after it.
 ///
 /// The caller has checked that `index` is disjoint and in range for `state` and `carry`.
 #[inline(always)]
@@ -413,7 +395,6 @@ fn for_point_blocks<const A: usize>(
                     let xb = &mut x[width * b..width * b + width];
                     gather_point_row::<A>(idx, first + b, state, carry, xb);
                 }
-                y[..width * n].fill(0.0);
                 body(first, &x[..width * n], &mut y[..width * n]);
                 for b in 0..n {
                     let yb = &y[width * b..width * b + width];
