@@ -424,18 +424,14 @@ fn main() {
 
 /// Runs the study; every failure comes back as one error.
 fn run(args: Args) -> Result<()> {
-    if args.iterations == Some(0) {
-        bail!("--iterations must be at least 1");
+    if let Some(n) = args.iterations {
+        plan::ensure_iterations("--iterations", n)?;
     }
     if let Some(s) = args.step_bound {
-        if !(s.is_finite() && s > 0.0) {
-            bail!("--step-bound must be a finite number > 0, got {s}");
-        }
+        plan::ensure_positive("--step-bound", s)?;
     }
     if let Some(t) = args.tol_optimality {
-        if !(t.is_finite() && t > 0.0) {
-            bail!("--tol-optimality must be a finite number > 0, got {t}");
-        }
+        plan::ensure_positive("--tol-optimality", t)?;
     }
     if args.jobs == 0 {
         bail!("--jobs must be at least 1");

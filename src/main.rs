@@ -4,7 +4,10 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{top_view_path, RolloutFigure};
-use clothopt::plan::{self, controls_from_nested, initial_controls, PlanOptions, SolverKind};
+use clothopt::plan::{
+    self, controls_from_nested, ensure_iterations, ensure_non_negative, ensure_not_below_zero,
+    ensure_positive, initial_controls, PlanOptions, SolverKind,
+};
 use clothopt::problem::SafetyForm;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::Write;
@@ -122,20 +125,9 @@ enum Command {
     },
 }
 
-/// Checks a numeric flag: `ok(value)` or an error naming the flag.
-fn check_flag(flag: &str, value: Option<f64>, ok: fn(f64) -> bool, expected: &str) -> Result<()> {
-    match value {
-        Some(v) if !ok(v) => bail!("{flag} must be {expected}, got {v}"),
-        _ => Ok(()),
-    }
-}
-
-fn finite_non_negative(v: f64) -> bool {
-    v.is_finite() && v >= 0.0
-}
-
-fn finite_positive(v: f64) -> bool {
-    v.is_finite() && v > 0.0
+/// Applies `check` to a flag's value when the flag was given.
+fn check_flag(flag: &str, value: Option<f64>, check: fn(&str, f64) -> Result<()>) -> Result<()> {
+    value.map_or(Ok(()), |v| check(flag, v))
 }
 
 fn load_scene(name: &str) -> Result<Scene> {
@@ -227,9 +219,9 @@ fn run(cli: Cli) -> Result<()> {
             delta,
             iterations,
         } => {
-            check_flag("--delta", delta, finite_non_negative, "a finite number ≥ 0")?;
-            if iterations == Some(0) {
-                bail!("--iterations must be at least 1, got 0");
+            check_flag("--delta", delta, ensure_non_negative)?;
+            if let Some(n) = iterations {
+                ensure_iterations("--iterations", n)?;
             }
             let mut scene = load_scene(&scene)?;
             if let Some(n) = iterations {
@@ -271,16 +263,13 @@ fn run(cli: Cli) -> Result<()> {
             verbose,
             no_timing,
         } => {
-            let non_negative = "a finite number ≥ 0";
-            check_flag("--delta", delta, finite_non_negative, non_negative)?;
-            check_flag("--alpha", alpha, finite_non_negative, non_negative)?;
-            check_flag("--beta", beta, finite_non_negative, non_negative)?;
-            check_flag("--kappa", kappa, finite_positive, "a finite number > 0")?;
-            check_flag("--active-band", active_band, |v| v >= 0.0, "a number ≥ 0")?;
-            check_flag("--tol", Some(tol), finite_positive, "a finite number > 0")?;
-            if iterations == 0 {
-                bail!("--iterations must be at least 1, got 0");
-            }
+            check_flag("--delta", delta, ensure_non_negative)?;
+            check_flag("--alpha", alpha, ensure_non_negative)?;
+            check_flag("--beta", beta, ensure_non_negative)?;
+            check_flag("--kappa", kappa, ensure_positive)?;
+            check_flag("--active-band", active_band, ensure_not_below_zero)?;
+            ensure_positive("--tol", tol)?;
+            ensure_iterations("--iterations", iterations)?;
             let scene = load_scene(&scene)?;
             let model = Model::from_scene(&scene)?;
             let mut options = PlanOptions::for_model(&model);

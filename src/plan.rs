@@ -45,6 +45,36 @@ pub struct PlanOptions {
     pub kappa_warmup: Option<f64>,
 }
 
+/// `value` is a finite number ≥ 0, or an error naming it (`name`: a field or a `--flag`).
+pub fn ensure_non_negative(name: &str, value: f64) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        value.is_finite() && value >= 0.0,
+        "{name} must be a finite number ≥ 0, got {value}"
+    );
+    Ok(())
+}
+
+/// `value` is a finite number > 0, or an error naming it.
+pub fn ensure_positive(name: &str, value: f64) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        value.is_finite() && value > 0.0,
+        "{name} must be a finite number > 0, got {value}"
+    );
+    Ok(())
+}
+
+/// An iteration count of at least 1, or an error naming it.
+pub fn ensure_iterations(name: &str, iterations: usize) -> anyhow::Result<()> {
+    anyhow::ensure!(iterations > 0, "{name} must be at least 1, got 0");
+    Ok(())
+}
+
+/// `value` is a number ≥ 0 (∞ allowed), or an error naming it.
+pub fn ensure_not_below_zero(name: &str, value: f64) -> anyhow::Result<()> {
+    anyhow::ensure!(value >= 0.0, "{name} must be a number ≥ 0, got {value}");
+    Ok(())
+}
+
 impl PlanOptions {
     /// Defaults for `model`: its own task, SQP, 200 iterations, step bound 0.5, KKT tolerance 1e-4.
     pub fn for_model(model: &Model) -> Self {
@@ -57,41 +87,29 @@ impl PlanOptions {
             kappa_warmup: Some(200.0),
         }
     }
-}
 
-impl PlanOptions {
     /// Checks every option, naming the first bad one: `δ`, `α`, `β` finite and ≥ 0; `κ` finite
     /// and positive (the soft minimum divides by it); the active band not NaN and ≥ 0; at least
     /// one iteration; a finite positive step bound and tolerance. [`plan`] calls it, so a bad
     /// option is an error instead of a panic or a silently NaN objective.
     pub fn validate(&self) -> anyhow::Result<()> {
         let t = &self.task;
-        let non_negative = [("delta", t.delta), ("alpha", t.alpha), ("beta", t.beta)];
-        for (name, v) in non_negative {
-            anyhow::ensure!(
-                v.is_finite() && v >= 0.0,
-                "{name} must be a finite number ≥ 0, got {v}"
-            );
+        for (name, v) in [("delta", t.delta), ("alpha", t.alpha), ("beta", t.beta)] {
+            ensure_non_negative(name, v)?;
         }
         let positive = [
             ("kappa", t.kappa),
-            ("kappa_warmup", self.kappa_warmup.unwrap_or(1.0)),
             ("step_bound", self.step_bound),
             ("tol_optimality", self.tol_optimality),
         ];
         for (name, v) in positive {
-            anyhow::ensure!(
-                v.is_finite() && v > 0.0,
-                "{name} must be a finite number > 0, got {v}"
-            );
+            ensure_positive(name, v)?;
         }
-        anyhow::ensure!(
-            t.active_band >= 0.0,
-            "active_band must be a number ≥ 0, got {}",
-            t.active_band
-        );
-        anyhow::ensure!(self.iterations > 0, "iterations must be at least 1, got 0");
-        Ok(())
+        if let Some(kappa) = self.kappa_warmup {
+            ensure_positive("kappa_warmup", kappa)?;
+        }
+        ensure_not_below_zero("active_band", t.active_band)?;
+        ensure_iterations("iterations", self.iterations)
     }
 }
 
