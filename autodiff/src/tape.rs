@@ -778,7 +778,7 @@ impl Tape {
     /// # Panics
     /// If a seed's shape differs from its output's.
     pub fn vjp(&self, seeds: &[(Var, Tensor)]) -> Gradients {
-        let mut g = self.vjp_many(std::slice::from_ref(&seeds.to_vec()));
+        let mut g = self.vjp_many(&[seeds]);
         g.pop()
             .expect("one set of seeds gives one set of gradients")
     }
@@ -790,7 +790,7 @@ impl Tape {
     ///
     /// # Panics
     /// If a seed's shape differs from its output's.
-    pub fn vjp_many(&self, seeds: &[Vec<(Var, Tensor)>]) -> Vec<Gradients> {
+    pub fn vjp_many<S: AsRef<[(Var, Tensor)]>>(&self, seeds: &[S]) -> Vec<Gradients> {
         let n = self.nodes.len();
         let mut adjs: Vec<Vec<Option<Tensor>>> = seeds
             .iter()
@@ -798,7 +798,7 @@ impl Tape {
             .collect();
         let mut first = 0;
         for (adj, seeds) in adjs.iter_mut().zip(seeds) {
-            for (v, seed) in seeds {
+            for (v, seed) in seeds.as_ref() {
                 assert_eq!(v.epoch, self.epoch, "vjp: seed Var from another recording");
                 let id = v.id as usize;
                 let shape = self.nodes[id].shape;
