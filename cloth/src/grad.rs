@@ -284,7 +284,6 @@ impl Model {
                 (0..starts.len()).rev().map(move |b| Segment {
                     t,
                     block: b,
-                    first: b == 0,
                     last: b + 1 == starts.len(),
                     iterations: starts.get(b + 1).unwrap_or(&self.iterations) - starts[b],
                 })
@@ -367,13 +366,9 @@ impl Model {
             .par_iter()
             .flat_map_iter(|g| tape.vjp_many(g))
             .collect();
-        let mut gradients = gradients.into_iter();
-        let (first, last) = (seg.first, seg.last);
-        for (i, (adjoint, grad)) in adjoints.iter_mut().zip(grads.iter_mut()).enumerate() {
-            if !live.contains(&i) {
-                continue;
-            }
-            let g = gradients.next().expect("one result per live seed");
+        let (first, last) = (seg.block == 0, seg.last);
+        for (&i, g) in live.iter().zip(gradients) {
+            let (adjoint, grad) = (&mut adjoints[i], &mut grads[i]);
             let mut state = g.wrt(if first { rec.x_prev } else { rec.x_in });
             if !first {
                 adjoint.lambdas = rec.lambdas_in.iter().map(|&l| g.wrt(l)).collect();
@@ -397,10 +392,8 @@ impl Model {
 struct Segment {
     /// The step (1-based).
     t: usize,
-    /// The block within the step.
+    /// The block within the step (block 0 starts from `x_prev` and the controls).
     block: usize,
-    /// The step's first block (it starts from `x_prev` and the controls).
-    first: bool,
     /// The step's last block (the costs are recorded on it).
     last: bool,
     /// Gauss–Seidel iterations in the block.
@@ -454,7 +447,7 @@ impl Recorder<'_> {
         tape.clear();
         let x_prev = tape.leaf(self.states[t - 1].clone());
         let u = tape.leaf(u_t);
-        let (x_in, lambdas_in) = if seg.first {
+        let (x_in, lambdas_in) = if seg.block == 0 {
             let x = m.record_begin_step(&mut tape, x_prev, u);
             (x, m.record_zero_lambdas(&mut tape))
         } else {
