@@ -315,12 +315,7 @@ impl Model {
         {
             return Err(invalid(format!("constraint {k} names a particle twice")));
         }
-        let compliance = if stiffness.is_infinite() {
-            Stiffness::Infinite
-        } else {
-            Stiffness::Finite(stiffness)
-        }
-        .compliance(self.dt);
+        let compliance = Stiffness::from_value(stiffness).compliance(self.dt);
         if !compliance.is_finite() {
             return Err(invalid(format!(
                 "stiffness {stiffness} is too small: its compliance 1/(k·dt²) is not finite"

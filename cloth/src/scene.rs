@@ -200,6 +200,15 @@ pub enum Stiffness {
 }
 
 impl Stiffness {
+    /// The inverse of [`Stiffness::value`]: `f64::INFINITY` is [`Stiffness::Infinite`].
+    pub fn from_value(k: f64) -> Self {
+        if k == f64::INFINITY {
+            Stiffness::Infinite
+        } else {
+            Stiffness::Finite(k)
+        }
+    }
+
     /// The stiffness as a number: `k`, or `f64::INFINITY` for [`Stiffness::Infinite`].
     pub fn value(&self) -> f64 {
         match *self {
