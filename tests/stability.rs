@@ -26,37 +26,11 @@ use cloth::scene::{
 };
 use cloth::{Evaluation, Model};
 use clothopt::problem::{SafetyForm, TaskOptions, TrajectoryProblem};
-use common::small;
+use common::{noise, small};
 use optim::{Jacobian, Problem};
 
 // ---------------------------------------------------------------------------------------------
 // helpers
-
-/// xorshift64*: deterministic pseudo-random numbers.
-struct Rng(u64);
-
-impl Rng {
-    fn new(seed: u64) -> Self {
-        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-    }
-    fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-    fn vec(&mut self, n: usize, scale: f64) -> Vec<f64> {
-        (0..n).map(|_| scale * self.uniform()).collect()
-    }
-}
-
-fn stiffness(k: f64) -> Stiffness {
-    if k.is_infinite() {
-        Stiffness::Infinite
-    } else {
-        Stiffness::Finite(k)
-    }
-}
 
 fn spheres(centers: Vec<[f64; 3]>, radii: Vec<f64>, role: ObstacleRole) -> Obstacle {
     Obstacle::Spheres(SphereSet {
@@ -73,7 +47,7 @@ fn controls(model: &Model, values: Vec<f64>) -> Tensor {
 /// Random controls `|u| ≤ scale`.
 fn random_controls(model: &Model, seed: u64, scale: f64) -> Tensor {
     let n = model.task.horizon * 3 * model.n_controls();
-    controls(model, Rng::new(seed).vec(n, scale))
+    controls(model, noise(seed, n).iter().map(|v| scale * v).collect())
 }
 
 fn shifted(u: &Tensor, d: &[f64], s: f64) -> Tensor {
@@ -201,7 +175,7 @@ fn central_fd_error(name: &str, model: &Model, u: &Tensor, delta: f64, dirs: u64
     }
     for (which, grad, f) in &scalars {
         for seed in 0..dirs {
-            let d = Rng::new(1000 + seed).vec(n, 1.0);
+            let d = noise(1000 + seed, n);
             let an = dot(grad.data(), &d);
             let fd = central(model, u, &d, delta, *which, 1e-6);
             let e = rel_err(an, fd, 1e-3 * f.abs().max(1.0));
@@ -269,7 +243,7 @@ fn coincident_control_particles() {
     // where the documented gradient (0) equals the central difference.
     for k in [1e4, f64::INFINITY] {
         let mut scene = small(2, 2, 3, 20);
-        scene.material.stretch = stiffness(k);
+        scene.material.stretch = Stiffness::from_value(k);
         scene.task.beta = 1e-3;
         let model = Model::from_scene(&scene).unwrap();
         let mut u = random_controls(&model, 2, 0.05);
@@ -504,10 +478,10 @@ fn stiffness_extremes() {
     ];
     for (name, ks, kb, tol) in cases {
         let mut scene = small(4, 4, 3, 20);
-        scene.material.stretch = stiffness(ks);
+        scene.material.stretch = Stiffness::from_value(ks);
         scene.material.bending = Some(Bending {
             model: BendingModel::Distance,
-            stiffness: stiffness(kb),
+            stiffness: Stiffness::from_value(kb),
         });
         let model = Model::from_scene(&scene).unwrap();
         let u = random_controls(&model, 8, 0.05);
@@ -578,13 +552,10 @@ fn path_controls(model: &Model) -> Tensor {
     let h = model.task.horizon;
     let w = 3 * model.n_controls();
     let total = [0.3, 0.6, -0.2];
-    let mut rng = Rng::new(42);
-    let mut v = Vec::with_capacity(h * w);
-    for _ in 0..h {
-        for j in 0..w {
-            v.push(total[j % 3] / h as f64 * (1.0 + 0.2 * rng.uniform()));
-        }
-    }
+    let wiggle = noise(42, h * w);
+    let v = (0..h * w)
+        .map(|i| total[(i % w) % 3] / h as f64 * (1.0 + 0.2 * wiggle[i]))
+        .collect();
     controls(model, v)
 }
 
