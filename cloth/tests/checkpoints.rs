@@ -9,7 +9,6 @@
 
 use autodiff::{Tape, Tensor, Var};
 use cloth::{Model, Scene};
-use common::initial_controls;
 
 mod common;
 
@@ -19,7 +18,7 @@ fn model(name: &str) -> (Model, Tensor) {
     scene.physics.iterations = 20;
     scene.validate().unwrap();
     let model = Model::from_scene(&scene).unwrap();
-    let u = initial_controls(&scene);
+    let u = scene.initial_controls();
     (model, u)
 }
 

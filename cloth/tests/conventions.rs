@@ -40,7 +40,7 @@ fn all_zero_controls_give_zero_irregularity_gradient_and_a_finite_l_gradient() {
     assert!(grad.data().iter().all(|&v| v == 0.0));
     // Constant (the u_obstacle initial guess): every difference is exactly zero too.
     let scene = Scene::builtin("u_obstacle").unwrap();
-    let (t, grad) = trajectory_irregularity(&initial_controls(&scene));
+    let (t, grad) = trajectory_irregularity(&scene.initial_controls());
     assert_eq!(t, 0.0);
     assert!(grad.data().iter().all(|&v| v == 0.0));
     // One zero difference among non-zero ones contributes nothing; the others are unit vectors.
@@ -381,7 +381,7 @@ fn add_constraints_rejects_stiffness_whose_compliance_is_not_finite() {
 fn a_non_finite_control_names_its_step_control_and_component() {
     let scene = Scene::builtin("swing").unwrap();
     let model = Model::from_scene(&scene).unwrap();
-    let mut u = initial_controls(&scene);
+    let mut u = scene.initial_controls();
     let width = u.cols();
     u.data_mut()[2 * width + 3 + 1] = f64::NAN;
     let err = model.simulate(&u).unwrap_err().to_string();

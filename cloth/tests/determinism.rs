@@ -8,7 +8,7 @@ use autodiff::rowfn::PARALLEL_MIN_ROWS;
 use autodiff::{Tape, Tensor};
 use cloth::grad::Evaluation;
 use cloth::{Model, Scene};
-use common::{bitwise_eq, initial_controls, XorShift};
+use common::{bitwise_eq, XorShift};
 
 /// Records the whole rollout on one tape (each step chained to the previous step's output) and
 /// returns the recorded states, the first the rest state.
@@ -57,7 +57,7 @@ fn jittered(u: &Tensor, a: f64, seed: u64) -> Tensor {
 fn plain_and_recorded_rollouts_are_bitwise_equal_on_u_obstacle() {
     let scene = Scene::builtin("u_obstacle").unwrap();
     let model = Model::from_scene(&scene).unwrap();
-    let u0 = initial_controls(&scene);
+    let u0 = scene.initial_controls();
     assert_paths_agree(&model, &u0);
     assert_paths_agree(&model, &jittered(&u0, 0.05, 1));
 }
@@ -126,7 +126,7 @@ fn evaluate_is_bitwise_identical_with_one_and_two_threads() {
         "largest set has {largest} rows < {PARALLEL_MIN_ROWS}"
     );
     assert!(model.n_particles() >= PARALLEL_MIN_ROWS); // the per-particle SDF map too
-    let u = jittered(&initial_controls(&scene), 0.05, 3);
+    let u = jittered(&scene.initial_controls(), 0.05, 3);
     // After two steps the cloth is still ~0.7 from the obstacle: δ = (closest distance) + 0.3, so
     // many particles (not only the gripped corners) violate it and dC/dU flows through the solver.
     let delta = model.evaluate(&u, 0.0, false).unwrap().metrics.min_sdf + 0.3;

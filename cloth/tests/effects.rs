@@ -12,7 +12,7 @@ mod common;
 use autodiff::{Tape, Tensor};
 use cloth::scene::{Bending, BendingModel, ObstacleRole, Stiffness};
 use cloth::{Model, Scene};
-use common::{initial_controls, plane, spheres};
+use common::{plane, spheres};
 
 /// One `record_step` on a fresh tape (with its two leaves).
 fn recorded_step(model: &Model) -> Tape {
@@ -154,7 +154,7 @@ fn without_obstacles_there_is_no_sdf_work_and_c_is_zero() {
     assert!(m.record_safety(&mut tape, x, 0.2).is_none());
     assert_eq!(tape.len(), 1);
     // C = 0, min SDF = ∞, dC/dU = 0 exactly, whatever δ.
-    let u = initial_controls(&Scene::builtin("u_obstacle").unwrap());
+    let u = Scene::builtin("u_obstacle").unwrap().initial_controls();
     let ev = m.evaluate(&u, 0.4, true).unwrap();
     assert_eq!(ev.metrics.c, 0.0);
     assert_eq!(ev.metrics.min_sdf, f64::INFINITY);

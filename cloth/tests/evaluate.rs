@@ -2,7 +2,6 @@
 //! `dL/dU` bit for bit, and no `dC/dU`.
 
 use cloth::{Model, Scene};
-use common::initial_controls;
 
 mod common;
 
@@ -12,7 +11,7 @@ fn loss_gradient_alone_is_evaluates_bit_for_bit() {
     scene.task.horizon = 4;
     scene.physics.iterations = 15;
     let model = Model::from_scene(&scene).unwrap();
-    let u = initial_controls(&scene);
+    let u = scene.initial_controls();
     let both = model.evaluate(&u, 0.2, true).unwrap();
     let alone = model.evaluate_loss_gradient(&u, 0.2).unwrap();
     assert_eq!(both.metrics, alone.metrics);

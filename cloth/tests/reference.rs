@@ -1,22 +1,17 @@
 //! The built-in scenes against the reference values of the spec (an independent implementation
 //! agrees with them to 1e-14).
 
-use autodiff::Tensor;
 use cloth::{Model, Scene};
 use common::XorShift;
 
 mod common;
-
-fn initial(scene: &Scene) -> Tensor {
-    scene.initial_controls()
-}
 
 #[test]
 fn u_obstacle_initial_guess_matches_reference() {
     let scene = Scene::builtin("u_obstacle").unwrap();
     let model = Model::from_scene(&scene).unwrap();
     let ev = model
-        .evaluate(&initial(&scene), scene.task.delta, false)
+        .evaluate(&scene.initial_controls(), scene.task.delta, false)
         .unwrap();
     let m = ev.metrics;
     println!("{m:?}");
@@ -35,7 +30,7 @@ fn u_obstacle_gradient_matches_central_differences_along_random_directions() {
     let scene = Scene::builtin("u_obstacle").unwrap();
     let model = Model::from_scene(&scene).unwrap();
     // Away from the T kink: perturb the all-equal initial guess so consecutive controls differ.
-    let mut u = initial(&scene);
+    let mut u = scene.initial_controls();
     let jitter = direction(99, u.len());
     for (v, j) in u.data_mut().iter_mut().zip(jitter) {
         *v += 0.05 * j;
@@ -160,7 +155,7 @@ fn u_obstacle_gradient_matches_independent_jax_implementation() {
     let scene = Scene::builtin("u_obstacle").unwrap();
     let model = Model::from_scene(&scene).unwrap();
     let ev = model
-        .evaluate(&initial(&scene), scene.task.delta, true)
+        .evaluate(&scene.initial_controls(), scene.task.delta, true)
         .unwrap();
     let g = ev.grad_l.unwrap();
     let mut worst: f64 = 0.0;

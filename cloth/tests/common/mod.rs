@@ -104,11 +104,6 @@ pub fn plane(point: [f64; 3], normal: [f64; 3], role: ObstacleRole) -> Obstacle 
     })
 }
 
-/// The scene's initial control guess as a tensor.
-pub fn initial_controls(scene: &Scene) -> Tensor {
-    scene.initial_controls()
-}
-
 /// Controls from a flat list of values (`horizon × 3·n_controls`).
 pub fn controls_from(model: &Model, values: &[f64]) -> Tensor {
     Tensor::new(
