@@ -75,23 +75,6 @@ fn elastic_costs(weights: &[f64], elastic: &[usize], m: usize, q: usize, out: &m
     out[me + q..me + 2 * q].copy_from_slice(&weights[m..m + q]);
 }
 
-/// `q` of the optimality subproblem: `[g | w_k | elastic costs (see [`elastic_costs`])]`.
-fn optimality_q(
-    data: &QpData<'_>,
-    weights: &[f64],
-    elastic_ids: &[usize],
-    m_total: usize,
-    l: &Layout,
-) -> Vec<f64> {
-    let mut qv = vec![0.0; l.nvar];
-    qv[..l.n].copy_from_slice(data.gradient);
-    for (kk, nd) in data.norms.iter().enumerate().take(l.k) {
-        qv[l.n + kk] = nd.weight;
-    }
-    elastic_costs(weights, elastic_ids, m_total, l.q, &mut qv[l.n + l.k..]);
-    qv
-}
-
 /// Which problem to build.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum QpMode {
@@ -142,7 +125,6 @@ struct Layout {
     n: usize,
     k: usize,
     q: usize,
-    nvar: usize,
     row_ineq: usize,
     row_box_up: usize,
     row_box_lo: usize,
@@ -315,7 +297,6 @@ impl QpSubproblem {
             n,
             k,
             q,
-            nvar,
             row_ineq,
             row_box_up,
             row_box_lo,
@@ -337,15 +318,18 @@ impl QpSubproblem {
         }
         let p_mat = p_trip.into_csc(nvar, nvar);
 
-        // q
-        let qv = match mode {
-            QpMode::Optimality => optimality_q(data, weights, &elastic_ids, m_total, &layout),
-            QpMode::Feasibility => {
-                let mut qv = vec![0.0; nvar];
-                qv[col_t..].fill(1.0);
-                qv
+        // q: `[g | w_k | elastic costs]` (see `elastic_costs`), or `[0 | 1]` for the feasibility LP.
+        let mut qv = vec![0.0; nvar];
+        match mode {
+            QpMode::Optimality => {
+                qv[..n].copy_from_slice(data.gradient);
+                for (kk, nd) in data.norms.iter().enumerate() {
+                    qv[col_s + kk] = nd.weight;
+                }
+                elastic_costs(weights, &elastic_ids, m_total, q, &mut qv[col_t..]);
             }
-        };
+            QpMode::Feasibility => qv[col_t..].fill(1.0),
+        }
 
         // A, b (rows pushed in increasing order)
         let jac_nnz_hint = n * (m + q);
@@ -432,13 +416,18 @@ impl QpSubproblem {
         })
     }
 
-    /// Changes the elastic weights `ν` (optimality mode) keeping everything else.
-    pub(crate) fn update_penalty(
-        &mut self,
-        data: &QpData<'_>,
-        weights: &[f64],
-    ) -> Result<(), QpBuildError> {
-        let qv = optimality_q(data, weights, &self.elastic_ids, self.m_total, &self.layout);
+    /// Changes the elastic weights `ν` (optimality mode) keeping everything else: only the elastic
+    /// part of `q` is rewritten.
+    pub(crate) fn update_penalty(&mut self, weights: &[f64]) -> Result<(), QpBuildError> {
+        let l = self.layout;
+        let mut qv = self.conic.q.clone();
+        elastic_costs(
+            weights,
+            &self.elastic_ids,
+            self.m_total,
+            l.q,
+            &mut qv[l.n + l.k..],
+        );
         self.solver
             .update_q(&qv)
             .map_err(|e| QpBuildError(format!("Clarabel update_q: {e}")))?;
@@ -447,31 +436,20 @@ impl QpSubproblem {
     }
 
     /// Replaces the constraint values `c`, `h` in the right-hand side (second-order correction:
-    /// `c(x+d) − J d`, `h(x+d) − J_h d`), keeping the matrices.
+    /// `c(x+d) − J d`, `h(x+d) − J_h d`), keeping the matrices and the other rows of `b` (slacks,
+    /// step box, norm residuals).
     pub(crate) fn update_constraint_values(
         &mut self,
-        data: &QpData<'_>,
         ineq: &[f64],
         eq: &[f64],
     ) -> Result<(), QpBuildError> {
         let l = self.layout;
-        let nrows = l.row_soc + self.norm_dims.iter().map(|p| p + 1).sum::<usize>();
-        let mut b = vec![0.0; nrows];
-        for i in 0..l.q {
-            b[i] = -eq[i];
+        let mut b = self.conic.b.clone();
+        for (bi, hi) in b[..l.q].iter_mut().zip(eq) {
+            *bi = -hi;
         }
         for (r, &i) in self.kept.iter().enumerate() {
             b[l.row_ineq + r] = ineq[i];
-        }
-        for j in 0..l.n {
-            b[l.row_box_up + j] = data.step_upper[j];
-            b[l.row_box_lo + j] = -data.step_lower[j];
-        }
-        let mut row = l.row_soc;
-        for (kk, &p) in self.norm_dims.iter().enumerate() {
-            row += 1;
-            b[row..row + p].copy_from_slice(&data.norm_residuals[kk]);
-            row += p;
         }
         self.solver
             .update_b(&b)

@@ -22,7 +22,7 @@
 //! rule); violations, tolerances and multipliers in the results refer to the unscaled constraints.
 
 use crate::bfgs::DampedBfgs;
-use crate::error::OptimError;
+use crate::error::{EvalError, OptimError};
 use crate::eval::{Evaluator, PointDerivatives, PointValues};
 use crate::linalg::{dot, norm2, norm_inf, symv, DenseMatrix};
 use crate::problem::{NormData, Problem};
@@ -429,16 +429,7 @@ impl SqpSolver {
                 break (Status::Stalled, why);
             }
 
-            let search = self.line_search(
-                &mut ev,
-                &pt,
-                &dv,
-                &d,
-                pred,
-                &step.penalty,
-                &mut step.qp,
-                &data,
-            );
+            let search = self.line_search(&mut ev, &pt, &dv, &d, pred, &step.penalty, &mut step.qp);
             match search {
                 Search::Accepted {
                     values,
@@ -589,14 +580,14 @@ impl SqpSolver {
                         }
                     }
                 }
-                if !raised || qp.update_penalty(data, &next).is_err() {
+                if !raised || qp.update_penalty(&next).is_err() {
                     break;
                 }
                 penalty.copy_from_slice(&next);
                 let trial = qp.solve();
                 if !trial.outcome.is_usable() {
                     // Keep the last usable step; restore the QP to its weights for a consistent SOC.
-                    let _ = qp.update_penalty(data, &step_penalty);
+                    let _ = qp.update_penalty(&step_penalty);
                     break;
                 }
                 step_penalty = next;
@@ -624,11 +615,12 @@ impl SqpSolver {
         pred: f64,
         penalty: &[f64],
         qp: &mut QpSubproblem,
-        data: &QpData<'_>,
     ) -> Search {
         let s = &self.settings;
         let phi0 = pt.merit(penalty);
         let noise = 10.0 * f64::EPSILON * phi0.abs().max(1.0);
+        // Armijo: the largest merit accepted at step length `alpha` (with a rounding allowance).
+        let threshold = |alpha: f64| phi0 - s.armijo * alpha * pred + noise;
         let mut alpha = 1.0_f64;
         let mut trials = 0usize;
         let mut failures = 0usize;
@@ -651,15 +643,9 @@ impl SqpSolver {
                 }
             };
             let phit = vt.merit(penalty);
-            if phit <= phi0 - s.armijo * alpha * pred + noise {
-                match ev.derivatives(&xt) {
-                    Ok(dt) => {
-                        return Search::Accepted {
-                            values: Box::new(vt),
-                            derivatives: Box::new(dt),
-                            alpha,
-                        }
-                    }
+            if phit <= threshold(alpha) {
+                match accept(ev, &xt, vt, alpha) {
+                    Ok(accepted) => return accepted,
                     Err(e) => {
                         failures += 1;
                         last_error = Some(e.to_string());
@@ -668,7 +654,7 @@ impl SqpSolver {
                     }
                 }
             }
-            // Second-order correction after a rejected full step.
+            // Second-order correction after a rejected full step, held to the full step's test.
             if alpha == 1.0
                 && !tried_soc
                 && s.second_order_correction
@@ -676,10 +662,12 @@ impl SqpSolver {
                 && ev.function_evaluations < s.max_function_evaluations
             {
                 tried_soc = true;
-                if let Some(accepted) =
-                    self.second_order_correction(ev, pt, dv, d, vt.clone(), pred, penalty, qp, data)
-                {
-                    return accepted;
+                if let Some((xs, vs)) = second_order_correction(ev, pt, dv, d, &vt, qp) {
+                    if vs.merit(penalty) <= threshold(1.0) {
+                        if let Ok(accepted) = accept(ev, &xs, vs, 1.0) {
+                            return accepted;
+                        }
+                    }
                 }
             }
             // Quadratic interpolation of the merit along the step, safeguarded to [0.1α, 0.5α].
@@ -696,48 +684,50 @@ impl SqpSolver {
             last_error,
         }
     }
+}
 
-    /// Re-solves the QP with the constraint values at the trial point: `c(x+d) + J(x)(d̂ − d) ≥ 0`.
-    #[allow(clippy::too_many_arguments)]
-    fn second_order_correction<P: Problem + ?Sized>(
-        &self,
-        ev: &mut Evaluator<'_, P>,
-        pt: &PointValues,
-        dv: &PointDerivatives,
-        d: &[f64],
-        trial: PointValues,
-        pred: f64,
-        penalty: &[f64],
-        qp: &mut QpSubproblem,
-        data: &QpData<'_>,
-    ) -> Option<Search> {
-        let s = &self.settings;
-        let mut jd = vec![0.0; ev.m];
-        dv.jc.mul_vec(d, &mut jd);
-        let c_hat: Vec<f64> = trial.c.iter().zip(&jd).map(|(c, a)| c - a).collect();
-        let mut hd = vec![0.0; ev.q];
-        dv.jh.mul_vec(d, &mut hd);
-        let h_hat: Vec<f64> = trial.h.iter().zip(&hd).map(|(h, a)| h - a).collect();
-        qp.update_constraint_values(data, &c_hat, &h_hat).ok()?;
-        let sol = qp.solve();
-        if !sol.outcome.is_usable() || sol.d.iter().any(|v| !v.is_finite()) {
-            return None;
-        }
-        let mut xs: Vec<f64> = pt.x.iter().zip(&sol.d).map(|(x, di)| x + di).collect();
-        ev.project(&mut xs);
-        let vs = ev.values(&xs).ok()?;
-        let phi0 = pt.merit(penalty);
-        let noise = 10.0 * f64::EPSILON * phi0.abs().max(1.0);
-        if vs.merit(penalty) <= phi0 - s.armijo * pred + noise {
-            let ds = ev.derivatives(&xs).ok()?;
-            return Some(Search::Accepted {
-                values: Box::new(vs),
-                derivatives: Box::new(ds),
-                alpha: 1.0,
-            });
-        }
-        None
+/// Accepts the trial point `x` of step length `alpha`, whose values are known, once its derivatives
+/// are evaluated.
+fn accept<P: Problem + ?Sized>(
+    ev: &mut Evaluator<'_, P>,
+    x: &[f64],
+    values: PointValues,
+    alpha: f64,
+) -> Result<Search, EvalError> {
+    let derivatives = ev.derivatives(x)?;
+    Ok(Search::Accepted {
+        values: Box::new(values),
+        derivatives: Box::new(derivatives),
+        alpha,
+    })
+}
+
+/// The second-order-corrected point and its values: re-solves the QP with the constraint values at
+/// the rejected full step `x + d` (`trial`), i.e. `c(x+d) + J(x)(d̂ − d) ≥ 0`, and evaluates `x + d̂`.
+/// `None` if the corrected QP or the evaluation fails.
+fn second_order_correction<P: Problem + ?Sized>(
+    ev: &mut Evaluator<'_, P>,
+    pt: &PointValues,
+    dv: &PointDerivatives,
+    d: &[f64],
+    trial: &PointValues,
+    qp: &mut QpSubproblem,
+) -> Option<(Vec<f64>, PointValues)> {
+    let mut jd = vec![0.0; ev.m];
+    dv.jc.mul_vec(d, &mut jd);
+    let c_hat: Vec<f64> = trial.c.iter().zip(&jd).map(|(c, a)| c - a).collect();
+    let mut hd = vec![0.0; ev.q];
+    dv.jh.mul_vec(d, &mut hd);
+    let h_hat: Vec<f64> = trial.h.iter().zip(&hd).map(|(h, a)| h - a).collect();
+    qp.update_constraint_values(&c_hat, &h_hat).ok()?;
+    let sol = qp.solve();
+    if !sol.outcome.is_usable() || sol.d.iter().any(|v| !v.is_finite()) {
+        return None;
     }
+    let mut xs: Vec<f64> = pt.x.iter().zip(&sol.d).map(|(x, di)| x + di).collect();
+    ev.project(&mut xs);
+    let vs = ev.values(&xs).ok()?;
+    Some((xs, vs))
 }
 
 /// `m(0) − m(d)` for the ℓ1 model `f + gᵀd + ½dᵀBd + Σw‖r + Ad‖ + ν·linviol(d)`.

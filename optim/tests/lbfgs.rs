@@ -1,6 +1,6 @@
 //! L-BFGS on problems with known solutions.
 
-use optim::test_problems::{hock_schittkowski, rosenbrock_start, Rosenbrock};
+use optim::test_problems::{hock_schittkowski, rosenbrock_start, FailsAfter, Rosenbrock};
 use optim::{
     Bounds, ControlFlow, EvalError, LbfgsSettings, LbfgsSolver, OptimError, Problem, Status,
 };
@@ -139,20 +139,14 @@ fn iteration_limit_is_not_convergence() {
     assert!(sol.kkt_residual > 1e-6);
 }
 
-/// `x₀² + 10 x₁²` whose objective evaluations all fail after the first `budget`.
-struct FailsAfter {
-    budget: usize,
-}
+/// `x₀² + 10 x₁²` (wrapped in [`FailsAfter`] so that its objective evaluations fail after a budget).
+struct Elliptic;
 
-impl Problem for FailsAfter {
+impl Problem for Elliptic {
     fn num_variables(&self) -> usize {
         2
     }
     fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
-        if self.budget == 0 {
-            return Err(EvalError::new("out of budget"));
-        }
-        self.budget -= 1;
         Ok(x[0] * x[0] + 10.0 * x[1] * x[1])
     }
     fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
@@ -166,10 +160,17 @@ impl Problem for FailsAfter {
 fn callback_sees_each_iteration_once_across_a_memory_reset() {
     let mut seen = Vec::new();
     let sol = solver()
-        .solve_with_callback(&mut FailsAfter { budget: 4 }, &[1.0, 1.0], |info| {
-            seen.push(info.iteration);
-            ControlFlow::Continue(())
-        })
+        .solve_with_callback(
+            &mut FailsAfter {
+                problem: Elliptic,
+                budget: 4,
+            },
+            &[1.0, 1.0],
+            |info| {
+                seen.push(info.iteration);
+                ControlFlow::Continue(())
+            },
+        )
         .unwrap();
     // The line search fails with a non-empty memory, which is reset and the iteration repeated.
     assert_eq!(sol.status, Status::EvaluationFailed, "{}", sol.message);

@@ -1,6 +1,6 @@
 //! SQP behaviour on problems with known solutions.
 
-use optim::test_problems::{hock_schittkowski, rosenbrock_start, Rosenbrock};
+use optim::test_problems::{hock_schittkowski, rosenbrock_start, FailsAfter, Rosenbrock};
 use optim::{
     Bounds, ControlFlow, DenseMatrix, EvalError, Jacobian, NormTerm, OptimError, Problem,
     SparseMatrix, SqpSettings, SqpSolver, Status,
@@ -113,12 +113,11 @@ fn nearly_feasible_start_with_a_consistent_linearization_is_not_infeasible() {
     assert!(sol.x[0].abs() < 1e-8, "{:?}", sol.x);
 }
 
-/// `min x₀² + 10 x₁²  s.t.  x₀ + x₁ ≥ 1`, whose objective evaluations all fail after the first `budget`.
-struct FailsAfter {
-    budget: usize,
-}
+/// `min x₀² + 10 x₁²  s.t.  x₀ + x₁ ≥ 1` (wrapped in [`FailsAfter`] so that its objective
+/// evaluations fail after a budget).
+struct EllipticAboveLine;
 
-impl Problem for FailsAfter {
+impl Problem for EllipticAboveLine {
     fn num_variables(&self) -> usize {
         2
     }
@@ -126,10 +125,6 @@ impl Problem for FailsAfter {
         1
     }
     fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
-        if self.budget == 0 {
-            return Err(EvalError::new("out of budget"));
-        }
-        self.budget -= 1;
         Ok(x[0] * x[0] + 10.0 * x[1] * x[1])
     }
     fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
@@ -152,10 +147,17 @@ impl Problem for FailsAfter {
 fn callback_sees_each_iteration_once_across_a_hessian_reset() {
     let mut seen = Vec::new();
     let sol = solver()
-        .solve_with_callback(&mut FailsAfter { budget: 4 }, &[3.0, -1.0], |info| {
-            seen.push(info.iteration);
-            ControlFlow::Continue(())
-        })
+        .solve_with_callback(
+            &mut FailsAfter {
+                problem: EllipticAboveLine,
+                budget: 4,
+            },
+            &[3.0, -1.0],
+            |info| {
+                seen.push(info.iteration);
+                ControlFlow::Continue(())
+            },
+        )
         .unwrap();
     // The line search fails after a BFGS update, so the Hessian is reset and the iteration repeated.
     assert_eq!(sol.status, Status::EvaluationFailed, "{}", sol.message);
