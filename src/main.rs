@@ -69,7 +69,7 @@ enum Command {
         /// Weight β of the elastic energy (default: the scene's).
         #[arg(long)]
         beta: Option<f64>,
-        /// Optimizer iteration limit.
+        /// Optimizer iteration limit, per κ stage (the soft safety forms first solve at κ = 200)
         #[arg(long, default_value_t = 200)]
         iterations: usize,
         /// Form of the safety constraint.

@@ -1,6 +1,6 @@
 //! Running a cloth task through an optimizer and packaging the result.
 
-use crate::problem::{SafetyForm, TaskOptions, TrajectoryProblem};
+use crate::problem::{TaskOptions, TrajectoryProblem};
 use autodiff::Tensor;
 use cloth::{Controls, Metrics, Model, Scene};
 use optim::{
@@ -26,7 +26,8 @@ pub enum SolverKind {
 pub struct PlanOptions {
     /// The task's weights, margin and safety form.
     pub task: TaskOptions,
-    /// Iteration limit of the solver.
+    /// Iteration limit of the solver, per κ stage (see `kappa_warmup`): a warmed-up plan may take
+    /// up to twice as many in all.
     pub iterations: usize,
     /// The solver.
     pub solver: SolverKind,
@@ -172,8 +173,8 @@ fn null_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> 
 }
 
 /// Largest constraint violation a plan may have and still count as feasible: the SQP's own
-/// feasibility tolerance (`SqpSettings::tol_feasibility`, unscaled constraints).
-pub const FEASIBILITY_TOLERANCE: f64 = 1e-8;
+/// feasibility tolerance (the default `SqpSettings::tol_feasibility`, unscaled constraints).
+pub const FEASIBILITY_TOLERANCE: f64 = optim::DEFAULT_TOL_FEASIBILITY;
 
 impl PlanResult {
     /// True when the returned controls satisfy the optimizer's constraints (violation at most
@@ -265,11 +266,7 @@ pub fn plan(
     };
     // Continuation in κ: a smooth, conservative soft minimum first, then the sharp one from there.
     // (Without safety obstacles there is nothing to warm up.)
-    let soft_safety = model.safety.is_some()
-        && matches!(
-            options.task.safety,
-            Some(SafetyForm::PerStep | SafetyForm::Aggregate)
-        );
+    let soft_safety = options.task.has_soft_min_rows(model);
     let mut x0 = start.data().to_vec();
     let (mut warm_iterations, mut warm_simulations, mut warm_gradients) = (0, 0, 0);
     // The warm-up's quasi-Newton Hessian starts the sharp stage: only the safety rows' curvature

@@ -66,6 +66,16 @@ impl TaskOptions {
             active_band: f64::INFINITY,
         }
     }
+
+    /// True when `model` gets safety rows built on the soft minimum (sharpness `kappa`): the
+    /// per-step and aggregate forms, on a model with safety obstacles.
+    pub fn has_soft_min_rows(&self, model: &Model) -> bool {
+        model.safety.is_some()
+            && matches!(
+                self.safety,
+                Some(SafetyForm::PerStep | SafetyForm::Aggregate)
+            )
+    }
 }
 
 /// An owned per-step cost (see [`StepCost`]).

@@ -39,7 +39,9 @@ pub use error::{EvalError, OptimError};
 pub use lbfgs::LbfgsSolver;
 pub use linalg::{DenseMatrix, Jacobian, SparseMatrix};
 pub use problem::{Bounds, NormTerm, Problem};
-pub use settings::{LbfgsSettings, LbfgsSettingsBuilder, SqpSettings, SqpSettingsBuilder};
+pub use settings::{
+    LbfgsSettings, LbfgsSettingsBuilder, SqpSettings, SqpSettingsBuilder, DEFAULT_TOL_FEASIBILITY,
+};
 pub use sqp::SqpSolver;
 pub use status::{IterationInfo, Multipliers, Solution, Status};
 pub use std::ops::ControlFlow;

@@ -98,13 +98,17 @@ pub struct SqpSettings {
     pub max_constraint_gradient: f64,
 }
 
+/// Default [`SqpSettings::tol_feasibility`]: the largest max-norm violation of the (unscaled)
+/// constraints a converged point may have.
+pub const DEFAULT_TOL_FEASIBILITY: f64 = 1e-8;
+
 impl Default for SqpSettings {
     fn default() -> Self {
         Self {
             max_iterations: 200,
             max_function_evaluations: 2000,
             tol_optimality: 1e-6,
-            tol_feasibility: 1e-8,
+            tol_feasibility: DEFAULT_TOL_FEASIBILITY,
             tol_step: 1e-12,
             elastic_weight: 10.0,
             elastic_weight_growth: 10.0,
