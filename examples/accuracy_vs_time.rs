@@ -1,7 +1,7 @@
 //! What accuracy costs in time (issue 6, item 1).
 //!
 //! XPBD's accuracy is the number of Gauss–Seidel iterations per step (`n_iter`). For `u_obstacle`
-//! (δ = 0.2) and `swing`, at the scene's initial guess, this sweeps `n_iter` and reports: the
+//! (at its scene's δ) and `swing`, at the scene's initial guess, this sweeps `n_iter` and reports: the
 //! stretch residual (max |C| and RMS of `|x_i − x_j| − l⁰` over every stretch edge at the end of
 //! every step), E, L, the relative error of ∇L against a converged reference (5,000 iterations), the
 //! median time of one forward and one forward+∇L pass (and of `evaluate(.., true)`, which also
@@ -83,6 +83,12 @@ enum Child {
     },
 }
 
+/// Gauss–Seidel iterations per step of the mesh-size rows and the JAX comparison.
+const MESH_N_ITER: usize = 100;
+
+/// Seconds a mesh-size child spends timing before it stops (after at least one run).
+const MESH_BUDGET_S: f64 = 5.0;
+
 /// The sweep's settings after `--quick` and the overrides.
 struct Config {
     n_iters: Vec<usize>,
@@ -91,19 +97,21 @@ struct Config {
     plan_iterations: usize,
     plan_max_n_iter: usize,
     mesh_sizes: Vec<usize>,
+    /// `u_obstacle`'s safety margin δ, the threshold its plans are judged against.
+    delta: f64,
 }
 
 /// One output row; `kind` tells which.
 #[derive(Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
-enum Row {
-    Accuracy(Box<AccuracyRow>),
-    Mesh(MeshRow),
-    Jax(JaxRow),
+enum Row<'a> {
+    Accuracy(&'a AccuracyRow),
+    Mesh(&'a MeshRow),
+    Jax(&'a JaxRow),
 }
 
 /// One `(scene, n_iter)` setting at the scene's initial guess.
-#[derive(Serialize, Clone)]
+#[derive(Serialize)]
 struct AccuracyRow {
     scene: String,
     n_iter: usize,
@@ -136,7 +144,7 @@ struct AccuracyRow {
 }
 
 /// A plan optimized at `n_iter`, and the same controls re-simulated at the reference accuracy.
-#[derive(Serialize, Clone)]
+#[derive(Serialize)]
 struct PlanRow {
     status: String,
     iterations: usize,
@@ -158,7 +166,7 @@ struct PlanRow {
 }
 
 /// Forward+∇L at one mesh size and thread count, measured in a fresh process.
-#[derive(Serialize, Deserialize, Clone)]
+#[derive(Serialize, Deserialize)]
 struct MeshRow {
     scene: String,
     n: usize,
@@ -176,7 +184,7 @@ struct MeshRow {
 }
 
 /// The JAX reference at one setting, beside ours.
-#[derive(Serialize, Clone)]
+#[derive(Serialize)]
 struct JaxRow {
     scene: String,
     n: usize,
@@ -197,7 +205,7 @@ struct JaxRow {
 /// Everything written to `--out`.
 #[derive(Serialize)]
 struct Output<'a> {
-    rows: &'a [Row],
+    rows: &'a [Row<'a>],
     reference_iterations: usize,
     plan_iterations: usize,
     memory_method: &'static str,
@@ -413,7 +421,6 @@ fn measure_mesh(
 /// Runs the mesh measurement in a fresh copy of this program.
 fn spawn_mesh(n: usize, threads: usize, reps: usize) -> Result<MeshRow> {
     let exe = std::env::current_exe().context("cannot locate this example's executable")?;
-    let budget = 5.0;
     let out = Command::new(exe)
         .args([
             "measure-mesh",
@@ -422,8 +429,9 @@ fn spawn_mesh(n: usize, threads: usize, reps: usize) -> Result<MeshRow> {
             "--threads",
             &threads.to_string(),
         ])
-        .args(["--iterations", "100", "--reps", &reps.to_string()])
-        .args(["--budget-s", &budget.to_string()])
+        .args(["--iterations", &MESH_N_ITER.to_string()])
+        .args(["--reps", &reps.to_string()])
+        .args(["--budget-s", &MESH_BUDGET_S.to_string()])
         .output()
         .context("cannot start the measurement child")?;
     ensure!(
@@ -435,13 +443,13 @@ fn spawn_mesh(n: usize, threads: usize, reps: usize) -> Result<MeshRow> {
 }
 
 /// The sweep over `n_iter` for one scene: accuracy, cost, and the consequence for planning.
-/// Also returns ∇L per `n_iter`, for the JAX comparison.
-fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<usize, Tensor>)> {
+/// Also returns ∇L at [`MESH_N_ITER`] (if swept), for the JAX comparison.
+fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, Option<Tensor>)> {
     let base = Scene::builtin(name)?;
     let delta = base.task.delta;
     let stretch = Stretch::of(&base);
     let threads = rayon::current_num_threads();
-    let mut grads = HashMap::new();
+    let mut jax_grad = None;
 
     let ref_model = Model::from_scene(&with_iterations(&base, cfg.reference_iterations))?;
     let start = plan::initial_controls(&base, &ref_model)?;
@@ -459,7 +467,7 @@ fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<us
     let has_safety = ref_model.safety.is_some();
     let g_ref = reference
         .grad_l
-        .clone()
+        .as_ref()
         .ok_or_else(|| anyhow!("the reference evaluation returned no gradient"))?;
     let (max_c, rms_c, per_step) = stretch.residual(&reference.states);
     let mut rows = vec![AccuracyRow {
@@ -481,7 +489,6 @@ fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<us
         plan: None,
         plan_skipped: Some("the reference".into()),
     }];
-    grads.insert(cfg.reference_iterations, g_ref.clone());
 
     for &n_iter in &cfg.n_iters {
         let scene = with_iterations(&base, n_iter);
@@ -526,7 +533,7 @@ fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<us
             e: ev.metrics.e,
             l: ev.metrics.l,
             g: ev.metrics.g,
-            grad_rel_err: rel_err(&grad, &g_ref),
+            grad_rel_err: rel_err(&grad, g_ref),
             forward: fwd,
             forward_grad_l: fg,
             evaluate_gradients: eval_g,
@@ -534,7 +541,9 @@ fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<us
             plan: None,
             plan_skipped: None,
         };
-        grads.insert(n_iter, grad);
+        if n_iter == MESH_N_ITER {
+            jax_grad = Some(grad);
+        }
         if n_iter > cfg.plan_max_n_iter {
             row.plan_skipped = Some(format!(
                 "n_iter > {} (a plan costs ~n_iter/100 × the 100-iteration plan; raise --plan-max-n-iter)",
@@ -549,7 +558,7 @@ fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, HashMap<us
         }
         rows.push(row);
     }
-    Ok((rows, grads))
+    Ok((rows, jax_grad))
 }
 
 /// Optimizes at `model`'s accuracy, then re-simulates the plan with `ref_model`.
@@ -718,11 +727,14 @@ fn print_tables(acc: &[AccuracyRow], mesh: &[MeshRow], jax: &[JaxRow], cfg: &Con
         }
     }
     println!("(G plan / SDF plan: as the planner saw them at n_iter; max|C|: the plan's stretch residual at n_iter;");
-    println!(" safe: true min SDF ≥ δ − 1e−3 with δ = 0.2; swing has no obstacle.)");
+    println!(
+        " safe: true min SDF ≥ δ − 1e−3 with δ = {}; swing has no obstacle.)",
+        cfg.delta
+    );
 
     if !mesh.is_empty() {
         println!(
-            "\nMesh size: u_obstacle at its initial guess, 100 iterations (fresh process per row)"
+            "\nMesh size: u_obstacle at its initial guess, {MESH_N_ITER} iterations (fresh process per row)"
         );
         println!(
             "{:>4}{:>10}{:>9}{:>11}{:>14}{:>6}{:>15}{:>13}",
@@ -748,12 +760,12 @@ fn print_tables(acc: &[AccuracyRow], mesh: &[MeshRow], jax: &[JaxRow], cfg: &Con
                 fmt_opt(r.rss_growth_mb, 1),
             );
         }
-        println!("(runs: up to {} or until 5 s are spent; peak RSS: the child's VmHWM after the fwd+∇L runs,", cfg.reps);
+        println!("(runs: up to {} or until {MESH_BUDGET_S} s are spent; peak RSS: the child's VmHWM after the fwd+∇L runs,", cfg.reps);
         println!(" growth: its increase over them, the model already built)");
     }
 
     if !jax.is_empty() {
-        println!("\nJAX-jit reference (same spec, float64, CPU, jit compile excluded) beside ours, u_obstacle, 100 iterations");
+        println!("\nJAX-jit reference (same spec, float64, CPU, jit compile excluded) beside ours, u_obstacle, {MESH_N_ITER} iterations");
         println!(
             "{:>4}{:>14}{:>16}{:>14}{:>16}{:>10}{:>10}",
             "n", "JAX fwd [ms]", "JAX fwd+∇L [ms]", "ours fwd", "ours fwd+∇L", "L diff", "∇L diff"
@@ -794,7 +806,7 @@ fn plan_label(n_iter: usize, p: &PlanRow) -> String {
     }
 }
 
-/// Draws the PNGs into `dir`; returns their paths.
+/// Draws the PNGs into the existing directory `dir`; returns their paths.
 fn draw_plots(
     dir: &Path,
     acc: &[AccuracyRow],
@@ -802,8 +814,13 @@ fn draw_plots(
     jax: &[JaxRow],
     cfg: &Config,
 ) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut written = Vec::new();
+    let mut draw = |fig: &XyFigure, file: &str| -> Result<()> {
+        let path = dir.join(file);
+        draw_xy(fig, &path)?;
+        written.push(path);
+        Ok(())
+    };
     let swept = |scene: &'static str| acc.iter().filter(move |r| r.scene == scene && !r.reference);
     let ref_it = cfg.reference_iterations;
 
@@ -838,8 +855,7 @@ fn draw_plots(
         series.push(labelled(jax_pts, "u_obstacle, JAX-jit (same ∇L)".into()));
     }
     if !series.is_empty() {
-        let path = dir.join("accuracy_grad_error_vs_time.png");
-        draw_xy(
+        draw(
             &XyFigure {
                 title: "Gradient accuracy vs cost (labels: Gauss–Seidel iterations per step)"
                     .into(),
@@ -850,9 +866,8 @@ fn draw_plots(
                 log_y: true,
                 ref_lines: vec![],
             },
-            &path,
+            "accuracy_grad_error_vs_time.png",
         )?;
-        written.push(path);
     }
 
     let planned = |scene: &'static str| {
@@ -863,7 +878,7 @@ fn draw_plots(
 
     // 2. True min SDF of the plans against optimization time (u_obstacle). Plans that never came
     //    near the obstacle are left off, so that the axis resolves the distances around δ.
-    let delta = 0.2;
+    let delta = cfg.delta;
     let u = planned("u_obstacle");
     let (near, far): (Vec<_>, Vec<_>) = u
         .iter()
@@ -892,8 +907,7 @@ fn draw_plots(
             );
         }
         x_label += ")";
-        let path = dir.join("accuracy_plan_min_sdf.png");
-        draw_xy(
+        draw(
             &XyFigure {
                 title: "u_obstacle: does a plan optimized at n_iter iterations stay safe?".into(),
                 x_label,
@@ -915,9 +929,8 @@ fn draw_plots(
                     label: format!("δ = {delta}: safe above"),
                 }],
             },
-            &path,
+            "accuracy_plan_min_sdf.png",
         )?;
-        written.push(path);
     }
 
     // 3. True G of the plans against optimization time, one figure per scene.
@@ -941,8 +954,7 @@ fn draw_plots(
             ),
         ];
         let log_y = series.iter().all(|s| s.points.iter().all(|p| p.1 > 0.0));
-        let path = dir.join(format!("accuracy_plan_g_{s}.png"));
-        draw_xy(
+        draw(
             &XyFigure {
                 title: format!("{s}: target error of plans optimized at n_iter iterations"),
                 x_label: plan_x_label(&p),
@@ -952,9 +964,8 @@ fn draw_plots(
                 log_y,
                 ref_lines: vec![],
             },
-            &path,
+            &format!("accuracy_plan_g_{s}.png"),
         )?;
-        written.push(path);
     }
 
     // 4. Mesh size.
@@ -979,10 +990,11 @@ fn draw_plots(
                 labelled(pts, format!("{k} thread{}", if k == 1 { "" } else { "s" }))
             })
             .collect();
-        let path = dir.join("accuracy_mesh_scaling.png");
-        draw_xy(
+        draw(
             &XyFigure {
-                title: "u_obstacle forward + ∇L, 100 iterations (labels: mesh, peak RSS)".into(),
+                title: format!(
+                    "u_obstacle forward + ∇L, {MESH_N_ITER} iterations (labels: mesh, peak RSS)"
+                ),
                 x_label: "particles".into(),
                 y_label: "time [s] (median)".into(),
                 series,
@@ -990,19 +1002,32 @@ fn draw_plots(
                 log_y: true,
                 ref_lines: vec![],
             },
-            &path,
+            "accuracy_mesh_scaling.png",
         )?;
-        written.push(path);
     }
     Ok(written)
 }
 
-fn write_output(path: Option<&Path>, rows: &[Row], cfg: &Config, total: f64) -> Result<()> {
+/// Writes `{"rows": [...]}` to `path` (if any): the accuracy rows, then the mesh and JAX rows.
+fn write_output(
+    path: Option<&Path>,
+    acc: &[AccuracyRow],
+    mesh: &[MeshRow],
+    jax: &[JaxRow],
+    cfg: &Config,
+    total: f64,
+) -> Result<()> {
     if let Some(path) = path {
+        let rows: Vec<Row> = acc
+            .iter()
+            .map(Row::Accuracy)
+            .chain(mesh.iter().map(Row::Mesh))
+            .chain(jax.iter().map(Row::Jax))
+            .collect();
         plan::write_json_atomic(
             path,
             &Output {
-                rows,
+                rows: &rows,
                 reference_iterations: cfg.reference_iterations,
                 plan_iterations: cfg.plan_iterations,
                 memory_method: MEMORY_METHOD,
@@ -1044,6 +1069,7 @@ fn main() -> Result<()> {
         } else {
             vec![10, 20, 40, 80]
         },
+        delta: Scene::builtin("u_obstacle")?.task.delta,
     };
     ensure!(cfg.reps >= 1, "--reps must be at least 1");
     ensure!(
@@ -1076,14 +1102,14 @@ fn main() -> Result<()> {
     for name in ["u_obstacle", "swing"] {
         let (rows, g) = sweep_scene(name, &cfg)?;
         acc.extend(rows);
-        grads.insert(name, g);
-        let rows: Vec<Row> = acc
-            .iter()
-            .map(|r| Row::Accuracy(Box::new(r.clone())))
-            .collect();
+        if let Some(g) = g {
+            grads.insert(name, g);
+        }
         write_output(
             args.out.as_deref(),
-            &rows,
+            &acc,
+            &[],
+            &[],
             &cfg,
             clock.elapsed().as_secs_f64(),
         )?;
@@ -1110,8 +1136,8 @@ fn main() -> Result<()> {
                 .map(|&n| ("u_obstacle", n)),
         );
         for (scene, n) in settings {
-            eprintln!("JAX: {scene}, n = {n}, 100 iterations …");
-            let j = match run_jax(python, &args.jax_script, scene, n, 100) {
+            eprintln!("JAX: {scene}, n = {n}, {MESH_N_ITER} iterations …");
+            let j = match run_jax(python, &args.jax_script, scene, n, MESH_N_ITER) {
                 Ok(j) => j,
                 Err(e) => {
                     eprintln!("JAX skipped: {e:#}");
@@ -1120,24 +1146,20 @@ fn main() -> Result<()> {
             };
             let ours = acc
                 .iter()
-                .find(|r| r.scene == scene && r.n_iter == 100 && n == 10);
+                .find(|r| r.scene == scene && r.n_iter == MESH_N_ITER && n == 10);
             let ours_mesh = mesh
                 .iter()
                 .find(|r| r.n == n && r.threads == 2 && scene == "u_obstacle");
             // L is comparable at n = 10 only (see `JaxRow::l_rel_diff`).
             let ours_l = ours.map(|r| r.l);
-            let grad_rel_diff = grads
-                .get(scene)
-                .and_then(|g| g.get(&100))
-                .filter(|_| n == 10)
-                .map(|g| {
-                    let flat: Vec<f64> = j.grad_l.iter().flatten().flatten().copied().collect();
-                    rel_err(&Tensor::new(g.rows(), g.cols(), flat), g)
-                });
+            let grad_rel_diff = grads.get(scene).filter(|_| n == 10).map(|g| {
+                let flat: Vec<f64> = j.grad_l.iter().flatten().flatten().copied().collect();
+                rel_err(&Tensor::new(g.rows(), g.cols(), flat), g)
+            });
             jax.push(JaxRow {
                 scene: scene.into(),
                 n,
-                n_iter: 100,
+                n_iter: MESH_N_ITER,
                 forward_s: j.forward_s,
                 forward_grad_l_s: j.forward_gradient_s,
                 l: j.l,
@@ -1156,13 +1178,7 @@ fn main() -> Result<()> {
     let jax_time = jax_clock.elapsed().as_secs_f64();
     print_tables(&acc, &mesh, &jax, &cfg);
     let total = clock.elapsed().as_secs_f64();
-    let mut rows: Vec<Row> = acc
-        .iter()
-        .map(|r| Row::Accuracy(Box::new(r.clone())))
-        .collect();
-    rows.extend(mesh.iter().cloned().map(Row::Mesh));
-    rows.extend(jax.iter().cloned().map(Row::Jax));
-    write_output(args.out.as_deref(), &rows, &cfg, total)?;
+    write_output(args.out.as_deref(), &acc, &mesh, &jax, &cfg, total)?;
     if let Some(dir) = &args.png_dir {
         for p in draw_plots(dir, &acc, &mesh, &jax, &cfg)? {
             println!("wrote {}", p.display());

@@ -199,7 +199,7 @@ fn main() -> Result<()> {
                 if ok { "feasible" } else { "infeasible" }
             )
         });
-        let ok = feasible && r.status == "converged" && swept_ok;
+        let ok = r.is_safe_and_converged() && swept_ok;
         all_ok &= ok;
         println!(
             "  {} {:<14} {} {} L = {:.4}{}{}",
