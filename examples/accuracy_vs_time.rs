@@ -683,7 +683,7 @@ fn print_tables(acc: &[AccuracyRow], mesh: &[MeshRow], jax: &[JaxRow], cfg: &Con
     println!(" sub-gradient is 0 in every run.)");
 
     println!(
-        "\nConsequence for planning: SQP (≤ {} iterations) from the scene's initial guess at n_iter, re-simulated at {} iterations (\"true\")",
+        "\nConsequence for planning: SQP (≤ {} iterations per κ stage) from the scene's initial guess at n_iter, re-simulated at {} iterations (\"true\")",
         cfg.plan_iterations, cfg.reference_iterations
     );
     println!(

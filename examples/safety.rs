@@ -26,7 +26,7 @@ struct Args {
     /// Draw a 3-D and a top view per run into this directory.
     #[arg(long)]
     png_dir: Option<PathBuf>,
-    /// Optimizer iteration limit per run.
+    /// Optimizer iteration limit per run and κ stage.
     #[arg(long, default_value_t = 300)]
     iterations: usize,
 }

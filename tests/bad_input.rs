@@ -1,9 +1,11 @@
 //! Bad input gets one readable line and loses nothing (issue 7, item 3).
 //!
-//! Every case runs the `clothopt` binary with `--out` and asserts: exit code 1 (not a panic's 101),
-//! exactly one line on stderr, starting `error: ` and naming the field, flag or position; no
-//! output file and no temporary file left in the directory (results are written through a
-//! temporary file and a rename, and only after everything succeeded). Scene cases also check the
+//! Every case runs the `clothopt` binary and asserts: exit code 1 (not a panic's 101), exactly one
+//! line on stderr, starting `error: ` and naming the field, flag or position. Cases that would
+//! write a result (`--out` into the case's directory) also assert that no output file and no
+//! temporary file is left there (results are written through a temporary file and a rename, and
+//! only after everything succeeded); the few cases without `--out` (`grad`, unknown scenes) have
+//! nothing to leave behind. Scene cases also check the
 //! library's error: [`SceneError::Invalid`] with the exact field path, or [`SceneError::Parse`]
 //! with the line and column.
 

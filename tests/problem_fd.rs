@@ -83,7 +83,7 @@ fn aggregate_safety_derivatives_match_central_differences() {
 }
 
 #[test]
-fn drop_keeps_every_control_point_above_the_floor_with_linear_rows() {
+fn drop_has_one_floor_row_per_control_point_and_step() {
     let scene = Scene::builtin("drop").unwrap();
     let model = Model::from_scene(&scene).unwrap();
     assert_eq!(
