@@ -23,7 +23,7 @@
 //! penalty weights `ν` live only in `q` ([`QpSubproblem::update_penalty`]) and a second-order correction only
 //! changes `b` ([`QpSubproblem::update_constraint_values`]), so both reuse the factorization structure.
 //!
-//! Two guards against Clarabel's numerical failures on perfectly well-posed data:
+//! Three guards against Clarabel's numerical failures on perfectly well-posed data:
 //!
 //! * Inequalities whose Jacobian row is all zero at `x` are left out of the conic problem: their
 //!   linearization `cᵢ + 0·d ≥ 0` does not depend on `d` (it holds for every step or for none), and a
@@ -37,6 +37,12 @@
 //!   gap stalls at ~1e-2 while μ → 0, until `MaxIterations`) on small, well-conditioned QPs; the same
 //!   problem without equilibration solves in ~10 iterations (oxfordcontrol/Clarabel.rs#217 reports
 //!   the same behaviour).
+//! * If every fallback fails too and the objective has entries above 1, it is solved once more
+//!   divided by its largest entry (with the defaults, then each fallback): the same minimizer, with
+//!   duals scaled by the same factor (undone before they are returned). The first QP of a nearly
+//!   unstable rollout (`swing` at 1000 iterations per step, gradient entries from 1e10 down to
+//!   1e-4) is `DualInfeasible` with every setting until it is scaled. Scaling only after a failure
+//!   leaves every QP Clarabel solves as given bit for bit as it was.
 
 use crate::linalg::Jacobian;
 use crate::problem::NormData;
@@ -464,7 +470,7 @@ impl QpSubproblem {
     /// does, the outcome is the failure status of the first attempt.
     pub(crate) fn solve(&mut self) -> QpSolution {
         self.solver.solve();
-        let first = self.extract(&self.solver.solution);
+        let first = self.extract(&self.solver.solution, 1.0);
         let retry = match first.outcome {
             QpOutcome::Solved | QpOutcome::AlmostSolved => false,
             QpOutcome::Failed(
@@ -484,28 +490,46 @@ impl QpSubproblem {
         if !retry {
             return first;
         }
-        for fallback in FALLBACKS {
-            let Ok(settings) =
-                clarabel_settings(self.tolerance, self.max_iterations, Some(fallback))
-            else {
-                continue;
-            };
-            let c = &self.conic;
-            let Ok(mut solver) = DefaultSolver::new(&c.p, &c.q, &c.a, &c.b, &c.cones, settings)
-            else {
-                continue;
-            };
-            solver.solve();
-            let sol = self.extract(&solver.solution);
-            if sol.outcome.is_usable() {
-                return sol;
+        // The same data with each fallback setting; then, if the objective has entries above 1
+        // (a gradient of 1e10 defeats every setting), the objective divided by its largest entry,
+        // which has the same minimizer and duals scaled by the same factor.
+        let largest = self.conic.q.iter().fold(1.0_f64, |m, v| m.max(v.abs()));
+        let scaled = (largest > 1.0).then_some(1.0 / largest);
+        let attempts =
+            FALLBACKS
+                .iter()
+                .map(|&f| (1.0, Some(f)))
+                .chain(scaled.into_iter().flat_map(|s| {
+                    std::iter::once((s, None)).chain(FALLBACKS.iter().map(move |&f| (s, Some(f))))
+                }));
+        for (scale, fallback) in attempts {
+            if let Some(sol) = self.solve_with(scale, fallback) {
+                if sol.outcome.is_usable() {
+                    return sol;
+                }
             }
         }
         first
     }
 
-    /// A Clarabel solution in the SQP's conventions.
-    fn extract(&self, sol: &DefaultSolution<f64>) -> QpSolution {
+    /// Solves the data from scratch with the objective (`P`, `q`) multiplied by `scale` and
+    /// Clarabel's `fallback` settings (defaults if `None`); `None` if Clarabel rejects the setup.
+    fn solve_with(&self, scale: f64, fallback: Option<(bool, f64, f64)>) -> Option<QpSolution> {
+        let settings = clarabel_settings(self.tolerance, self.max_iterations, fallback).ok()?;
+        let c = &self.conic;
+        let (mut p, mut q) = (c.p.clone(), c.q.clone());
+        if scale != 1.0 {
+            p.nzval.iter_mut().for_each(|v| *v *= scale);
+            q.iter_mut().for_each(|v| *v *= scale);
+        }
+        let mut solver = DefaultSolver::new(&p, &q, &c.a, &c.b, &c.cones, settings).ok()?;
+        solver.solve();
+        Some(self.extract(&solver.solution, scale))
+    }
+
+    /// A Clarabel solution in the SQP's conventions, of a solve whose objective was multiplied by
+    /// `scale` (its duals are divided by it).
+    fn extract(&self, sol: &DefaultSolution<f64>, scale: f64) -> QpSolution {
         let l = self.layout;
         let outcome = match sol.status {
             SolverStatus::Solved => QpOutcome::Solved,
@@ -513,7 +537,13 @@ impl QpSubproblem {
             other => QpOutcome::Failed(other),
         };
         let x = &sol.x;
-        let z = &sol.z;
+        let unscaled: Vec<f64>;
+        let z = if scale == 1.0 {
+            &sol.z
+        } else {
+            unscaled = sol.z.iter().map(|v| v / scale).collect();
+            &unscaled
+        };
         let d = x[..l.n].to_vec();
         // Rows left out of the conic problem (all-zero Jacobian row) get multiplier 0.
         let mut lambda = vec![0.0; self.m_total];
@@ -544,7 +574,8 @@ impl QpSubproblem {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::linalg::DenseMatrix;
+    use crate::linalg::{DenseMatrix, SparseMatrix};
+    use crate::problem::NormTerm;
 
     #[test]
     fn triplets_compress_sorted_and_merged() {
@@ -558,6 +589,81 @@ mod tests {
         assert_eq!(c.rowval, vec![0, 2, 1]);
         assert_eq!(c.nzval, vec![5.0, 1.0, 4.0]);
         assert!(c.check_format().is_ok());
+    }
+
+    #[test]
+    fn huge_gradient_gives_the_clipped_step_and_unscaled_duals() {
+        // The first QP of `swing` simulated with 1000 iterations per step, in miniature: 10 steps of
+        // 6 controls from rest, identity Hessian, the step box ±0.5, one norm term per step
+        // difference, and the rollout's gradient, whose entries fall from 1e10 (a nearly unstable
+        // rollout) to 1e-4 over the steps. Clarabel reports `DualInfeasible` on this data with its defaults and
+        // with every fallback setting; divided by its largest entry, it solves.
+        let (steps, width) = (10, 6);
+        let n = steps * width;
+        // ∂L/∂U of `swing` at rest with 1000 iterations per step, rounded to 4 digits.
+        #[rustfmt::skip]
+        let g: [f64; 60] = [
+            1.0608e-01, 1.0317e+10, -3.4232e-01, -1.4497e-01, 1.0532e+07, -3.3580e-01,
+            1.0787e-01, 2.2234e+09, -3.4387e-01, -1.4346e-01, 7.0376e+06, -3.3259e-01,
+            1.1037e-01, 9.2754e+07, -3.4610e-01, -1.4131e-01, 3.0972e+05, -3.2830e-01,
+            1.1375e-01, 1.7099e+06, -3.4897e-01, -1.3826e-01, 5.3813e+03, -3.2231e-01,
+            1.1813e-01, 2.0921e+04, -3.5232e-01, -1.3387e-01, 6.0166e+01, -3.1374e-01,
+            1.2349e-01, 2.0704e+02, -3.5540e-01, -1.2746e-01, 3.9819e-01, -3.0116e-01,
+            1.2921e-01, 1.8185e+00, -3.5595e-01, -1.1787e-01, -6.4515e-02, -2.8216e-01,
+            1.3302e-01, -1.1337e-02, -3.4787e-01, -1.0314e-01, -3.3442e-02, -2.5236e-01,
+            1.2818e-01, -7.1756e-03, -3.1571e-01, -8.0007e-02, -1.0328e-02, -2.0352e-01,
+            9.6148e-02, -3.6904e-04, -2.2175e-01, -4.4340e-02, -8.2904e-04, -1.2139e-01,
+        ];
+        let mut h = vec![0.0; n * n];
+        for j in 0..n {
+            h[j * n + j] = 1.0;
+        }
+        let terms: Vec<NormTerm> = (1..steps)
+            .map(|t| {
+                let mut a = SparseMatrix::new(width, n);
+                for k in 0..width {
+                    a.push(k, width * (t - 1) + k, -1.0);
+                    a.push(k, width * t + k, 1.0);
+                }
+                NormTerm::new(1.0, a, vec![0.0; width])
+            })
+            .collect();
+        let norms = NormData::from_terms(&terms, n).expect("norm terms");
+        let residuals = vec![vec![0.0; width]; steps - 1];
+        let (jc, je) = (Jacobian::dense(0, n), Jacobian::dense(0, n));
+        let (lo, up) = (vec![-0.5; n], vec![0.5; n]);
+        let data = QpData {
+            n,
+            hessian: &h,
+            gradient: &g,
+            ineq: &[],
+            ineq_jac: &jc,
+            eq: &[],
+            eq_jac: &je,
+            norms: &norms,
+            norm_residuals: &residuals,
+            step_lower: &lo,
+            step_upper: &up,
+        };
+        let mut qp = QpSubproblem::new(&data, QpMode::Optimality, &[], 1e-9, 200).expect("build");
+        let s = qp.solve();
+        assert!(s.outcome.is_usable(), "{:?}", s.outcome);
+        // The steep coordinates (within 1e6 of the steepest: the solve's accuracy is relative to
+        // the largest entry) sit on the box, against their gradient, and their box duals
+        // (unscaled) balance the gradient: d + g + z_up − z_lo − (norm terms) = 0, the norm
+        // terms' part at most 2 (two unit-weight terms per coordinate).
+        let largest = g.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        for j in (0..n).filter(|&j| g[j].abs() >= 1e-6 * largest) {
+            let want = -0.5 * g[j].signum();
+            assert!((s.d[j] - want).abs() < 1e-6, "d[{j}] = {} ≠ {want}", s.d[j]);
+            let dual = s.box_upper[j] - s.box_lower[j];
+            let residual = s.d[j] + g[j] + dual;
+            assert!(
+                residual.abs() <= 2.0 + 1e-9 * g[0],
+                "stationarity {j}: {residual}"
+            );
+        }
+        assert!(s.d.iter().all(|d| d.abs() <= 0.5 + 1e-9), "{:?}", s.d);
     }
 
     #[test]
