@@ -37,6 +37,11 @@
 //!   saw a flip, worst error 0.26 of the strict tolerance; with a higher plane (z 1.05–1.4, tilt ≤ 0.5)
 //!   19 of 600 directions flipped, with errors ≤ 1.3e-7 relative — particles resting on the plane
 //!   (`C = 0` to the last bit) flip without first-order normal motion.
+//! - FD at its limit: where the Richardson estimates at `h` and `2h` agree to 1e-5 but not to 1e-7
+//!   (stiff cases), the FD cannot certify 1e-6 either, and the kink tolerance applies. Measured
+//!   with `PROPTEST_RNG_SEED=20261121`: 74 of 5166 comparisons (123 cases) fell back to it, at most
+//!   8 of a case's 42, and one of them needed it (1.08 of the strict tolerance, 0.42 at most for the
+//!   others). Each case asserts that at most half of its comparisons fall back.
 //! - Ill-conditioned rollouts: in some cases (≈ 1% of random scenes, mostly dihedral bending with
 //!   stiff stretch, or a cloth crumpled by contact) 20 Gauss–Seidel iterations are chaotic — `L` jumps by 1e-3 under a 1e-7 control change, and no finite-difference
 //!   step converges. Such a case is detected from the *function alone* (Richardson FDs at `h` and
@@ -119,7 +124,9 @@ fn pattern(model: &Model, u: &Tensor, plane: &Option<PlaneCase>) -> Vec<bool> {
 struct Worst {
     l: f64,
     c: f64,
-    kinks: usize,
+    /// Comparisons made, and those made at the kink tolerance `REL_KINK`.
+    checks: usize,
+    loose: usize,
 }
 
 /// One point of a check: the model, the controls, `δ`, the collider (if any) and the gradients.
@@ -162,9 +169,6 @@ fn check_direction(
     let smooth = [-4.0, -2.0, -1.0, 1.0, 2.0, 4.0]
         .iter()
         .all(|&s| pattern(model, &shifted(u, d, s * H), plane) == base);
-    if !smooth {
-        worst.kinks += 1;
-    }
     for (k, name) in ["dL", "dC"].into_iter().enumerate() {
         let fd_h = (8.0 * (p1[k] - m1[k]) - (p2[k] - m2[k])) / (12.0 * H);
         let fd_2h = (8.0 * (p2[k] - m2[k]) - (p4[k] - m4[k])) / (24.0 * H);
@@ -174,11 +178,13 @@ fn check_direction(
                 "FD not self-consistent for {name} along {what}: {fd_h} (h) vs {fd_2h} (2h)"
             )));
         }
-        // The strict tolerance only where the FD estimate itself resolves it: a kink inside the
-        // stencil that the collider pattern does not see (e.g. relu(δ − SDF) of C) makes the
-        // h and 2h estimates disagree beyond 1e-7, and then the contact tolerance applies.
+        // The strict tolerance only where the FD estimate itself resolves it: where the h and 2h
+        // estimates disagree beyond 1e-7 (stiff cases at the limit of the stencil, or a kink inside
+        // it that the collider pattern does not see), the kink tolerance applies (counted).
         let resolved = within(fd_h, fd_2h, 1e-7, 1e-10);
         let rel = if smooth && resolved { REL } else { REL_KINK };
+        worst.checks += 1;
+        worst.loose += usize::from(rel == REL_KINK);
         let an = dot(grads[k].data(), d);
         let r = ratio(an, fd_h, rel, FLOOR * scale[k]);
         if k == 0 {
@@ -338,7 +344,15 @@ fn run_case(
             "the cloth must touch the collider plane"
         );
     }
-    check_gradients(&model, &u, delta, &plane, seed)
+    let w = check_gradients(&model, &u, delta, &plane, seed)?;
+    // The loose tolerance must stay the exception, never a whole case (see the module docs).
+    prop_assert!(
+        2 * w.loose <= w.checks,
+        "{} of {} comparisons needed the kink tolerance",
+        w.loose,
+        w.checks
+    );
+    Ok(w)
 }
 
 proptest! {
