@@ -641,8 +641,11 @@ fn run(args: Args) -> Result<()> {
         println!(
             "  on G's kink: {} — G = ‖x_target − x̄‖ is a norm whose gradient keeps unit length \
              however close G is to 0,\n  so an optimum at G = 0 is a kink no finite iterate can \
-             certify: these stop at the iteration limit, reported as such.",
-            list(&kink, &|r| format!("(G {:.1e})", r.result.metrics.g))
+             certify (each run's status in brackets).",
+            list(&kink, &|r| format!(
+                "(G {:.1e}, {})",
+                r.result.metrics.g, r.result.status
+            ))
         );
     }
     let (ground, other): (Vec<&Run>, Vec<&Run>) = rough
@@ -651,11 +654,11 @@ fn run(args: Args) -> Result<()> {
     if !ground.is_empty() {
         println!(
             "  not converged: {} — with a ground the rollout is only piecewise smooth (the \
-             collider projection\n  switches as particles touch the floor); measured on drop at \
-             200 iterations: the last steps are 1e-8–1e-5 long,\n  with shortened line searches \
-             and the KKT residual at 0.1–1.",
+             collider projection\n  switches as particles touch the floor), so the KKT residual \
+             need not fall near a kink.",
             list(&ground, &|r| format!(
-                "(KKT {})",
+                "({}, KKT {})",
+                r.result.status,
                 kkt(r.result.kkt_residual)
             ))
         );

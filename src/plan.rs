@@ -185,17 +185,21 @@ impl PlanResult {
         self.status != "infeasible" && self.constraint_violation <= FEASIBILITY_TOLERANCE
     }
 
-    /// True when the safety constraint holds: `C ≥ −1e−6` and `min SDF ≥ δ − 1e−3` (always
-    /// without safety obstacles).
+    /// True when the plan's own rollout is [safe](is_safe) at its margin.
     pub fn is_safe(&self) -> bool {
-        self.metrics.min_sdf.is_infinite()
-            || (self.metrics.c >= -1e-6 && self.metrics.min_sdf >= self.delta - 1e-3)
+        is_safe(&self.metrics, self.delta)
     }
 
     /// True when the solver converged and the plan [is safe](PlanResult::is_safe).
     pub fn is_safe_and_converged(&self) -> bool {
         self.status == "converged" && self.is_safe()
     }
+}
+
+/// The safety judgement of a rollout's metrics at margin `delta`: `C ≥ −1e−6` and
+/// `min SDF ≥ δ − 1e−3` (always true without safety obstacles).
+pub fn is_safe(metrics: &Metrics, delta: f64) -> bool {
+    metrics.min_sdf.is_infinite() || (metrics.c >= -1e-6 && metrics.min_sdf >= delta - 1e-3)
 }
 
 /// Controls tensor (`T × 3K`) as nested `[x, y, z]` lists.
