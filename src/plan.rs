@@ -187,7 +187,7 @@ impl PlanResult {
 
     /// True when the plan's own rollout is [safe](is_safe) at its margin.
     pub fn is_safe(&self) -> bool {
-        is_safe(&self.metrics, self.delta)
+        is_safe(&self.metrics)
     }
 
     /// True when the solver converged and the plan [is safe](PlanResult::is_safe).
@@ -196,10 +196,15 @@ impl PlanResult {
     }
 }
 
-/// The safety judgement of a rollout's metrics at margin `delta`: `C ≥ −1e−6` and
-/// `min SDF ≥ δ − 1e−3` (always true without safety obstacles).
-pub fn is_safe(metrics: &Metrics, delta: f64) -> bool {
-    metrics.min_sdf.is_infinite() || (metrics.c >= -1e-6 && metrics.min_sdf >= delta - 1e-3)
+/// Largest total safety violation `−C` a safe rollout may have (see [`is_safe`]).
+pub const SAFETY_TOLERANCE: f64 = 1e-6;
+
+/// The safety judgement of a rollout's metrics: `C ≥ −1e−6` ([`SAFETY_TOLERANCE`]) for the
+/// margin `δ` they were computed with. `C = −Σ_t Σ_i relu(δ − SDF)` sums every particle's
+/// intrusion at every step, so no particle is more than 1e−6 inside the margin (`C = 0`
+/// without safety obstacles).
+pub fn is_safe(metrics: &Metrics) -> bool {
+    metrics.c >= -SAFETY_TOLERANCE
 }
 
 /// Controls tensor (`T × 3K`) as nested `[x, y, z]` lists.

@@ -41,7 +41,7 @@
 //!   (stiff cases), the FD cannot certify 1e-6 either, and the kink tolerance applies. Measured
 //!   with `PROPTEST_RNG_SEED=20261121`: 74 of 5166 comparisons (123 cases) fell back to it, at most
 //!   8 of a case's 42, and one of them needed it (1.08 of the strict tolerance, 0.42 at most for the
-//!   others). Each case asserts that at most half of its comparisons fall back.
+//!   others). Each case asserts that at most half of its comparisons of each gradient fall back.
 //! - Ill-conditioned rollouts: in some cases (≈ 1% of random scenes, mostly dihedral bending with
 //!   stiff stretch, or a cloth crumpled by contact) 20 Gauss–Seidel iterations are chaotic — `L` jumps by 1e-3 under a 1e-7 control change, and no finite-difference
 //!   step converges. Such a case is detected from the *function alone* (Richardson FDs at `h` and
@@ -124,9 +124,10 @@ fn pattern(model: &Model, u: &Tensor, plane: &Option<PlaneCase>) -> Vec<bool> {
 struct Worst {
     l: f64,
     c: f64,
-    /// Comparisons made, and those made at the kink tolerance `REL_KINK`.
-    checks: usize,
-    loose: usize,
+    /// Comparisons made, and those made at the kink tolerance `REL_KINK`, per gradient (`dL`,
+    /// `dC`).
+    checks: [usize; 2],
+    loose: [usize; 2],
 }
 
 /// One point of a check: the model, the controls, `δ`, the collider (if any) and the gradients.
@@ -183,8 +184,8 @@ fn check_direction(
         // it that the collider pattern does not see), the kink tolerance applies (counted).
         let resolved = within(fd_h, fd_2h, 1e-7, 1e-10);
         let rel = if smooth && resolved { REL } else { REL_KINK };
-        worst.checks += 1;
-        worst.loose += usize::from(rel == REL_KINK);
+        worst.checks[k] += 1;
+        worst.loose[k] += usize::from(rel == REL_KINK);
         let an = dot(grads[k].data(), d);
         let r = ratio(an, fd_h, rel, FLOOR * scale[k]);
         if k == 0 {
@@ -345,13 +346,16 @@ fn run_case(
         );
     }
     let w = check_gradients(&model, &u, delta, &plane, seed)?;
-    // The loose tolerance must stay the exception, never a whole case (see the module docs).
-    prop_assert!(
-        2 * w.loose <= w.checks,
-        "{} of {} comparisons needed the kink tolerance",
-        w.loose,
-        w.checks
-    );
+    // The loose tolerance must stay the exception, never a whole case's gradient (see the
+    // module docs). (Without safety obstacles dC is identically 0, so only dL's count can fail.)
+    for (k, name) in ["dL", "dC"].into_iter().enumerate() {
+        prop_assert!(
+            2 * w.loose[k] <= w.checks[k],
+            "{} of {} {name} comparisons needed the kink tolerance",
+            w.loose[k],
+            w.checks[k]
+        );
+    }
     Ok(w)
 }
 
