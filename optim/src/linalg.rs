@@ -59,7 +59,7 @@ impl DenseMatrix {
         self.cols
     }
 
-    /// Square, symmetric to `1e-12` of its largest entry, and positive definite (a Cholesky
+    /// Square, symmetric to `1e-12·max(1, largest |entry|)`, and positive definite (a Cholesky
     /// factorization succeeds): what an initial Hessian must be.
     pub fn is_symmetric_positive_definite(&self) -> bool {
         let (n, data) = (self.rows, &self.data);

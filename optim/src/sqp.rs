@@ -503,8 +503,8 @@ impl SqpSolver {
             gradient_evaluations: ev.gradient_evaluations,
             multipliers: mult,
             solve_time: start.elapsed().as_secs_f64(),
-            // Only a matrix another solve accepts as its initial Hessian (in floating point a
-            // badly conditioned BFGS matrix can fail the Cholesky test).
+            // Only a matrix another solve accepts as its initial Hessian: BFGS keeps it symmetric,
+            // but in floating point a badly conditioned one can fail the Cholesky test.
             hessian: DenseMatrix::from_row_major(n, n, bfgs.matrix().to_vec())
                 .filter(DenseMatrix::is_symmetric_positive_definite),
         })

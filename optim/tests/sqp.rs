@@ -113,11 +113,13 @@ fn nearly_feasible_start_with_a_consistent_linearization_is_not_infeasible() {
     assert!(sol.x[0].abs() < 1e-8, "{:?}", sol.x);
 }
 
-/// `min x₀² + 10 x₁²  s.t.  x₀ + x₁ ≥ 1` (wrapped in [`FailsAfter`] so that its objective
-/// evaluations fail after a budget).
-struct EllipticAboveLine;
+/// `min x₀² + w x₁²  s.t.  s (x₀ + x₁ − 1) ≥ 0` for a curvature `w` and a constraint scale `s`.
+struct AboveLine {
+    w: f64,
+    s: f64,
+}
 
-impl Problem for EllipticAboveLine {
+impl Problem for AboveLine {
     fn num_variables(&self) -> usize {
         2
     }
@@ -125,20 +127,20 @@ impl Problem for EllipticAboveLine {
         1
     }
     fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
-        Ok(x[0] * x[0] + 10.0 * x[1] * x[1])
+        Ok(x[0] * x[0] + self.w * x[1] * x[1])
     }
     fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
         g[0] = 2.0 * x[0];
-        g[1] = 20.0 * x[1];
+        g[1] = 2.0 * self.w * x[1];
         Ok(())
     }
     fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
-        c[0] = x[0] + x[1] - 1.0;
+        c[0] = self.s * (x[0] + x[1] - 1.0);
         Ok(())
     }
     fn inequality_jacobian(&mut self, _x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
-        j.set(0, 0, 1.0);
-        j.set(0, 1, 1.0);
+        j.set(0, 0, self.s);
+        j.set(0, 1, self.s);
         Ok(())
     }
 }
@@ -149,7 +151,8 @@ fn callback_sees_each_iteration_once_across_a_hessian_reset() {
     let sol = solver()
         .solve_with_callback(
             &mut FailsAfter {
-                problem: EllipticAboveLine,
+                // min x₀² + 10 x₁²  s.t.  x₀ + x₁ ≥ 1, its objective failing after 4 evaluations.
+                problem: AboveLine { w: 10.0, s: 1.0 },
                 budget: 4,
             },
             &[3.0, -1.0],
@@ -558,39 +561,11 @@ fn solution_serializes_to_json() {
 
 /// `min x₀² + x₁²  s.t.  10⁶ (x₀ + x₁ − 1) ≥ 0`: the constraint is scaled internally, but the reported
 /// multiplier is the one of the constraint as written, `λ = 10⁻⁶`, and the violation is unscaled.
-struct BigConstraint;
-
-impl Problem for BigConstraint {
-    fn num_variables(&self) -> usize {
-        2
-    }
-    fn num_inequalities(&self) -> usize {
-        1
-    }
-    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
-        Ok(x[0] * x[0] + x[1] * x[1])
-    }
-    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
-        g[0] = 2.0 * x[0];
-        g[1] = 2.0 * x[1];
-        Ok(())
-    }
-    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
-        c[0] = 1e6 * (x[0] + x[1] - 1.0);
-        Ok(())
-    }
-    fn inequality_jacobian(&mut self, _x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
-        j.set(0, 0, 1e6);
-        j.set(0, 1, 1e6);
-        Ok(())
-    }
-}
-
 #[test]
 fn constraint_scaling_is_invisible_in_the_results() {
     let mut infos = Vec::new();
     let sol = solver()
-        .solve_with_callback(&mut BigConstraint, &[0.0, 0.0], |i| {
+        .solve_with_callback(&mut AboveLine { w: 1.0, s: 1e6 }, &[0.0, 0.0], |i| {
             infos.push(i.constraint_violation);
             ControlFlow::Continue(())
         })
@@ -866,7 +841,6 @@ fn final_hessian_warm_starts_a_resumed_solve() {
         .hessian
         .clone()
         .expect("the SQP returns its Hessian");
-    assert_eq!((b.nrows(), b.ncols()), (n, n));
     let resume = |hessian: Option<DenseMatrix>| {
         solver()
             .solve(
