@@ -6,7 +6,8 @@ use std::fmt::Write;
 /// `per_step` samples per step (the step's start included, the final position appended), as
 /// CSV: `step,fraction,c0_x,c0_y,c0_z,c1_x,…`.
 ///
-/// `paths[k][t]` is control point `k` at step `t` (`T + 1` positions each).
+/// `paths[k][t]` is control point `k` at step `t` (`T + 1` positions each); a path without
+/// positions gives the header alone.
 pub fn waypoints_csv(paths: &[Vec<[f64; 3]>], per_step: usize) -> String {
     let per_step = per_step.max(1);
     let steps = paths.first().map_or(0, |p| p.len().saturating_sub(1));
@@ -15,6 +16,10 @@ pub fn waypoints_csv(paths: &[Vec<[f64; 3]>], per_step: usize) -> String {
         let _ = write!(csv, ",c{k}_x,c{k}_y,c{k}_z");
     }
     csv.push('\n');
+    if paths.iter().any(Vec::is_empty) {
+        // No positions to interpolate: the header alone.
+        return csv;
+    }
     let mut row = |t: usize, s: f64| {
         let _ = write!(csv, "{t},{s}");
         for path in paths {
@@ -65,6 +70,11 @@ mod tests {
         assert_eq!(lines.len(), 1 + 4 + 1);
         assert_eq!(lines[2], "0,0.25,0.25,0.5,1");
         assert_eq!(lines[5], "1,0,1,2,4");
+        // No positions: the header alone (it used to index past the end).
+        assert_eq!(
+            waypoints_csv(&[vec![]], 4),
+            "step,fraction,c0_x,c0_y,c0_z\n"
+        );
     }
 
     #[test]

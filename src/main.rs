@@ -5,8 +5,8 @@ use clap::{Parser, Subcommand};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{top_view_path, RolloutFigure};
 use clothopt::plan::{
-    self, controls_from_nested, ensure_iterations, ensure_non_negative, ensure_not_below_zero,
-    ensure_positive, initial_controls, PlanOptions, SolverKind,
+    self, controls_from_nested, ensure_iterations, ensure_non_negative,
+    ensure_non_negative_or_infinite, ensure_positive, initial_controls, PlanOptions, SolverKind,
 };
 use clothopt::problem::SafetyForm;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -267,7 +267,11 @@ fn run(cli: Cli) -> Result<()> {
             check_flag("--alpha", alpha, ensure_non_negative)?;
             check_flag("--beta", beta, ensure_non_negative)?;
             check_flag("--kappa", kappa, ensure_positive)?;
-            check_flag("--active-band", active_band, ensure_not_below_zero)?;
+            check_flag(
+                "--active-band",
+                active_band,
+                ensure_non_negative_or_infinite,
+            )?;
             ensure_positive("--tol", tol)?;
             ensure_iterations("--iterations", iterations)?;
             let scene = load_scene(&scene)?;

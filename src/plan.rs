@@ -71,7 +71,7 @@ pub fn ensure_iterations(name: &str, iterations: usize) -> anyhow::Result<()> {
 }
 
 /// `value` is a number ≥ 0 (∞ allowed), or an error naming it.
-pub fn ensure_not_below_zero(name: &str, value: f64) -> anyhow::Result<()> {
+pub fn ensure_non_negative_or_infinite(name: &str, value: f64) -> anyhow::Result<()> {
     anyhow::ensure!(value >= 0.0, "{name} must be a number ≥ 0, got {value}");
     Ok(())
 }
@@ -109,7 +109,7 @@ impl PlanOptions {
         if let Some(kappa) = self.kappa_warmup {
             ensure_positive("kappa_warmup", kappa)?;
         }
-        ensure_not_below_zero("active_band", t.active_band)?;
+        ensure_non_negative_or_infinite("active_band", t.active_band)?;
         ensure_iterations("iterations", self.iterations)
     }
 }
@@ -135,12 +135,14 @@ pub struct PlanResult {
     /// --no-timing`), and then left out of the JSON so that identical runs write identical bytes.
     #[serde(skip_serializing_if = "is_nan", default = "not_timed")]
     pub wall_s: f64,
-    /// Final KKT residual reported by the solver (NaN when it has none, `null` in JSON).
+    /// Final KKT residual reported by the solver (∞ when its last QP gave no multipliers, NaN
+    /// when it never evaluated one; JSON writes both as `null`, which reads back as NaN).
     #[serde(deserialize_with = "null_as_nan")]
     pub kkt_residual: f64,
     /// Max-norm violation of the optimizer's inequality rows (safety rows, control points against
-    /// collider planes) at the returned controls; 0 when they all hold. See [`PlanResult::is_feasible`].
-    #[serde(default)]
+    /// collider planes) at the returned controls; 0 when they all hold (NaN when the start could
+    /// not be evaluated, `null` in JSON). See [`PlanResult::is_feasible`].
+    #[serde(default, deserialize_with = "null_as_nan")]
     pub constraint_violation: f64,
     /// The paper's metrics at the returned controls.
     pub metrics: Metrics,

@@ -554,7 +554,7 @@ fn path_controls(model: &Model) -> Tensor {
     let total = [0.3, 0.6, -0.2];
     let wiggle = noise(42, h * w);
     let v = (0..h * w)
-        .map(|i| total[(i % w) % 3] / h as f64 * (1.0 + 0.2 * wiggle[i]))
+        .map(|i| total[i % 3] / h as f64 * (1.0 + 0.2 * wiggle[i]))
         .collect();
     controls(model, v)
 }
