@@ -546,9 +546,10 @@ impl SqpSolver {
             let fsol = fqp.solve();
             let lv_min = if fsol.outcome.is_usable() {
                 let v = linearized_violation(pt, dv, &fsol.d);
-                // Stationary for the violation only if the LP cannot remove it either (when the
-                // violation itself is below tol_optimality, the relative test alone always holds).
-                infeasible_stationary = v > lin_tol && lv0 - v <= s.tol_optimality * lv0.max(1.0);
+                // Stationary for the violation only if the LP cannot reduce it by more than a
+                // relative tol_optimality (relative at every size: an absolute floor would call a
+                // 1e-7 violation that the LP halves stationary).
+                infeasible_stationary = v > lin_tol && lv0 - v <= s.tol_optimality * lv0;
                 v.min(lin_violation)
             } else {
                 0.0

@@ -113,6 +113,64 @@ fn nearly_feasible_start_with_a_consistent_linearization_is_not_infeasible() {
     assert!(sol.x[0].abs() < 1e-8, "{:?}", sol.x);
 }
 
+/// `min (x − 1)²  s.t.  x ≥ 0,  1e7 x² − x − 5e−8 ≥ 0`, started at x = −1e−7. The feasible set is
+/// x ≥ (1 + √3)/2e7, behind a hump of the ℓ1 violation: that violation falls from the start to its
+/// local minimizer x_r = (1 − √3)/2e7 (where the second constraint turns active) and rises beyond it.
+/// The first linearization is inconsistent (d ≥ 1e−7 and d ≤ 5e−8), but the feasibility LP halves the
+/// violation there, so the start is not stationary for it; x_r is.
+struct SmallInconsistentViolation;
+
+impl Problem for SmallInconsistentViolation {
+    fn num_variables(&self) -> usize {
+        1
+    }
+    fn num_inequalities(&self) -> usize {
+        2
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        Ok((x[0] - 1.0).powi(2))
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        g[0] = 2.0 * (x[0] - 1.0);
+        Ok(())
+    }
+    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        c[0] = x[0];
+        c[1] = 1e7 * x[0] * x[0] - x[0] - 5e-8;
+        Ok(())
+    }
+    fn inequality_jacobian(&mut self, x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
+        j.set(0, 0, 1.0);
+        j.set(1, 0, 2e7 * x[0] - 1.0);
+        Ok(())
+    }
+}
+
+#[test]
+fn small_violation_is_infeasible_only_where_it_is_stationary() {
+    let sol = solver()
+        .solve(&mut SmallInconsistentViolation, &[-1e-7])
+        .unwrap();
+    let x_r = (1.0 - 3f64.sqrt()) / 2e7;
+    match sol.status {
+        // Not at the start's 1e-7: the LP reduces that violation by half.
+        // The LP resolves reductions only to Clarabel's tolerance: x_r is reached to 1e-3 of itself.
+        Status::Infeasible { best_violation } => assert!(
+            (best_violation + x_r).abs() < 1e-3 * x_r.abs(),
+            "{best_violation} vs {}: {} after {} iterations",
+            -x_r,
+            sol.message,
+            sol.iterations
+        ),
+        other => panic!("expected Infeasible, got {other:?}: {}", sol.message),
+    }
+    assert!(
+        (sol.x[0] - x_r).abs() < 1e-3 * x_r.abs(),
+        "{:?} vs {x_r}",
+        sol.x
+    );
+}
+
 /// `min x₀² + w x₁²  s.t.  s (x₀ + x₁ − 1) ≥ 0` for a curvature `w` and a constraint scale `s`.
 struct AboveLine {
     w: f64,
