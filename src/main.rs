@@ -5,8 +5,8 @@ use clap::{Parser, Subcommand};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{top_view_path, RolloutFigure};
 use clothopt::plan::{
-    self, controls_from_nested, ensure_iterations, ensure_non_negative,
-    ensure_non_negative_or_infinite, ensure_positive, initial_controls, PlanOptions, SolverKind,
+    self, controls_from_nested, ensure_iterations, ensure_non_negative, ensure_positive,
+    ensure_positive_or_infinite, initial_controls, PlanOptions, SolverKind,
 };
 use clothopt::problem::SafetyForm;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -82,9 +82,10 @@ enum Command {
         /// 3000); above 200 the planner first solves at κ = 200 and refines from that plan.
         #[arg(long)]
         kappa: Option<f64>,
-        /// Per-step rows farther than this from active skip their gradient (length units).
+        /// Safety rows farther than this above their margin keep their last gradient instead of
+        /// a backward pass per iterate while it predicts their change (length units; default off).
         #[arg(long)]
-        active_band: Option<f64>,
+        reuse_band: Option<f64>,
         /// The solver.
         #[arg(long, value_enum, default_value_t = SolverKind::Sqp)]
         solver: SolverKind,
@@ -254,7 +255,7 @@ fn run(cli: Cli) -> Result<()> {
             safety,
             swept,
             kappa,
-            active_band,
+            reuse_band,
             solver,
             out,
             tol,
@@ -267,11 +268,7 @@ fn run(cli: Cli) -> Result<()> {
             check_flag("--alpha", alpha, ensure_non_negative)?;
             check_flag("--beta", beta, ensure_non_negative)?;
             check_flag("--kappa", kappa, ensure_positive)?;
-            check_flag(
-                "--active-band",
-                active_band,
-                ensure_non_negative_or_infinite,
-            )?;
+            check_flag("--reuse-band", reuse_band, ensure_positive_or_infinite)?;
             ensure_positive("--tol", tol)?;
             ensure_iterations("--iterations", iterations)?;
             let scene = load_scene(&scene)?;
@@ -288,7 +285,7 @@ fn run(cli: Cli) -> Result<()> {
             options.task.swept = swept;
             options.tol_optimality = tol;
             options.task.kappa = kappa.unwrap_or(options.task.kappa);
-            options.task.active_band = active_band.unwrap_or(options.task.active_band);
+            options.reuse_band = reuse_band.unwrap_or(options.reuse_band);
             let start = load_controls(&scene, &model, start.as_deref())?;
             let bar = ProgressBar::new(iterations as u64);
             bar.set_style(

@@ -44,6 +44,14 @@ pub struct PlanOptions {
     /// measured on u_obstacle, solving at 3000 directly stalls at δ = 0.4, at 200 alone the plan
     /// is ~1% conservative (L 0.8795 vs 0.8692 at δ = 0.2).
     pub kappa_warmup: Option<f64>,
+    /// SQP Jacobian reuse (length units): at a new iterate, a safety row more than this above its
+    /// margin, whose kept gradient predicted its change over the last step, keeps that gradient
+    /// instead of costing a backward pass ([`optim::SqpSettings::jacobian_reuse_margin`]). Such a
+    /// row is inactive (multiplier 0), so a stale gradient enters neither the KKT test nor the BFGS
+    /// update, and it is pulled back again once a step approaches it. Default ∞ (off): measured on
+    /// `u_obstacle`, a band of 0.1 saves ~12% CPU at δ = 0.2 (69 instead of 70 iterations, same L)
+    /// but takes 326 instead of 189 iterations at δ = 0.4 from the δ = 0.2 plan.
+    pub reuse_band: f64,
 }
 
 /// `value` is a finite number ≥ 0, or an error naming it (`name`: a field or a `--flag`).
@@ -70,9 +78,9 @@ pub fn ensure_iterations(name: &str, iterations: usize) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `value` is a number ≥ 0 (∞ allowed), or an error naming it.
-pub fn ensure_non_negative_or_infinite(name: &str, value: f64) -> anyhow::Result<()> {
-    anyhow::ensure!(value >= 0.0, "{name} must be a number ≥ 0, got {value}");
+/// `value` is a number > 0 (∞ allowed), or an error naming it.
+pub fn ensure_positive_or_infinite(name: &str, value: f64) -> anyhow::Result<()> {
+    anyhow::ensure!(value > 0.0, "{name} must be a number > 0, got {value}");
     Ok(())
 }
 
@@ -86,11 +94,12 @@ impl PlanOptions {
             step_bound: 0.5,
             tol_optimality: 1e-4,
             kappa_warmup: Some(200.0),
+            reuse_band: f64::INFINITY,
         }
     }
 
     /// Checks every option, naming the first bad one: `δ`, `α`, `β` finite and ≥ 0; `κ` finite
-    /// and positive (the soft minimum divides by it); the active band not NaN and ≥ 0; at least
+    /// and positive (the soft minimum divides by it); the reuse band > 0 (∞ allowed); at least
     /// one iteration; a finite positive step bound and tolerance. [`plan`] calls it, so a bad
     /// option is an error instead of a panic or a silently NaN objective.
     pub fn validate(&self) -> anyhow::Result<()> {
@@ -109,7 +118,7 @@ impl PlanOptions {
         if let Some(kappa) = self.kappa_warmup {
             ensure_positive("kappa_warmup", kappa)?;
         }
-        ensure_non_negative_or_infinite("active_band", t.active_band)?;
+        ensure_positive_or_infinite("reuse_band", self.reuse_band)?;
         ensure_iterations("iterations", self.iterations)
     }
 }
@@ -351,6 +360,7 @@ fn sqp_settings(options: &PlanOptions, tol: f64) -> anyhow::Result<SqpSettings> 
         .max_iterations(options.iterations)
         .step_bound_scale(options.step_bound)
         .tol_optimality(tol)
+        .jacobian_reuse_margin(options.reuse_band.is_finite().then_some(options.reuse_band))
         .build()?)
 }
 

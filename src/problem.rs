@@ -44,17 +44,11 @@ pub struct TaskOptions {
     /// Sharpness `κ` (1/length) of the per-step soft minimum; it lies within `ln(count)/κ` below
     /// the true minimum, so the constraint is slightly conservative.
     pub kappa: f64,
-    /// Per-step rows whose value exceeds this are far from active: their Jacobian row is not
-    /// computed (left zero), saving one backward pass each. Off (∞) by default: a row crossing the
-    /// band switches its Jacobian from zero to its value, which measurably stalled the SQP in one
-    /// basin of `u_obstacle` at δ = 0.4 (KKT 7.8e−2 after 500 iterations with a band of 0.5;
-    /// converged in 214 without it).
-    pub active_band: f64,
 }
 
 impl TaskOptions {
     /// The scene's own weights and margin, the per-step safety form when the scene has safety
-    /// obstacles, κ = 3000, no active band (every per-step row gets its gradient).
+    /// obstacles, κ = 3000.
     pub fn for_model(model: &Model) -> Self {
         TaskOptions {
             delta: model.task.delta,
@@ -63,7 +57,6 @@ impl TaskOptions {
             safety: model.safety.is_some().then_some(SafetyForm::PerStep),
             swept: false,
             kappa: 3000.0,
-            active_band: f64::INFINITY,
         }
     }
 
@@ -106,7 +99,10 @@ struct Forward {
 struct Backward {
     x: Vec<f64>,
     objective: Vec<f64>,
+    /// Gradients of the safety rows (zero where not `computed`).
     safety: Vec<Vec<f64>>,
+    /// Which safety rows were pulled back.
+    computed: Vec<bool>,
 }
 
 /// The cloth task as an optimization problem (see the module docs).
@@ -240,8 +236,23 @@ impl<'a> TrajectoryProblem<'a> {
             .ok_or_else(|| EvalError::new("no forward evaluation"))
     }
 
-    fn ensure_backward(&mut self, x: &[f64]) -> Result<&Backward, EvalError> {
-        if self.backward.as_ref().is_none_or(|b| b.x != x) {
+    /// The gradients at `x`, with at least the safety rows in `wanted` (all of them for `None`)
+    /// pulled back. Per-step rows not wanted cost no backward pass.
+    fn ensure_backward(
+        &mut self,
+        x: &[f64],
+        wanted: Option<&[bool]>,
+    ) -> Result<&Backward, EvalError> {
+        let rows = self.safety_rows();
+        let wanted: Vec<bool> = match wanted {
+            Some(w) if self.options.safety == Some(SafetyForm::PerStep) => w[..rows].to_vec(),
+            _ => vec![true; rows],
+        };
+        let cached = self
+            .backward
+            .as_ref()
+            .is_some_and(|b| b.x == x && wanted.iter().zip(&b.computed).all(|(&w, &c)| c || !w));
+        if !cached {
             self.ensure_forward(x)?;
             let forward = self
                 .forward
@@ -258,11 +269,9 @@ impl<'a> TrajectoryProblem<'a> {
                 model.record_safety(tape, xv, delta)
             };
             let this = &*self;
-            // Per-step rows that matter (close to active); the others keep a zero Jacobian row.
+            // Per-step rows asked for; the others keep a zero row here.
             let active: Vec<usize> = match self.options.safety {
-                Some(SafetyForm::PerStep) => (0..forward.safety.len())
-                    .filter(|&r| forward.safety[r] <= self.options.active_band)
-                    .collect(),
+                Some(SafetyForm::PerStep) => (0..rows).filter(|&r| wanted[r]).collect(),
                 _ => Vec::new(),
             };
             let per_step: Vec<BoxedStepCost<'_>> = active
@@ -316,11 +325,37 @@ impl<'a> TrajectoryProblem<'a> {
                 x: x.to_vec(),
                 objective,
                 safety,
+                computed: wanted,
             });
         }
         self.backward
             .as_ref()
             .ok_or_else(|| EvalError::new("no gradient evaluation"))
+    }
+
+    /// Fills the Jacobian of the inequalities at `x`: the safety rows in `wanted` (all for `None`),
+    /// and the linear collider rows.
+    fn fill_jacobian(
+        &mut self,
+        x: &[f64],
+        wanted: Option<&[bool]>,
+        jac: &mut Jacobian,
+    ) -> Result<(), EvalError> {
+        let k = self.safety_rows();
+        let safety = self.ensure_backward(x, wanted)?.safety.clone();
+        let linear = &self.linear;
+        let Jacobian::Dense(m) = jac else {
+            return Err(EvalError::new("expected a dense Jacobian"));
+        };
+        for (r, row) in safety.iter().enumerate() {
+            m.row_mut(r).copy_from_slice(row);
+        }
+        for (r, row) in linear.iter().enumerate() {
+            for &(j, a) in &row.coeffs {
+                m.row_mut(k + r)[j] = a;
+            }
+        }
+        Ok(())
     }
 
     /// The states of the last simulated rollout at `x` (simulating if needed).
@@ -391,7 +426,15 @@ impl Problem for TrajectoryProblem<'_> {
     }
 
     fn gradient(&mut self, x: &[f64], grad: &mut [f64]) -> Result<(), EvalError> {
-        grad.copy_from_slice(&self.ensure_backward(x)?.objective);
+        // After the Jacobian (the SQP asks for it first) its backward pass is reused whatever rows
+        // it pulled back; at a new point every row is pulled back with ∇L.
+        let none = vec![false; self.num_inequalities()];
+        let seen = self.backward.as_ref().is_some_and(|b| b.x == x);
+        grad.copy_from_slice(
+            &self
+                .ensure_backward(x, seen.then_some(&none[..]))?
+                .objective,
+        );
         Ok(())
     }
 
@@ -405,20 +448,15 @@ impl Problem for TrajectoryProblem<'_> {
     }
 
     fn inequality_jacobian(&mut self, x: &[f64], jac: &mut Jacobian) -> Result<(), EvalError> {
-        let k = self.safety_rows();
-        let safety = self.ensure_backward(x)?.safety.clone();
-        let linear = &self.linear;
-        let Jacobian::Dense(m) = jac else {
-            return Err(EvalError::new("expected a dense Jacobian"));
-        };
-        for (r, row) in safety.iter().enumerate() {
-            m.row_mut(r).copy_from_slice(row);
-        }
-        for (r, row) in linear.iter().enumerate() {
-            for &(j, a) in &row.coeffs {
-                m.row_mut(k + r)[j] = a;
-            }
-        }
-        Ok(())
+        self.fill_jacobian(x, None, jac)
+    }
+
+    fn inequality_jacobian_rows(
+        &mut self,
+        x: &[f64],
+        wanted: &[bool],
+        jac: &mut Jacobian,
+    ) -> Result<(), EvalError> {
+        self.fill_jacobian(x, Some(wanted), jac)
     }
 }

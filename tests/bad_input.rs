@@ -482,8 +482,8 @@ fn bad_optimize_flags() {
     );
     let out = dir.join("out.json");
     // (`--alpha=-1`: with a space clap reads `-1` as a flag.) `--kappa 0` and `--kappa nan` used
-    // to panic in the soft minimum; `--beta nan` and `--active-band nan` were accepted silently.
-    let cases: [(&[&str], &str); 9] = [
+    // to panic in the soft minimum; `--beta nan` was accepted silently.
+    let cases: [(&[&str], &str); 10] = [
         (
             &["--delta", "nan"],
             "--delta must be a finite number ≥ 0, got NaN",
@@ -504,8 +504,12 @@ fn bad_optimize_flags() {
         (&["--kappa", "nan"], "--kappa must be"),
         (&["--tol", "0"], "--tol must be a finite number > 0"),
         (
-            &["--active-band", "nan"],
-            "--active-band must be a number ≥ 0, got NaN",
+            &["--reuse-band", "nan"],
+            "--reuse-band must be a number > 0, got NaN",
+        ),
+        (
+            &["--reuse-band", "0"],
+            "--reuse-band must be a number > 0, got 0",
         ),
         (&["--solver", "newton"], "invalid value 'newton'"),
     ];

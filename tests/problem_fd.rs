@@ -13,7 +13,6 @@ fn check(form: SafetyForm, swept: bool) {
     let mut options = TaskOptions::for_model(&model);
     options.safety = Some(form);
     options.swept = swept;
-    options.active_band = f64::INFINITY;
     options.kappa = 30.0;
     let mut p = TrajectoryProblem::new(&model, options);
     let n = p.num_variables();
@@ -112,4 +111,58 @@ fn drop_has_one_floor_row_per_control_point_and_step() {
         "z after 10 steps = 1.5 − 10·0.2: {}",
         c[9]
     );
+}
+
+/// The Jacobian with some safety rows skipped (what the SQP's Jacobian reuse asks for): the wanted
+/// rows and the collider rows equal the full Jacobian's, the skipped rows are zero, and the
+/// objective gradient that follows reuses the same backward pass.
+#[test]
+fn jacobian_rows_skip_only_the_unwanted_safety_rows() {
+    let scene = Scene::builtin("u_obstacle").unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    let options = TaskOptions::for_model(&model);
+    let mut x = initial_controls(&scene, &model).unwrap().into_data();
+    let shake = noise(7, x.len());
+    for (v, d) in x.iter_mut().zip(shake) {
+        *v += 0.02 * d;
+    }
+    let mut full = TrajectoryProblem::new(&model, options.clone());
+    let (n, m) = (full.num_variables(), full.num_inequalities());
+    let mut g_full = vec![0.0; n];
+    full.gradient(&x, &mut g_full).unwrap();
+    let mut j_full = Jacobian::dense(m, n);
+    full.inequality_jacobian(&x, &mut j_full).unwrap();
+    let (Jacobian::Dense(j_full), rows) = (j_full, model.task.horizon) else {
+        panic!("dense")
+    };
+    let wanted: Vec<bool> = (0..m).map(|r| r >= rows || r % 3 == 1).collect();
+    let mut part = TrajectoryProblem::new(&model, options);
+    let mut j_part = Jacobian::dense(m, n);
+    part.inequality_jacobian_rows(&x, &wanted, &mut j_part)
+        .unwrap();
+    let mut g_part = vec![0.0; n];
+    part.gradient(&x, &mut g_part).unwrap();
+    let Jacobian::Dense(j_part) = j_part else {
+        panic!("dense")
+    };
+    assert_eq!(g_part, g_full);
+    assert_eq!(part.gradient_evaluations, 1);
+    for (r, &w) in wanted.iter().enumerate() {
+        if w {
+            assert_eq!(j_part.row(r), j_full.row(r), "row {r}");
+        } else {
+            assert!(j_part.row(r).iter().all(|&v| v == 0.0), "row {r}");
+            assert!(
+                j_full.row(r).iter().any(|&v| v != 0.0),
+                "row {r} is trivial"
+            );
+        }
+    }
+    // Asking for every row afterwards pulls back again; asking for a subset again does not.
+    part.inequality_jacobian_rows(&x, &wanted, &mut Jacobian::dense(m, n))
+        .unwrap();
+    assert_eq!(part.gradient_evaluations, 1);
+    part.inequality_jacobian(&x, &mut Jacobian::dense(m, n))
+        .unwrap();
+    assert_eq!(part.gradient_evaluations, 2);
 }

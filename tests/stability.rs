@@ -117,7 +117,6 @@ fn problem_finite(name: &str, model: &Model, u: &Tensor, delta: f64) {
         let mut options = TaskOptions::for_model(model);
         options.delta = delta;
         options.safety = form;
-        options.active_band = f64::INFINITY;
         let mut p = TrajectoryProblem::new(model, options);
         let (n, m) = (p.num_variables(), p.num_inequalities());
         let x = u.data();

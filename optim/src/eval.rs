@@ -67,6 +67,28 @@ pub(crate) struct PointDerivatives {
     pub g: Vec<f64>,
     pub jc: Jacobian,
     pub jh: Jacobian,
+    /// Inequality rows of `jc` kept from an earlier iterate instead of evaluated here (see
+    /// [`SqpSettings::jacobian_reuse_margin`](crate::SqpSettings)).
+    pub kept: Vec<bool>,
+}
+
+impl PointDerivatives {
+    /// True when some row of `jc` was kept from an earlier iterate.
+    pub(crate) fn has_kept_rows(&self) -> bool {
+        self.kept.contains(&true)
+    }
+}
+
+/// Relative accuracy to which a kept Jacobian row must have predicted its constraint's change over
+/// the last step to be kept again.
+pub(crate) const REUSE_PREDICTION: f64 = 0.1;
+
+/// What [`Evaluator::derivatives_reusing`] may reuse: the last iterate's values and derivatives,
+/// and the values at the new point.
+pub(crate) struct Reuse<'a> {
+    pub from: &'a PointValues,
+    pub previous: &'a PointDerivatives,
+    pub values: &'a PointValues,
 }
 
 /// Wraps a problem with evaluation counters and validation.
@@ -85,6 +107,8 @@ pub(crate) struct Evaluator<'p, P: Problem + ?Sized> {
     pub c_scale: Vec<f64>,
     /// Row scaling of the equalities.
     pub h_scale: Vec<f64>,
+    /// Inequality rows at least this far above zero may keep their previous Jacobian rows.
+    pub reuse_margin: Option<f64>,
 }
 
 impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
@@ -127,6 +151,7 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
             gradient_evaluations: 0,
             c_scale: vec![1.0; problem_m],
             h_scale: vec![1.0; problem_q],
+            reuse_margin: None,
         })
     }
 
@@ -206,19 +231,57 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
         dv.jh.scale_rows(&self.h_scale);
     }
 
-    /// Gradient and Jacobians at `x`.
+    /// Gradient and Jacobians at `x`, every row evaluated.
     pub(crate) fn derivatives(&mut self, x: &[f64]) -> Result<PointDerivatives, EvalError> {
+        self.derivatives_reusing(x, None)
+    }
+
+    /// Gradient and Jacobians at `x`. With `reuse` and a [`Evaluator::reuse_margin`], an
+    /// inequality row keeps its value at the last iterate instead of being evaluated when its
+    /// unscaled value is at least the margin and its kept row predicted its change over the step
+    /// to [`REUSE_PREDICTION`] of that change.
+    pub(crate) fn derivatives_reusing(
+        &mut self,
+        x: &[f64],
+        reuse: Option<Reuse<'_>>,
+    ) -> Result<PointDerivatives, EvalError> {
         self.gradient_evaluations += 1;
+        let kept: Vec<bool> = match (self.reuse_margin, &reuse) {
+            (Some(margin), Some(r)) => {
+                let step: Vec<f64> = x.iter().zip(&r.from.x).map(|(a, b)| a - b).collect();
+                let mut predicted = vec![0.0; self.m];
+                r.previous.jc.mul_vec(&step, &mut predicted);
+                (0..self.m)
+                    .map(|i| {
+                        let change = r.values.c[i] - r.from.c[i];
+                        let error = (change - predicted[i]).abs();
+                        r.values.c[i] / self.c_scale[i] >= margin
+                            && error <= REUSE_PREDICTION * change.abs().max(predicted[i].abs())
+                    })
+                    .collect()
+            }
+            _ => vec![false; self.m],
+        };
+        // The Jacobian before the gradient: a problem that computes ∇f and the rows in one
+        // backward pass then knows which rows it is asked for.
+        let mut jc = Jacobian::dense(self.m, self.n);
+        if self.m > 0 {
+            if kept.contains(&true) {
+                let wanted: Vec<bool> = kept.iter().map(|k| !k).collect();
+                self.problem.inequality_jacobian_rows(x, &wanted, &mut jc)?;
+            } else {
+                self.problem.inequality_jacobian(x, &mut jc)?;
+            }
+            jc.validate(self.m, self.n).map_err(EvalError::new)?;
+            jc.scale_rows(&self.c_scale);
+            if let Some(r) = reuse {
+                jc.replace_rows(&r.previous.jc, &kept);
+            }
+        }
         let mut g = vec![0.0; self.n];
         self.problem.gradient(x, &mut g)?;
         if let Some(i) = g.iter().position(|v| !v.is_finite()) {
             return Err(EvalError::new(format!("gradient entry {i} is not finite")));
-        }
-        let mut jc = Jacobian::dense(self.m, self.n);
-        if self.m > 0 {
-            self.problem.inequality_jacobian(x, &mut jc)?;
-            jc.validate(self.m, self.n).map_err(EvalError::new)?;
-            jc.scale_rows(&self.c_scale);
         }
         let mut jh = Jacobian::dense(self.q, self.n);
         if self.q > 0 {
@@ -226,6 +289,6 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
             jh.validate(self.q, self.n).map_err(EvalError::new)?;
             jh.scale_rows(&self.h_scale);
         }
-        Ok(PointDerivatives { g, jc, jh })
+        Ok(PointDerivatives { g, jc, jh, kept })
     }
 }

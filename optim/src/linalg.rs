@@ -260,6 +260,31 @@ impl Jacobian {
         }
     }
 
+    /// Replaces the rows marked in `rows` by those of `other` (same shape).
+    pub(crate) fn replace_rows(&mut self, other: &Jacobian, rows: &[bool]) {
+        match self {
+            Jacobian::Dense(m) => {
+                for (i, _) in rows.iter().enumerate().filter(|(_, &r)| r) {
+                    m.row_mut(i).fill(0.0);
+                }
+                other.for_each_nonzero(|i, j, v| {
+                    if rows[i] {
+                        let row = m.row_mut(i);
+                        row[j] += v;
+                    }
+                });
+            }
+            Jacobian::Sparse(m) => {
+                m.entries.retain(|e| !rows[e.0]);
+                other.for_each_nonzero(|i, j, v| {
+                    if rows[i] {
+                        m.push(i, j, v);
+                    }
+                });
+            }
+        }
+    }
+
     /// ∞-norm of every row.
     pub(crate) fn row_inf_norms(&self) -> Vec<f64> {
         let mut norms = vec![0.0_f64; self.nrows()];

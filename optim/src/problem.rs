@@ -206,6 +206,21 @@ pub trait Problem {
         }
     }
 
+    /// Fills the rows of the Jacobian of `c` marked in `wanted` (same conventions as
+    /// [`inequality_jacobian`](Problem::inequality_jacobian)); the other rows may be left zero. The
+    /// SQP solver calls this only with [`SqpSettings::jacobian_reuse_margin`](crate::SqpSettings)
+    /// set, and keeps its previous values for the rows not wanted, whatever this method writes there.
+    /// The default fills every row through `inequality_jacobian`; a problem whose rows cost work
+    /// each (a backward pass per row, say) overrides it to skip them.
+    fn inequality_jacobian_rows(
+        &mut self,
+        x: &[f64],
+        _wanted: &[bool],
+        jac: &mut Jacobian,
+    ) -> Result<(), EvalError> {
+        self.inequality_jacobian(x, jac)
+    }
+
     /// Writes `h(x)` into `h` (length `p`).
     fn equalities(&mut self, _x: &[f64], h: &mut [f64]) -> Result<(), EvalError> {
         if h.is_empty() {

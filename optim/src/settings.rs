@@ -96,6 +96,16 @@ pub struct SqpSettings {
     /// violations, `tol_feasibility` and multipliers refer to the unscaled constraints.
     /// `f64::INFINITY` disables scaling. Default 100.
     pub max_constraint_gradient: f64,
+    /// Jacobian reuse for far-from-active inequalities: at a new iterate, a row whose (unscaled)
+    /// value is at least this margin, and whose previous Jacobian row predicted its change over the
+    /// step to 10%, keeps that row instead of being evaluated
+    /// ([`Problem::inequality_jacobian_rows`](crate::Problem::inequality_jacobian_rows)). A kept row
+    /// is re-evaluated as soon as a QP step brings its linearization below half the margin, and every
+    /// kept row is re-evaluated before any verdict but convergence. Such a row is inactive, so its
+    /// multiplier is zero and a stale row enters neither the KKT residual nor the BFGS update. It
+    /// changes the iterates, so it pays only where rows are costly; `None` (the default) evaluates
+    /// every row at every iterate.
+    pub jacobian_reuse_margin: Option<f64>,
 }
 
 /// Default [`SqpSettings::tol_feasibility`]: the largest max-norm violation of the (unscaled)
@@ -121,6 +131,7 @@ impl Default for SqpSettings {
             qp_tolerance: 1e-9,
             qp_max_iterations: 200,
             max_constraint_gradient: 100.0,
+            jacobian_reuse_margin: None,
         }
     }
 }
@@ -174,6 +185,12 @@ impl SqpSettings {
             self.max_constraint_gradient > 0.0,
             "max_constraint_gradient",
             "must be > 0 (use f64::INFINITY to disable scaling)",
+        )?;
+        check(
+            self.jacobian_reuse_margin
+                .is_none_or(|m| m.is_finite() && m > 0.0),
+            "jacobian_reuse_margin",
+            "must be finite and > 0 (None disables reuse)",
         )
     }
 }
@@ -195,6 +212,7 @@ settings_builder!(SqpSettings, SqpSettingsBuilder, {
     qp_tolerance: f64,
     qp_max_iterations: u32,
     max_constraint_gradient: f64,
+    jacobian_reuse_margin: Option<f64>,
 });
 
 /// Settings of the L-BFGS solver ([`LbfgsSolver`](crate::LbfgsSolver)).

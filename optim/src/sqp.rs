@@ -23,7 +23,7 @@
 
 use crate::bfgs::DampedBfgs;
 use crate::error::{EvalError, OptimError};
-use crate::eval::{Evaluator, PointDerivatives, PointValues};
+use crate::eval::{Evaluator, PointDerivatives, PointValues, Reuse};
 use crate::linalg::{dot, norm2, norm_inf, symv, DenseMatrix};
 use crate::problem::{NormData, Problem};
 use crate::qp::{QpData, QpMode, QpSolution, QpSubproblem};
@@ -240,6 +240,7 @@ impl SqpSolver {
         let s = &self.settings;
         s.validate()?;
         let mut ev = Evaluator::new(problem, x0)?;
+        ev.reuse_margin = s.jacobian_reuse_margin;
         let n = ev.n;
         let initial_hessian = match ev.problem.initial_hessian() {
             None => None,
@@ -318,6 +319,26 @@ impl SqpSolver {
         // A Hessian reset repeats an iteration; the callback sees each iteration number once.
         let mut reported: Option<usize> = None;
 
+        // Re-evaluates the Jacobian rows kept from earlier iterates and repeats the iteration.
+        macro_rules! refresh_kept_rows {
+            () => {
+                if dv.has_kept_rows() {
+                    match ev.derivatives(&pt.x) {
+                        Ok(fresh) => {
+                            dv = fresh;
+                            continue;
+                        }
+                        Err(e) => {
+                            break (
+                                Status::EvaluationFailed,
+                                format!("derivative evaluation failed at an iterate: {e}"),
+                            )
+                        }
+                    }
+                }
+            };
+        }
+
         let (status, message) = loop {
             let xinf = norm_inf(&pt.x);
             let delta = s.step_bound_scale * xinf.max(1.0);
@@ -341,6 +362,7 @@ impl SqpSolver {
             let mut step = match self.compute_step(&data, &pt, &dv, &mut penalty) {
                 Ok(step) => step,
                 Err(msg) => {
+                    refresh_kept_rows!();
                     if !bfgs.is_fresh() {
                         bfgs.reset();
                         continue;
@@ -352,6 +374,9 @@ impl SqpSolver {
                 }
             };
             let qp_usable = step.sol.outcome.is_usable();
+            if qp_usable && kept_row_nears_activity(&ev, &pt, &dv, &step.sol.d) {
+                refresh_kept_rows!();
+            }
             if qp_usable {
                 mult =
                     extract_multipliers(&step.sol, &pt.x, &ev.lower, &ev.upper, delta, &ev.norms);
@@ -384,6 +409,7 @@ impl SqpSolver {
                 );
             }
             if qp_usable && viol > s.tol_feasibility && step.infeasible_stationary {
+                refresh_kept_rows!();
                 break (
                     Status::Infeasible { best_violation },
                     format!(
@@ -414,6 +440,7 @@ impl SqpSolver {
             let negligible = norm_inf(&d) <= s.tol_step * (1.0 + xinf);
             let descent = pred > 0.0;
             if !qp_usable || negligible || !descent || d.iter().any(|v| !v.is_finite()) {
+                refresh_kept_rows!();
                 if !bfgs.is_fresh() {
                     bfgs.reset();
                     continue;
@@ -463,6 +490,7 @@ impl SqpSolver {
                     all_evaluations_failed,
                     last_error,
                 } => {
+                    refresh_kept_rows!();
                     if !bfgs.is_fresh() {
                         bfgs.reset();
                         continue;
@@ -645,7 +673,7 @@ impl SqpSolver {
             };
             let phit = vt.merit(penalty);
             if phit <= threshold(alpha) {
-                match accept(ev, &xt, vt, alpha) {
+                match accept(ev, pt, dv, &xt, vt, alpha) {
                     Ok(accepted) => return accepted,
                     Err(e) => {
                         failures += 1;
@@ -665,7 +693,7 @@ impl SqpSolver {
                 tried_soc = true;
                 if let Some((xs, vs)) = second_order_correction(ev, pt, dv, d, &vt, qp) {
                     if vs.merit(penalty) <= threshold(1.0) {
-                        if let Ok(accepted) = accept(ev, &xs, vs, 1.0) {
+                        if let Ok(accepted) = accept(ev, pt, dv, &xs, vs, 1.0) {
                             return accepted;
                         }
                     }
@@ -688,14 +716,22 @@ impl SqpSolver {
 }
 
 /// Accepts the trial point `x` of step length `alpha`, whose values are known, once its derivatives
-/// are evaluated.
+/// are evaluated (far-from-active rows may keep their values in `previous`, those at the iterate
+/// `from`).
 fn accept<P: Problem + ?Sized>(
     ev: &mut Evaluator<'_, P>,
+    from: &PointValues,
+    previous: &PointDerivatives,
     x: &[f64],
     values: PointValues,
     alpha: f64,
 ) -> Result<Search, EvalError> {
-    let derivatives = ev.derivatives(x)?;
+    let reuse = Reuse {
+        from,
+        previous,
+        values: &values,
+    };
+    let derivatives = ev.derivatives_reusing(x, Some(reuse))?;
     Ok(Search::Accepted {
         values: Box::new(values),
         derivatives: Box::new(derivatives),
@@ -729,6 +765,25 @@ fn second_order_correction<P: Problem + ?Sized>(
     ev.project(&mut xs);
     let vs = ev.values(&xs).ok()?;
     Some((xs, vs))
+}
+
+/// True when the QP step `d` brings the linearization of a kept (not evaluated here) Jacobian row
+/// below half of the reuse margin: that row may be about to matter, so it must be evaluated.
+fn kept_row_nears_activity<P: Problem + ?Sized>(
+    ev: &Evaluator<'_, P>,
+    pt: &PointValues,
+    dv: &PointDerivatives,
+    d: &[f64],
+) -> bool {
+    let Some(margin) = ev.reuse_margin else {
+        return false;
+    };
+    if !dv.has_kept_rows() {
+        return false;
+    }
+    let mut jd = vec![0.0; ev.m];
+    dv.jc.mul_vec(d, &mut jd);
+    (0..ev.m).any(|i| dv.kept[i] && (pt.c[i] + jd[i]) / ev.c_scale[i] < 0.5 * margin)
 }
 
 /// `m(0) − m(d)` for the ℓ1 model `f + gᵀd + ½dᵀBd + Σw‖r + Ad‖ + ν·linviol(d)`.
