@@ -547,6 +547,12 @@ fn bad_optimize_flags() {
         .expect_err("kappa 0")
         .to_string();
     assert!(err.contains("kappa"), "{err}");
+    let mut options = clothopt::plan::PlanOptions::for_model(&model);
+    options.reuse_band = f64::NAN;
+    let err = clothopt::plan::plan(&model, &s, &start, &options, |_| {})
+        .expect_err("reuse band NaN")
+        .to_string();
+    assert!(err.contains("reuse_band must be a number > 0"), "{err}");
 }
 
 #[test]
