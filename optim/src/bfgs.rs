@@ -25,6 +25,8 @@ pub(crate) struct DampedBfgs {
     /// Scale `yᵀy / sᵀy` of the last curvature pair, used when resetting.
     last_scale: f64,
     updates: usize,
+    /// `B` is a multiple of the identity (the last fallback of [`DampedBfgs::reset`]).
+    at_identity: bool,
 }
 
 impl DampedBfgs {
@@ -38,6 +40,7 @@ impl DampedBfgs {
             damping,
             last_scale: 1.0,
             updates: 0,
+            at_identity: false,
         };
         s.reset_to_initial();
         s
@@ -48,22 +51,27 @@ impl DampedBfgs {
             Some(b0) => b0.clone(),
             None => identity(self.n, 1.0),
         };
+        self.at_identity = self.initial.is_none();
     }
 
-    /// Restarts from a multiple of the identity (scaled by the last curvature estimate), or from the
-    /// user's initial matrix.
+    /// Restarts from the user's initial matrix after updates; from a multiple of the identity
+    /// (scaled by the last curvature estimate) without one, or when that matrix itself just failed.
     pub(crate) fn reset(&mut self) {
-        if self.initial.is_some() {
+        if self.initial.is_some() && self.updates > 0 {
             self.reset_to_initial();
         } else {
+            // An initial matrix that failed before any update leaves no curvature estimate: the
+            // next pair rescales the identity, as on a cold start.
+            self.rescale_pending |= self.initial.is_some() && self.updates == 0;
             self.b = identity(self.n, self.last_scale);
+            self.at_identity = true;
         }
         self.updates = 0;
     }
 
-    /// Whether `B` was (re)set and not updated since.
+    /// Whether a reset has nothing new to offer: `B` is a fresh multiple of the identity.
     pub(crate) fn is_fresh(&self) -> bool {
-        self.updates == 0
+        self.updates == 0 && self.at_identity
     }
 
     /// Row-major `n × n` matrix.
@@ -153,6 +161,25 @@ mod tests {
         let kind = b.update(&[0.0, 1.0], &[0.0, -3.0]);
         assert_eq!(kind, BfgsUpdate::Damped);
         assert!(is_positive_definite(b.matrix(), 2));
+        b.reset();
+        assert!(b.is_fresh());
+    }
+
+    #[test]
+    fn reset_returns_to_the_initial_matrix_then_to_the_identity() {
+        let h = vec![4.0, 1.0, 1.0, 3.0];
+        let mut b = DampedBfgs::new(2, Some(h.clone()), 0.2);
+        // A fresh initial matrix is not the last resort: a reset tries the identity.
+        assert!(!b.is_fresh());
+        b.reset();
+        assert!(b.is_fresh());
+        assert_eq!(b.matrix(), [1.0, 0.0, 0.0, 1.0]);
+        // After updates, a reset returns to the initial matrix first.
+        let mut b = DampedBfgs::new(2, Some(h.clone()), 0.2);
+        b.update(&[1.0, 0.0], &[2.0, 1.0]);
+        b.reset();
+        assert_eq!(b.matrix(), h);
+        assert!(!b.is_fresh());
         b.reset();
         assert!(b.is_fresh());
     }

@@ -917,3 +917,20 @@ fn final_hessian_warm_starts_a_resumed_solve() {
         cold.iterations
     );
 }
+
+/// An initial Hessian that makes the first step negligible (`10³⁰·I`): the solver falls back to the
+/// identity instead of stopping `Stalled` at iteration 0.
+#[test]
+fn failing_initial_hessian_falls_back_to_the_identity() {
+    let n = 2;
+    let mut huge = DenseMatrix::identity(n);
+    huge.as_mut_slice().iter_mut().for_each(|v| *v *= 1e30);
+    let sol = solver()
+        .solve(
+            &mut WarmRosenbrock(Rosenbrock { n }, Some(huge)),
+            &rosenbrock_start(n),
+        )
+        .unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    assert!(sol.x.iter().all(|v| (v - 1.0).abs() < 1e-5), "{:?}", sol.x);
+}
