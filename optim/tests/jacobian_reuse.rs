@@ -1,7 +1,7 @@
 //! `SqpSettings::jacobian_reuse_margin`: far-from-active inequality rows keep their previous
 //! Jacobian rows; the solutions and verdicts stay those of the plain SQP.
 
-use optim::test_problems::hock_schittkowski;
+use optim::test_problems::{hock_schittkowski, TwoDisks};
 use optim::{EvalError, Jacobian, Problem, SqpSettings, SqpSolver, Status};
 
 fn solver(margin: Option<f64>) -> SqpSolver {
@@ -250,40 +250,12 @@ fn kept_row_a_step_approaches_is_evaluated_before_the_step() {
 /// rows, and it is the plain SQP's verdict.
 #[test]
 fn infeasible_verdict_is_the_same_with_reuse() {
-    struct TwoDisks;
-    impl Problem for TwoDisks {
-        fn num_variables(&self) -> usize {
-            2
-        }
-        fn num_inequalities(&self) -> usize {
-            3
-        }
-        fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
-            Ok(x[0] + x[1])
-        }
-        fn gradient(&mut self, _x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
-            g.copy_from_slice(&[1.0, 1.0]);
-            Ok(())
-        }
-        fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
-            c[0] = 1.0 - x[0] * x[0] - x[1] * x[1];
-            c[1] = 1.0 - (x[0] - 3.0).powi(2) - x[1] * x[1];
-            c[2] = 100.0 - x[0] * x[0] - x[1] * x[1];
-            Ok(())
-        }
-        fn inequality_jacobian(&mut self, x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
-            j.set(0, 0, -2.0 * x[0]);
-            j.set(0, 1, -2.0 * x[1]);
-            j.set(1, 0, -2.0 * (x[0] - 3.0));
-            j.set(1, 1, -2.0 * x[1]);
-            j.set(2, 0, -2.0 * x[0]);
-            j.set(2, 1, -2.0 * x[1]);
-            Ok(())
-        }
-    }
+    let disks = || TwoDisks {
+        far_disk: Some(100.0),
+    };
     for start in [[0.2, 0.7], [0.0, 0.0], [3.0, 0.1]] {
-        let plain = solver(None).solve(&mut TwoDisks, &start).unwrap();
-        let mut p = Recorded::new(TwoDisks);
+        let plain = solver(None).solve(&mut disks(), &start).unwrap();
+        let mut p = Recorded::new(disks());
         let sol = solver(Some(1.0)).solve(&mut p, &start).unwrap();
         match (sol.status, plain.status) {
             (

@@ -1,6 +1,6 @@
 //! SQP behaviour on problems with known solutions.
 
-use optim::test_problems::{hock_schittkowski, rosenbrock_start, FailsAfter, Rosenbrock};
+use optim::test_problems::{hock_schittkowski, rosenbrock_start, FailsAfter, Rosenbrock, TwoDisks};
 use optim::{
     Bounds, ControlFlow, DenseMatrix, EvalError, Jacobian, NormTerm, OptimError, Problem,
     SparseMatrix, SqpSettings, SqpSolver, Status,
@@ -29,41 +29,11 @@ fn hock_schittkowski_problems_reach_the_published_optimum() {
     }
 }
 
-/// Two disjoint unit disks: `1 − ‖x‖² ≥ 0` and `1 − ‖x − (3,0)‖² ≥ 0`. The ℓ1 violation is
-/// stationary at (1.5, 0) with max violation 1.25.
-struct TwoDisks;
-
-impl Problem for TwoDisks {
-    fn num_variables(&self) -> usize {
-        2
-    }
-    fn num_inequalities(&self) -> usize {
-        2
-    }
-    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
-        Ok(x[0] + x[1])
-    }
-    fn gradient(&mut self, _x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
-        g.copy_from_slice(&[1.0, 1.0]);
-        Ok(())
-    }
-    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
-        c[0] = 1.0 - x[0] * x[0] - x[1] * x[1];
-        c[1] = 1.0 - (x[0] - 3.0).powi(2) - x[1] * x[1];
-        Ok(())
-    }
-    fn inequality_jacobian(&mut self, x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
-        j.set(0, 0, -2.0 * x[0]);
-        j.set(0, 1, -2.0 * x[1]);
-        j.set(1, 0, -2.0 * (x[0] - 3.0));
-        j.set(1, 1, -2.0 * x[1]);
-        Ok(())
-    }
-}
-
 #[test]
 fn locally_infeasible_problem_is_reported_infeasible() {
-    let sol = solver().solve(&mut TwoDisks, &[0.2, 0.7]).unwrap();
+    let sol = solver()
+        .solve(&mut TwoDisks { far_disk: None }, &[0.2, 0.7])
+        .unwrap();
     match sol.status {
         Status::Infeasible { best_violation } => {
             assert!((best_violation - 1.25).abs() < 1e-4, "{best_violation}");
