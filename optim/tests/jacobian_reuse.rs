@@ -101,15 +101,9 @@ fn hock_schittkowski_problems_reach_the_same_optimum_with_reuse() {
     let mut kept = 0;
     for margin in [0.1, 1.0] {
         for p in hock_schittkowski() {
-            let name = p.name;
-            let x0 = p.x0.clone();
-            let plain = solver(None).solve(&mut Recorded::new(p), &x0).unwrap();
-            let mut p = Recorded::new(
-                hock_schittkowski()
-                    .into_iter()
-                    .find(|q| q.name == name)
-                    .expect("same problem"),
-            );
+            let (name, x0) = (p.name, p.x0.clone());
+            let plain = solver(None).solve(&mut p.clone(), &x0).unwrap();
+            let mut p = Recorded::new(p);
             let sol = solver(Some(margin)).solve(&mut p, &x0).unwrap();
             assert_eq!(sol.status, Status::Converged, "{name}: {}", sol.message);
             assert!(
