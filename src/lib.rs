@@ -5,6 +5,7 @@
 //! [`plot`] draws figures and [`figures`] builds them from rollouts; [`export`] writes way-points
 //! and meshes for robots and viewers.
 
+pub mod anytime;
 pub mod export;
 pub mod figures;
 pub mod outcome;

@@ -11,8 +11,13 @@ use clothopt::plan::{
 };
 use clothopt::problem::SafetyForm;
 use clothopt::search::{plan_with_search, SearchMode, SearchOptions};
-use indicatif::{ProgressBar, ProgressStyle};
 use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+mod cli_progress;
+use cli_progress::Reporter;
 use std::path::{Path, PathBuf};
 
 #[derive(Parser)]
@@ -130,6 +135,10 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         /// Print one line per optimizer iteration to stderr.
         #[arg(long)]
         verbose: bool,
+        /// Stop after this many seconds and return the best safe plan found so far (status
+        /// `time_limit`); the route search stops too.
+        #[arg(long)]
+        time_limit: Option<f64>,
         /// Leave the wall-clock time out of the result JSON and the summary, so that the same
         /// command writes byte-identical results (any thread count).
         #[arg(long)]
@@ -296,6 +305,7 @@ fn run(cli: Cli) -> Result<i32> {
             png,
             verbose,
             no_timing,
+            time_limit,
         } => {
             check_flag("--delta", delta, ensure_non_negative)?;
             check_flag("--alpha", alpha, ensure_non_negative)?;
@@ -304,6 +314,7 @@ fn run(cli: Cli) -> Result<i32> {
             check_flag("--reuse-band", reuse_band, ensure_positive_or_infinite)?;
             ensure_positive("--tol", tol)?;
             ensure_positive("--feasibility-tol", feasibility_tol)?;
+            check_flag("--time-limit", time_limit, ensure_non_negative)?;
             ensure_iterations("--iterations", iterations)?;
             let scene = load_scene(&scene)?;
             let model = Model::from_scene(&scene)?;
@@ -323,13 +334,6 @@ fn run(cli: Cli) -> Result<i32> {
             options.task.kappa = kappa.unwrap_or(options.task.kappa);
             options.reuse_band = reuse_band.unwrap_or(options.reuse_band);
             let start = load_controls(&scene, &model, start.as_deref())?;
-            let bar = ProgressBar::new(iterations as u64);
-            bar.set_style(
-                ProgressStyle::with_template(
-                    "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {msg}",
-                )
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-            );
             ensure_iterations("--starts", starts)?;
             let search = SearchOptions {
                 mode: search,
@@ -337,29 +341,39 @@ fn run(cli: Cli) -> Result<i32> {
                 random_starts: SearchOptions::default().random_starts.min(starts / 4),
                 ..SearchOptions::default()
             };
-            let mut result = plan_with_search(&model, &scene, &start, &options, &search, |info| {
-                if verbose {
-                    bar.suspend(|| {
-                        eprintln!(
-                            "it {:>4}  f {:>12.8}  viol {:>9.2e}  kkt {:>9.2e}  step {:>9.2e}  α {:>7.1e}  ν {:>7.1e}  evals {}",
-                            info.iteration,
-                            info.objective,
-                            info.constraint_violation,
-                            info.kkt_residual,
-                            info.step_norm,
-                            info.step_length,
-                            info.penalty,
-                            info.function_evaluations
-                        )
-                    });
+            if let Some(limit) = time_limit {
+                options.deadline = Some(std::time::Instant::now() + Duration::from_secs_f64(limit));
+            }
+            let stop = Arc::new(AtomicBool::new(false));
+            options.stop = Some(stop.clone());
+            // First Ctrl-C: stop the optimizer and write the best plan so far; a second one quits.
+            ctrlc::set_handler(move || {
+                if stop.swap(true, Ordering::SeqCst) {
+                    std::process::exit(130);
                 }
-                bar.set_position(info.iteration as u64);
-                bar.set_message(format!(
-                    "f {:.5} viol {:.1e} kkt {:.1e}",
-                    info.objective, info.constraint_violation, info.kkt_residual
-                ));
-            })?;
-            bar.finish_and_clear();
+            })
+            .context("cannot install the Ctrl-C handler")?;
+            let budget = iterations * (1 + usize::from(options.kappa_warmup.is_some()));
+            let mut reporter = Reporter::new(budget, verbose, options.tol_feasibility);
+            let mut save = |x: &[f64], violation: f64, seen: usize| {
+                let Some(path) = &out else { return };
+                match plan::snapshot(&model, &scene, x, violation, seen, &options) {
+                    Ok(mut r) => {
+                        if no_timing {
+                            r.drop_timing();
+                        }
+                        if let Err(e) = plan::write_json_atomic(path, &r) {
+                            eprintln!("warning: best-so-far file: {e:#}");
+                        }
+                    }
+                    Err(e) => eprintln!("warning: best-so-far file: {e:#}"),
+                }
+            };
+            let result = plan_with_search(&model, &scene, &start, &options, &search, |info| {
+                reporter.iteration(info, &mut save)
+            });
+            reporter.finish();
+            let mut result = result?;
             if no_timing {
                 result.drop_timing();
             }
@@ -457,6 +471,10 @@ fn run(cli: Cli) -> Result<i32> {
                 );
             } else if code == 3 {
                 eprintln!("task not achieved: {}{written}", result.task.explanation);
+            }
+            if result.status == "interrupted" {
+                eprintln!("interrupted: the best plan so far is the result");
+                return Ok(130);
             }
             return Ok(code);
         }

@@ -7,8 +7,10 @@
 //! returned plan hold the cloth back (safety rows, or other rows such as collider planes); none is
 //! active, so the plan sits in a local minimum of `L`.
 
+use crate::problem::{RowLabel, TrajectoryProblem};
 use autodiff::Tensor;
 use cloth::Model;
+use optim::Problem;
 use serde::{Deserialize, Serialize};
 
 /// Why a task was or was not achieved.
@@ -30,6 +32,9 @@ pub enum Reason {
     IterationLimit,
     /// The solver stopped without converging (negligible step, line-search failure, QP failure).
     Stalled,
+    /// The run was stopped (time limit, interrupt) before the solver converged, or is still
+    /// under way (a best-so-far file).
+    Stopped,
     /// The returned plan is not safe (it violates the safety margin or the optimizer's rows).
     #[default]
     NoSafePlan,
@@ -118,6 +123,11 @@ pub fn task_outcome(model: &Model, final_state: &Tensor, facts: &PlanFacts<'_>) 
             Reason::IterationLimit,
             format!("the solver hit its iteration limit before converging; {missed}"),
         )
+    } else if matches!(facts.status, "time_limit" | "interrupted" | "running") {
+        (
+            Reason::Stopped,
+            format!("no converged plan yet (run {}); {missed}", facts.status),
+        )
     } else if facts.status != "converged" {
         (
             Reason::Stalled,
@@ -161,6 +171,78 @@ pub fn task_outcome(model: &Model, final_state: &Tensor, facts: &PlanFacts<'_>) 
         explanation,
         active_constraints,
     }
+}
+
+/// Largest value (length units, relative to the task tolerance) of an inequality row that counts
+/// as active at a returned plan: 1% of the tolerance.
+const ACTIVE_FRACTION: f64 = 1e-2;
+
+/// Smallest multiplier of an active row: below it the row does not hold the objective back.
+const ACTIVE_MULTIPLIER: f64 = 1e-8;
+
+/// The constraint groups active at the solution: rows within [`ACTIVE_FRACTION`] of the task
+/// tolerance of their bound with a positive multiplier (rows alone where the solver returned
+/// no multipliers), as labels — safety groups first, then the others.
+pub fn active_groups(
+    problem: &mut TrajectoryProblem<'_>,
+    solution: &optim::Solution,
+) -> anyhow::Result<(Vec<String>, Vec<String>)> {
+    let rows = problem.num_inequalities();
+    if rows == 0 || solution.x.is_empty() {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    let mut values = vec![0.0; rows];
+    problem
+        .inequalities(&solution.x, &mut values)
+        .map_err(|e| anyhow::anyhow!("re-evaluating the constraints at the plan: {e}"))?;
+    let threshold = ACTIVE_FRACTION * problem.model().task.tolerance;
+    let multipliers = &solution.multipliers.inequality;
+    let active = |r: usize| {
+        values[r] <= threshold && (multipliers.len() != rows || multipliers[r] > ACTIVE_MULTIPLIER)
+    };
+    let labels = problem.row_labels();
+    let mut safety_steps = Vec::new();
+    let mut safety_whole = false;
+    // Per collider plane: active steps, control points.
+    let mut planes: std::collections::BTreeMap<usize, (Vec<usize>, Vec<usize>)> =
+        Default::default();
+    for (_, label) in labels.iter().enumerate().filter(|&(r, _)| active(r)) {
+        match *label {
+            RowLabel::Safety { step: Some(t) } => safety_steps.push(t),
+            RowLabel::Safety { step: None } => safety_whole = true,
+            RowLabel::ColliderPlane {
+                plane,
+                control,
+                step,
+            } => {
+                let entry = planes.entry(plane).or_default();
+                entry.0.push(step);
+                entry.1.push(control);
+            }
+        }
+    }
+    let mut safety = Vec::new();
+    if safety_whole {
+        safety.push("safety (whole rollout)".to_string());
+    }
+    if !safety_steps.is_empty() {
+        safety.push(format!("safety at steps {}", step_ranges(&safety_steps)));
+    }
+    let other = planes
+        .into_iter()
+        .map(|(plane, (mut steps, mut controls))| {
+            steps.sort_unstable();
+            steps.dedup();
+            controls.sort_unstable();
+            controls.dedup();
+            format!(
+                "collider plane {plane} under control points {:?} at steps {}",
+                controls,
+                step_ranges(&steps)
+            )
+        })
+        .collect();
+    Ok((safety, other))
 }
 
 /// Compresses sorted step numbers into ranges: `[1, 2, 3, 7]` → `"1–3, 7"`.

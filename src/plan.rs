@@ -1,13 +1,12 @@
 //! Running a cloth task through an optimizer and packaging the result.
 
-use crate::outcome::{step_ranges, task_outcome, PlanFacts, TaskOutcome};
-use crate::problem::{RowLabel, TaskOptions, TrajectoryProblem};
+use crate::anytime::Watch;
+use crate::outcome::{active_groups, task_outcome, PlanFacts, TaskOutcome};
+use crate::problem::{TaskOptions, TrajectoryProblem};
 use crate::start_check::judge_start;
 use autodiff::Tensor;
 use cloth::{Controls, Metrics, Model, Scene};
-use optim::{
-    ControlFlow, IterationInfo, LbfgsSettings, LbfgsSolver, Problem, SqpSettings, SqpSolver, Status,
-};
+use optim::{IterationInfo, LbfgsSettings, LbfgsSolver, Problem, SqpSettings, SqpSolver, Status};
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
@@ -60,6 +59,12 @@ pub struct PlanOptions {
     /// Plan even when the cloth starts inside an obstacle (step 0 cannot be made safe); the
     /// result then carries a warning instead of the run failing. Default false.
     pub allow_unsafe_start: bool,
+    /// Stop at this instant and return the best feasible iterate so far (status `time_limit`).
+    /// Default none.
+    pub deadline: Option<Instant>,
+    /// Stop when this flag is raised (e.g. by SIGINT) and return the best feasible iterate so
+    /// far (status `interrupted`). Default none.
+    pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 /// `value` is a finite number ≥ 0, or an error naming it (`name`: a field or a `--flag`).
@@ -105,6 +110,8 @@ impl PlanOptions {
             reuse_band: f64::INFINITY,
             tol_feasibility: FEASIBILITY_TOLERANCE,
             allow_unsafe_start: false,
+            deadline: None,
+            stop: None,
         }
     }
 
@@ -338,9 +345,14 @@ pub fn plan(
         warnings.insert(0, e);
     }
     let clock = Instant::now();
+    let watch = std::cell::RefCell::new(Watch::new(
+        options.deadline,
+        options.stop.clone(),
+        options.tol_feasibility,
+    ));
     let mut callback = |info: &IterationInfo| {
         progress(info);
-        ControlFlow::Continue(())
+        watch.borrow_mut().observe(info)
     };
     // Continuation in κ: a smooth, conservative soft minimum first, then the sharp one from there.
     // (Without safety obstacles there is nothing to warm up.)
@@ -375,7 +387,24 @@ pub fn plan(
     }
     let mut problem =
         TrajectoryProblem::new(model, options.task.clone()).with_initial_hessian(warm_hessian);
+    let stopped_early = watch.borrow().stopped.is_some();
     let solution = match options.solver {
+        // Stopped in the warm-up: no sharp stage (its first iteration would cost a gradient and a
+        // QP past the deadline); the stopped-run branch below scores the best iterate.
+        _ if stopped_early => optim::Solution {
+            status: Status::Interrupted,
+            message: String::new(),
+            x: x0.clone(),
+            objective: f64::NAN,
+            constraint_violation: f64::NAN,
+            kkt_residual: f64::NAN,
+            iterations: 0,
+            function_evaluations: 0,
+            gradient_evaluations: 0,
+            multipliers: Default::default(),
+            solve_time: 0.0,
+            hessian: None,
+        },
         SolverKind::Sqp => {
             let settings = sqp_settings(options, options.tol_optimality)?;
             SqpSolver::new(settings)?.solve_with_callback(&mut problem, &x0, callback)?
@@ -398,6 +427,33 @@ pub fn plan(
         iterations: solution.iterations,
         status: solution.status.name().to_string(),
     });
+    // A stopped run returns its best feasible iterate (the last one when none was feasible).
+    let mut solution = solution;
+    let mut watch = watch.into_inner();
+    let status = match watch.stopped {
+        Some(reason) => {
+            if let Some((_, x)) = watch.best.take() {
+                solution.x = x;
+            }
+            let mut c = vec![0.0; problem.num_inequalities()];
+            problem
+                .inequalities(&solution.x, &mut c)
+                .map_err(|e| anyhow::anyhow!("re-evaluating the best iterate: {e}"))?;
+            solution.constraint_violation = c.iter().fold(0.0, |v: f64, &ci| v.max(-ci));
+            solution.kkt_residual = f64::NAN;
+            solution.multipliers = Default::default();
+            solution.message = format!(
+                "{} after {} iterations; returning the best feasible iterate seen",
+                match reason {
+                    crate::anytime::StopReason::TimeLimit => "time limit reached",
+                    crate::anytime::StopReason::Interrupted => "interrupted",
+                },
+                warm_iterations + solution.iterations
+            );
+            reason.status().to_string()
+        }
+        None => solution.status.name().to_string(),
+    };
     let controls = problem.controls(&solution.x);
     let mut scored = model.clone();
     scored.task.alpha = options.task.alpha;
@@ -437,7 +493,7 @@ pub fn plan(
         final_state,
         &PlanFacts {
             safe,
-            status: solution.status.name(),
+            status: &status,
             active_safety,
             active_other,
         },
@@ -445,7 +501,7 @@ pub fn plan(
     Ok(PlanResult {
         scene: scene.name.clone(),
         delta: options.task.delta,
-        status: solution.status.name().to_string(),
+        status,
         message: solution.message.clone(),
         iterations: warm_iterations + solution.iterations,
         evaluations: warm_simulations + problem.simulations,
@@ -467,76 +523,56 @@ pub fn plan(
     })
 }
 
-/// Largest value (length units, relative to the task tolerance) of an inequality row that counts
-/// as active at a returned plan: 1% of the tolerance.
-const ACTIVE_FRACTION: f64 = 1e-2;
-
-/// Smallest multiplier of an active row: below it the row does not hold the objective back.
-const ACTIVE_MULTIPLIER: f64 = 1e-8;
-
-/// The constraint groups active at the solution: rows within [`ACTIVE_FRACTION`] of the task
-/// tolerance of their bound with a positive multiplier (rows alone where the solver returned
-/// no multipliers), as labels — safety groups first, then the others.
-fn active_groups(
-    problem: &mut TrajectoryProblem<'_>,
-    solution: &optim::Solution,
-) -> anyhow::Result<(Vec<String>, Vec<String>)> {
-    let rows = problem.num_inequalities();
-    if rows == 0 || solution.x.is_empty() {
-        return Ok((Vec::new(), Vec::new()));
-    }
-    let mut values = vec![0.0; rows];
-    problem
-        .inequalities(&solution.x, &mut values)
-        .map_err(|e| anyhow::anyhow!("re-evaluating the constraints at the plan: {e}"))?;
-    let threshold = ACTIVE_FRACTION * problem.model().task.tolerance;
-    let multipliers = &solution.multipliers.inequality;
-    let active = |r: usize| {
-        values[r] <= threshold && (multipliers.len() != rows || multipliers[r] > ACTIVE_MULTIPLIER)
+/// The result of controls `x` (flattened `T × 3K`) of a run still under way: status `running`,
+/// the metrics and task verdict of their rollout, `iterations` so far. The CLI writes it as the
+/// best-so-far file; `violation` is the optimizer's row violation at `x`.
+pub fn snapshot(
+    model: &Model,
+    scene: &Scene,
+    x: &[f64],
+    violation: f64,
+    iterations: usize,
+    options: &PlanOptions,
+) -> anyhow::Result<PlanResult> {
+    let controls = Tensor::new(model.task.horizon, 3 * model.n_controls(), x.to_vec());
+    let mut scored = model.clone();
+    scored.task.alpha = options.task.alpha;
+    scored.task.beta = options.task.beta;
+    let evaluation = scored.evaluate(&controls, options.task.delta, false)?;
+    let safe = violation <= options.tol_feasibility && is_safe(&evaluation.metrics);
+    let final_state = evaluation
+        .states
+        .last()
+        .ok_or_else(|| anyhow::anyhow!("the rollout has no states"))?;
+    let facts = PlanFacts {
+        safe,
+        status: "running",
+        active_safety: Vec::new(),
+        active_other: Vec::new(),
     };
-    let labels = problem.row_labels();
-    let mut safety_steps = Vec::new();
-    let mut safety_whole = false;
-    // Per collider plane: active steps, control points.
-    let mut planes: std::collections::BTreeMap<usize, (Vec<usize>, Vec<usize>)> =
-        Default::default();
-    for (_, label) in labels.iter().enumerate().filter(|&(r, _)| active(r)) {
-        match *label {
-            RowLabel::Safety { step: Some(t) } => safety_steps.push(t),
-            RowLabel::Safety { step: None } => safety_whole = true,
-            RowLabel::ColliderPlane {
-                plane,
-                control,
-                step,
-            } => {
-                let entry = planes.entry(plane).or_default();
-                entry.0.push(step);
-                entry.1.push(control);
-            }
-        }
-    }
-    let mut safety = Vec::new();
-    if safety_whole {
-        safety.push("safety (whole rollout)".to_string());
-    }
-    if !safety_steps.is_empty() {
-        safety.push(format!("safety at steps {}", step_ranges(&safety_steps)));
-    }
-    let other = planes
-        .into_iter()
-        .map(|(plane, (mut steps, mut controls))| {
-            steps.sort_unstable();
-            steps.dedup();
-            controls.sort_unstable();
-            controls.dedup();
-            format!(
-                "collider plane {plane} under control points {:?} at steps {}",
-                controls,
-                step_ranges(&steps)
-            )
-        })
-        .collect();
-    Ok((safety, other))
+    Ok(PlanResult {
+        scene: scene.name.clone(),
+        delta: options.task.delta,
+        status: "running".into(),
+        message: format!("best feasible iterate after {iterations} iterations; the run goes on"),
+        iterations,
+        evaluations: 0,
+        gradient_evaluations: 0,
+        wall_s: f64::NAN,
+        kkt_residual: f64::NAN,
+        constraint_violation: violation,
+        task: task_outcome(model, final_state, &facts),
+        metrics: evaluation.metrics,
+        stages: Vec::new(),
+        feasibility_tolerance: options.tol_feasibility,
+        warnings: Vec::new(),
+        search: None,
+        grid: [scene.cloth.rows, scene.cloth.cols],
+        control_particles: model.controls.as_slice().to_vec(),
+        controls: controls_to_nested(&controls),
+        states: Some(evaluation.states.iter().map(state_points).collect()),
+        solver_status: None,
+    })
 }
 
 /// The SQP settings of a planning run, with KKT tolerance `tol`.

@@ -187,6 +187,7 @@ impl LbfgsSolver {
                     linearized_violation: 0.0,
                     function_evaluations: ev.function_evaluations,
                     gradient_evaluations: ev.gradient_evaluations,
+                    x: x.clone(),
                 };
                 if callback(&info).is_break() {
                     break (Status::Interrupted, "stopped by the callback".to_string());

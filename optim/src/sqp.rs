@@ -397,6 +397,7 @@ impl SqpSolver {
                     linearized_violation: step.lin_violation,
                     function_evaluations: ev.function_evaluations,
                     gradient_evaluations: ev.gradient_evaluations,
+                    x: pt.x.clone(),
                 };
                 if callback(&info).is_break() {
                     break (Status::Interrupted, "stopped by the callback".into());

@@ -83,6 +83,8 @@ pub struct IterationInfo {
     pub function_evaluations: usize,
     /// Gradient (and Jacobian) evaluations so far.
     pub gradient_evaluations: usize,
+    /// The current iterate (e.g. for a caller that keeps the best feasible point so far).
+    pub x: Vec<f64>,
 }
 
 /// Lagrange multipliers at the returned point (SQP: from the last QP subproblem; L-BFGS: bound

@@ -164,11 +164,13 @@ pub fn plan_with_search(
     search.validate()?;
     let clock = Instant::now();
     let first = plan(model, scene, start, options, &mut progress)?;
-    let run = match search.mode {
-        SearchMode::Off => false,
-        SearchMode::Auto => !first.task.achieved,
-        SearchMode::Always => true,
-    };
+    let stopped = matches!(first.status.as_str(), "time_limit" | "interrupted");
+    let run = !stopped
+        && match search.mode {
+            SearchMode::Off => false,
+            SearchMode::Auto => !first.task.achieved,
+            SearchMode::Always => true,
+        };
     if !run {
         return Ok(first);
     }

@@ -1,0 +1,134 @@
+//! Runs that respect the user's time: a deadline, an interrupt flag, and the best feasible iterate
+//! seen so far (what a stopped run returns).
+
+use optim::IterationInfo;
+use std::ops::ControlFlow;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Why a run was stopped before its solver finished.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopReason {
+    /// The deadline ([`crate::plan::PlanOptions::deadline`]) passed.
+    TimeLimit,
+    /// The stop flag was raised (e.g. by SIGINT).
+    Interrupted,
+}
+
+impl StopReason {
+    /// The status name a stopped plan reports: `time_limit` or `interrupted`.
+    pub fn status(self) -> &'static str {
+        match self {
+            StopReason::TimeLimit => "time_limit",
+            StopReason::Interrupted => "interrupted",
+        }
+    }
+}
+
+/// Watches the iterations of a run: keeps the best feasible iterate (lowest objective among those
+/// whose violation is within the feasibility tolerance) and stops the run at the deadline or when
+/// the stop flag is raised. Once stopped, it stops every later stage at its first iteration.
+#[derive(Debug)]
+pub struct Watch {
+    deadline: Option<Instant>,
+    stop: Option<Arc<AtomicBool>>,
+    tol_feasibility: f64,
+    /// Objective and point of the best feasible iterate so far.
+    pub best: Option<(f64, Vec<f64>)>,
+    /// Why the run was stopped, if it was.
+    pub stopped: Option<StopReason>,
+}
+
+impl Watch {
+    /// A watch with an optional deadline and stop flag; iterates with a violation at most
+    /// `tol_feasibility` count as feasible.
+    pub fn new(
+        deadline: Option<Instant>,
+        stop: Option<Arc<AtomicBool>>,
+        tol_feasibility: f64,
+    ) -> Self {
+        Watch {
+            deadline,
+            stop,
+            tol_feasibility,
+            best: None,
+            stopped: None,
+        }
+    }
+
+    /// True when the deadline has passed or the stop flag is raised (without recording it).
+    pub fn expired(&self) -> Option<StopReason> {
+        if self
+            .stop
+            .as_ref()
+            .is_some_and(|s| s.load(Ordering::Relaxed))
+        {
+            Some(StopReason::Interrupted)
+        } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
+            Some(StopReason::TimeLimit)
+        } else {
+            None
+        }
+    }
+
+    /// Records `info` and says whether the solver may go on.
+    pub fn observe(&mut self, info: &IterationInfo) -> ControlFlow<()> {
+        let feasible = info.constraint_violation <= self.tol_feasibility;
+        if feasible
+            && info.objective.is_finite()
+            && self.best.as_ref().is_none_or(|(f, _)| info.objective < *f)
+        {
+            self.best = Some((info.objective, info.x.clone()));
+        }
+        if self.stopped.is_none() {
+            self.stopped = self.expired();
+        }
+        match self.stopped {
+            Some(_) => ControlFlow::Break(()),
+            None => ControlFlow::Continue(()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn info(objective: f64, violation: f64, x: f64) -> IterationInfo {
+        IterationInfo {
+            iteration: 0,
+            objective,
+            constraint_violation: violation,
+            kkt_residual: 0.0,
+            step_norm: 0.0,
+            step_length: 0.0,
+            penalty: 0.0,
+            linearized_violation: 0.0,
+            function_evaluations: 0,
+            gradient_evaluations: 0,
+            x: vec![x],
+        }
+    }
+
+    #[test]
+    fn keeps_the_best_feasible_iterate_and_stops_on_the_flag() {
+        let flag = Arc::new(AtomicBool::new(false));
+        let mut w = Watch::new(None, Some(flag.clone()), 1e-6);
+        assert!(w.observe(&info(5.0, 0.0, 1.0)).is_continue());
+        assert!(w.observe(&info(1.0, 0.5, 2.0)).is_continue()); // infeasible: not kept
+        assert!(w.observe(&info(3.0, 1e-7, 3.0)).is_continue());
+        assert_eq!(w.best, Some((3.0, vec![3.0])));
+        flag.store(true, Ordering::Relaxed);
+        assert!(w.observe(&info(9.0, 0.0, 4.0)).is_break());
+        assert_eq!(w.stopped, Some(StopReason::Interrupted));
+        assert_eq!(w.best, Some((3.0, vec![3.0])));
+    }
+
+    #[test]
+    fn a_past_deadline_stops_at_once() {
+        let mut w = Watch::new(Some(Instant::now()), None, 1e-6);
+        assert!(w.observe(&info(1.0, 0.0, 1.0)).is_break());
+        assert_eq!(w.stopped.map(StopReason::status), Some("time_limit"));
+    }
+}

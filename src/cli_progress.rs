@@ -1,0 +1,136 @@
+//! What `clothopt optimize` shows while it runs: a progress bar on a terminal, a line every few
+//! seconds on stderr otherwise, a one-line estimate when the run is likely to take minutes, and
+//! the best feasible plan so far written to `--out` every few seconds.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use optim::IterationInfo;
+use std::io::IsTerminal;
+use std::time::{Duration, Instant};
+
+/// Seconds between progress lines (off a terminal) and between best-so-far files.
+const EVERY: Duration = Duration::from_secs(5);
+
+/// Runs whose estimate exceeds this get a one-line note.
+const LONG_RUN: Duration = Duration::from_secs(60);
+
+/// Progress of one `optimize` run.
+pub struct Reporter {
+    bar: ProgressBar,
+    terminal: bool,
+    verbose: bool,
+    start: Instant,
+    last_line: Instant,
+    last_write: Instant,
+    estimated: bool,
+    /// Iteration budget of the whole run (all κ stages), for the estimate.
+    budget: usize,
+    tol_feasibility: f64,
+    /// Best feasible iterate: objective, point, violation, iterations so far.
+    best: Option<(f64, Vec<f64>, f64)>,
+    seen: usize,
+    unsaved: bool,
+}
+
+impl Reporter {
+    /// A reporter for a run of at most `budget` iterations.
+    pub fn new(budget: usize, verbose: bool, tol_feasibility: f64) -> Self {
+        let terminal = std::io::stderr().is_terminal();
+        let bar = if terminal {
+            ProgressBar::new(budget as u64)
+        } else {
+            ProgressBar::hidden()
+        };
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {msg}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        let now = Instant::now();
+        Reporter {
+            bar,
+            terminal,
+            verbose,
+            start: now,
+            last_line: now,
+            last_write: now,
+            estimated: false,
+            budget,
+            tol_feasibility,
+            best: None,
+            seen: 0,
+            unsaved: false,
+        }
+    }
+
+    /// Shows one iteration. `save` writes the best feasible iterate so far (its point and
+    /// violation) when it is due.
+    pub fn iteration(&mut self, info: &IterationInfo, save: &mut dyn FnMut(&[f64], f64, usize)) {
+        self.seen += 1;
+        let elapsed = self.start.elapsed();
+        if info.constraint_violation <= self.tol_feasibility
+            && self.best.as_ref().is_none_or(|b| info.objective < b.0)
+        {
+            self.best = Some((info.objective, info.x.clone(), info.constraint_violation));
+            self.unsaved = true;
+        }
+        if self.verbose {
+            self.bar.suspend(|| {
+                eprintln!(
+                    "it {:>4}  f {:>12.8}  viol {:>9.2e}  kkt {:>9.2e}  step {:>9.2e}  α {:>7.1e}  ν {:>7.1e}  evals {}",
+                    info.iteration,
+                    info.objective,
+                    info.constraint_violation,
+                    info.kkt_residual,
+                    info.step_norm,
+                    info.step_length,
+                    info.penalty,
+                    info.function_evaluations
+                )
+            });
+        }
+        if !self.estimated && self.seen >= 2 {
+            self.estimated = true;
+            let per = elapsed.as_secs_f64() / (self.seen - 1) as f64;
+            let total = per * self.budget as f64;
+            if total > LONG_RUN.as_secs_f64() {
+                self.bar.suspend(|| {
+                    eprintln!(
+                        "note: about {per:.1} s per iteration; up to {} iterations may take {:.0} min (--time-limit bounds the run; Ctrl-C writes the best plan so far)",
+                        self.budget,
+                        total / 60.0
+                    )
+                });
+            }
+        }
+        self.bar.set_position(info.iteration as u64);
+        self.bar.set_message(format!(
+            "f {:.5} viol {:.1e} kkt {:.1e}",
+            info.objective, info.constraint_violation, info.kkt_residual
+        ));
+        let now = Instant::now();
+        if !self.terminal && !self.verbose && now - self.last_line >= EVERY {
+            self.last_line = now;
+            eprintln!(
+                "[{:>6.1} s] iteration {}  objective {:.6}  violation {:.2e}  kkt {:.2e}",
+                elapsed.as_secs_f64(),
+                info.iteration,
+                info.objective,
+                info.constraint_violation,
+                info.kkt_residual
+            );
+        }
+        if self.unsaved && now - self.last_write >= EVERY {
+            if let Some((_, x, violation)) = &self.best {
+                save(x, *violation, self.seen);
+            }
+            self.last_write = now;
+            self.unsaved = false;
+        }
+    }
+
+    /// Clears the bar.
+    pub fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}
