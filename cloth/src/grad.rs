@@ -1,5 +1,8 @@
-//! Whole-rollout evaluation: metrics, and gradients with respect to the controls by reverse mode
-//! with per-step checkpointing (peak tape memory is one time step, whatever the horizon).
+//! Whole-rollout evaluation: metrics, and gradients with respect to the controls by reverse mode.
+//! When the whole rollout's recording fits `Model::checkpoint_budget`, every step is recorded during
+//! the first forward and pulled back from there; otherwise each step is re-recorded in the backward
+//! pass from its checkpoint (peak tape memory one time step, or one block of iterations, whatever
+//! the horizon).
 
 use crate::cost::trajectory_irregularity;
 use crate::error::ClothError;
