@@ -1,10 +1,22 @@
-//! Constraints written once as a generic function `C(p₀ … pₖ₋₁)`; every derivative comes from
-//! `autodiff`.
+//! Constraints written once as a generic function `C(p₀ … pₖ₋₁)`; every derivative can come
+//! from `autodiff`.
 //!
 //! A new constraint type implements [`Constraint`]: its arity, whether it is an inequality, and
-//! `c` generically over [`Real`]. The XPBD projection obtains `∇C` by evaluating `c` on forward
-//! duals, and the backward pass differentiates that projection again (nested duals). Nothing is
-//! derived by hand.
+//! `c` generically over [`Real`]. That is all it needs: the XPBD projection then obtains `∇C` by
+//! evaluating `c` on forward duals, and the backward pass `∇²C·v` from nested duals.
+//!
+//! A type may also override [`Constraint::gradient`] (a closed-form `∇C`, still generic over
+//! [`Real`], so forward duals through it give `∇²C·v`) and [`Constraint::hessian_vector`] (a
+//! closed-form `∇²C·v`), like a `custom_vjp`. The built-ins do; `tests/overrides.rs` checks each
+//! override against the generic dual derivative, which [`Generic`] exposes for any constraint.
+//!
+//! # Conventions where `C` is not differentiable
+//! The overrides return what the dual path returns there, which follows `autodiff`'s conventions:
+//! - [`Distance`] at coincident particles (`|p₀ − p₁|² = 0`): `∇C = 0` and `∇²C·v = 0`;
+//! - [`DihedralBending`] where `sin φ` and `cos φ` are both exactly 0 (a degenerate triangle):
+//!   `∇C = 0`, `∇²C·v = 0`; with a zero-length shared edge `C` itself is NaN, as generically;
+//! - a sphere at its centre: gradient 0, `∇²C·v = 0`; a tie between obstacles: the first one's
+//!   derivatives (as [`Real::min`]).
 
 use autodiff::{Dual, Real};
 use nalgebra::Vector3;
@@ -23,11 +35,63 @@ pub trait Constraint: Send + Sync + 'static {
     const INEQUALITY: bool = false;
     /// The constraint function of `instance` at particle positions `p` (`p.len() == ARITY`).
     fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R;
+
+    /// `C` and `∇C` of `instance`: `grad[3·i + k] = ∂C/∂pᵢₖ`; `x` holds `3·ARITY` coordinates.
+    ///
+    /// The default takes `∇C` from forward duals on [`Constraint::c`]. An override must agree
+    /// with it (to rounding, and at the non-differentiable points listed in the module docs).
+    #[inline(always)]
+    fn gradient<R: Real>(&self, instance: usize, x: &[R], grad: &mut [R]) -> R
+    where
+        Self: Sized,
+    {
+        value_and_gradient_by_duals(self, instance, x, grad)
+    }
+
+    /// `∇²C(x)·v` of `instance`, in place: `v` (`3·ARITY` entries) in, the product out.
+    ///
+    /// The default is the forward-mode derivative of [`Constraint::gradient`] along `v` (nested
+    /// duals when `gradient` is not overridden).
+    #[inline(always)]
+    fn hessian_vector(&self, instance: usize, x: &[f64], v: &mut [f64])
+    where
+        Self: Sized,
+    {
+        hessian_vector_by_duals(self, instance, x, v)
+    }
 }
 
-/// `C` and `∇C` of one instance: `grad[3·i + k] = ∂C/∂pᵢₖ`. `x` holds `3·ARITY` coordinates.
+/// Any constraint with its derivative overrides hidden: [`Constraint::gradient`] and
+/// [`Constraint::hessian_vector`] take their generic dual defaults. The reference the overrides
+/// are tested against, and the generic side of the `generality` bench.
+#[derive(Clone, Debug)]
+pub struct Generic<C>(pub C);
+
+impl<C: Constraint> Constraint for Generic<C> {
+    const ARITY: usize = C::ARITY;
+    const INEQUALITY: bool = C::INEQUALITY;
+    #[inline(always)]
+    fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
+        self.0.c(instance, p)
+    }
+}
+
+/// `C` and `∇C` of one instance through the type's [`Constraint::gradient`] (closed form where
+/// the type provides one): `grad[3·i + k] = ∂C/∂pᵢₖ`. `x` holds `3·ARITY` coordinates.
 #[inline(always)]
 pub fn value_and_gradient<C: Constraint, R: Real>(
+    c: &C,
+    instance: usize,
+    x: &[R],
+    grad: &mut [R],
+) -> R {
+    c.gradient(instance, x, grad)
+}
+
+/// `C` and `∇C` of one instance from forward duals on the generic `C` (the default of
+/// [`Constraint::gradient`]).
+#[inline(always)]
+pub fn value_and_gradient_by_duals<C: Constraint, R: Real>(
     c: &C,
     instance: usize,
     x: &[R],
@@ -62,6 +126,29 @@ fn value_and_gradient_n<C: Constraint, R: Real, const D: usize, const A: usize>(
     v.re
 }
 
+/// `∇²C(x)·v` of one instance, in place in `v`, as the derivative of [`Constraint::gradient`]
+/// along `v` by a forward dual (the default of [`Constraint::hessian_vector`]).
+#[inline(always)]
+pub fn hessian_vector_by_duals<C: Constraint>(c: &C, instance: usize, x: &[f64], v: &mut [f64]) {
+    type T = Dual<f64, 1>;
+    let d = 3 * C::ARITY;
+    let mut xt = [T::constant(0.0); MAX_D];
+    for j in 0..d {
+        xt[j] = T {
+            re: x[j],
+            eps: [v[j]],
+        };
+    }
+    let mut g = [T::constant(0.0); MAX_D];
+    c.gradient(instance, &xt[..d], &mut g[..d]);
+    for (h, e) in v[..d].iter_mut().zip(&g) {
+        *h = e.eps[0];
+    }
+}
+
+/// Coordinates per instance of the largest arity.
+const MAX_D: usize = 3 * MAX_ARITY;
+
 /// `|v|` through [`Real::sqrt`], so a zero vector has gradient 0.
 #[inline]
 pub fn norm<R: Real>(v: &Vector3<R>) -> R {
@@ -81,6 +168,48 @@ impl Constraint for Distance {
     fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
         norm(&(p[0] - p[1])) - self.rest[instance]
     }
+
+    /// `∇C = ±(p₀ − p₁)/|p₀ − p₁|`, bitwise the dual path's (both scale by `1/|p₀ − p₁|`).
+    #[inline(always)]
+    fn gradient<R: Real>(&self, instance: usize, x: &[R], g: &mut [R]) -> R {
+        let d = point(x, 0) - point(x, 1);
+        let s = d.dot(&d);
+        let n = s.sqrt();
+        if s.value() == 0.0 {
+            g[..6].fill(R::zero());
+        } else {
+            let inv = n.recip();
+            for k in 0..3 {
+                g[k] = d[k] * inv;
+                g[k + 3] = -g[k];
+            }
+        }
+        n - self.rest[instance]
+    }
+
+    /// `∇²C·v`: `±(δ − u(u·δ))/|d|` with `d = p₀ − p₁`, `u = d/|d|`, `δ = v₀ − v₁`.
+    #[inline(always)]
+    fn hessian_vector(&self, _instance: usize, x: &[f64], v: &mut [f64]) {
+        let d = point(x, 0) - point(x, 1);
+        let s = d.dot(&d);
+        if s == 0.0 {
+            return v[..6].fill(0.0);
+        }
+        let n = s.sqrt();
+        let u = d / n;
+        let delta = point(v, 0) - point(v, 1);
+        let h = (delta - u * u.dot(&delta)) / n;
+        for k in 0..3 {
+            v[k] = h[k];
+            v[k + 3] = -h[k];
+        }
+    }
+}
+
+/// Particle `i`'s position in a row of coordinates.
+#[inline(always)]
+fn point<R: Real>(x: &[R], i: usize) -> Vector3<R> {
+    Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2])
 }
 
 /// Dihedral-angle bending on two triangles sharing the edge `p₀p₁`, with opposite vertices `p₂`
@@ -109,6 +238,47 @@ impl Constraint for DihedralBending {
     fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
         Self::angle(p) - self.rest[instance]
     }
+
+    /// `∇φ` by the chain rule through [`DihedralBending::angle`]'s own steps, written out: with
+    /// `e = p₁ − p₀`, `a = p₂ − p₀`, `b = p₃ − p₀`, `n₁ = a × e`, `n₂ = e × b`,
+    /// `T = (n₁ × n₂)·e`, `S = T/|e|`, `K = n₁·n₂`, `φ = atan2(S, K)`.
+    #[inline(always)]
+    fn gradient<R: Real>(&self, instance: usize, x: &[R], g: &mut [R]) -> R {
+        let p0 = point(x, 0);
+        let e = point(x, 1) - p0;
+        let a = point(x, 2) - p0;
+        let b = point(x, 3) - p0;
+        let n1 = a.cross(&e);
+        let n2 = e.cross(&b);
+        let m = n1.cross(&n2);
+        let t = m.dot(&e);
+        let l = norm(&e);
+        let sin = t / l;
+        let cos = n1.dot(&n2);
+        let phi = sin.atan2(cos) - self.rest[instance];
+        let r2 = sin * sin + cos * cos;
+        if r2.value() == 0.0 {
+            g[..12].fill(R::zero());
+            return phi;
+        }
+        let inv = r2.recip();
+        // Adjoints of S and K, then of n₁, n₂ and e (through S = T/|e| directly).
+        let (a_s, a_k) = (cos * inv, -(sin * inv));
+        let a_sl = a_s / l;
+        let g_n1 = n2.cross(&e) * a_sl + n2 * a_k;
+        let g_n2 = e.cross(&n1) * a_sl + n1 * a_k;
+        let g_e = (m - e * (t / (l * l))) * a_sl + g_n1.cross(&a) + b.cross(&g_n2);
+        let g_a = e.cross(&g_n1);
+        let g_b = g_n2.cross(&e);
+        let g_0 = -(g_e + g_a + g_b);
+        for k in 0..3 {
+            g[k] = g_0[k];
+            g[3 + k] = g_e[k];
+            g[6 + k] = g_a[k];
+            g[9 + k] = g_b[k];
+        }
+        phi
+    }
 }
 
 /// A physical collider on single particles: `C = SDF(p) ≥ 0` for a signed-distance field.
@@ -124,5 +294,13 @@ impl<S: crate::sdf::SignedDistance> Constraint for Collision<S> {
     #[inline(always)]
     fn c<R: Real>(&self, _instance: usize, p: &[Vector3<R>]) -> R {
         self.sdf.distance(&p[0])
+    }
+
+    /// `∇C` from the field's [`crate::sdf::SignedDistance::distance_gradient`].
+    #[inline(always)]
+    fn gradient<R: Real>(&self, _instance: usize, x: &[R], g: &mut [R]) -> R {
+        let (d, n) = self.sdf.distance_gradient(&point(x, 0));
+        g[..3].copy_from_slice(n.as_slice());
+        d
     }
 }

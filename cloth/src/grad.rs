@@ -1,10 +1,13 @@
-//! Whole-rollout evaluation: metrics, and gradients with respect to the controls by reverse mode
-//! with per-step checkpointing (peak tape memory is one time step, whatever the horizon).
+//! Whole-rollout evaluation: metrics, and gradients with respect to the controls by reverse mode.
+//! When the whole rollout's recording fits `Model::checkpoint_budget`, every step is recorded during
+//! the first forward and pulled back from there; otherwise each step is re-recorded in the backward
+//! pass from its checkpoint (peak tape memory one time step, or one block of iterations, whatever
+//! the horizon).
 
 use crate::cost::trajectory_irregularity;
 use crate::error::ClothError;
 use crate::model::Model;
-use crate::sim::{control_entry, Controls};
+use crate::sim::{check_finite, control_entry, Controls, StepScratch};
 use autodiff::{in_pool, Gradients, Tape, Tensor, Var};
 use rayon::prelude::*;
 
@@ -151,17 +154,6 @@ impl Model {
         want_l: bool,
         want_c: bool,
     ) -> Result<Evaluation, ClothError> {
-        let states = self.simulate(controls)?;
-        let metrics = self.metrics(&states, controls, delta);
-        let m = &metrics;
-        for (quantity, value) in [("G", m.g), ("T", m.t), ("E", m.e), ("C", m.c), ("L", m.l)] {
-            if !value.is_finite() {
-                return Err(ClothError::NonFinite {
-                    quantity: quantity.into(),
-                    value,
-                });
-            }
-        }
         let beta = self.task.beta;
         let loss = |tape: &mut Tape, t: usize, _: Var, x: Var| self.record_loss(tape, t, x, beta);
         let safety = |tape: &mut Tape, _: usize, _: Var, x: Var| self.record_safety(tape, x, delta);
@@ -172,7 +164,19 @@ impl Model {
         if want_c {
             costs.push(&safety);
         }
-        let mut grads = self.gradients(&states, controls, &costs).into_iter();
+        let rollout = self.simulate_recording(controls, &costs)?;
+        let metrics = self.metrics(&rollout.states, controls, delta);
+        let m = &metrics;
+        for (quantity, value) in [("G", m.g), ("T", m.t), ("E", m.e), ("C", m.c), ("L", m.l)] {
+            if !value.is_finite() {
+                return Err(ClothError::NonFinite {
+                    quantity: quantity.into(),
+                    value,
+                });
+            }
+        }
+        let (states, grads) = rollout.gradients(self, controls, &costs);
+        let mut grads = grads.into_iter();
         let grad_l = want_l
             .then(|| {
                 let mut gl = grads.next().expect("one gradient per cost");
@@ -291,20 +295,20 @@ impl Model {
             .collect();
         let mut recorder = Recorder {
             model: self,
-            states,
             controls,
             costs,
             starts: &starts,
             checkpoints: None,
         };
-        let mut current = recorder.record(&segments[0], Tape::new());
+        let before = |seg: &Segment| &states[seg.t - 1];
+        let mut current = recorder.record(&segments[0], before(&segments[0]), Tape::new());
         if rayon::current_num_threads() == 1 {
             // One thread: one recording at a time, its tape reused for the next.
             for (k, seg) in segments.iter().enumerate() {
                 self.pull_back(&current, seg, &mut adjoints, &mut grads);
                 if let Some(next) = segments.get(k + 1) {
                     let tape = std::mem::take(&mut current.tape);
-                    current = recorder.record(next, tape);
+                    current = recorder.record(next, before(next), tape);
                 }
             }
             return grads;
@@ -317,7 +321,7 @@ impl Model {
                 || {
                     segments
                         .get(k + 1)
-                        .map(|s| recorder.record(s, std::mem::take(&mut spare)))
+                        .map(|s| recorder.record(s, before(s), std::mem::take(&mut spare)))
                 },
             );
             if let Some(next) = next {
@@ -388,6 +392,127 @@ impl Model {
     }
 }
 
+/// A rollout from [`Model::simulate_recording`]: its states and, when the whole rollout's
+/// recording fit [`Model::checkpoint_budget`], every step's recording for the backward pass.
+pub struct RecordedRollout {
+    /// `T + 1` states, the first the rest state.
+    pub states: Vec<Tensor>,
+    /// One recording per step (step `t` at `t − 1`), or `None` when they did not fit.
+    recordings: Option<Vec<Recording>>,
+}
+
+impl RecordedRollout {
+    /// Bytes held by the step recordings ([`Tape::memory_bytes`]), or `None` when the rollout
+    /// was simulated plainly (its gradients then re-record each step from its checkpoint).
+    pub fn recorded_bytes(&self) -> Option<usize> {
+        let recs = self.recordings.as_ref()?;
+        Some(recs.iter().map(|r| r.tape.memory_bytes()).sum())
+    }
+
+    /// The states and the gradients of `costs` (the costs the rollout was recorded with) with
+    /// respect to the controls: pulled back through the recordings when there are some, else by
+    /// [`Model::gradients`] from the states. Both give the same values bit for bit.
+    ///
+    /// # Panics
+    /// If `costs` has another length than at recording.
+    pub fn gradients(
+        self,
+        model: &Model,
+        controls: &Controls,
+        costs: &[StepCost<'_>],
+    ) -> (Vec<Tensor>, Vec<Tensor>) {
+        let Some(mut recordings) = self.recordings else {
+            let grads = model.gradients(&self.states, controls, costs);
+            return (self.states, grads);
+        };
+        if costs.is_empty() {
+            return (self.states, Vec::new());
+        }
+        let grads = in_pool(|| {
+            let mut grads: Vec<Tensor> = costs.iter().map(|_| model.zero_controls()).collect();
+            let mut adjoints: Vec<Adjoint> = costs.iter().map(|_| Adjoint::default()).collect();
+            // Last step first; each recording is dropped once pulled back.
+            while let Some(rec) = recordings.pop() {
+                assert_eq!(rec.terms.len(), costs.len(), "the recorded costs");
+                let seg = Segment::whole(model, recordings.len() + 1);
+                model.pull_back(&rec, &seg, &mut adjoints, &mut grads);
+            }
+            grads
+        });
+        (self.states, grads)
+    }
+}
+
+impl Model {
+    /// Simulates `controls` as [`Model::simulate`] does (the same states, bit for bit) and, when
+    /// the whole rollout's recording fits [`Model::checkpoint_budget`], records every step with
+    /// `costs` on the way, so its gradients need no second forward pass.
+    ///
+    /// Whether it fits: `horizon × iterations ×` [`Model::recorded_bytes_per_iteration`] is a
+    /// lower bound, checked first; then the recordings' actual bytes are summed as they are made,
+    /// and they are all dropped (the rest simulated plainly) as soon as the first step's bytes
+    /// times the horizon, or the running total, exceed the budget. Memory so stays within the
+    /// budget plus one step's recording.
+    ///
+    /// # Errors
+    /// As [`Model::simulate`].
+    pub fn simulate_recording(
+        &self,
+        controls: &Controls,
+        costs: &[StepCost<'_>],
+    ) -> Result<RecordedRollout, ClothError> {
+        let horizon = self.task.horizon;
+        let lower_bound = horizon * self.iterations.max(1) * self.recorded_bytes_per_iteration();
+        if costs.is_empty() || lower_bound > self.checkpoint_budget {
+            return Ok(RecordedRollout {
+                states: self.simulate(controls)?,
+                recordings: None,
+            });
+        }
+        self.check_controls(controls)?;
+        in_pool(|| {
+            let mut states = Vec::with_capacity(horizon + 1);
+            states.push(self.rest.clone());
+            let mut recordings = Some(Vec::with_capacity(horizon));
+            let (mut total, mut scratch) = (0, StepScratch::default());
+            let mut recorder = Recorder {
+                model: self,
+                controls,
+                costs,
+                starts: &[0],
+                checkpoints: None,
+            };
+            for t in 1..=horizon {
+                let x = match recordings.as_mut() {
+                    Some(recs) => {
+                        let rec =
+                            recorder.record(&Segment::whole(self, t), &states[t - 1], Tape::new());
+                        let x = rec.tape.value(rec.x).clone();
+                        let bytes = rec.tape.memory_bytes();
+                        total += bytes;
+                        if bytes.saturating_mul(horizon) > self.checkpoint_budget
+                            || total > self.checkpoint_budget
+                        {
+                            recordings = None;
+                        } else {
+                            recs.push(rec);
+                        }
+                        x
+                    }
+                    None => self.step(
+                        &states[t - 1],
+                        &self.step_controls(controls, t - 1),
+                        &mut scratch,
+                    ),
+                };
+                check_finite(&x, t)?;
+                states.push(x);
+            }
+            Ok(RecordedRollout { states, recordings })
+        })
+    }
+}
+
 /// A block of one step's iterations, the unit [`Model::gradients`] records and pulls back.
 struct Segment {
     /// The step (1-based).
@@ -398,6 +523,18 @@ struct Segment {
     last: bool,
     /// Gauss–Seidel iterations in the block.
     iterations: usize,
+}
+
+impl Segment {
+    /// The whole of step `t` as one block.
+    fn whole(model: &Model, t: usize) -> Segment {
+        Segment {
+            t,
+            block: 0,
+            last: true,
+            iterations: model.iterations,
+        }
+    }
 }
 
 /// One recorded segment and the variables the pull-back needs.
@@ -419,7 +556,6 @@ struct Recording {
 /// Records segments; keeps the current step's block checkpoints.
 struct Recorder<'a> {
     model: &'a Model,
-    states: &'a [Tensor],
     controls: &'a Controls,
     costs: &'a [StepCost<'a>],
     starts: &'a [usize],
@@ -431,11 +567,12 @@ struct Recorder<'a> {
 type Checkpoint = (Tensor, Vec<Tensor>);
 
 impl Recorder<'_> {
-    fn record(&mut self, seg: &Segment, mut tape: Tape) -> Recording {
+    /// Records segment `seg` on `tape`, from the state `x_prev` before its step.
+    fn record(&mut self, seg: &Segment, x_prev: &Tensor, mut tape: Tape) -> Recording {
         let (m, t) = (self.model, seg.t);
         let u_t = m.step_controls(self.controls, t - 1);
         if self.starts.len() > 1 && self.checkpoints.as_ref().map(|c| c.0) != Some(t) {
-            let mut x = m.begin_step(&self.states[t - 1], &u_t);
+            let mut x = m.begin_step(x_prev, &u_t);
             let mut lambdas = m.zero_lambdas();
             let mut checkpoints = Vec::with_capacity(self.starts.len() - 1);
             for w in self.starts.windows(2) {
@@ -445,7 +582,7 @@ impl Recorder<'_> {
             self.checkpoints = Some((t, checkpoints));
         }
         tape.clear();
-        let x_prev = tape.leaf(self.states[t - 1].clone());
+        let x_prev = tape.leaf(x_prev.clone());
         let u = tape.leaf(u_t);
         let (x_in, lambdas_in) = if seg.block == 0 {
             let x = m.record_begin_step(&mut tape, x_prev, u);

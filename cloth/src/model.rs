@@ -86,7 +86,9 @@ pub struct Model {
     /// Bytes [`Model::gradients`] may keep in recordings for the backward pass (two at a time:
     /// one pulled back while the next is recorded). A step whose recording would not fit half of
     /// it is recorded in blocks of iterations from checkpoints of a plain forward sweep (one more
-    /// forward pass per step, memory ∝ one block).
+    /// forward pass per step, memory ∝ one block). When the whole rollout's recording fits it,
+    /// [`Model::evaluate`] records every step during the first forward instead
+    /// ([`Model::simulate_recording`]).
     pub checkpoint_budget: usize,
 }
 

@@ -4,15 +4,15 @@
 //! `Δλ = (−C − α̃λ) / (Σᵢ wᵢ|∇ᵢC|² + α̃)`, `λ ← λ + Δλ`, `pᵢ ← pᵢ + wᵢ ∇ᵢC Δλ`.
 //! Inequality constraints are projected only while `C < 0`.
 //!
-//! The forward pass takes `∇C` from forward duals on the generic `C`. The vector–Jacobian product
-//! is the adjoint of the update formula above, with `∇C` and the Hessian–vector product `∇²C·v` again
-//! from duals (nested for the second derivative), so it serves every [`Constraint`] unchanged; a
-//! test checks it against the engine's generic dual-derived VJP.
+//! The forward pass takes `∇C` from [`Constraint::gradient`] (closed form for the built-ins,
+//! forward duals on the generic `C` otherwise). The vector–Jacobian product is the adjoint of the
+//! update formula above, with `∇C` and the Hessian–vector product [`Constraint::hessian_vector`]
+//! (again closed form or from duals), so it serves every [`Constraint`] unchanged; a test checks
+//! it against the engine's generic dual-derived VJP.
 
 use crate::constraint::{value_and_gradient, Constraint, MAX_ARITY};
 use autodiff::rowfn::{ROW_BLOCK, SEED_CHUNK};
-use autodiff::{Dual, Real, RowFn};
-use nalgebra::Vector3;
+use autodiff::{Real, RowFn};
 use std::sync::Arc;
 
 const MAX_D: usize = 3 * MAX_ARITY;
@@ -280,42 +280,7 @@ impl<C: Constraint> Projection<C> {
     #[inline(always)]
     fn hessian_vector(&self, row: usize, input: &[f64], v: &mut [f64; MAX_D]) {
         let d = 3 * C::ARITY;
-        let (c, inst) = (self.constraint.as_ref(), self.instances[row]);
-        match C::ARITY {
-            1 => hessian_vector_n::<C, 3, 1>(c, inst, &input[..d], v),
-            2 => hessian_vector_n::<C, 6, 2>(c, inst, &input[..d], v),
-            3 => hessian_vector_n::<C, 9, 3>(c, inst, &input[..d], v),
-            4 => hessian_vector_n::<C, 12, 4>(c, inst, &input[..d], v),
-            a => panic!("constraint arity {a} is not supported (1 to {MAX_ARITY})"),
-        }
-    }
-}
-
-/// `∇²C(x)·v` for one instance, in place in `v`, by forward-over-forward duals.
-#[inline(always)]
-fn hessian_vector_n<C: Constraint, const D: usize, const A: usize>(
-    c: &C,
-    instance: usize,
-    x: &[f64],
-    v: &mut [f64; MAX_D],
-) {
-    type Inner = Dual<f64, 1>;
-    // A plain loop, not `array::from_fn` (see `value_and_gradient`).
-    let mut p = [Vector3::<Dual<Inner, D>>::zeros(); A];
-    for (i, pi) in p.iter_mut().enumerate() {
-        for k in 0..3 {
-            let j = 3 * i + k;
-            pi[k] = Dual::variable(
-                Inner {
-                    re: x[j],
-                    eps: [v[j]],
-                },
-                j,
-            );
-        }
-    }
-    let r = c.c(instance, &p);
-    for (h, e) in v.iter_mut().zip(&r.eps) {
-        *h = e.eps[0];
+        self.constraint
+            .hessian_vector(self.instances[row], &input[..d], &mut v[..d]);
     }
 }

@@ -5,13 +5,26 @@
 //! `−r` with gradient 0 (the norm's convention); on a tie between spheres, the first sphere wins.
 
 use crate::constraint::norm;
-use autodiff::Real;
+use autodiff::{Dual, Real};
 use nalgebra::Vector3;
 
 /// A signed distance field, generic over the scalar type.
 pub trait SignedDistance: Send + Sync + 'static {
     /// Signed distance of `p` (negative inside).
     fn distance<R: Real>(&self, p: &Vector3<R>) -> R;
+
+    /// The signed distance of `p` and its gradient. The default takes the gradient from forward
+    /// duals on [`SignedDistance::distance`]; a closed form must agree with it (conventions in
+    /// the module docs).
+    #[inline(always)]
+    fn distance_gradient<R: Real>(&self, p: &Vector3<R>) -> (R, Vector3<R>)
+    where
+        Self: Sized,
+    {
+        let q = Vector3::from_fn(|k, _| Dual::<R, 3>::variable(p[k], k));
+        let d = self.distance(&q);
+        (d.re, Vector3::new(d.eps[0], d.eps[1], d.eps[2]))
+    }
 
     /// The smallest signed distance along the straight segment `a → b` (`f64` only).
     ///
@@ -44,6 +57,28 @@ impl SignedDistance for SphereSet {
             });
         }
         best.unwrap_or_else(|| R::cst(f64::INFINITY))
+    }
+
+    /// The nearest sphere's `|p − c| − r` and `(p − c)/|p − c|` (0 at the centre).
+    #[inline(always)]
+    fn distance_gradient<R: Real>(&self, p: &Vector3<R>) -> (R, Vector3<R>) {
+        let mut best = (R::cst(f64::INFINITY), Vector3::zeros());
+        for (k, (c, &r)) in self.centers.iter().zip(&self.radii).enumerate() {
+            let d = p - Vector3::new(R::cst(c[0]), R::cst(c[1]), R::cst(c[2]));
+            let sq = d.dot(&d);
+            let n = sq.sqrt();
+            let s = n - r;
+            // Strictly nearer replaces, so a tie keeps the first sphere (as `Real::min`).
+            if k == 0 || s.value() < best.0.value() {
+                let grad = if sq.value() == 0.0 {
+                    Vector3::zeros()
+                } else {
+                    d * n.recip()
+                };
+                best = (s, grad);
+            }
+        }
+        best
     }
 
     fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
@@ -80,6 +115,16 @@ impl SignedDistance for Plane {
         (p[0] - self.point[0]) * n[0]
             + (p[1] - self.point[1]) * n[1]
             + (p[2] - self.point[2]) * n[2]
+    }
+
+    /// The distance and the constant normal.
+    #[inline(always)]
+    fn distance_gradient<R: Real>(&self, p: &Vector3<R>) -> (R, Vector3<R>) {
+        let n = self.normal;
+        (
+            self.distance(p),
+            Vector3::new(R::cst(n[0]), R::cst(n[1]), R::cst(n[2])),
+        )
     }
 
     fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
@@ -140,6 +185,24 @@ impl SignedDistance for Union {
             take(pl.distance(p));
         }
         best.unwrap_or_else(|| R::cst(f64::INFINITY))
+    }
+
+    /// The nearest obstacle's distance and gradient (the first one on a tie, as `Real::min`).
+    #[inline(always)]
+    fn distance_gradient<R: Real>(&self, p: &Vector3<R>) -> (R, Vector3<R>) {
+        let mut best: Option<(R, Vector3<R>)> = None;
+        let mut take = |c: (R, Vector3<R>)| {
+            if best.as_ref().is_none_or(|b| c.0.value() < b.0.value()) {
+                best = Some(c);
+            }
+        };
+        for s in &self.spheres {
+            take(s.distance_gradient(p));
+        }
+        for pl in &self.planes {
+            take(pl.distance_gradient(p));
+        }
+        best.unwrap_or_else(|| (R::cst(f64::INFINITY), Vector3::zeros()))
     }
 
     fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
