@@ -41,6 +41,9 @@ enum Command {
         /// Draw the rollout: a 3-D view here and a top view beside it (`*_top.png`).
         #[arg(long)]
         png: Option<PathBuf>,
+        /// Solver sweeps per time step (default: the scene's `physics.iterations`).
+        #[arg(long)]
+        sweeps: Option<usize>,
     },
     /// Print L, its terms, C and their gradients with respect to the controls as one JSON object.
     Grad {
@@ -50,28 +53,33 @@ enum Command {
         #[arg(long)]
         controls: Option<PathBuf>,
         /// Safety margin δ (default: the scene's).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         delta: Option<f64>,
-        /// Solver iterations per step (default: the scene's).
-        #[arg(long)]
-        iterations: Option<usize>,
+        /// Solver sweeps per time step (default: the scene's `physics.iterations`; the old
+        /// spelling `--iterations` is still accepted here).
+        #[arg(long, alias = "iterations")]
+        sweeps: Option<usize>,
     },
     /// Optimize the control sequence of a scene's task.
     Optimize {
         /// A built-in scene name or a scene JSON file.
         scene: String,
         /// Safety margin δ (default: the scene's).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         delta: Option<f64>,
         /// Weight α of the trajectory irregularity (default: the scene's).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         alpha: Option<f64>,
         /// Weight β of the elastic energy (default: the scene's).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         beta: Option<f64>,
         /// Optimizer iteration limit, per κ stage (the soft safety forms first solve at κ = 200)
         #[arg(long, default_value_t = 200)]
         iterations: usize,
+        /// Solver sweeps per time step of the simulation (default: the scene's
+        /// `physics.iterations`).
+        #[arg(long)]
+        sweeps: Option<usize>,
         /// Form of the safety constraint.
         #[arg(long, value_enum, default_value_t = SafetyForm::PerStep)]
         safety: SafetyForm,
@@ -80,11 +88,11 @@ enum Command {
         swept: bool,
         /// Sharpness κ (1/length) of the soft minimum in the per-step and aggregate forms (default
         /// 3000); above 200 the planner first solves at κ = 200 and refines from that plan.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         kappa: Option<f64>,
         /// Safety rows farther than this above their margin keep their last gradient instead of
         /// a backward pass per iterate while it predicts their change (length units; default off).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         reuse_band: Option<f64>,
         /// The solver.
         #[arg(long, value_enum, default_value_t = SolverKind::Sqp)]
@@ -97,7 +105,7 @@ enum Command {
         #[arg(long)]
         start: Option<PathBuf>,
         /// Scaled KKT tolerance for `converged`.
-        #[arg(long, default_value_t = 1e-4)]
+        #[arg(long, default_value_t = 1e-4, allow_negative_numbers = true)]
         tol: f64,
         /// Draw the result: a 3-D view here and a top view beside it (`*_top.png`).
         #[arg(long)]
@@ -136,10 +144,9 @@ fn load_scene(name: &str) -> Result<Scene> {
     if path.exists() || name.ends_with(".json") {
         Ok(Scene::load(path)?)
     } else {
-        Scene::builtin(name).map_err(|e| {
-            let names: Vec<&str> = Scene::builtin_names().iter().map(|(n, _)| *n).collect();
-            anyhow::anyhow!("{e} (built-in scenes: {})", names.join(", "))
-        })
+        // The error lists the built-in scenes itself.
+        Scene::builtin(name)
+            .map_err(|e| anyhow::anyhow!("{e}; or give the path of a scene JSON file"))
     }
 }
 
@@ -165,9 +172,34 @@ fn load_controls(scene: &Scene, model: &Model, file: Option<&Path>) -> Result<Co
 
 fn main() {
     if let Err(e) = run(Cli::parse()) {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", error_chain(&e));
         std::process::exit(1);
     }
+}
+
+/// The error and its causes joined by `: `, leaving out a cause whose text the message before it
+/// already contains (a `SceneError::Io` says its OS error itself and also returns it as its source).
+fn error_chain(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.is_empty() {
+            out = text;
+        } else if !out.contains(&text) {
+            out.push_str(": ");
+            out.push_str(&text);
+        }
+    }
+    out
+}
+
+/// Overrides the scene's solver sweeps per step (`physics.iterations`) by `--sweeps`, if given.
+fn apply_sweeps(scene: &mut Scene, sweeps: Option<usize>) -> Result<()> {
+    if let Some(n) = sweeps {
+        ensure_iterations("--sweeps", n)?;
+        scene.physics.iterations = n;
+    }
+    Ok(())
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -182,8 +214,10 @@ fn run(cli: Cli) -> Result<()> {
             controls,
             out,
             png,
+            sweeps,
         } => {
-            let scene = load_scene(&scene)?;
+            let mut scene = load_scene(&scene)?;
+            apply_sweeps(&mut scene, sweeps)?;
             let model = Model::from_scene(&scene)?;
             let u = load_controls(&scene, &model, controls.as_deref())?;
             let ev = model.evaluate(&u, scene.task.delta, false)?;
@@ -218,16 +252,14 @@ fn run(cli: Cli) -> Result<()> {
             scene,
             controls,
             delta,
-            iterations,
+            sweeps,
         } => {
             check_flag("--delta", delta, ensure_non_negative)?;
-            if let Some(n) = iterations {
-                ensure_iterations("--iterations", n)?;
+            if let Some(n) = sweeps {
+                ensure_iterations("--sweeps", n)?;
             }
             let mut scene = load_scene(&scene)?;
-            if let Some(n) = iterations {
-                scene.physics.iterations = n;
-            }
+            apply_sweeps(&mut scene, sweeps)?;
             let model = Model::from_scene(&scene)?;
             let u = load_controls(&scene, &model, controls.as_deref())?;
             let delta = delta.unwrap_or(scene.task.delta);
@@ -252,6 +284,7 @@ fn run(cli: Cli) -> Result<()> {
             alpha,
             beta,
             iterations,
+            sweeps,
             safety,
             swept,
             kappa,
@@ -271,7 +304,11 @@ fn run(cli: Cli) -> Result<()> {
             check_flag("--reuse-band", reuse_band, ensure_positive_or_infinite)?;
             ensure_positive("--tol", tol)?;
             ensure_iterations("--iterations", iterations)?;
-            let scene = load_scene(&scene)?;
+            if let Some(n) = sweeps {
+                ensure_iterations("--sweeps", n)?;
+            }
+            let mut scene = load_scene(&scene)?;
+            apply_sweeps(&mut scene, sweeps)?;
             let model = Model::from_scene(&scene)?;
             let mut options = PlanOptions::for_model(&model);
             options.iterations = iterations;

@@ -447,6 +447,11 @@ fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
     ]
 }
 
+/// `n` followed by the noun in agreement with it: "1 vector", "2 vectors".
+fn counted(n: usize, singular: &str, plural: &str) -> String {
+    format!("{n} {}", if n == 1 { singular } else { plural })
+}
+
 fn check_finite(field: &str, x: f64) -> Result<(), SceneError> {
     if x.is_finite() {
         Ok(())
@@ -860,8 +865,8 @@ impl Scene {
                     return Err(invalid(
                         field,
                         format!(
-                            "{} vectors given, need one per control particle ({m})",
-                            v.len()
+                            "{} given, need one per control particle ({m})",
+                            counted(v.len(), "vector", "vectors")
                         ),
                     ));
                 }
@@ -875,8 +880,8 @@ impl Scene {
                     return Err(invalid(
                         field,
                         format!(
-                            "{} steps given, need task.horizon = {}",
-                            steps.len(),
+                            "{} given, need task.horizon = {}",
+                            counted(steps.len(), "step", "steps"),
                             t.horizon
                         ),
                     ));
@@ -886,8 +891,8 @@ impl Scene {
                         return Err(invalid(
                             format!("{field}[{s}]"),
                             format!(
-                                "{} vectors given, need one per control particle ({m})",
-                                step.len()
+                                "{} given, need one per control particle ({m})",
+                                counted(step.len(), "vector", "vectors")
                             ),
                         ));
                     }
@@ -1314,7 +1319,7 @@ mod tests {
     rejects!(
         constant_controls_wrong_count,
         "task.initial_controls.constant",
-        "1 vectors given, need one per control particle (2)",
+        "1 vector given, need one per control particle (2)",
         |v| set(
             v,
             "/task/initial_controls",
@@ -1341,7 +1346,7 @@ mod tests {
     rejects!(
         explicit_controls_wrong_count,
         "task.initial_controls.explicit[4]",
-        "1 vectors given, need one per control particle (2)",
+        "1 vector given, need one per control particle (2)",
         |v| {
             let mut steps = vec![vec![[0.0, 0.0, 0.0]; 2]; 10];
             steps[4].pop();
