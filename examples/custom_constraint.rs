@@ -15,7 +15,7 @@ use anyhow::{bail, Context, Result};
 use autodiff::{Real, Tensor};
 use cloth::constraint::{norm, Constraint};
 use cloth::nalgebra::Vector3;
-use cloth::{Controls, Model, Scene};
+use cloth::{Controls, ControlsView, Model, Scene};
 use clothopt::plan::{controls_from_nested, plan, PlanOptions};
 use std::time::Instant;
 
@@ -152,9 +152,8 @@ fn main() -> Result<()> {
     let mut controls = model.zero_controls();
     for t in 0..horizon {
         for c in 0..k {
-            for (j, base) in [0.0, 0.15, 0.08].into_iter().enumerate() {
-                controls.row_mut(t)[3 * c + j] = base + 0.02 * rng.next();
-            }
+            let displacement = [0.0, 0.15, 0.08].map(|base| base + 0.02 * rng.next());
+            controls.set_at(t, c, displacement);
         }
     }
 
@@ -202,7 +201,7 @@ fn main() -> Result<()> {
         .collect();
     for (t, c, j) in [(0, 0, 1), (4, 1, 2), (9, 0, 0)] {
         let mut d = vec![0.0; n];
-        d[t * 3 * k + 3 * c + j] = 1.0;
+        d[controls.flat_index(t, c, j)] = 1.0;
         let axis = ["x", "y", "z"][j];
         directions.push((format!("step {t}, control {c}, {axis}"), d));
     }

@@ -8,11 +8,13 @@
 //! - [`mesh`]: the grid mesh and its constraints in canonical order;
 //! - [`coloring`]: greedy colouring into independent sets;
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles;
+//! - [`controls`]: the controls tensor viewed by (step, gripper);
 //! - [`model`]: a scene compiled to its effects; [`sim`]: time stepping; [`cost`], [`grad`]: costs
 //!   and gradients.
 
 pub mod coloring;
 pub mod constraint;
+pub mod controls;
 pub mod cost;
 pub mod error;
 pub mod grad;
@@ -24,6 +26,7 @@ pub mod scene;
 pub mod sdf;
 pub mod sim;
 
+pub use controls::ControlsView;
 pub use error::ClothError;
 pub use grad::{Evaluation, Metrics};
 pub use model::Model;
