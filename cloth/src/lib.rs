@@ -9,7 +9,7 @@
 //! - [`coloring`]: greedy colouring into independent sets;
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles;
 //! - [`controls`]: the controls tensor viewed by (step, gripper);
-//! - [`model`]: a scene compiled to its effects; [`sim`]: time stepping; [`cost`], [`grad`]: costs
+//! - [`model`]: a scene compiled to its effects; [`registry`]: constraint types scene files name; [`sim`]: time stepping; [`cost`], [`grad`]: costs
 //!   and gradients.
 
 pub mod coloring;
@@ -22,6 +22,7 @@ pub mod mesh;
 pub mod model;
 pub mod projection;
 pub mod refine;
+pub mod registry;
 pub mod scene;
 pub mod sdf;
 pub mod sim;
@@ -30,6 +31,7 @@ pub use controls::ControlsView;
 pub use error::ClothError;
 pub use grad::{Evaluation, Metrics};
 pub use model::Model;
+pub use registry::ConstraintRegistry;
 /// The `nalgebra` this crate is built with: constraints take `nalgebra::Vector3<R>` points.
 pub use nalgebra;
 pub use scene::Scene;

@@ -128,6 +128,9 @@ pub struct Scene {
     pub obstacles: Vec<Obstacle>,
     /// Targets, cost weights, horizon and initial control guess.
     pub task: Task,
+    /// Constraints of user-registered types (default none); see [`crate::registry`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub custom_constraints: Vec<crate::registry::CustomConstraint>,
 }
 
 /// The cloth grid: `rows × cols` particles laid out on a parallelogram.
@@ -647,7 +650,8 @@ impl Scene {
         self.validate_physics()?;
         self.validate_controls()?;
         self.validate_obstacles()?;
-        self.validate_task()
+        self.validate_task()?;
+        self.validate_custom_constraints()
     }
 
     fn validate_cloth(&self) -> Result<(), SceneError> {
