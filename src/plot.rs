@@ -1059,10 +1059,7 @@ fn draw_dashed(root: &Area, a: (i32, i32), b: (i32, i32), c: RGBColor) -> Result
     let len = dx.hypot(dy);
     let point = |s: f64| {
         let t = if len > 0.0 { (s / len).min(1.0) } else { 0.0 };
-        (
-            a.0 + (dx * t).round() as i32,
-            a.1 + (dy * t).round() as i32,
-        )
+        (a.0 + (dx * t).round() as i32, a.1 + (dy * t).round() as i32)
     };
     let mut s = 0.0;
     while s < len {

@@ -692,7 +692,12 @@ fn papercuts_say_it_once() {
         );
     }
     let o = run(bin().args(["optimize", "swing", "--reuse-band", "-1"]));
-    fails_cleanly(&o, &["--reuse-band must be a number > 0, got -1"], &dir, &[]);
+    fails_cleanly(
+        &o,
+        &["--reuse-band must be a number > 0, got -1"],
+        &dir,
+        &[],
+    );
 }
 
 /// "1 vector given", "2 vectors given": counts agree with their nouns.

@@ -233,7 +233,10 @@ fn sweeps_set_the_solver_sweeps_under_every_spelling() {
     assert_eq!(sim["metrics"]["L"], sweeps["L"]);
     // `--help` names both meanings.
     let help = stdout(&run(bin().args(["optimize", "--help"])));
-    assert!(help.contains("--sweeps") && help.contains("--iterations"), "{help}");
+    assert!(
+        help.contains("--sweeps") && help.contains("--iterations"),
+        "{help}"
+    );
     let help = stdout(&run(bin().args(["grad", "--help"])));
     assert!(
         help.contains("--sweeps <") && !help.contains("--iterations <"),

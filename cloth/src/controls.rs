@@ -79,9 +79,7 @@ impl ControlsView for Controls {
 
     fn displacements(&self) -> Box<dyn Iterator<Item = (usize, usize, [f64; 3])> + '_> {
         let k = self.n_grippers();
-        Box::new(
-            (0..self.n_steps()).flat_map(move |t| (0..k).map(move |c| (t, c, self.at(t, c)))),
-        )
+        Box::new((0..self.n_steps()).flat_map(move |t| (0..k).map(move |c| (t, c, self.at(t, c)))))
     }
 
     fn to_nested(&self) -> Vec<Vec<[f64; 3]>> {

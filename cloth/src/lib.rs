@@ -31,8 +31,8 @@ pub use controls::ControlsView;
 pub use error::ClothError;
 pub use grad::{Evaluation, Metrics};
 pub use model::Model;
-pub use registry::ConstraintRegistry;
 /// The `nalgebra` this crate is built with: constraints take `nalgebra::Vector3<R>` points.
 pub use nalgebra;
+pub use registry::ConstraintRegistry;
 pub use scene::Scene;
 pub use sim::Controls;

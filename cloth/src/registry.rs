@@ -185,7 +185,10 @@ fn invalid(field: String, reason: String) -> ClothError {
 impl Model {
     /// Compiles a validated scene whose `custom_constraints` use the types in `registry`
     /// ([`Model::from_scene`] is this with an empty registry).
-    pub fn from_scene_with(scene: &Scene, registry: &ConstraintRegistry) -> Result<Model, ClothError> {
+    pub fn from_scene_with(
+        scene: &Scene,
+        registry: &ConstraintRegistry,
+    ) -> Result<Model, ClothError> {
         let mut model = Model::from_scene_builtin(scene)?;
         registry.apply(&mut model, scene)?;
         Ok(model)

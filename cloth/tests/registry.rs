@@ -37,7 +37,14 @@ fn registry() -> ConstraintRegistry {
         let rest = input
             .rest
             .chunks_exact(3)
-            .map(|t| scale * area(&t.iter().map(|&[x, y, z]| Vector3::new(x, y, z)).collect::<Vec<_>>()))
+            .map(|t| {
+                scale
+                    * area(
+                        &t.iter()
+                            .map(|&[x, y, z]| Vector3::new(x, y, z))
+                            .collect::<Vec<_>>(),
+                    )
+            })
             .collect();
         Ok(TriangleArea { rest })
     });
@@ -82,11 +89,15 @@ fn field_of(err: ClothError) -> String {
 fn a_registered_type_from_json_equals_the_hand_added_constraint() {
     let base = Scene::from_json_str(&small_swing().to_string()).unwrap();
     let particles = triangles_rc(&base);
-    let v = with_custom(json!([{"type": "triangle_area", "particles": particles, "stiffness": 1e5}]));
+    let v =
+        with_custom(json!([{"type": "triangle_area", "particles": particles, "stiffness": 1e5}]));
     let text = v.to_string();
     let scene = Scene::from_json_str(&text).unwrap();
     // The field survives a round trip through the writer.
-    assert_eq!(Scene::from_json_str(&scene.to_json_pretty()).unwrap(), scene);
+    assert_eq!(
+        Scene::from_json_str(&scene.to_json_pretty()).unwrap(),
+        scene
+    );
     let from_json = Model::from_scene_with(&scene, &registry()).unwrap();
     let group = from_json.groups.last().unwrap();
     assert_eq!((group.name.as_str(), group.count), ("triangle_area", 18));
@@ -120,15 +131,23 @@ fn a_registered_type_from_json_equals_the_hand_added_constraint() {
     assert_ne!(plain.last().unwrap().data(), a.last().unwrap().data());
     // Gradients flow through it: dL/dU exists and differs from the plain model's.
     let ev = from_json.evaluate(&u, 0.0, true).unwrap();
-    let ev_plain = Model::from_scene(&base).unwrap().evaluate(&u, 0.0, true).unwrap();
+    let ev_plain = Model::from_scene(&base)
+        .unwrap()
+        .evaluate(&u, 0.0, true)
+        .unwrap();
     assert_ne!(ev.grad_l.unwrap().data(), ev_plain.grad_l.unwrap().data());
 }
 
 #[test]
 fn unknown_types_are_named_errors_listing_the_registered_ones() {
-    let v = with_custom(json!([{"type": "glue", "particles": [[0, 0], [0, 1], [1, 1]], "stiffness": 1.0}]));
+    let v = with_custom(
+        json!([{"type": "glue", "particles": [[0, 0], [0, 1], [1, 1]], "stiffness": 1.0}]),
+    );
     let scene = Scene::from_json_str(&v.to_string()).unwrap();
-    let err = Model::from_scene_with(&scene, &registry()).err().unwrap().to_string();
+    let err = Model::from_scene_with(&scene, &registry())
+        .err()
+        .unwrap()
+        .to_string();
     assert_eq!(
         err,
         "custom_constraints[0].type: unknown constraint type `glue` (registered: triangle_area)"
@@ -172,17 +191,22 @@ fn bad_entries_name_their_field() {
         ),
     ] {
         let scene = Scene::from_json_str(&with_custom(custom).to_string()).unwrap();
-        assert_eq!(field_of(Model::from_scene_with(&scene, &registry()).err().unwrap()), field);
+        assert_eq!(
+            field_of(Model::from_scene_with(&scene, &registry()).err().unwrap()),
+            field
+        );
     }
     // Unknown keys are rejected like everywhere else in the format.
-    let v = with_custom(json!([{"type": "triangle_area", "particles": tri, "stiffness": 1.0, "k": 2}]));
+    let v =
+        with_custom(json!([{"type": "triangle_area", "particles": tri, "stiffness": 1.0, "k": 2}]));
     assert!(matches!(
         Scene::from_json_str(&v.to_string()),
         Err(SceneError::Parse { .. })
     ));
     // A scene with custom constraints is not refined to another grid (their particles would not map).
     let scene = Scene::from_json_str(
-        &with_custom(json!([{"type": "triangle_area", "particles": tri, "stiffness": 1.0}])).to_string(),
+        &with_custom(json!([{"type": "triangle_area", "particles": tri, "stiffness": 1.0}]))
+            .to_string(),
     )
     .unwrap();
     match scene.refined(5, 5) {

@@ -115,7 +115,10 @@ fn quoted_after(message: &str, prefix: &str) -> Option<String> {
 
 /// Explores the value at `steps` (which is known to exist in the format) and records what it holds.
 fn explore(steps: &mut Vec<Step>, format: &mut Format, depth: usize) {
-    assert!(depth < 16, "the format nests deeper than expected at {steps:?}");
+    assert!(
+        depth < 16,
+        "the format nests deeper than expected at {steps:?}"
+    );
     let Some(message) = parse_error(&document(steps, json!({ PROBE: 1 }))) else {
         // A free-form value (a JSON object of any keys): nothing below it is part of the format.
         return;
@@ -243,16 +246,8 @@ fn derivation_finds_the_known_fields_and_variants() {
     }
     let variants: BTreeSet<&str> = format.variants.iter().map(|(_, v)| v.as_str()).collect();
     for v in [
-        "zeros",
-        "constant",
-        "explicit",
-        "spheres",
-        "plane",
-        "safety",
-        "collider",
-        "both",
-        "distance",
-        "dihedral",
+        "zeros", "constant", "explicit", "spheres", "plane", "safety", "collider", "both",
+        "distance", "dihedral",
     ] {
         assert!(variants.contains(v), "the derivation missed variant {v:?}");
     }
