@@ -109,8 +109,9 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         /// does not achieve the task; `always` also when it does; `off` never.
         #[arg(long, value_enum, default_value_t = SearchMode::Auto)]
         search: SearchMode,
-        /// Most candidate routes the search plans (2 of them seeded random perturbations).
-        #[arg(long, default_value_t = 8)]
+        /// Most candidate routes the search plans (from 4 on, 2 of them seeded random
+        /// perturbations).
+        #[arg(long, default_value_t = 6)]
         starts: usize,
         /// Write the result JSON here.
         #[arg(long)]

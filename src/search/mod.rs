@@ -8,8 +8,8 @@
 //!    safety rows) with a small iteration budget, in parallel (rayon; results in candidate order,
 //!    so the outcome is the same for any thread count).
 //! 4. *Polish:* the best few cheap results, ranked by (safe, achieved, `L`), are planned in full
-//!    from where they stopped — once one of them achieves the task, only candidates that achieved
-//!    it at the cheap stage too.
+//!    from where they stopped — each only while its cheap result ranks above the best plan so
+//!    far (the first plan included), so a search that finds nothing better costs one cheap stage.
 //! 5. Keep the best of the first plan and the polished ones by the same ranking.
 //!
 //! The search lives in the root package: `optim` stays problem-agnostic.
@@ -43,7 +43,7 @@ pub struct SearchOptions {
     pub mode: SearchMode,
     /// Seeded random perturbations among the candidates. Default 2.
     pub random_starts: usize,
-    /// Most candidates (geometric routes first, then the random ones). Default 8.
+    /// Most candidates (geometric routes first, then the random ones). Default 6.
     pub max_candidates: usize,
     /// Iteration budget of each candidate's cheap stage. Default 30.
     pub cheap_iterations: usize,
@@ -58,7 +58,7 @@ impl Default for SearchOptions {
         SearchOptions {
             mode: SearchMode::Auto,
             random_starts: 2,
-            max_candidates: 8,
+            max_candidates: 6,
             cheap_iterations: 30,
             polish: 2,
             seed: 0,
@@ -204,9 +204,9 @@ pub fn plan_with_search(
     let mut best = first;
     let mut best_report = 0;
     for &i in order.iter().take(search.polish) {
-        // Once a polished plan achieves the task, only candidates that already achieve it at the
-        // cheap stage can still rank above it.
-        if best.task.achieved && is_safe(&best) && !cheap[i].task.achieved {
+        // Only candidates whose cheap result already ranks above the best plan so far are worth
+        // a full plan (the order is best first, so the rest rank lower too).
+        if rank(&cheap[i], &best) != Ordering::Less {
             break;
         }
         let start = crate::plan::controls_from_nested(model, &cheap[i].controls)?;

@@ -291,18 +291,18 @@ impl<'a> Geometry<'a> {
 }
 
 /// `base` with each `(a, b, o)` offset `o` applied over steps `a..=b`, ramping linearly between
-/// keypoints: 0 at step 0, the segments' offsets, and 0 at step `T` (unless the last segment
-/// reaches `T`).
+/// keypoints: 0 at step 0, the segments' offsets, and 0 at step `T` — a route always ends where
+/// its base path ends (a segment reaching `T` holds its offset until `T − 1`).
 fn offset_paths(base: &Paths, segments: &[(usize, usize, [f64; 3])]) -> Paths {
     let horizon = base.len() - 1;
+    let last = horizon.saturating_sub(1).max(1);
     let mut keys: Vec<(usize, [f64; 3])> = vec![(0, [0.0; 3])];
     for &(a, b, o) in segments {
-        keys.push((a.max(1), o));
-        keys.push((b.max(a).max(1), o));
+        let a = a.clamp(1, last);
+        keys.push((a, o));
+        keys.push((b.clamp(a, last), o));
     }
-    if keys.last().is_some_and(|&(t, _)| t < horizon) {
-        keys.push((horizon, [0.0; 3]));
-    }
+    keys.push((horizon, [0.0; 3]));
     let offset_at = |t: usize| -> [f64; 3] {
         for w in keys.windows(2) {
             let ((t0, o0), (t1, o1)) = (w[0], w[1]);
@@ -314,7 +314,7 @@ fn offset_paths(base: &Paths, segments: &[(usize, usize, [f64; 3])]) -> Paths {
                 return add(scale(o0, 1.0 - f), scale(o1, f));
             }
         }
-        keys.last().map_or([0.0; 3], |&(_, o)| o)
+        [0.0; 3]
     };
     base.iter()
         .enumerate()
@@ -481,10 +481,10 @@ mod tests {
         let out = offset_paths(&base, &[(2, 2, [0.0, 0.0, 1.0])]);
         let z: Vec<f64> = out.iter().map(|r| r[0][2]).collect();
         assert_eq!(z, vec![0.0, 0.5, 1.0, 0.5, 0.0]);
-        // A segment that reaches the last step keeps its offset there.
+        // A segment that reaches the last step holds its offset until T − 1 and ends on the base.
         let out = offset_paths(&base, &[(3, 4, [0.0, 2.0, 0.0])]);
-        assert_eq!(out[4][0][1], 2.0);
         assert_eq!(out[3][0][1], 2.0);
+        assert_eq!(out[4][0], base[4][0]);
     }
 
     #[test]
