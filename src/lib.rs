@@ -12,3 +12,4 @@ pub mod plan;
 pub mod plot;
 pub mod problem;
 pub mod search;
+pub mod start_check;

@@ -123,6 +123,15 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         /// Scaled KKT tolerance for `converged`.
         #[arg(long, default_value_t = 1e-4, allow_negative_numbers = true)]
         tol: f64,
+        /// Largest violation (length units) of the optimizer's rows (safety rows, collider rows)
+        /// at which a plan still counts as feasible; a plan violating them by more ends `no safe
+        /// plan` (exit 4) and says by how much.
+        #[arg(long, default_value_t = clothopt::plan::FEASIBILITY_TOLERANCE)]
+        feasibility_tol: f64,
+        /// Plan even when the cloth starts inside an obstacle (an error otherwise): step 0 is
+        /// fixed by the scene, so no plan can make it safe.
+        #[arg(long)]
+        allow_unsafe_start: bool,
         /// Draw the result: a 3-D view here and a top view beside it (`*_top.png`).
         #[arg(long)]
         png: Option<PathBuf>,
@@ -314,6 +323,8 @@ fn run(cli: Cli) -> Result<i32> {
             starts,
             out,
             tol,
+            feasibility_tol,
+            allow_unsafe_start,
             start,
             png,
             verbose,
@@ -325,6 +336,7 @@ fn run(cli: Cli) -> Result<i32> {
             check_flag("--kappa", kappa, ensure_positive)?;
             check_flag("--reuse-band", reuse_band, ensure_positive_or_infinite)?;
             ensure_positive("--tol", tol)?;
+            ensure_positive("--feasibility-tol", feasibility_tol)?;
             ensure_iterations("--iterations", iterations)?;
             if let Some(n) = sweeps {
                 ensure_iterations("--sweeps", n)?;
@@ -343,6 +355,8 @@ fn run(cli: Cli) -> Result<i32> {
             options.task.safety = model.safety.is_some().then_some(safety);
             options.task.swept = swept;
             options.tol_optimality = tol;
+            options.tol_feasibility = feasibility_tol;
+            options.allow_unsafe_start = allow_unsafe_start;
             options.task.kappa = kappa.unwrap_or(options.task.kappa);
             options.reuse_band = reuse_band.unwrap_or(options.reuse_band);
             let start = load_controls(&scene, &model, start.as_deref())?;
@@ -402,8 +416,17 @@ fn run(cli: Cli) -> Result<i32> {
             } else {
                 format!("  wall {:.2} s", result.wall_s)
             };
+            let per_stage = result
+                .stages
+                .iter()
+                .map(|s| match s.kappa {
+                    Some(k) => format!("κ = {k}: {} {}", s.iterations, s.status),
+                    None => format!("{} {}", s.iterations, s.status),
+                })
+                .collect::<Vec<_>>()
+                .join(", ");
             println!(
-                "iterations {}  simulations {}  gradients {}{wall}",
+                "iterations {} ({per_stage})  simulations {}  gradients {}{wall}",
                 result.iterations, result.evaluations, result.gradient_evaluations
             );
             if let Some(search) = &result.search {
@@ -448,6 +471,9 @@ fn run(cli: Cli) -> Result<i32> {
                     result.scene, result.delta, result.status
                 );
                 draw(&model, &scene, &states, &title, result.delta, &png)?;
+            }
+            for w in &result.warnings {
+                eprintln!("warning: {w}");
             }
             let code = outcome::exit_code(&result.task);
             let written = out

@@ -2,6 +2,7 @@
 
 use crate::outcome::{step_ranges, task_outcome, PlanFacts, TaskOutcome};
 use crate::problem::{RowLabel, TaskOptions, TrajectoryProblem};
+use crate::start_check::judge_start;
 use autodiff::Tensor;
 use cloth::{Controls, Metrics, Model, Scene};
 use optim::{
@@ -53,6 +54,12 @@ pub struct PlanOptions {
     /// `u_obstacle`, a band of 0.1 saves 14–16% CPU at δ = 0.2 (69 instead of 70 iterations, same L)
     /// but takes 326 instead of 189 iterations at δ = 0.4 from the δ = 0.2 plan.
     pub reuse_band: f64,
+    /// Largest max-norm violation (length units) of the optimizer's rows at which a plan still
+    /// counts as feasible. Default [`FEASIBILITY_TOLERANCE`] (1e-8).
+    pub tol_feasibility: f64,
+    /// Plan even when the cloth starts inside an obstacle (step 0 cannot be made safe); the
+    /// result then carries a warning instead of the run failing. Default false.
+    pub allow_unsafe_start: bool,
 }
 
 /// `value` is a finite number ≥ 0, or an error naming it (`name`: a field or a `--flag`).
@@ -96,6 +103,8 @@ impl PlanOptions {
             tol_optimality: 1e-4,
             kappa_warmup: Some(200.0),
             reuse_band: f64::INFINITY,
+            tol_feasibility: FEASIBILITY_TOLERANCE,
+            allow_unsafe_start: false,
         }
     }
 
@@ -112,6 +121,7 @@ impl PlanOptions {
             ("kappa", t.kappa),
             ("step_bound", self.step_bound),
             ("tol_optimality", self.tol_optimality),
+            ("tol_feasibility", self.tol_feasibility),
         ];
         for (name, v) in positive {
             ensure_positive(name, v)?;
@@ -159,6 +169,16 @@ pub struct PlanResult {
     /// Whether the plan achieved the task (targets within tolerance and safe) and, if not, why.
     #[serde(default)]
     pub task: TaskOutcome,
+    /// The optimizer's stages: the smooth κ warm-up (when it ran), then the sharp stage.
+    #[serde(default)]
+    pub stages: Vec<Stage>,
+    /// Largest row violation counted as feasible ([`PlanOptions::tol_feasibility`]).
+    #[serde(default = "default_tol_feasibility")]
+    pub feasibility_tolerance: f64,
+    /// What the user should know about the plan that its status does not say (a start inside a
+    /// margin, a dip inside `δ` between steps, …).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     /// The route search, when it ran ([`crate::search`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub search: Option<crate::search::SearchReport>,
@@ -174,6 +194,21 @@ pub struct PlanResult {
     /// The solver's status, for programs.
     #[serde(skip)]
     pub solver_status: Option<Status>,
+}
+
+/// One optimizer stage of a plan.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct Stage {
+    /// Sharpness `κ` of the soft-min safety rows in this stage (`null` without them).
+    pub kappa: Option<f64>,
+    /// Iterations of this stage.
+    pub iterations: usize,
+    /// How the stage ended.
+    pub status: String,
+}
+
+fn default_tol_feasibility() -> f64 {
+    FEASIBILITY_TOLERANCE
 }
 
 pub(crate) fn not_timed() -> f64 {
@@ -196,11 +231,11 @@ pub const FEASIBILITY_TOLERANCE: f64 = optim::DEFAULT_TOL_FEASIBILITY;
 
 impl PlanResult {
     /// True when the returned controls satisfy the optimizer's constraints (violation at most
-    /// [`FEASIBILITY_TOLERANCE`]) and the solver did not declare the problem infeasible. Whatever
+    /// [`PlanResult::feasibility_tolerance`]) and the solver did not declare the problem infeasible. Whatever
     /// the status (`converged`, `iteration_limit`, …), a plan that is not feasible is not safe to
     /// execute.
     pub fn is_feasible(&self) -> bool {
-        self.status != "infeasible" && self.constraint_violation <= FEASIBILITY_TOLERANCE
+        self.status != "infeasible" && self.constraint_violation <= self.feasibility_tolerance
     }
 
     /// True when the plan's own rollout is [safe](is_safe) at its margin.
@@ -289,6 +324,11 @@ pub fn plan(
         scene.name
     );
     model.check_controls(start)?;
+    let (start_error, mut warnings) = judge_start(scene, options.task.delta);
+    if let Some(e) = start_error {
+        anyhow::ensure!(options.allow_unsafe_start, "{e}");
+        warnings.insert(0, e);
+    }
     let clock = Instant::now();
     let mut callback = |info: &IterationInfo| {
         progress(info);
@@ -302,6 +342,7 @@ pub fn plan(
     // The warm-up's quasi-Newton Hessian starts the sharp stage: only the safety rows' curvature
     // changes with κ, and rebuilding the rest from the identity took about 30 more iterations.
     let mut warm_hessian = None;
+    let mut stages = Vec::new();
     if let (SolverKind::Sqp, Some(kappa), true) =
         (options.solver, options.kappa_warmup, soft_safety)
     {
@@ -315,6 +356,11 @@ pub fn plan(
             x0 = solution.x;
             warm_hessian = solution.hessian;
             warm_iterations = solution.iterations;
+            stages.push(Stage {
+                kappa: Some(kappa),
+                iterations: solution.iterations,
+                status: solution.status.name().to_string(),
+            });
             warm_simulations = warm.simulations;
             warm_gradients = warm.gradient_evaluations;
         }
@@ -339,6 +385,11 @@ pub fn plan(
         }
     };
     let wall_s = clock.elapsed().as_secs_f64();
+    stages.push(Stage {
+        kappa: soft_safety.then_some(options.task.kappa),
+        iterations: solution.iterations,
+        status: solution.status.name().to_string(),
+    });
     let controls = problem.controls(&solution.x);
     let mut scored = model.clone();
     scored.task.alpha = options.task.alpha;
@@ -346,8 +397,29 @@ pub fn plan(
     let evaluation = scored.evaluate(&controls, options.task.delta, false)?;
     let (active_safety, active_other) = active_groups(&mut problem, &solution)?;
     let safe = !matches!(solution.status, Status::Infeasible { .. })
-        && solution.constraint_violation <= FEASIBILITY_TOLERANCE
+        && solution.constraint_violation <= options.tol_feasibility
         && is_safe(&evaluation.metrics);
+    let m = &evaluation.metrics;
+    let dip = options.task.delta - m.min_sdf_swept;
+    if model.safety.is_some()
+        && dip > SAFETY_TOLERANCE
+        && m.min_sdf >= options.task.delta - SAFETY_TOLERANCE
+    {
+        warnings.push(format!(
+            "between steps the cloth comes to {:.4} of the safety obstacles, {dip:.4} inside δ = {}: the safety rows hold at the steps, not on the straight motion between them{}",
+            m.min_sdf_swept,
+            options.task.delta,
+            if options.task.swept { " (--swept samples 3 points per step; the rest lies between the samples)" } else { " (--swept also constrains 3 points per step)" }
+        ));
+    }
+    if solution.constraint_violation > options.tol_feasibility
+        && solution.constraint_violation.is_finite()
+    {
+        warnings.push(format!(
+            "the returned plan violates the optimizer's rows by {:.3e}, above the feasibility tolerance {:.1e} (--feasibility-tol)",
+            solution.constraint_violation, options.tol_feasibility
+        ));
+    }
     let final_state = evaluation
         .states
         .last()
@@ -375,6 +447,9 @@ pub fn plan(
         constraint_violation: solution.constraint_violation,
         metrics: evaluation.metrics,
         task,
+        stages,
+        feasibility_tolerance: options.tol_feasibility,
+        warnings,
         search: None,
         grid: [scene.cloth.rows, scene.cloth.cols],
         control_particles: model.controls.as_slice().to_vec(),
@@ -462,6 +537,7 @@ fn sqp_settings(options: &PlanOptions, tol: f64) -> anyhow::Result<SqpSettings> 
         .max_iterations(options.iterations)
         .step_bound_scale(options.step_bound)
         .tol_optimality(tol)
+        .tol_feasibility(options.tol_feasibility)
         .jacobian_reuse_margin(options.reuse_band.is_finite().then_some(options.reuse_band))
         .build()?)
 }

@@ -56,6 +56,8 @@ fn run_plan(scene: &Scene, iterations: usize) -> (Model, PlanResult) {
     let model = Model::from_scene(scene).unwrap();
     let mut options = PlanOptions::for_model(&model);
     options.iterations = iterations;
+    // Some scenes here start inside their safety obstacles on purpose.
+    options.allow_unsafe_start = true;
     let start = initial_controls(scene, &model).unwrap();
     let result = plan::plan(&model, scene, &start, &options, |_| {}).unwrap();
     (model, result)
@@ -119,21 +121,38 @@ fn a_provably_infeasible_problem_never_ends_converged() {
 }
 
 #[test]
-fn the_cli_exits_4_in_one_line_on_an_infeasible_plan_and_keeps_the_best_point() {
+fn the_cli_exits_4_with_one_verdict_line_on_an_infeasible_plan_and_keeps_the_best_point() {
     let dir = scratch("honesty", "cli-infeasible");
     let path = write_scene(&dir, "scene.json", &infeasible_scene());
     let out = dir.join("result.json");
     let o = run(bin()
         .arg("optimize")
         .arg(&path)
-        .args(["--iterations", "30", "--search", "off", "--out"])
+        .args([
+            "--iterations",
+            "30",
+            "--search",
+            "off",
+            "--allow-unsafe-start",
+        ])
+        .arg("--out")
         .arg(&out));
     let err = stderr(&o);
     println!("{}{err}", stdout(&o));
     assert_eq!(o.status.code(), Some(4), "{err}");
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    // Warnings (the start inside the safety plane, the violation above the tolerance), then one
+    // verdict line.
+    let lines: Vec<&str> = err.trim().lines().collect();
+    let (verdict, warnings) = lines.split_last().unwrap();
+    assert!(warnings.iter().all(|l| l.starts_with("warning: ")), "{err}");
     assert!(
-        err.starts_with("no safe plan: no feasible trajectory found"),
+        warnings
+            .iter()
+            .any(|l| l.contains("starts inside obstacles[0] (plane)")),
+        "{err}"
+    );
+    assert!(
+        verdict.starts_with("no safe plan: no feasible trajectory found"),
         "{err}"
     );
     assert!(

@@ -1,0 +1,101 @@
+//! Step 0: where the cloth starts relative to the obstacles.
+//!
+//! The optimizer's safety rows cover steps `1..=T`; the rest state is fixed by the scene, so a
+//! cloth that starts inside an obstacle (or inside a safety obstacle's margin) cannot be made safe
+//! by any plan. [`start_intrusions`] finds, for every obstacle, its deepest intrusion at step 0.
+
+use cloth::scene::{Obstacle, Scene};
+
+/// The deepest intrusion of the rest state into one obstacle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Intrusion {
+    /// Index in `obstacles`.
+    pub obstacle: usize,
+    /// The sphere within a sphere set; `None` for a plane.
+    pub sphere: Option<usize>,
+    /// The particle, as `[row, col]`.
+    pub particle: [usize; 2],
+    /// The particle's signed distance to the primitive (negative inside).
+    pub distance: f64,
+    /// The obstacle is a safety obstacle (its margin `δ` applies).
+    pub safety: bool,
+}
+
+impl Intrusion {
+    /// `obstacles[2] (spheres), sphere 5` or `obstacles[0] (plane)`.
+    pub fn name(&self) -> String {
+        match self.sphere {
+            Some(s) => format!("obstacles[{}] (spheres), sphere {s}", self.obstacle),
+            None => format!("obstacles[{}] (plane)", self.obstacle),
+        }
+    }
+}
+
+/// For each obstacle, the rest-state particle closest to (or deepest inside) it, when that
+/// particle is inside the obstacle or, for safety obstacles, within `delta` of it.
+pub fn start_intrusions(scene: &Scene, delta: f64) -> Vec<Intrusion> {
+    let rest = scene.rest_positions();
+    let cols = scene.cloth.cols.max(1);
+    let mut out = Vec::new();
+    for (o, obstacle) in scene.obstacles.iter().enumerate() {
+        let safety = obstacle.role().is_safety();
+        let limit = if safety { delta } else { 0.0 };
+        let mut deepest: Option<Intrusion> = None;
+        let mut consider = |sphere: Option<usize>, particle: usize, distance: f64| {
+            if distance < limit && deepest.as_ref().is_none_or(|d| distance < d.distance) {
+                deepest = Some(Intrusion {
+                    obstacle: o,
+                    sphere,
+                    particle: [particle / cols, particle % cols],
+                    distance,
+                    safety,
+                });
+            }
+        };
+        match obstacle {
+            Obstacle::Spheres(set) => {
+                for (s, (c, &r)) in set.centers.iter().zip(&set.radii).enumerate() {
+                    for (i, p) in rest.iter().enumerate() {
+                        let d = (0..3).map(|j| (p[j] - c[j]).powi(2)).sum::<f64>().sqrt() - r;
+                        consider(Some(s), i, d);
+                    }
+                }
+            }
+            Obstacle::Plane(plane) => {
+                let n = plane.normalized();
+                for (i, p) in rest.iter().enumerate() {
+                    let d = (0..3).map(|j| n[j] * (p[j] - plane.point[j])).sum();
+                    consider(None, i, d);
+                }
+            }
+        }
+        out.extend(deepest);
+    }
+    out
+}
+
+/// The error for a start inside an obstacle, or `None`; and warnings for a start inside a safety
+/// margin but outside the obstacle.
+pub fn judge_start(scene: &Scene, delta: f64) -> (Option<String>, Vec<String>) {
+    let mut error = None;
+    let mut warnings = Vec::new();
+    for i in start_intrusions(scene, delta) {
+        let at = format!("particle [{}, {}]", i.particle[0], i.particle[1]);
+        if i.distance < 0.0 {
+            if error.is_none() {
+                error = Some(format!(
+                    "the cloth starts inside {} at depth {:.4} ({at}): no plan can make step 0 safe; move the cloth or the obstacle (or allow it with --allow-unsafe-start)",
+                    i.name(),
+                    -i.distance
+                ));
+            }
+        } else {
+            warnings.push(format!(
+                "the cloth starts {:.4} from {}, inside the margin δ = {delta} ({at}); step 0 is fixed, so the plan's safety covers steps 1..T only",
+                i.distance,
+                i.name()
+            ));
+        }
+    }
+    (error, warnings)
+}
