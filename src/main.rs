@@ -126,7 +126,7 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         /// Largest violation (length units) of the optimizer's rows (safety rows, collider rows)
         /// at which a plan still counts as feasible; a plan violating them by more ends `no safe
         /// plan` (exit 4) and says by how much.
-        #[arg(long, default_value_t = clothopt::plan::FEASIBILITY_TOLERANCE)]
+        #[arg(long, default_value_t = clothopt::plan::FEASIBILITY_TOLERANCE, allow_negative_numbers = true)]
         feasibility_tol: f64,
         /// Plan even when the cloth starts inside an obstacle (an error otherwise): step 0 is
         /// fixed by the scene, so no plan can make it safe.

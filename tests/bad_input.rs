@@ -682,7 +682,7 @@ fn papercuts_say_it_once() {
         );
         assert!(!err.contains("-- -1"), "{err}");
     }
-    for flag in ["--kappa", "--tol"] {
+    for flag in ["--kappa", "--tol", "--feasibility-tol"] {
         let o = run(bin().args(["optimize", "swing", flag, "-2.5"]));
         fails_cleanly(
             &o,
