@@ -49,8 +49,9 @@ struct Args {
     /// Plan only for n_iter up to this (a plan costs about n_iter/100 × the 100-iteration plan).
     #[arg(long, default_value_t = 1000)]
     plan_max_n_iter: usize,
-    /// Iterations of the converged reference [default: 5000; 1000 with --quick].
-    #[arg(long)]
+    /// Solver sweeps per step of the converged reference [default: 5000; 1000 with --quick]
+    /// (also accepted as `--reference-iterations`).
+    #[arg(long = "reference-sweeps", alias = "reference-iterations")]
     reference_iterations: Option<usize>,
     /// Timing runs per median [default: 5; 3 with --quick].
     #[arg(long)]

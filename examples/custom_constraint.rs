@@ -7,7 +7,10 @@
 //!    without it);
 //! 3. checks the library-derived `dL/dU` against central finite differences (exits non-zero when
 //!    a relative error exceeds 1e-6);
-//! 4. plans the swing task with it (SQP).
+//! 4. registers it by name, so that a scene file can use it (`custom_constraints`), loads the
+//!    scene from JSON with the registry and checks that the model equals the hand-built one (bitwise
+//!    rollout);
+//! 5. plans the swing task with the model from JSON (SQP).
 //!
 //! The scene runs 50 Gauss–Seidel iterations per step instead of its 100, to keep the run short.
 
@@ -15,7 +18,7 @@ use anyhow::{bail, Context, Result};
 use autodiff::{Real, Tensor};
 use cloth::constraint::{norm, Constraint};
 use cloth::nalgebra::Vector3;
-use cloth::{Controls, Model, Scene};
+use cloth::{ConstraintRegistry, Controls, ControlsView, Model, Scene};
 use clothopt::plan::{controls_from_nested, plan, PlanOptions};
 use std::time::Instant;
 
@@ -39,6 +42,44 @@ impl Constraint for TriangleArea {
     fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
         Self::area(p) - self.rest[instance]
     }
+}
+
+/// A registry that knows `triangle_area`: rest areas from the rest positions of each entry's
+/// particles, three per triangle, so a scene file needs only the particles and a stiffness.
+fn registry() -> ConstraintRegistry {
+    let mut registry = ConstraintRegistry::new();
+    registry.register("triangle_area", |input| {
+        let rest = input
+            .rest
+            .chunks_exact(3)
+            .map(|t| {
+                TriangleArea::area(
+                    &t.iter()
+                        .map(|&[x, y, z]| Vector3::new(x, y, z))
+                        .collect::<Vec<_>>(),
+                )
+            })
+            .collect();
+        Ok(TriangleArea { rest })
+    });
+    registry
+}
+
+/// The scene's JSON with one `custom_constraints` entry: `triangle_area` on every mesh triangle.
+fn scene_json_with_area(scene: &Scene, stiffness: f64) -> Result<String> {
+    let mut json: serde_json::Value = serde_json::from_str(&scene.to_json_pretty())?;
+    let cols = scene.cloth.cols;
+    let particles: Vec<[usize; 2]> = scene
+        .mesh()
+        .triangles()
+        .iter()
+        .flatten()
+        .map(|&p| [p / cols, p % cols])
+        .collect();
+    json["custom_constraints"] = serde_json::json!([
+        {"type": "triangle_area", "particles": particles, "stiffness": stiffness}
+    ]);
+    Ok(cloth::scene::to_json_pretty_compact(&json)?)
 }
 
 // ---- using it ------------------------------------------------------------------------------
@@ -152,9 +193,8 @@ fn main() -> Result<()> {
     let mut controls = model.zero_controls();
     for t in 0..horizon {
         for c in 0..k {
-            for (j, base) in [0.0, 0.15, 0.08].into_iter().enumerate() {
-                controls.row_mut(t)[3 * c + j] = base + 0.02 * rng.next();
-            }
+            let displacement = [0.0, 0.15, 0.08].map(|base| base + 0.02 * rng.next());
+            controls.set_at(t, c, displacement);
         }
     }
 
@@ -202,7 +242,7 @@ fn main() -> Result<()> {
         .collect();
     for (t, c, j) in [(0, 0, 1), (4, 1, 2), (9, 0, 0)] {
         let mut d = vec![0.0; n];
-        d[t * 3 * k + 3 * c + j] = 1.0;
+        d[controls.flat_index(t, c, j)] = 1.0;
         let axis = ["x", "y", "z"][j];
         directions.push((format!("step {t}, control {c}, {axis}"), d));
     }
@@ -219,7 +259,28 @@ fn main() -> Result<()> {
     }
     println!("  worst relative error {worst:.2e} ≤ {FD_TOLERANCE:e}: OK");
 
-    // 4. Plan the swing task with the area constraint in the model.
+    // 4. The same constraint from a scene file: register the type, name it in the JSON.
+    let text = scene_json_with_area(&scene, AREA_STIFFNESS)?;
+    let from_file = Scene::from_json_str(&text)?;
+    let registry = registry();
+    let model_from_file = Model::from_scene_with(&from_file, &registry)?;
+    println!(
+        "\nfrom JSON (`\"custom_constraints\": [{{\"type\": \"triangle_area\", \"particles\": [[0, 0], [0, 1], [1, 1], …], \"stiffness\": {AREA_STIFFNESS:e}}}]`), registered types {:?}:",
+        registry.names()
+    );
+    println!("  {}", model_from_file.effects());
+    let same = model_from_file
+        .simulate(&controls)?
+        .last()
+        .map(|x| x.data().to_vec())
+        == model.simulate(&controls)?.last().map(|x| x.data().to_vec());
+    if !same {
+        bail!("the model from JSON does not roll out as the hand-built one");
+    }
+    println!("  rollout bitwise equal to the hand-built model's: OK");
+    let model = model_from_file;
+
+    // 5. Plan the swing task with the area constraint in the model (from JSON).
     let mut options = PlanOptions::for_model(&model);
     options.iterations = PLAN_ITERATIONS;
     let start = model.zero_controls();
@@ -228,7 +289,7 @@ fn main() -> Result<()> {
         "\nplanning swing with the area constraint (SQP, ≤ {} iterations):",
         options.iterations
     );
-    let result = plan(&model, &scene, &start, &options, |info| {
+    let result = plan(&model, &from_file, &start, &options, |info| {
         if info.iteration % 10 == 0 {
             println!(
                 "  it {:>3}  L {:>10.6}  kkt {:>8.1e}",

@@ -48,18 +48,7 @@ impl RolloutFigure {
                     .collect()
             })
             .collect();
-        let spheres = model
-            .safety_obstacles
-            .spheres
-            .iter()
-            .chain(&model.colliders.spheres)
-            .flat_map(|s| {
-                s.centers.iter().zip(&s.radii).map(|(c, &r)| Sphere {
-                    center: *c,
-                    radius: r,
-                })
-            })
-            .collect();
+        let spheres = obstacle_spheres(model);
         let ground_z = model
             .colliders
             .planes
@@ -112,6 +101,29 @@ impl RolloutFigure {
     }
 }
 
+/// Every sphere of the safety obstacles and the colliders, once: a sphere set with role `both` is in
+/// both lists of the model, but it is one obstacle.
+fn obstacle_spheres(model: &Model) -> Vec<Sphere> {
+    let mut spheres: Vec<Sphere> = Vec::new();
+    for set in model
+        .safety_obstacles
+        .spheres
+        .iter()
+        .chain(&model.colliders.spheres)
+    {
+        for (c, &r) in set.centers.iter().zip(&set.radii) {
+            let sphere = Sphere {
+                center: *c,
+                radius: r,
+            };
+            if !spheres.contains(&sphere) {
+                spheres.push(sphere);
+            }
+        }
+    }
+    spheres
+}
+
 /// The top-view path for a 3-D view path: `name.png` → `name_top.png`.
 pub fn top_view_path(path: &Path) -> std::path::PathBuf {
     let stem = path
@@ -119,4 +131,29 @@ pub fn top_view_path(path: &Path) -> std::path::PathBuf {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     path.with_file_name(format!("{stem}_top.png"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cloth::scene::{Obstacle, ObstacleRole, Scene};
+
+    /// The spheres of u_obstacle with the given role.
+    fn spheres_with_role(role: ObstacleRole) -> Vec<Sphere> {
+        let mut scene = Scene::builtin("u_obstacle").unwrap();
+        for o in &mut scene.obstacles {
+            if let Obstacle::Spheres(s) = o {
+                s.role = role;
+            }
+        }
+        obstacle_spheres(&Model::from_scene(&scene).unwrap())
+    }
+
+    #[test]
+    fn a_sphere_set_with_role_both_is_drawn_and_counted_once() {
+        let safety = spheres_with_role(ObstacleRole::Safety);
+        assert_eq!(safety.len(), 18);
+        assert_eq!(spheres_with_role(ObstacleRole::Both), safety);
+        assert_eq!(spheres_with_role(ObstacleRole::Collider), safety);
+    }
 }

@@ -48,6 +48,9 @@ enum Command {
         /// Draw the rollout: a 3-D view here and a top view beside it (`*_top.png`).
         #[arg(long)]
         png: Option<PathBuf>,
+        /// Solver sweeps per time step (default: the scene's `physics.iterations`).
+        #[arg(long)]
+        sweeps: Option<usize>,
     },
     /// Print L, its terms, C and their gradients with respect to the controls as one JSON object.
     Grad {
@@ -57,11 +60,12 @@ enum Command {
         #[arg(long)]
         controls: Option<PathBuf>,
         /// Safety margin δ (default: the scene's).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         delta: Option<f64>,
-        /// Solver iterations per step (default: the scene's).
-        #[arg(long)]
-        iterations: Option<usize>,
+        /// Solver sweeps per time step (default: the scene's `physics.iterations`; the old
+        /// spelling `--iterations` is still accepted here).
+        #[arg(long, alias = "iterations")]
+        sweeps: Option<usize>,
     },
     /// Optimize the control sequence of a scene's task.
     #[command(
@@ -73,17 +77,21 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         /// A built-in scene name or a scene JSON file.
         scene: String,
         /// Safety margin δ (default: the scene's).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         delta: Option<f64>,
         /// Weight α of the trajectory irregularity (default: the scene's).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         alpha: Option<f64>,
         /// Weight β of the elastic energy (default: the scene's).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         beta: Option<f64>,
         /// Optimizer iteration limit, per κ stage (the soft safety forms first solve at κ = 200)
         #[arg(long, default_value_t = 200)]
         iterations: usize,
+        /// Solver sweeps per time step of the simulation (default: the scene's
+        /// `physics.iterations`).
+        #[arg(long)]
+        sweeps: Option<usize>,
         /// Form of the safety constraint.
         #[arg(long, value_enum, default_value_t = SafetyForm::PerStep)]
         safety: SafetyForm,
@@ -92,11 +100,11 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         swept: bool,
         /// Sharpness κ (1/length) of the soft minimum in the per-step and aggregate forms (default
         /// 3000); above 200 the planner first solves at κ = 200 and refines from that plan.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         kappa: Option<f64>,
         /// Safety rows farther than this above their margin keep their last gradient instead of
         /// a backward pass per iterate while it predicts their change (length units; default off).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         reuse_band: Option<f64>,
         /// The solver.
         #[arg(long, value_enum, default_value_t = SolverKind::Sqp)]
@@ -118,12 +126,12 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         #[arg(long)]
         start: Option<PathBuf>,
         /// Scaled KKT tolerance for `converged`.
-        #[arg(long, default_value_t = 1e-4)]
+        #[arg(long, default_value_t = 1e-4, allow_negative_numbers = true)]
         tol: f64,
         /// Largest violation (length units) of the optimizer's rows (safety rows, collider rows)
         /// at which a plan still counts as feasible; a plan violating them by more ends `no safe
         /// plan` (exit 4) and says by how much.
-        #[arg(long, default_value_t = clothopt::plan::FEASIBILITY_TOLERANCE)]
+        #[arg(long, default_value_t = clothopt::plan::FEASIBILITY_TOLERANCE, allow_negative_numbers = true)]
         feasibility_tol: f64,
         /// Plan even when the cloth starts inside an obstacle (an error otherwise): step 0 is
         /// fixed by the scene, so no plan can make it safe.
@@ -170,10 +178,9 @@ fn load_scene(name: &str) -> Result<Scene> {
     if path.exists() || name.ends_with(".json") {
         Ok(Scene::load(path)?)
     } else {
-        Scene::builtin(name).map_err(|e| {
-            let names: Vec<&str> = Scene::builtin_names().iter().map(|(n, _)| *n).collect();
-            anyhow::anyhow!("{e} (built-in scenes: {})", names.join(", "))
-        })
+        // The error lists the built-in scenes itself.
+        Scene::builtin(name)
+            .map_err(|e| anyhow::anyhow!("{e}; or give the path of a scene JSON file"))
     }
 }
 
@@ -201,10 +208,35 @@ fn main() {
     match run(Cli::parse()) {
         Ok(code) => std::process::exit(code),
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_chain(&e));
             std::process::exit(1);
         }
     }
+}
+
+/// The error and its causes joined by `: `, leaving out a cause whose text the message before it
+/// already contains (a `SceneError::Io` says its OS error itself and also returns it as its source).
+fn error_chain(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.is_empty() {
+            out = text;
+        } else if !out.contains(&text) {
+            out.push_str(": ");
+            out.push_str(&text);
+        }
+    }
+    out
+}
+
+/// Overrides the scene's solver sweeps per step (`physics.iterations`) by `--sweeps`, if given.
+fn apply_sweeps(scene: &mut Scene, sweeps: Option<usize>) -> Result<()> {
+    if let Some(n) = sweeps {
+        ensure_iterations("--sweeps", n)?;
+        scene.physics.iterations = n;
+    }
+    Ok(())
 }
 
 /// Runs a command; the exit code (0, or `optimize`'s verdict: see [`outcome::exit_code`]).
@@ -220,8 +252,10 @@ fn run(cli: Cli) -> Result<i32> {
             controls,
             out,
             png,
+            sweeps,
         } => {
-            let scene = load_scene(&scene)?;
+            let mut scene = load_scene(&scene)?;
+            apply_sweeps(&mut scene, sweeps)?;
             let model = Model::from_scene(&scene)?;
             let u = load_controls(&scene, &model, controls.as_deref())?;
             let ev = model.evaluate(&u, scene.task.delta, false)?;
@@ -256,16 +290,14 @@ fn run(cli: Cli) -> Result<i32> {
             scene,
             controls,
             delta,
-            iterations,
+            sweeps,
         } => {
             check_flag("--delta", delta, ensure_non_negative)?;
-            if let Some(n) = iterations {
-                ensure_iterations("--iterations", n)?;
+            if let Some(n) = sweeps {
+                ensure_iterations("--sweeps", n)?;
             }
             let mut scene = load_scene(&scene)?;
-            if let Some(n) = iterations {
-                scene.physics.iterations = n;
-            }
+            apply_sweeps(&mut scene, sweeps)?;
             let model = Model::from_scene(&scene)?;
             let u = load_controls(&scene, &model, controls.as_deref())?;
             let delta = delta.unwrap_or(scene.task.delta);
@@ -290,6 +322,7 @@ fn run(cli: Cli) -> Result<i32> {
             alpha,
             beta,
             iterations,
+            sweeps,
             safety,
             swept,
             kappa,
@@ -316,7 +349,11 @@ fn run(cli: Cli) -> Result<i32> {
             ensure_positive("--feasibility-tol", feasibility_tol)?;
             check_flag("--time-limit", time_limit, ensure_non_negative)?;
             ensure_iterations("--iterations", iterations)?;
-            let scene = load_scene(&scene)?;
+            if let Some(n) = sweeps {
+                ensure_iterations("--sweeps", n)?;
+            }
+            let mut scene = load_scene(&scene)?;
+            apply_sweeps(&mut scene, sweeps)?;
             let model = Model::from_scene(&scene)?;
             let mut options = PlanOptions::for_model(&model);
             options.iterations = iterations;

@@ -280,15 +280,7 @@ pub fn is_safe(metrics: &Metrics) -> bool {
 
 /// Controls tensor (`T × 3K`) as nested `[x, y, z]` lists.
 pub fn controls_to_nested(controls: &Controls) -> Vec<Vec<[f64; 3]>> {
-    (0..controls.rows())
-        .map(|t| {
-            controls
-                .row(t)
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect()
-        })
-        .collect()
+    cloth::ControlsView::to_nested(controls)
 }
 
 /// A state tensor (`N × 3`) as a list of points.

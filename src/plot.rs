@@ -1022,6 +1022,57 @@ fn render_prims(root: &Area, proj: &dyn Projector, prims: Vec<Prim>) -> Result<(
     Ok(())
 }
 
+/// Pixels drawn, then skipped, along a dashed line.
+const DASH: (f64, f64) = (5.0, 4.0);
+
+/// Every cloth frame's wireframe again, dashed in its colour and on top of everything, so a frame
+/// hidden behind obstacles (e.g. the start and end cloth behind a wall of spheres) still shows.
+fn render_hidden_cloth(
+    root: &Area,
+    proj: &dyn Projector,
+    fig: &TrajectoryFigure,
+) -> Result<(), PlotError> {
+    if fig.spheres.is_empty() {
+        return Ok(());
+    }
+    let (rows, cols) = fig.grid;
+    for (k, (frame, _)) in fig.frames.iter().enumerate() {
+        let c = FRAME_COLORS[k % FRAME_COLORS.len()];
+        let at = |r: usize, cc: usize| proj.px(frame[r * cols + cc]);
+        for r in 0..rows {
+            for cc in 0..cols {
+                if cc + 1 < cols {
+                    draw_dashed(root, at(r, cc), at(r, cc + 1), c)?;
+                }
+                if r + 1 < rows {
+                    draw_dashed(root, at(r, cc), at(r + 1, cc), c)?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A 1-pixel dashed line from `a` to `b` (dash pattern [`DASH`], starting with a dash).
+fn draw_dashed(root: &Area, a: (i32, i32), b: (i32, i32), c: RGBColor) -> Result<(), PlotError> {
+    let (dx, dy) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64);
+    let len = dx.hypot(dy);
+    let point = |s: f64| {
+        let t = if len > 0.0 { (s / len).min(1.0) } else { 0.0 };
+        (a.0 + (dx * t).round() as i32, a.1 + (dy * t).round() as i32)
+    };
+    let mut s = 0.0;
+    while s < len {
+        root.draw(&PathElement::new(
+            vec![point(s), point(s + DASH.0)],
+            c.stroke_width(1),
+        ))
+        .map_err(de)?;
+        s += DASH.0 + DASH.1;
+    }
+    Ok(())
+}
+
 /// Targets and the particles meant to reach them, always on top.
 fn render_targets(
     root: &Area,
@@ -1302,6 +1353,7 @@ fn scene_3d(
             .map_err(de)?;
     }
     render_prims(root, &proj, scene_prims(fig))?;
+    render_hidden_cloth(root, &proj, fig)?;
     render_margin(root, &proj, fig)?;
     render_targets(root, &proj, fig)?;
     Ok(())
@@ -2278,6 +2330,54 @@ mod tests {
             })
             .collect();
         assert_eq!(order, ["ball", "segment", "marker"]);
+    }
+
+    /// Pixels of the first frame's colour in the plot area of a 3-D view of a 3×3 sheet (plane
+    /// `y = 1`, `x` from −0.5 to 0.5, `z` from 1 to 2) and a sphere of radius 0.9 on the line of
+    /// sight through the sheet's centre, `toward_camera` in front of it (negative: behind it).
+    fn frame_pixels_with_sphere(toward_camera: f64, name: &str) -> usize {
+        let dir = scratch(name);
+        let sheet = sheet(1.0);
+        let view = View3d::default();
+        // Unit vector from the scene towards the camera (see `View3d`).
+        let eye = [
+            view.yaw.sin() * view.pitch.cos(),
+            -view.yaw.cos() * view.pitch.cos(),
+            view.pitch.sin(),
+        ];
+        let centre = [0.0, 1.0, 1.5];
+        let spheres = [Sphere {
+            center: std::array::from_fn(|k| centre[k] + toward_camera * eye[k]),
+            radius: 0.9,
+        }];
+        let fig = TrajectoryFigure {
+            title: "wall".into(),
+            grid: (3, 3),
+            frames: vec![(&sheet[..], "start".into())],
+            spheres: &spheres,
+            ..Default::default()
+        };
+        let path = dir.join("wall.png");
+        draw_trajectory_3d(&fig, &path).expect("3-D view");
+        let (w, _, px) = decode(&path);
+        let _ = std::fs::remove_dir_all(&dir);
+        // The plot area only: the legend column (250 px on the right) has its own swatch.
+        px.chunks(w as usize)
+            .flat_map(|row| &row[..w as usize - 250])
+            .filter(|p| **p == [FRAME_COLORS[0].0, FRAME_COLORS[0].1, FRAME_COLORS[0].2])
+            .count()
+    }
+
+    #[test]
+    fn cloth_behind_an_obstacle_still_shows() {
+        let in_front = frame_pixels_with_sphere(1.5, "hidden");
+        let behind = frame_pixels_with_sphere(-1.5, "visible");
+        // Hidden behind the sphere, the sheet's outline is drawn dashed: at least a third of the
+        // pixels it has in full view (the views' scales differ a little with the bounds).
+        assert!(
+            in_front * 3 >= behind,
+            "{in_front} frame pixels behind the sphere, {behind} in full view"
+        );
     }
 
     #[test]

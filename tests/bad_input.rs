@@ -345,11 +345,18 @@ fn zero_iterations() {
         Some("physics.iterations"),
         &["physics.iterations: must be at least 1, got 0"],
     );
-    // The flags of grad and optimize name themselves.
+    // The flags of grad and optimize name themselves: `--sweeps` (solver sweeps per step, also
+    // accepted as grad's old `--iterations`) and `--iterations` (optimizer iterations).
     let dir = scratch("bad", "iterations-flag");
     let out = dir.join("out.json");
+    let o = run(bin().args(["grad", "swing", "--sweeps", "0"]));
+    fails_cleanly(&o, &["--sweeps must be at least 1"], &dir, &[]);
     let o = run(bin().args(["grad", "swing", "--iterations", "0"]));
-    fails_cleanly(&o, &["--iterations must be at least 1"], &dir, &[]);
+    fails_cleanly(&o, &["--sweeps must be at least 1"], &dir, &[]);
+    let o = run(bin()
+        .args(["optimize", "swing", "--sweeps", "0", "--out"])
+        .arg(&out));
+    fails_cleanly(&o, &["--sweeps must be at least 1"], &dir, &[]);
     let o = run(bin()
         .args(["optimize", "swing", "--iterations", "0", "--out"])
         .arg(&out));
@@ -372,7 +379,7 @@ fn zero_horizon() {
         "explicit guess",
         &v.to_string(),
         Some("task.initial_controls.explicit"),
-        &["1 steps given, need task.horizon = 10"],
+        &["1 step given, need task.horizon = 10"],
     );
 }
 
@@ -644,5 +651,83 @@ fn nothing_to_optimize_and_unknown_scenes() {
         &["has no states to export"],
         &dir,
         &["scene.json", "empty.json"],
+    );
+}
+
+/// Issue 21's papercuts: each message says its thing once, in our words.
+#[test]
+fn papercuts_say_it_once() {
+    let dir = scratch("bad", "papercuts");
+    // An unknown scene lists the built-in scenes once.
+    let o = run(bin().args(["optimize", "nosuchscene"]));
+    let err = fails_cleanly(&o, &["unknown built-in scene `nosuchscene`"], &dir, &[]);
+    assert_eq!(err.matches("u_obstacle").count(), 1, "{err}");
+    // A missing scene file gives the OS error once.
+    let o = run(bin().arg("optimize").arg(dir.join("nosuch.json")));
+    let err = fails_cleanly(&o, &["cannot read scene file", "nosuch.json"], &dir, &[]);
+    assert_eq!(err.matches("os error").count(), 1, "{err}");
+    // A negative number is a value with our range message naming the flag, not clap's `-- -1` tip.
+    for (command, flag) in [
+        ("optimize", "--delta"),
+        ("optimize", "--alpha"),
+        ("optimize", "--beta"),
+        ("grad", "--delta"),
+    ] {
+        let o = run(bin().args([command, "swing", flag, "-1"]));
+        let err = fails_cleanly(
+            &o,
+            &[&format!("{flag} must be a finite number ≥ 0, got -1")],
+            &dir,
+            &[],
+        );
+        assert!(!err.contains("-- -1"), "{err}");
+    }
+    for flag in ["--kappa", "--tol", "--feasibility-tol"] {
+        let o = run(bin().args(["optimize", "swing", flag, "-2.5"]));
+        fails_cleanly(
+            &o,
+            &[&format!("{flag} must be a finite number > 0, got -2.5")],
+            &dir,
+            &[],
+        );
+    }
+    let o = run(bin().args(["optimize", "swing", "--reuse-band", "-1"]));
+    fails_cleanly(
+        &o,
+        &["--reuse-band must be a number > 0, got -1"],
+        &dir,
+        &[],
+    );
+}
+
+/// "1 vector given", "2 vectors given": counts agree with their nouns.
+#[test]
+fn counts_in_messages_are_pluralised() {
+    let one = edited("/task/initial_controls", json!({"constant": [[0, 0, 0]]}));
+    let err = rejects_scene(
+        "one constant vector for two controls",
+        &one,
+        Some("task.initial_controls.constant"),
+        &["1 vector given, need one per control particle (2)"],
+    );
+    assert!(!err.contains("1 vectors"), "{err}");
+    let three = edited(
+        "/task/initial_controls",
+        json!({"constant": [[0, 0, 0], [0, 0, 0], [0, 0, 0]]}),
+    );
+    rejects_scene(
+        "three constant vectors for two controls",
+        &three,
+        Some("task.initial_controls.constant"),
+        &["3 vectors given, need one per control particle (2)"],
+    );
+    let mut v = swing();
+    v["task"]["horizon"] = json!(2);
+    v["task"]["initial_controls"] = json!({"explicit": [[[0, 0, 0], [0, 0, 0]]]});
+    rejects_scene(
+        "one explicit step for horizon 2",
+        &v.to_string(),
+        Some("task.initial_controls.explicit"),
+        &["1 step given, need task.horizon = 2"],
     );
 }

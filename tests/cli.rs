@@ -196,3 +196,50 @@ fn optimize_reaches_a_feasible_converged_plan_on_a_small_obstacle_scene() {
     );
     assert_eq!(std::fs::read_dir(&objs).unwrap().count(), 11);
 }
+
+/// Runs `clothopt ARGS` and parses its stdout as JSON.
+fn json_of(args: &[&str], scene: &Path) -> Value {
+    let o = run(bin().arg(args[0]).arg(scene).args(&args[1..]));
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    serde_json::from_str(&stdout(&o)).unwrap()
+}
+
+/// `--sweeps` sets the solver sweeps per step (`physics.iterations`) for every subcommand; grad's
+/// old `--iterations` still means the same; optimize's `--iterations` is the optimizer's.
+#[test]
+fn sweeps_set_the_solver_sweeps_under_every_spelling() {
+    let dir = scratch("sweeps");
+    let scene = small_obstacle_scene(&dir);
+    let default = json_of(&["grad"], &scene);
+    let sweeps = json_of(&["grad", "--sweeps", "3"], &scene);
+    let old = json_of(&["grad", "--iterations", "3"], &scene);
+    assert_eq!(sweeps, old);
+    assert_ne!(sweeps["L"], default["L"]);
+    // The same scene with physics.iterations = 3 gives the same numbers.
+    let mut three: Scene = Scene::load(&scene).unwrap();
+    three.physics.iterations = 3;
+    let three_path = dir.join("three.json");
+    std::fs::write(&three_path, three.to_json_pretty()).unwrap();
+    assert_eq!(json_of(&["grad"], &three_path), sweeps);
+    // simulate --sweeps agrees with grad --sweeps.
+    let out = dir.join("sim.json");
+    let o = run(bin()
+        .arg("simulate")
+        .arg(&scene)
+        .args(["--sweeps", "3", "--out"])
+        .arg(&out));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let sim: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(sim["metrics"]["L"], sweeps["L"]);
+    // `--help` names both meanings.
+    let help = stdout(&run(bin().args(["optimize", "--help"])));
+    assert!(
+        help.contains("--sweeps") && help.contains("--iterations"),
+        "{help}"
+    );
+    let help = stdout(&run(bin().args(["grad", "--help"])));
+    assert!(
+        help.contains("--sweeps <") && !help.contains("--iterations <"),
+        "{help}"
+    );
+}

@@ -8,11 +8,13 @@
 //! - [`mesh`]: the grid mesh and its constraints in canonical order;
 //! - [`coloring`]: greedy colouring into independent sets;
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles;
-//! - [`model`]: a scene compiled to its effects; [`sim`]: time stepping; [`cost`], [`grad`]: costs
+//! - [`controls`]: the controls tensor viewed by (step, gripper);
+//! - [`model`]: a scene compiled to its effects; [`registry`]: constraint types scene files name; [`sim`]: time stepping; [`cost`], [`grad`]: costs
 //!   and gradients.
 
 pub mod coloring;
 pub mod constraint;
+pub mod controls;
 pub mod cost;
 pub mod error;
 pub mod grad;
@@ -20,14 +22,17 @@ pub mod mesh;
 pub mod model;
 pub mod projection;
 pub mod refine;
+pub mod registry;
 pub mod scene;
 pub mod sdf;
 pub mod sim;
 
+pub use controls::ControlsView;
 pub use error::ClothError;
 pub use grad::{Evaluation, Metrics};
 pub use model::Model;
 /// The `nalgebra` this crate is built with: constraints take `nalgebra::Vector3<R>` points.
 pub use nalgebra;
+pub use registry::ConstraintRegistry;
 pub use scene::Scene;
 pub use sim::Controls;

@@ -154,8 +154,14 @@ impl RowFn for ParticleSdfComponents {
 }
 
 impl Model {
-    /// Compiles a validated scene.
+    /// Compiles a validated scene. A scene with `custom_constraints` needs their types:
+    /// [`Model::from_scene_with`].
     pub fn from_scene(scene: &Scene) -> Result<Model, ClothError> {
+        Model::from_scene_with(scene, &crate::registry::ConstraintRegistry::new())
+    }
+
+    /// Compiles a validated scene's built-in effects (everything but `custom_constraints`).
+    pub(crate) fn from_scene_builtin(scene: &Scene) -> Result<Model, ClothError> {
         scene.validate()?;
         let mesh = scene.mesh();
         let rest_pos = scene.rest_positions();

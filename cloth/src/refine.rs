@@ -19,6 +19,15 @@ impl Scene {
     /// points. When coarsening maps several targets to one particle, the first of them is kept.
     pub fn refined(&self, rows: usize, cols: usize) -> Result<Scene, SceneError> {
         let (r0, c0) = (self.cloth.rows, self.cloth.cols);
+        if !self.custom_constraints.is_empty() {
+            // Their particle lists (e.g. every triangle) have no counterpart on another grid.
+            return Err(SceneError::Invalid {
+                field: "custom_constraints".into(),
+                reason: format!(
+                    "a scene with custom constraints cannot be refined: their particles belong to the {r0} × {c0} grid"
+                ),
+            });
+        }
         let map = |[r, c]: [usize; 2]| [map_axis(r, r0, rows), map_axis(c, c0, cols)];
         let mut scene = self.clone();
         scene.cloth.rows = rows;

@@ -128,6 +128,9 @@ pub struct Scene {
     pub obstacles: Vec<Obstacle>,
     /// Targets, cost weights, horizon and initial control guess.
     pub task: Task,
+    /// Constraints of user-registered types (default none); see [`crate::registry`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub custom_constraints: Vec<crate::registry::CustomConstraint>,
 }
 
 /// The cloth grid: `rows × cols` particles laid out on a parallelogram.
@@ -451,6 +454,11 @@ fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
     ]
 }
 
+/// `n` followed by the noun in agreement with it: "1 vector", "2 vectors".
+fn counted(n: usize, singular: &str, plural: &str) -> String {
+    format!("{n} {}", if n == 1 { singular } else { plural })
+}
+
 fn check_finite(field: &str, x: f64) -> Result<(), SceneError> {
     if x.is_finite() {
         Ok(())
@@ -642,7 +650,8 @@ impl Scene {
         self.validate_physics()?;
         self.validate_controls()?;
         self.validate_obstacles()?;
-        self.validate_task()
+        self.validate_task()?;
+        self.validate_custom_constraints()
     }
 
     fn validate_cloth(&self) -> Result<(), SceneError> {
@@ -873,8 +882,8 @@ impl Scene {
                     return Err(invalid(
                         field,
                         format!(
-                            "{} vectors given, need one per control particle ({m})",
-                            v.len()
+                            "{} given, need one per control particle ({m})",
+                            counted(v.len(), "vector", "vectors")
                         ),
                     ));
                 }
@@ -888,8 +897,8 @@ impl Scene {
                     return Err(invalid(
                         field,
                         format!(
-                            "{} steps given, need task.horizon = {}",
-                            steps.len(),
+                            "{} given, need task.horizon = {}",
+                            counted(steps.len(), "step", "steps"),
                             t.horizon
                         ),
                     ));
@@ -899,8 +908,8 @@ impl Scene {
                         return Err(invalid(
                             format!("{field}[{s}]"),
                             format!(
-                                "{} vectors given, need one per control particle ({m})",
-                                step.len()
+                                "{} given, need one per control particle ({m})",
+                                counted(step.len(), "vector", "vectors")
                             ),
                         ));
                     }
@@ -1355,7 +1364,7 @@ mod tests {
     rejects!(
         constant_controls_wrong_count,
         "task.initial_controls.constant",
-        "1 vectors given, need one per control particle (2)",
+        "1 vector given, need one per control particle (2)",
         |v| set(
             v,
             "/task/initial_controls",
@@ -1382,7 +1391,7 @@ mod tests {
     rejects!(
         explicit_controls_wrong_count,
         "task.initial_controls.explicit[4]",
-        "1 vectors given, need one per control particle (2)",
+        "1 vector given, need one per control particle (2)",
         |v| {
             let mut steps = vec![vec![[0.0, 0.0, 0.0]; 2]; 10];
             steps[4].pop();
