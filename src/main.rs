@@ -145,7 +145,7 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         verbose: bool,
         /// Stop after this many seconds and return the best safe plan found so far (status
         /// `time_limit`); the route search stops too.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         time_limit: Option<f64>,
         /// Leave the wall-clock time out of the result JSON and the summary, so that the same
         /// command writes byte-identical results (any thread count).
