@@ -9,7 +9,8 @@
 //! - [`coloring`]: greedy colouring into independent sets;
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles;
 //! - [`model`]: a scene compiled to its effects; [`sim`]: time stepping; [`cost`], [`grad`]: costs
-//!   and gradients.
+//!   and gradients;
+//! - [`newton`]: the converged (Newton) step and its implicit gradients, beside XPBD.
 
 pub mod coloring;
 pub mod constraint;
@@ -18,6 +19,7 @@ pub mod error;
 pub mod grad;
 pub mod mesh;
 pub mod model;
+pub mod newton;
 pub mod projection;
 pub mod refine;
 pub mod scene;

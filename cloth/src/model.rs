@@ -7,6 +7,8 @@
 use crate::coloring::{greedy_coloring, independent_sets};
 use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_ARITY};
 use crate::error::ClothError;
+use crate::newton::terms::{ConstraintTerms, Terms};
+use crate::newton::Solver;
 use crate::projection::Projection;
 use crate::scene::{BendingModel, Obstacle, Scene, Stiffness};
 use crate::sdf::{Plane, SignedDistance, SphereSet, Union};
@@ -35,6 +37,8 @@ pub struct ConstraintGroup {
     /// `½ k C²` per constraint, with the particles of every constraint; `None` for inequality and
     /// rigid constraints, which carry no elastic energy.
     pub energy: Option<(Arc<dyn DynRowFn>, Arc<RowIndex>)>,
+    /// The constraints with their second derivatives, for the Newton solver.
+    pub terms: Arc<dyn ConstraintTerms>,
 }
 
 /// The task: targets and cost weights.
@@ -86,6 +90,8 @@ pub struct Model {
     /// it is recorded in blocks of iterations from checkpoints of a plain forward sweep (one more
     /// forward pass per step, memory ∝ one block).
     pub checkpoint_budget: usize,
+    /// The method that solves each step (`physics.solver`).
+    pub solver: Solver,
 }
 
 /// Default [`Model::checkpoint_budget`]: 32 MiB (`u_obstacle` steps fit whole up to a 20 × 20
@@ -187,6 +193,7 @@ impl Model {
                 delta: task.delta,
             },
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
+            solver: scene.physics.solver(),
         };
 
         let edges = mesh.stretch_edges();
@@ -350,6 +357,7 @@ impl Model {
             count: rows.len(),
             sets,
             energy,
+            terms: Arc::new(Terms::new(constraint, particles, compliance)),
         });
         Ok(())
     }
