@@ -41,6 +41,8 @@ enum Command {
         /// Draw the rollout: a 3-D view here and a top view beside it (`*_top.png`).
         #[arg(long)]
         png: Option<PathBuf>,
+        #[command(flatten)]
+        physics: PhysicsArgs,
     },
     /// Print L, its terms, C and their gradients with respect to the controls as one JSON object.
     Grad {
@@ -55,6 +57,8 @@ enum Command {
         /// Solver iterations per step (default: the scene's).
         #[arg(long)]
         iterations: Option<usize>,
+        #[command(flatten)]
+        physics: PhysicsArgs,
     },
     /// Optimize the control sequence of a scene's task.
     Optimize {
@@ -109,6 +113,8 @@ enum Command {
         /// command writes byte-identical results (any thread count).
         #[arg(long)]
         no_timing: bool,
+        #[command(flatten)]
+        physics: PhysicsArgs,
     },
     /// Export a result: dense way-points of the control points (CSV) and/or one OBJ mesh per step.
     Export {
@@ -124,6 +130,45 @@ enum Command {
         #[arg(long)]
         obj: Option<PathBuf>,
     },
+}
+
+/// The physics solver flags shared by `simulate`, `grad` and `optimize`.
+#[derive(clap::Args, Debug)]
+struct PhysicsArgs {
+    /// Step solver: `xpbd` (the scene's iterations of Gauss–Seidel) or `newton` (converged;
+    /// default: the scene's `physics.solver`).
+    #[arg(long, value_enum)]
+    physics: Option<PhysicsSolver>,
+    /// Newton's relative ‖∇Φ‖ tolerance, in (0, 1) (default: the scene's, else 1e-10).
+    #[arg(long)]
+    physics_tolerance: Option<f64>,
+}
+
+/// `--physics` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum PhysicsSolver {
+    Xpbd,
+    Newton,
+}
+
+impl PhysicsArgs {
+    /// Writes the flags into the scene's `physics` (validated with the scene).
+    fn apply(&self, scene: &mut Scene) -> Result<()> {
+        use cloth::scene::SolverKind as Kind;
+        if let Some(p) = self.physics {
+            scene.physics.solver = match p {
+                PhysicsSolver::Xpbd => Kind::Xpbd,
+                PhysicsSolver::Newton => Kind::Newton,
+            };
+        }
+        if let Some(tol) = self.physics_tolerance {
+            if !(tol > 0.0 && tol < 1.0) {
+                bail!("--physics-tolerance must be in (0, 1), got {tol}");
+            }
+            scene.physics.tolerance = Some(tol);
+        }
+        Ok(())
+    }
 }
 
 /// Applies `check` to a flag's value when the flag was given.
@@ -182,8 +227,10 @@ fn run(cli: Cli) -> Result<()> {
             controls,
             out,
             png,
+            physics,
         } => {
-            let scene = load_scene(&scene)?;
+            let mut scene = load_scene(&scene)?;
+            physics.apply(&mut scene)?;
             let model = Model::from_scene(&scene)?;
             let u = load_controls(&scene, &model, controls.as_deref())?;
             let ev = model.evaluate(&u, scene.task.delta, false)?;
@@ -219,6 +266,7 @@ fn run(cli: Cli) -> Result<()> {
             controls,
             delta,
             iterations,
+            physics,
         } => {
             check_flag("--delta", delta, ensure_non_negative)?;
             if let Some(n) = iterations {
@@ -228,6 +276,7 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(n) = iterations {
                 scene.physics.iterations = n;
             }
+            physics.apply(&mut scene)?;
             let model = Model::from_scene(&scene)?;
             let u = load_controls(&scene, &model, controls.as_deref())?;
             let delta = delta.unwrap_or(scene.task.delta);
@@ -263,6 +312,7 @@ fn run(cli: Cli) -> Result<()> {
             png,
             verbose,
             no_timing,
+            physics,
         } => {
             check_flag("--delta", delta, ensure_non_negative)?;
             check_flag("--alpha", alpha, ensure_non_negative)?;
@@ -271,7 +321,8 @@ fn run(cli: Cli) -> Result<()> {
             check_flag("--reuse-band", reuse_band, ensure_positive_or_infinite)?;
             ensure_positive("--tol", tol)?;
             ensure_iterations("--iterations", iterations)?;
-            let scene = load_scene(&scene)?;
+            let mut scene = load_scene(&scene)?;
+            physics.apply(&mut scene)?;
             let model = Model::from_scene(&scene)?;
             let mut options = PlanOptions::for_model(&model);
             options.iterations = iterations;
