@@ -7,6 +7,8 @@
 
 pub mod export;
 pub mod figures;
+pub mod outcome;
 pub mod plan;
 pub mod plot;
 pub mod problem;
+pub mod search;

@@ -71,6 +71,25 @@ impl TaskOptions {
     }
 }
 
+/// What one inequality row of a [`TrajectoryProblem`] constrains.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RowLabel {
+    /// A safety row: of one step (per-step form), or of the whole rollout (`None`).
+    Safety {
+        /// The step `1..=T` the row constrains, `None` for the scalar and aggregate forms.
+        step: Option<usize>,
+    },
+    /// A control point kept on the free side of a collider plane at one step.
+    ColliderPlane {
+        /// Index of the plane among the colliders.
+        plane: usize,
+        /// Index of the control point.
+        control: usize,
+        /// The step `1..=T`.
+        step: usize,
+    },
+}
+
 /// An owned per-step cost (see [`StepCost`]).
 type BoxedStepCost<'a> = Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + 'a>;
 
@@ -144,6 +163,11 @@ impl<'a> TrajectoryProblem<'a> {
         self
     }
 
+    /// The model.
+    pub fn model(&self) -> &'a Model {
+        self.model
+    }
+
     /// The options.
     pub fn options(&self) -> &TaskOptions {
         &self.options
@@ -156,6 +180,31 @@ impl<'a> TrajectoryProblem<'a> {
             (Some(SafetyForm::Scalar | SafetyForm::Aggregate), true) => 1,
             _ => 0,
         }
+    }
+
+    /// What each inequality row constrains, in row order (safety rows, then collider rows).
+    pub fn row_labels(&self) -> Vec<RowLabel> {
+        let mut labels: Vec<RowLabel> = match self.options.safety {
+            Some(SafetyForm::PerStep) => (1..=self.safety_rows())
+                .map(|t| RowLabel::Safety { step: Some(t) })
+                .collect(),
+            _ => vec![RowLabel::Safety { step: None }; self.safety_rows()],
+        };
+        let (planes, k, horizon) = (
+            self.model.colliders.planes.len(),
+            self.model.n_controls(),
+            self.model.task.horizon,
+        );
+        for plane in 0..planes {
+            for control in 0..k {
+                labels.extend((1..=horizon).map(|step| RowLabel::ColliderPlane {
+                    plane,
+                    control,
+                    step,
+                }));
+            }
+        }
+        labels
     }
 
     /// Controls tensor of a variable vector.

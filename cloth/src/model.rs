@@ -56,6 +56,8 @@ pub struct TaskSpec {
     pub beta: f64,
     /// Safety margin `δ`.
     pub delta: f64,
+    /// Distance within which a target counts as reached at the final step (`task.tolerance`).
+    pub tolerance: f64,
 }
 
 /// A compiled, ready-to-simulate scene.
@@ -191,6 +193,7 @@ impl Model {
                 alpha: task.alpha,
                 beta: task.beta,
                 delta: task.delta,
+                tolerance: scene.tolerance(),
             },
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
             solver: scene.physics.solver(),

@@ -1,0 +1,158 @@
+//! The task verdict and the route search: an unreachable target is never "achieved", a blocked
+//! straight path is achieved only with the search on, and the verdict's numbers are those of the
+//! re-simulated final state.
+
+mod common;
+
+use cloth::scene::{InitialControls, Obstacle, ObstacleRole, SphereSet, Target};
+use cloth::{Model, Scene};
+use clothopt::outcome::{target_errors, Reason};
+use clothopt::plan::{controls_from_nested, initial_controls, PlanOptions, PlanResult};
+use clothopt::search::{plan_with_search, SearchMode, SearchOptions};
+use common::{bin, run, scratch, stderr, stdout, write_scene};
+
+/// A 6 × 6 cloth (0.6 m, hanging from its top corners at z = 1) carried 2 m along +y over 8 steps,
+/// with a ball of radius 0.35 on the straight path (safety, δ = 0.05); bottom corners to
+/// `y = 1, z = 0.4`. Its straight path is blocked by the ball.
+fn blocked_scene() -> Scene {
+    let text = r#"{
+      "name": "blocked",
+      "cloth": {"rows": 6, "cols": 6, "top_left": [-0.3, -1.0, 1.0], "right": [0.6, 0.0, 0.0],
+                "down": [0.0, 0.0, -0.6]},
+      "material": {"stretch": 1000.0, "bending": {"model": "distance", "stiffness": 10.0}},
+      "physics": {"dt": 0.1, "gravity": [0.0, 0.0, -9.8], "iterations": 30},
+      "controls": [[0, 0], [0, 5]],
+      "obstacles": [{"type": "spheres", "centers": [[0.0, 0.0, 0.7]], "radii": [0.35],
+                     "role": "safety"}],
+      "task": {"horizon": 8,
+        "targets": [{"particle": [5, 0], "position": [-0.3, 1.0, 0.4]},
+                    {"particle": [5, 5], "position": [0.3, 1.0, 0.4]}],
+        "alpha": 1.0, "beta": 0.0001, "delta": 0.05,
+        "initial_controls": {"constant": [[0.0, 0.25, 0.0], [0.0, 0.25, 0.0]]}}
+    }"#;
+    Scene::from_json_str(text).unwrap()
+}
+
+fn plan_scene(scene: &Scene, mode: SearchMode) -> (Model, PlanResult) {
+    let model = Model::from_scene(scene).unwrap();
+    let options = PlanOptions::for_model(&model);
+    let start = initial_controls(scene, &model).unwrap();
+    let search = SearchOptions {
+        mode,
+        ..SearchOptions::default()
+    };
+    let result = plan_with_search(&model, scene, &start, &options, &search, |_| {}).unwrap();
+    (model, result)
+}
+
+/// The verdict's errors are those of the final state of the returned controls, re-simulated.
+fn assert_outcome_matches_the_rollout(model: &Model, result: &PlanResult) {
+    let controls = controls_from_nested(model, &result.controls).unwrap();
+    let states = model.simulate(&controls).unwrap();
+    let errors = target_errors(model, states.last().unwrap());
+    assert_eq!(errors, result.task.target_errors);
+    let max = errors.iter().copied().fold(0.0, f64::max);
+    assert_eq!(max, result.task.max_target_error);
+    let reached = errors
+        .iter()
+        .filter(|&&e| e <= result.task.tolerance)
+        .count();
+    assert_eq!(reached, result.task.targets_reached);
+    assert_eq!(
+        result.task.achieved,
+        reached == errors.len() && result.is_feasible() && result.is_safe()
+    );
+}
+
+#[test]
+fn a_blocked_straight_path_is_achieved_with_the_search_and_not_without() {
+    let scene = blocked_scene();
+    assert_eq!(scene.tolerance(), 0.06, "10% of the 0.6 m side");
+    let (model, off) = plan_scene(&scene, SearchMode::Off);
+    println!("off: {} — {}", off.status, off.task.explanation);
+    assert!(!off.task.achieved, "{}", off.task.explanation);
+    assert!(off.search.is_none());
+    assert_outcome_matches_the_rollout(&model, &off);
+
+    let (model, on) = plan_with_search_on(&scene);
+    println!("on: {} — {}", on.status, on.task.explanation);
+    assert!(on.task.achieved, "{}", on.task.explanation);
+    assert_eq!(on.task.reason, Reason::Achieved);
+    assert!(on.task.max_target_error <= on.task.tolerance);
+    assert!(on.metrics.min_sdf >= scene.task.delta - 1e-6);
+    assert_outcome_matches_the_rollout(&model, &on);
+    // The search lists the first plan and every candidate, and marks exactly one kept.
+    let search = on.search.as_ref().unwrap();
+    assert_eq!(search.candidates[0].stage, "first");
+    assert!(search.candidates.iter().any(|c| c.stage == "cheap"));
+    assert_eq!(search.candidates.iter().filter(|c| c.kept).count(), 1);
+    let kept = search.candidates.iter().find(|c| c.kept).unwrap();
+    assert_eq!(kept.l, on.metrics.l);
+    assert!(kept.achieved && kept.safe);
+}
+
+fn plan_with_search_on(scene: &Scene) -> (Model, PlanResult) {
+    plan_scene(scene, SearchMode::Auto)
+}
+
+/// The blocked scene with its right target inside a safety sphere (not achievable).
+fn unreachable_scene() -> Scene {
+    let mut scene = blocked_scene();
+    scene.obstacles = vec![Obstacle::Spheres(SphereSet {
+        centers: vec![[0.3, 1.0, 0.4]],
+        radii: vec![0.2],
+        role: ObstacleRole::Safety,
+    })];
+    scene.task.targets = vec![
+        Target {
+            particle: [5, 0],
+            position: [-0.3, 1.0, 0.4],
+        },
+        Target {
+            particle: [5, 5],
+            position: [0.3, 1.0, 0.4],
+        },
+    ];
+    scene.task.initial_controls = InitialControls::Constant(vec![[0.0, 0.25, 0.0]; 2]);
+    scene
+}
+
+#[test]
+fn a_target_inside_an_obstacle_is_never_achieved_and_the_cli_says_why() {
+    let scene = unreachable_scene();
+    let (model, result) = plan_scene(&scene, SearchMode::Auto);
+    assert!(!result.task.achieved);
+    assert_ne!(result.task.reason, Reason::Achieved);
+    assert!(result.task.max_target_error > result.task.tolerance);
+    assert!(!result.task.explanation.is_empty());
+    assert_outcome_matches_the_rollout(&model, &result);
+
+    let dir = scratch("routes", "unreachable");
+    let path = write_scene(&dir, "scene.json", &scene);
+    let out = dir.join("r.json");
+    let o = run(bin()
+        .arg("optimize")
+        .arg(&path)
+        .args(["--search", "off", "--no-timing", "--out"])
+        .arg(&out));
+    let (so, se) = (stdout(&o), stderr(&o));
+    assert!(matches!(o.status.code(), Some(3 | 4)), "{so}{se}");
+    assert!(so.starts_with("task NOT achieved ("), "{so}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    assert_eq!(v["task"]["achieved"], false);
+    assert!(v["task"]["reason"].as_str().unwrap() != "achieved");
+    assert!(v["task"]["max_target_error"].as_f64().unwrap() > 0.06);
+}
+
+#[test]
+fn a_tolerance_of_zero_or_nan_is_rejected_naming_the_field() {
+    let mut scene = blocked_scene();
+    for bad in [0.0, -1.0, f64::NAN] {
+        scene.task.tolerance = Some(bad);
+        let e = scene.validate().unwrap_err().to_string();
+        assert!(e.contains("task.tolerance"), "{e}");
+    }
+    scene.task.tolerance = Some(0.5);
+    scene.validate().unwrap();
+    assert_eq!(Model::from_scene(&scene).unwrap().task.tolerance, 0.5);
+}
