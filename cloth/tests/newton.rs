@@ -99,7 +99,9 @@ fn degenerate_geometry_stays_finite() {
     let u = model.zero_controls();
     match model.simulate(&u) {
         Ok(states) => {
-            assert!(states.iter().all(|s| s.data().iter().all(|v| v.is_finite())));
+            assert!(states
+                .iter()
+                .all(|s| s.data().iter().all(|v| v.is_finite())));
         }
         Err(e) => {
             let msg = e.to_string();
@@ -133,7 +135,11 @@ fn newton_rejects_rigid_constraints_naming_the_field() {
     let e = Model::from_scene(&s).err().unwrap().to_string();
     assert!(e.contains("material.stretch") && e.contains("rigid"), "{e}");
     let mut s = newton_scene(&small_scene(3, 3, 1, 10, 1e3, BendKind::None));
-    s.obstacles = vec![spheres(vec![[0.0, 0.0, 0.0]], vec![0.1], ObstacleRole::Collider)];
+    s.obstacles = vec![spheres(
+        vec![[0.0, 0.0, 0.0]],
+        vec![0.1],
+        ObstacleRole::Collider,
+    )];
     let e = Model::from_scene(&s).err().unwrap().to_string();
     assert!(e.contains("obstacles[0].role"), "{e}");
     // A rigid group added in code is caught when the model is solved.
@@ -166,7 +172,14 @@ fn newton_settings_are_validated_with_their_json_path() {
     let m = Model::from_scene(&s).unwrap();
     let e = m.simulate(&m.zero_controls()).err().unwrap();
     assert!(
-        matches!(e, ClothError::NewtonNotConverged { step: 1, iterations: 1, .. }),
+        matches!(
+            e,
+            ClothError::NewtonNotConverged {
+                step: 1,
+                iterations: 1,
+                ..
+            }
+        ),
         "{e}"
     );
     // JSON: the default solver is not written, "newton" round-trips.

@@ -5,9 +5,7 @@
 use super::assembly::Pattern;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, LltRef, SymbolicCholesky,
-};
+use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
@@ -22,9 +20,11 @@ impl Factor {
     /// The symbolic analysis of `pattern`'s lower triangle.
     pub fn new(pattern: &Pattern) -> Factor {
         let n = pattern.n_dof;
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
-        let symbolic = factorize_symbolic_cholesky(sym, Side::Lower, Default::default(), Default::default())
-            .expect("symbolic Cholesky analysis of a valid pattern");
+        let sym =
+            SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
+        let symbolic =
+            factorize_symbolic_cholesky(sym, Side::Lower, Default::default(), Default::default())
+                .expect("symbolic Cholesky analysis of a valid pattern");
         let l_values = vec![0.0; symbolic.len_val()];
         Factor {
             symbolic,
@@ -36,7 +36,8 @@ impl Factor {
     /// Factorizes the matrix with `values` in `pattern`; false if it is not positive definite.
     pub fn factorize(&mut self, pattern: &Pattern, values: &[f64]) -> bool {
         let n = pattern.n_dof;
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
+        let sym =
+            SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
         let a = SparseColMatRef::new(sym, values);
         let mut buf = MemBuffer::new(
             self.symbolic
@@ -61,7 +62,10 @@ impl Factor {
     /// Solves `A X = B` in place for the `n × k` column-major `b` (after a successful
     /// [`Factor::factorize`]).
     pub fn solve_in_place(&self, b: &mut [f64], k: usize) {
-        assert!(self.factored, "Factor::solve_in_place before a successful factorization");
+        assert!(
+            self.factored,
+            "Factor::solve_in_place before a successful factorization"
+        );
         let n = self.symbolic.nrows();
         let mut buf = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
         let rhs = MatMut::from_column_major_slice_mut(b, n, k);
