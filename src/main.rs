@@ -51,6 +51,8 @@ enum Command {
         /// Solver sweeps per time step (default: the scene's `physics.iterations`).
         #[arg(long)]
         sweeps: Option<usize>,
+        #[command(flatten)]
+        physics: PhysicsArgs,
     },
     /// Print L, its terms, C and their gradients with respect to the controls as one JSON object.
     Grad {
@@ -66,6 +68,8 @@ enum Command {
         /// spelling `--iterations` is still accepted here).
         #[arg(long, alias = "iterations")]
         sweeps: Option<usize>,
+        #[command(flatten)]
+        physics: PhysicsArgs,
     },
     /// Optimize the control sequence of a scene's task.
     #[command(
@@ -151,6 +155,8 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         /// command writes byte-identical results (any thread count).
         #[arg(long)]
         no_timing: bool,
+        #[command(flatten)]
+        physics: PhysicsArgs,
     },
     /// Export a result: dense way-points of the control points (CSV) and/or one OBJ mesh per step.
     Export {
@@ -166,6 +172,45 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         #[arg(long)]
         obj: Option<PathBuf>,
     },
+}
+
+/// The physics solver flags shared by `simulate`, `grad` and `optimize`.
+#[derive(clap::Args, Debug)]
+struct PhysicsArgs {
+    /// Step solver: `xpbd` (the scene's iterations of Gauss–Seidel) or `newton` (converged;
+    /// default: the scene's `physics.solver`).
+    #[arg(long, value_enum)]
+    physics: Option<PhysicsSolver>,
+    /// Newton's relative ‖∇Φ‖ tolerance, in (0, 1) (default: the scene's, else 1e-10).
+    #[arg(long)]
+    physics_tolerance: Option<f64>,
+}
+
+/// `--physics` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum PhysicsSolver {
+    Xpbd,
+    Newton,
+}
+
+impl PhysicsArgs {
+    /// Writes the flags into the scene's `physics` (validated with the scene).
+    fn apply(&self, scene: &mut Scene) -> Result<()> {
+        use cloth::scene::SolverKind as Kind;
+        if let Some(p) = self.physics {
+            scene.physics.solver = match p {
+                PhysicsSolver::Xpbd => Kind::Xpbd,
+                PhysicsSolver::Newton => Kind::Newton,
+            };
+        }
+        if let Some(tol) = self.physics_tolerance {
+            if !(tol > 0.0 && tol < 1.0) {
+                bail!("--physics-tolerance must be in (0, 1), got {tol}");
+            }
+            scene.physics.tolerance = Some(tol);
+        }
+        Ok(())
+    }
 }
 
 /// Applies `check` to a flag's value when the flag was given.
@@ -253,9 +298,11 @@ fn run(cli: Cli) -> Result<i32> {
             out,
             png,
             sweeps,
+            physics,
         } => {
             let mut scene = load_scene(&scene)?;
             apply_sweeps(&mut scene, sweeps)?;
+            physics.apply(&mut scene)?;
             let model = Model::from_scene(&scene)?;
             let u = load_controls(&scene, &model, controls.as_deref())?;
             let ev = model.evaluate(&u, scene.task.delta, false)?;
@@ -291,6 +338,7 @@ fn run(cli: Cli) -> Result<i32> {
             controls,
             delta,
             sweeps,
+            physics,
         } => {
             check_flag("--delta", delta, ensure_non_negative)?;
             if let Some(n) = sweeps {
@@ -298,6 +346,7 @@ fn run(cli: Cli) -> Result<i32> {
             }
             let mut scene = load_scene(&scene)?;
             apply_sweeps(&mut scene, sweeps)?;
+            physics.apply(&mut scene)?;
             let model = Model::from_scene(&scene)?;
             let u = load_controls(&scene, &model, controls.as_deref())?;
             let delta = delta.unwrap_or(scene.task.delta);
@@ -339,6 +388,7 @@ fn run(cli: Cli) -> Result<i32> {
             verbose,
             no_timing,
             time_limit,
+            physics,
         } => {
             check_flag("--delta", delta, ensure_non_negative)?;
             check_flag("--alpha", alpha, ensure_non_negative)?;
@@ -354,6 +404,7 @@ fn run(cli: Cli) -> Result<i32> {
             }
             let mut scene = load_scene(&scene)?;
             apply_sweeps(&mut scene, sweeps)?;
+            physics.apply(&mut scene)?;
             let model = Model::from_scene(&scene)?;
             let mut options = PlanOptions::for_model(&model);
             options.iterations = iterations;

@@ -38,4 +38,27 @@ pub enum ClothError {
         /// Its position.
         position: [f64; 3],
     },
+    /// A Newton step did not reach `physics.tolerance` within `physics.max_newton_iterations`.
+    #[error(
+        "Newton solver did not converge at step {step}: relative residual ‖∇Φ‖ {residual:e} after \
+         {iterations} iterations (physics.tolerance {tolerance:e}, physics.max_newton_iterations)"
+    )]
+    NewtonNotConverged {
+        /// Time step (1-based).
+        step: usize,
+        /// Newton iterations performed.
+        iterations: usize,
+        /// `‖∇Φ‖` relative to its value at the step's predicted state.
+        residual: f64,
+        /// The tolerance asked for.
+        tolerance: f64,
+    },
+    /// The model has a constraint group Newton's method cannot handle.
+    #[error("physics.solver \"newton\": constraint group `{group}`: {reason}")]
+    NewtonUnsupported {
+        /// The group's name.
+        group: String,
+        /// Why.
+        reason: String,
+    },
 }

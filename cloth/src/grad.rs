@@ -244,6 +244,9 @@ impl Model {
         if costs.is_empty() {
             return Vec::new();
         }
+        if let crate::newton::Solver::Newton(_) = self.solver {
+            return self.newton_gradients(states, controls, costs);
+        }
         in_pool(|| self.gradients_in_pool(states, controls, costs))
     }
 

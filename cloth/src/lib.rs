@@ -10,7 +10,8 @@
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles;
 //! - [`controls`]: the controls tensor viewed by (step, gripper);
 //! - [`model`]: a scene compiled to its effects; [`registry`]: constraint types scene files name; [`sim`]: time stepping; [`cost`], [`grad`]: costs
-//!   and gradients.
+//!   and gradients;
+//! - [`newton`]: the converged (Newton) step and its implicit gradients, beside XPBD.
 
 pub mod coloring;
 pub mod constraint;
@@ -20,6 +21,7 @@ pub mod error;
 pub mod grad;
 pub mod mesh;
 pub mod model;
+pub mod newton;
 pub mod projection;
 pub mod refine;
 pub mod registry;

@@ -7,6 +7,8 @@
 use crate::coloring::{greedy_coloring, independent_sets};
 use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_ARITY};
 use crate::error::ClothError;
+use crate::newton::terms::{ConstraintTerms, Terms};
+use crate::newton::Solver;
 use crate::projection::Projection;
 use crate::scene::{BendingModel, Obstacle, Scene, Stiffness};
 use crate::sdf::{Plane, SignedDistance, SphereSet, Union};
@@ -35,6 +37,8 @@ pub struct ConstraintGroup {
     /// `½ k C²` per constraint, with the particles of every constraint; `None` for inequality and
     /// rigid constraints, which carry no elastic energy.
     pub energy: Option<(Arc<dyn DynRowFn>, Arc<RowIndex>)>,
+    /// The constraints with their second derivatives, for the Newton solver.
+    pub terms: Arc<dyn ConstraintTerms>,
 }
 
 /// The task: targets and cost weights.
@@ -90,6 +94,8 @@ pub struct Model {
     /// [`Model::evaluate`] records every step during the first forward instead
     /// ([`Model::simulate_recording`]).
     pub checkpoint_budget: usize,
+    /// The method that solves each step (`physics.solver`).
+    pub solver: Solver,
 }
 
 /// Default [`Model::checkpoint_budget`]: 32 MiB (`u_obstacle` steps fit whole up to a 20 × 20
@@ -198,6 +204,7 @@ impl Model {
                 tolerance: scene.tolerance(),
             },
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
+            solver: scene.physics.solver(),
         };
 
         let edges = mesh.stretch_edges();
@@ -361,6 +368,7 @@ impl Model {
             count: rows.len(),
             sets,
             energy,
+            terms: Arc::new(Terms::new(constraint, particles, compliance)),
         });
         Ok(())
     }

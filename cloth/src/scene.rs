@@ -281,8 +281,54 @@ pub struct Physics {
     pub dt: f64,
     /// Gravitational acceleration.
     pub gravity: [f64; 3],
-    /// Gauss–Seidel iterations per time step (≥ 1).
+    /// Gauss–Seidel iterations per time step (≥ 1; XPBD only).
     pub iterations: usize,
+    /// The step solver: `"xpbd"` (default) or `"newton"` (converged physics, see
+    /// [`crate::newton`]).
+    #[serde(default, skip_serializing_if = "SolverKind::is_xpbd")]
+    pub solver: SolverKind,
+    /// Newton only: relative `‖∇Φ‖` at which a step has converged, in `(0, 1)`; default
+    /// [`crate::newton::DEFAULT_TOLERANCE`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
+    /// Newton only: iterations per step (≥ 1); default
+    /// [`crate::newton::DEFAULT_MAX_ITERATIONS`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_newton_iterations: Option<usize>,
+}
+
+/// The step solver named by `physics.solver`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SolverKind {
+    /// XPBD Gauss–Seidel sweeps, `physics.iterations` per step.
+    #[default]
+    Xpbd,
+    /// Newton's method to `physics.tolerance`.
+    Newton,
+}
+
+impl SolverKind {
+    fn is_xpbd(&self) -> bool {
+        *self == SolverKind::Xpbd
+    }
+}
+
+impl Physics {
+    /// The solver these settings describe, with Newton's defaults filled in.
+    pub fn solver(&self) -> crate::newton::Solver {
+        use crate::newton::{NewtonSettings, Solver};
+        match self.solver {
+            SolverKind::Xpbd => Solver::Xpbd,
+            SolverKind::Newton => {
+                let d = NewtonSettings::default();
+                Solver::Newton(NewtonSettings {
+                    tolerance: self.tolerance.unwrap_or(d.tolerance),
+                    max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),
+                })
+            }
+        }
+    }
 }
 
 /// An obstacle; JSON objects tagged by `"type"`: `"spheres"` or `"plane"`.
@@ -734,6 +780,24 @@ impl Scene {
         if p.iterations == 0 {
             return Err(invalid("physics.iterations", "must be at least 1, got 0"));
         }
+        if let Some(tol) = p.tolerance {
+            check_finite("physics.tolerance", tol)?;
+            if !(tol > 0.0 && tol < 1.0) {
+                return Err(invalid(
+                    "physics.tolerance",
+                    format!("must be in (0, 1), got {tol}"),
+                ));
+            }
+        }
+        if p.max_newton_iterations == Some(0) {
+            return Err(invalid(
+                "physics.max_newton_iterations",
+                "must be at least 1, got 0",
+            ));
+        }
+        if p.solver == SolverKind::Newton {
+            self.validate_newton()?;
+        }
         // The XPBD compliance α̃ = 1/(k·dt²) must be a finite number (a projection divides by it).
         let mut stiffnesses = vec![("material.stretch", self.material.stretch)];
         if let Some(b) = &self.material.bending {
@@ -751,6 +815,28 @@ impl Scene {
                     ),
                 ));
             }
+        }
+        Ok(())
+    }
+
+    /// Newton's method needs a finite energy: no rigid material or collider obstacle.
+    fn validate_newton(&self) -> Result<(), SceneError> {
+        let rigid = "is rigid (infinite stiffness), which physics.solver \"newton\" does not \
+                     support; give it a finite stiffness or use \"xpbd\"";
+        if self.material.stretch == Stiffness::Infinite {
+            return Err(invalid("material.stretch", rigid));
+        }
+        if let Some(b) = &self.material.bending {
+            if b.stiffness == Stiffness::Infinite {
+                return Err(invalid("material.bending.stiffness", rigid));
+            }
+        }
+        if let Some(i) = self.obstacles.iter().position(|o| o.role().is_collider()) {
+            return Err(invalid(
+                format!("obstacles[{i}].role"),
+                "a collider is a rigid contact, which physics.solver \"newton\" does not \
+                 support; use role \"safety\" or physics.solver \"xpbd\"",
+            ));
         }
         Ok(())
     }

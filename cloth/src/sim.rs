@@ -161,6 +161,9 @@ impl Model {
     /// If the controls do not fit the model, or a state stops being finite (naming the step and
     /// particle).
     pub fn simulate(&self, controls: &Controls) -> Result<Vec<Tensor>, ClothError> {
+        if let crate::newton::Solver::Newton(settings) = &self.solver {
+            return self.simulate_newton(controls, settings).map(|(s, _)| s);
+        }
         self.check_controls(controls)?;
         in_pool(|| {
             let mut states = Vec::with_capacity(self.task.horizon + 1);

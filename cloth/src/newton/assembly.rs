@@ -1,0 +1,340 @@
+//! The Newton system of one quasi-static step, assembled into a sparse pattern fixed per model.
+//!
+//! `Φ(x) = ½ (x − x̃)ᵀ M (x − x̃) + Σⱼ ½ C_j(x)² / α̃_j` over the free particles (inverse mass > 0),
+//! the control particles held where [`Model::begin_step`] put them. An inequality constraint
+//! contributes only while `C < 0`. The Hessian is stored as its lower triangle in compressed
+//! columns, one degree of freedom per free coordinate.
+
+use super::terms::{ConstraintTerms, MAX_DOF};
+use crate::model::Model;
+use nalgebra::{DMatrix, SymmetricEigen};
+use std::sync::Arc;
+
+/// Marks a coordinate without a degree of freedom (a control particle's, or an upper-triangle
+/// entry of a local Hessian).
+const NONE: u32 = u32::MAX;
+
+/// One constraint type and where each of its local Hessian entries goes in the sparse values.
+struct GroupPattern {
+    terms: Arc<dyn ConstraintTerms>,
+    /// `1/α̃`.
+    stiffness: f64,
+    /// Per instance, `d × d` value indices (row-major), [`NONE`] where the entry is not stored.
+    scatter: Vec<u32>,
+}
+
+/// How the constraint part of the Hessian is formed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HessianKind {
+    /// `Σ (∇C∇Cᵀ + C∇²C)/α̃`: the exact Hessian.
+    Exact,
+    /// Each constraint's `d × d` block with its negative eigenvalues set to 0: positive definite
+    /// (with the mass term) whatever the state.
+    Projected,
+}
+
+/// The sparse structure of a model's Newton system.
+pub struct Pattern {
+    /// Degree of freedom of each particle's first coordinate ([`NONE`] for control particles).
+    dof_of: Vec<u32>,
+    /// Mass `1/w` of each particle (0 for control particles).
+    mass: Vec<f64>,
+    /// Number of degrees of freedom (3 × free particles).
+    pub n_dof: usize,
+    /// Lower-triangular compressed columns.
+    pub col_ptr: Vec<usize>,
+    /// Row of each stored entry.
+    pub row_idx: Vec<usize>,
+    /// Index of each degree of freedom's diagonal entry.
+    diag: Vec<usize>,
+    groups: Vec<GroupPattern>,
+}
+
+impl Pattern {
+    /// The pattern of `model`'s Newton system. Rigid constraints (compliance 0) have no finite
+    /// energy: the caller rejects them first ([`super::check_supported`]).
+    pub fn new(model: &Model) -> Pattern {
+        let n = model.n_particles();
+        let mut dof_of = vec![NONE; n];
+        let mut n_free = 0u32;
+        for (p, &w) in model.inv_mass.iter().enumerate() {
+            if w > 0.0 {
+                dof_of[p] = 3 * n_free;
+                n_free += 1;
+            }
+        }
+        let mass = model
+            .inv_mass
+            .iter()
+            .map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 })
+            .collect();
+        let n_dof = 3 * n_free as usize;
+        // Particle blocks (row ≥ column) touched by a mass or a constraint.
+        let mut blocks: Vec<Vec<u32>> = vec![Vec::new(); n_free as usize];
+        for &d in dof_of.iter().filter(|&&d| d != NONE) {
+            blocks[d as usize / 3].push(d / 3);
+        }
+        let groups: Vec<Arc<dyn ConstraintTerms>> =
+            model.groups.iter().map(|g| g.terms.clone()).collect();
+        for terms in &groups {
+            for k in 0..terms.count() {
+                let ps = terms.particles(k);
+                for &a in ps {
+                    for &b in ps {
+                        let (da, db) = (dof_of[a], dof_of[b]);
+                        if da != NONE && db != NONE && da >= db {
+                            blocks[db as usize / 3].push(da / 3);
+                        }
+                    }
+                }
+            }
+        }
+        let mut col_ptr = Vec::with_capacity(n_dof + 1);
+        let mut row_idx = Vec::new();
+        col_ptr.push(0);
+        for (bc, rows) in blocks.iter_mut().enumerate() {
+            rows.sort_unstable();
+            rows.dedup();
+            for j in 0..3 {
+                for &br in rows.iter() {
+                    let first = if br as usize == bc { j } else { 0 };
+                    row_idx.extend((first..3).map(|i| 3 * br as usize + i));
+                }
+                col_ptr.push(row_idx.len());
+            }
+        }
+        let index = |r: usize, c: usize| -> usize {
+            let rows = &row_idx[col_ptr[c]..col_ptr[c + 1]];
+            col_ptr[c] + rows.binary_search(&r).expect("entry in the pattern")
+        };
+        let diag = (0..n_dof).map(|d| index(d, d)).collect();
+        let groups = groups
+            .into_iter()
+            .map(|terms| {
+                let d = 3 * terms.arity();
+                let mut scatter = Vec::with_capacity(terms.count() * d * d);
+                for k in 0..terms.count() {
+                    let ps = terms.particles(k);
+                    for a in 0..d {
+                        for b in 0..d {
+                            let (ra, cb) = (dof_of[ps[a / 3]], dof_of[ps[b / 3]]);
+                            let (r, c) = (ra as usize + a % 3, cb as usize + b % 3);
+                            scatter.push(if ra == NONE || cb == NONE || r < c {
+                                NONE
+                            } else {
+                                index(r, c) as u32
+                            });
+                        }
+                    }
+                }
+                let compliance = terms.compliance();
+                GroupPattern {
+                    terms,
+                    stiffness: 1.0 / compliance,
+                    scatter,
+                }
+            })
+            .collect();
+        Pattern {
+            dof_of,
+            mass,
+            n_dof,
+            col_ptr,
+            row_idx,
+            diag,
+            groups,
+        }
+    }
+
+    /// Number of stored (lower-triangle) entries.
+    pub fn nnz(&self) -> usize {
+        self.row_idx.len()
+    }
+
+    /// Degree of freedom of particle `p`'s first coordinate, `None` for a control particle.
+    pub fn dof(&self, p: usize) -> Option<usize> {
+        let d = self.dof_of[p];
+        (d != NONE).then_some(d as usize)
+    }
+
+    /// The free coordinates of a full `N × 3` state, in degree-of-freedom order.
+    pub fn gather(&self, x: &[f64], out: &mut [f64]) {
+        for (p, &d) in self.dof_of.iter().enumerate() {
+            if d != NONE {
+                out[d as usize..d as usize + 3].copy_from_slice(&x[3 * p..3 * p + 3]);
+            }
+        }
+    }
+
+    /// Adds `step · v` (degree-of-freedom order) to the free coordinates of a full state.
+    pub fn add_scaled(&self, x: &mut [f64], step: f64, v: &[f64]) {
+        for (p, &d) in self.dof_of.iter().enumerate() {
+            if d != NONE {
+                for k in 0..3 {
+                    x[3 * p + k] += step * v[d as usize + k];
+                }
+            }
+        }
+    }
+
+    /// `Φ(x)` for the predicted state `xt` (both full `N × 3` data).
+    pub fn energy(&self, x: &[f64], xt: &[f64]) -> f64 {
+        let mut phi = 0.0;
+        for (p, &m) in self.mass.iter().enumerate() {
+            if m > 0.0 {
+                let d2: f64 = (0..3).map(|k| (x[3 * p + k] - xt[3 * p + k]).powi(2)).sum();
+                phi += 0.5 * m * d2;
+            }
+        }
+        let mut local = [0.0; MAX_DOF];
+        for g in &self.groups {
+            let terms = g.terms.as_ref();
+            for k in 0..terms.count() {
+                let d = gather_local(terms.particles(k), x, &mut local);
+                let c = terms.value(k, &local[..d]);
+                if !terms.inequality() || c < 0.0 {
+                    phi += 0.5 * g.stiffness * c * c;
+                }
+            }
+        }
+        phi
+    }
+
+    /// `∇Φ(x)` into `grad` (degree-of-freedom order) and, with `values`, the Hessian of `kind`
+    /// into the pattern's values.
+    pub fn assemble(
+        &self,
+        x: &[f64],
+        xt: &[f64],
+        grad: &mut [f64],
+        mut values: Option<(&mut [f64], HessianKind)>,
+    ) {
+        grad.fill(0.0);
+        if let Some((v, _)) = values.as_mut() {
+            v.fill(0.0);
+        }
+        for (p, &m) in self.mass.iter().enumerate() {
+            let d = self.dof_of[p];
+            if d == NONE {
+                continue;
+            }
+            for k in 0..3 {
+                let i = d as usize + k;
+                grad[i] += m * (x[3 * p + k] - xt[3 * p + k]);
+                if let Some((v, _)) = values.as_mut() {
+                    v[self.diag[i]] += m;
+                }
+            }
+        }
+        let (mut local, mut g, mut h) = ([0.0; MAX_DOF], [0.0; MAX_DOF], [0.0; MAX_DOF * MAX_DOF]);
+        for gp in &self.groups {
+            let terms = gp.terms.as_ref();
+            for k in 0..terms.count() {
+                let ps = terms.particles(k);
+                let d = gather_local(ps, x, &mut local);
+                let (g, h) = (&mut g[..d], &mut h[..d * d]);
+                let c = terms.second_order(k, &local[..d], g, h);
+                if terms.inequality() && c >= 0.0 {
+                    continue;
+                }
+                let s = gp.stiffness;
+                for a in 0..d {
+                    if let Some(da) = self.dof(ps[a / 3]) {
+                        grad[da + a % 3] += s * c * g[a];
+                    }
+                }
+                let Some((v, kind)) = values.as_mut() else {
+                    continue;
+                };
+                local_hessian(s, c, g, h);
+                if *kind == HessianKind::Projected {
+                    project_psd(h, d);
+                }
+                let scatter = &gp.scatter[k * d * d..(k + 1) * d * d];
+                for (&i, &hv) in scatter.iter().zip(h.iter()) {
+                    if i != NONE {
+                        v[i as usize] += hv;
+                    }
+                }
+            }
+        }
+    }
+
+    /// `y −= H_cf z`: the exact Hessian's coupling of control-particle coordinates (rows of `y`,
+    /// `N × 3` data) to the free ones (`z`, degree-of-freedom order), at state `x`.
+    pub fn sub_control_coupling(&self, x: &[f64], z: &[f64], y: &mut [f64]) {
+        let (mut local, mut g, mut h) = ([0.0; MAX_DOF], [0.0; MAX_DOF], [0.0; MAX_DOF * MAX_DOF]);
+        for gp in &self.groups {
+            let terms = gp.terms.as_ref();
+            for k in 0..terms.count() {
+                let ps = terms.particles(k);
+                if ps.iter().all(|&p| self.dof_of[p] != NONE) {
+                    continue;
+                }
+                let d = gather_local(ps, x, &mut local);
+                let (g, h) = (&mut g[..d], &mut h[..d * d]);
+                let c = terms.second_order(k, &local[..d], g, h);
+                if terms.inequality() && c >= 0.0 {
+                    continue;
+                }
+                local_hessian(gp.stiffness, c, g, h);
+                for a in 0..d {
+                    if self.dof_of[ps[a / 3]] != NONE {
+                        continue;
+                    }
+                    for b in 0..d {
+                        if let Some(db) = self.dof(ps[b / 3]) {
+                            y[3 * ps[a / 3] + a % 3] -= h[a * d + b] * z[db + b % 3];
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// `M z` for the free particles, scattered into full `N × 3` data `y` (added).
+    pub fn add_mass_times(&self, z: &[f64], y: &mut [f64]) {
+        for (p, &d) in self.dof_of.iter().enumerate() {
+            if d != NONE {
+                for k in 0..3 {
+                    y[3 * p + k] += self.mass[p] * z[d as usize + k];
+                }
+            }
+        }
+    }
+}
+
+/// Copies the coordinates of `particles` from full data `x` into `local`; returns their count.
+fn gather_local(particles: &[usize], x: &[f64], local: &mut [f64; MAX_DOF]) -> usize {
+    for (i, &p) in particles.iter().enumerate() {
+        local[3 * i..3 * i + 3].copy_from_slice(&x[3 * p..3 * p + 3]);
+    }
+    3 * particles.len()
+}
+
+/// Overwrites `h` (holding `∇²C`) with `s (∇C∇Cᵀ + C∇²C)`.
+fn local_hessian(s: f64, c: f64, g: &[f64], h: &mut [f64]) {
+    let d = g.len();
+    for a in 0..d {
+        for b in 0..d {
+            h[a * d + b] = s * (g[a] * g[b] + c * h[a * d + b]);
+        }
+    }
+}
+
+/// Sets the negative eigenvalues of the symmetric `d × d` matrix `h` to 0.
+fn project_psd(h: &mut [f64], d: usize) {
+    let m = DMatrix::from_row_slice(d, d, h);
+    let eig = SymmetricEigen::new(m);
+    if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
+        return;
+    }
+    let clamped = eig.eigenvalues.map(|l| l.max(0.0));
+    let q = &eig.eigenvectors;
+    let p = q * DMatrix::from_diagonal(&clamped) * q.transpose();
+    for a in 0..d {
+        for b in 0..d {
+            h[a * d + b] = 0.5 * (p[(a, b)] + p[(b, a)]);
+        }
+    }
+}

@@ -1,0 +1,89 @@
+//! Gradients of per-step costs through Newton-converged steps by the implicit function theorem.
+//!
+//! At a step's minimizer `∇_f Φ(x_f, x_c; x̃_f) = 0`, with `x̃_f = x_prev,f + ½gΔt²` and the control
+//! particles `x_c = x_prev,c + u`. Differentiating, `H_ff dx_f = M dx̃_f − H_fc dx_c`, so an
+//! adjoint `ā` of the step's state pulls back with `z = H_ff⁻¹ ā_f` to
+//! `x̄_prev,f = M z` and `x̄_prev,c = ū = ā_c − H_cf z`. One factorization of the exact Hessian per
+//! step serves every cost (the right-hand sides are solved together).
+
+use super::solve::NewtonSystem;
+use crate::grad::StepCost;
+use crate::model::Model;
+use crate::sim::Controls;
+use autodiff::{Tape, Tensor};
+
+impl Model {
+    /// [`Model::gradients`] for a rollout simulated with [`Model::simulate_newton`].
+    ///
+    /// # Panics
+    /// If the model has a rigid constraint group (the rollout could not have been simulated), or
+    /// if the exact Hessian at a converged state is not positive definite (the state is a saddle
+    /// of `Φ`, not a minimizer, and has no well-defined gradient).
+    pub fn newton_gradients(
+        &self,
+        states: &[Tensor],
+        controls: &Controls,
+        costs: &[StepCost<'_>],
+    ) -> Vec<Tensor> {
+        let mut system = NewtonSystem::new(self)
+            .expect("newton_gradients: the model has no rigid constraint group");
+        let n_dof = system.pattern.n_dof;
+        let mut grads: Vec<Tensor> = costs.iter().map(|_| self.zero_controls()).collect();
+        let (n, k) = (self.n_particles(), costs.len());
+        let mut adjoints: Vec<Tensor> = costs.iter().map(|_| Tensor::zeros(n, 3)).collect();
+        let mut tape = Tape::new();
+        let mut rhs = vec![0.0; n_dof * k];
+        for t in (1..=self.task.horizon).rev() {
+            // Each cost's term at step t, pulled back to x_t and x_{t−1}.
+            tape.clear();
+            let xp = tape.leaf(states[t - 1].clone());
+            let xv = tape.leaf(states[t].clone());
+            let mut prev_adjoints: Vec<Tensor> = Vec::with_capacity(k);
+            for (cost, adj) in costs.iter().zip(adjoints.iter_mut()) {
+                match cost(&mut tape, t, xp, xv) {
+                    Some(c) => {
+                        let g = tape.vjp(&[(c, Tensor::scalar(1.0))]);
+                        adj.add_assign(&g.wrt(xv));
+                        prev_adjoints.push(g.wrt(xp));
+                    }
+                    None => prev_adjoints.push(Tensor::zeros(n, 3)),
+                }
+            }
+            // The step's pull-back with one factorization.
+            let u_t = self.step_controls(controls, t - 1);
+            let xt = self.begin_step(&states[t - 1], &u_t);
+            assert!(
+                system.factorize_exact(states[t].data(), xt.data()),
+                "newton_gradients: the Hessian of Φ at the state of step {t} is not positive \
+                 definite (a saddle, not a minimizer): its gradient is not defined"
+            );
+            for (j, adj) in adjoints.iter().enumerate() {
+                system
+                    .pattern
+                    .gather(adj.data(), &mut rhs[j * n_dof..(j + 1) * n_dof]);
+            }
+            system.factor.solve_in_place(&mut rhs, k);
+            for j in 0..k {
+                let z = &rhs[j * n_dof..(j + 1) * n_dof];
+                let mut prev = std::mem::replace(&mut prev_adjoints[j], Tensor::zeros(0, 0));
+                // ā_c − H_cf z, on the control particles' rows of a scratch state.
+                let mut control = Tensor::zeros(n, 3);
+                for &p in self.controls.as_slice() {
+                    control.row_mut(p).copy_from_slice(adjoints[j].row(p));
+                }
+                system
+                    .pattern
+                    .sub_control_coupling(states[t].data(), z, control.data_mut());
+                for (c, &p) in self.controls.as_slice().iter().enumerate() {
+                    for d in 0..3 {
+                        grads[j].row_mut(t - 1)[3 * c + d] = control.get(p, d);
+                    }
+                }
+                system.pattern.add_mass_times(z, prev.data_mut());
+                prev.add_assign(&control);
+                adjoints[j] = prev;
+            }
+        }
+        grads
+    }
+}

@@ -1,0 +1,206 @@
+//! Newton's method on one step's `Φ`, and the rollout built from it.
+//!
+//! Each iteration assembles `∇Φ` and the exact Hessian; when its Cholesky factorization fails
+//! (the Hessian is indefinite away from the minimizer), the Hessian is rebuilt with every
+//! constraint's block projected to positive semidefinite, which with the mass term is positive
+//! definite. The step is scaled by backtracking (Armijo) on `Φ`. Where `Φ`'s predicted decrease is
+//! below its round-off, the full step is taken if it reduces `‖∇Φ‖`; otherwise (and when the step
+//! itself is round-off) the state is as converged as `f64` allows ([`StepStats::at_roundoff`]).
+
+use super::assembly::{HessianKind, Pattern};
+use super::factor::Factor;
+use super::{check_supported, NewtonSettings};
+use crate::error::ClothError;
+use crate::model::Model;
+use crate::sim::{check_finite, Controls};
+use autodiff::Tensor;
+
+/// Armijo's sufficient-decrease constant.
+const ARMIJO: f64 = 1e-4;
+/// A Newton step no larger than this many ulps of the largest coordinate is round-off.
+const ROUNDOFF_STEP: f64 = 16.0;
+/// A predicted decrease of `Φ` below this many ulps of `Φ` is round-off.
+const PHI_ROUNDOFF: f64 = 1024.0;
+/// Halvings of the step before the line search gives up.
+const MAX_HALVINGS: usize = 40;
+
+/// What one step's Newton solve did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepStats {
+    /// Newton iterations (factorizations of the exact or projected Hessian).
+    pub iterations: usize,
+    /// Iterations that fell back to the projected Hessian.
+    pub projected: usize,
+    /// Final `‖∇Φ‖` relative to its value at `x̃`.
+    pub residual: f64,
+    /// The tolerance was not reached, but the Newton step had shrunk to the coordinates'
+    /// round-off (the residual is the floor `f64` allows).
+    pub at_roundoff: bool,
+}
+
+/// A model's Newton system with its buffers: built once per rollout.
+pub struct NewtonSystem {
+    /// The sparse pattern and the energy.
+    pub pattern: Pattern,
+    /// The Cholesky factorization.
+    pub factor: Factor,
+    values: Vec<f64>,
+    grad: Vec<f64>,
+    dir: Vec<f64>,
+}
+
+impl NewtonSystem {
+    /// The system of `model`.
+    ///
+    /// # Errors
+    /// [`ClothError::NewtonUnsupported`] for a rigid constraint group.
+    pub fn new(model: &Model) -> Result<NewtonSystem, ClothError> {
+        check_supported(model)?;
+        let pattern = Pattern::new(model);
+        let factor = Factor::new(&pattern);
+        let (nnz, n) = (pattern.nnz(), pattern.n_dof);
+        Ok(NewtonSystem {
+            pattern,
+            factor,
+            values: vec![0.0; nnz],
+            grad: vec![0.0; n],
+            dir: vec![0.0; n],
+        })
+    }
+
+    /// Factorizes the exact Hessian of `Φ` at `x` for the predicted state `xt`; false when it
+    /// is not positive definite.
+    pub fn factorize_exact(&mut self, x: &[f64], xt: &[f64]) -> bool {
+        let values = Some((&mut self.values[..], HessianKind::Exact));
+        self.pattern.assemble(x, xt, &mut self.grad, values);
+        self.factor.factorize(&self.pattern, &self.values)
+    }
+
+    /// Minimizes `Φ` from `xt` (the step's predicted state, see [`Model::begin_step`]).
+    ///
+    /// # Errors
+    /// [`ClothError::NewtonNotConverged`] when the tolerance is not reached.
+    pub fn solve(
+        &mut self,
+        xt: &Tensor,
+        step: usize,
+        settings: &NewtonSettings,
+    ) -> Result<(Tensor, StepStats), ClothError> {
+        let p = &self.pattern;
+        let xt_d = xt.data();
+        let mut x = xt.clone();
+        let mut stats = StepStats::default();
+        p.assemble(x.data(), xt_d, &mut self.grad, None);
+        let r0 = norm(&self.grad);
+        if r0 == 0.0 {
+            return Ok((x, stats));
+        }
+        let mut phi = p.energy(x.data(), xt_d);
+        let mut trial = x.clone();
+        loop {
+            let values = Some((&mut self.values[..], HessianKind::Exact));
+            p.assemble(x.data(), xt_d, &mut self.grad, values);
+            let res = norm(&self.grad);
+            stats.residual = res / r0;
+            if !stats.residual.is_finite() {
+                check_finite(&x, step)?;
+            }
+            if stats.residual <= settings.tolerance {
+                return Ok((x, stats));
+            }
+            let not_converged = |stats: &StepStats| ClothError::NewtonNotConverged {
+                step,
+                iterations: stats.iterations,
+                residual: stats.residual,
+                tolerance: settings.tolerance,
+            };
+            if stats.iterations == settings.max_iterations {
+                return Err(not_converged(&stats));
+            }
+            stats.iterations += 1;
+            if !self.factor.factorize(p, &self.values) {
+                stats.projected += 1;
+                let values = Some((&mut self.values[..], HessianKind::Projected));
+                p.assemble(x.data(), xt_d, &mut self.grad, values);
+                if !self.factor.factorize(p, &self.values) {
+                    return Err(not_converged(&stats));
+                }
+            }
+            for (d, g) in self.dir.iter_mut().zip(&self.grad) {
+                *d = -g;
+            }
+            self.factor.solve_in_place(&mut self.dir, 1);
+            // A step at the coordinates' round-off cannot improve x: converged as far as f64 goes.
+            let x_max = x.data().iter().fold(1.0f64, |m, v| m.max(v.abs()));
+            let d_max = self.dir.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            if d_max <= ROUNDOFF_STEP * f64::EPSILON * x_max {
+                stats.at_roundoff = true;
+                return Ok((x, stats));
+            }
+            let slope: f64 = self.dir.iter().zip(&self.grad).map(|(d, g)| d * g).sum();
+            let mut alpha = 1.0;
+            let mut accepted = None;
+            if -slope <= PHI_ROUNDOFF * f64::EPSILON * phi.abs() {
+                // Φ's predicted decrease is below its round-off, so Φ cannot rank the step:
+                // take the full step if ‖∇Φ‖ drops; if it does not, x is as converged as f64 allows.
+                trial.data_mut().copy_from_slice(x.data());
+                p.add_scaled(trial.data_mut(), 1.0, &self.dir);
+                let mut g = vec![0.0; self.grad.len()];
+                p.assemble(trial.data(), xt_d, &mut g, None);
+                if norm(&g) >= res {
+                    stats.at_roundoff = true;
+                    return Ok((x, stats));
+                }
+                accepted = Some(p.energy(trial.data(), xt_d));
+            } else {
+                for _ in 0..MAX_HALVINGS {
+                    trial.data_mut().copy_from_slice(x.data());
+                    p.add_scaled(trial.data_mut(), alpha, &self.dir);
+                    let phi_t = p.energy(trial.data(), xt_d);
+                    if phi_t <= phi + ARMIJO * alpha * slope {
+                        accepted = Some(phi_t);
+                        break;
+                    }
+                    alpha *= 0.5;
+                }
+            }
+            let Some(phi_t) = accepted else {
+                return Err(not_converged(&stats));
+            };
+            phi = phi_t;
+            std::mem::swap(&mut x, &mut trial);
+        }
+    }
+}
+
+/// Euclidean norm.
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|a| a * a).sum::<f64>().sqrt()
+}
+
+impl Model {
+    /// [`Model::simulate`] with Newton's method: `T + 1` states and each step's statistics.
+    ///
+    /// # Errors
+    /// As [`Model::simulate`]; [`ClothError::NewtonUnsupported`] for a rigid constraint group;
+    /// [`ClothError::NewtonNotConverged`] naming the step that did not converge.
+    pub fn simulate_newton(
+        &self,
+        controls: &Controls,
+        settings: &NewtonSettings,
+    ) -> Result<(Vec<Tensor>, Vec<StepStats>), ClothError> {
+        self.check_controls(controls)?;
+        let mut system = NewtonSystem::new(self)?;
+        let mut states = Vec::with_capacity(self.task.horizon + 1);
+        let mut stats = Vec::with_capacity(self.task.horizon);
+        states.push(self.rest.clone());
+        for t in 0..self.task.horizon {
+            let xt = self.begin_step(&states[t], &self.step_controls(controls, t));
+            let (x, s) = system.solve(&xt, t + 1, settings)?;
+            check_finite(&x, t + 1)?;
+            states.push(x);
+            stats.push(s);
+        }
+        Ok((states, stats))
+    }
+}

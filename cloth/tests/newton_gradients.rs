@@ -1,0 +1,133 @@
+//! Newton's implicit gradients against central finite differences of the converged rollout:
+//! `dL/dU` and `dC/dU` (with active safety terms), with both bending models and a user
+//! constraint added in code.
+
+mod common;
+
+use autodiff::{Real, Tensor};
+use cloth::constraint::{norm, Constraint};
+use cloth::nalgebra::Vector3;
+use cloth::newton::{NewtonSettings, Solver};
+use cloth::scene::ObstacleRole;
+use cloth::{Model, Scene};
+use common::{central, dot, small_scene, spheres, BendKind, XorShift};
+use proptest::prelude::*;
+
+/// Triangle-area preservation, as in `examples/custom_constraint.rs`.
+struct TriangleArea {
+    rest: Vec<f64>,
+}
+
+impl TriangleArea {
+    fn area<R: Real>(p: &[Vector3<R>]) -> R {
+        norm(&(p[1] - p[0]).cross(&(p[2] - p[0]))) * 0.5
+    }
+}
+
+impl Constraint for TriangleArea {
+    const ARITY: usize = 3;
+    fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
+        Self::area(p) - self.rest[instance]
+    }
+}
+
+fn newton_model(scene: &Scene, user_constraint: bool) -> Model {
+    let mut m = Model::from_scene(scene).unwrap();
+    if user_constraint {
+        let (rows, cols) = (scene.cloth.rows, scene.cloth.cols);
+        let mut tris = Vec::new();
+        for r in 0..rows - 1 {
+            for c in 0..cols - 1 {
+                tris.extend([r * cols + c, r * cols + c + 1, (r + 1) * cols + c]);
+            }
+        }
+        let rest = tris
+            .chunks(3)
+            .map(|t| {
+                let p: Vec<Vector3<f64>> = t
+                    .iter()
+                    .map(|&i| Vector3::new(m.rest.get(i, 0), m.rest.get(i, 1), m.rest.get(i, 2)))
+                    .collect();
+                TriangleArea::area(&p)
+            })
+            .collect();
+        m.add_constraints("area", TriangleArea { rest }, tris, 50.0)
+            .unwrap();
+    }
+    m.solver = Solver::Newton(NewtonSettings {
+        tolerance: 1e-13,
+        max_iterations: 100,
+    });
+    m
+}
+
+/// Checks `dL/dU` and `dC/dU` along a random direction against central differences.
+fn check(model: &Model, u: &Tensor, seed: u64, delta: f64) -> Result<(), TestCaseError> {
+    let e = model.evaluate(u, delta, true).unwrap();
+    let mut rng = XorShift::new(seed);
+    let d = rng.direction(u.data().len());
+    let h = 1e-5;
+    let l = |v: &Tensor| model.evaluate(v, delta, false).unwrap().metrics.l;
+    let c = |v: &Tensor| model.evaluate(v, delta, false).unwrap().metrics.c;
+    for (name, f, g) in [
+        ("dL/dU", &l as &dyn Fn(&Tensor) -> f64, e.grad_l.unwrap()),
+        ("dC/dU", &c as &dyn Fn(&Tensor) -> f64, e.grad_c.unwrap()),
+    ] {
+        let fd = central(f, u, &d, h);
+        let an = dot(g.data(), &d);
+        let scale = norm2(g.data()) * norm2(&d);
+        prop_assert!(
+            (fd - an).abs() <= 1e-5 * scale + 1e-9,
+            "{name}: analytic {an:e}, central difference {fd:e} (scale {scale:e})"
+        );
+    }
+    Ok(())
+}
+
+fn norm2(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+fn scene(bending: u8) -> Scene {
+    let bend = match bending {
+        0 => BendKind::None,
+        1 => BendKind::Distance(20.0),
+        _ => BendKind::Dihedral(2.0),
+    };
+    let mut s = small_scene(4, 4, 3, 10, 2e3, bend);
+    s.physics.solver = cloth::scene::SolverKind::Newton;
+    // A safety sphere the swing reaches: active relu terms in C.
+    s.obstacles = vec![spheres(
+        vec![[0.0, -1.2, 1.3]],
+        vec![0.3],
+        ObstacleRole::Safety,
+    )];
+    s
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
+
+    #[test]
+    fn newton_gradients_match_central_differences(
+        bending in 0u8..3,
+        user in any::<bool>(),
+        seed in 1u64..1000,
+        values in prop::collection::vec(-0.15f64..0.15, 18),
+    ) {
+        let s = scene(bending);
+        let model = newton_model(&s, user);
+        let u = common::controls_from(&model, &values);
+        check(&model, &u, seed, 0.3)?;
+    }
+}
+
+#[test]
+fn newton_safety_terms_are_active_in_the_gradient_test() {
+    let s = scene(1);
+    let model = newton_model(&s, true);
+    let u = common::controls_from(&model, &[0.1; 18]);
+    let e = model.evaluate(&u, 0.3, true).unwrap();
+    assert!(e.metrics.c < 0.0, "C = {}", e.metrics.c);
+    check(&model, &u, 7, 0.3).unwrap();
+}
