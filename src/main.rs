@@ -343,8 +343,12 @@ fn run(cli: Cli) -> Result<()> {
                 ("C", m.c),
                 ("min SDF", m.min_sdf),
                 ("swept SDF", m.min_sdf_swept),
+                ("max strain", result.strain.max),
             ] {
                 println!("{k:>10} {v:>12.6}");
+            }
+            if let Some(warning) = plan::strain_warning(&model, &result) {
+                eprintln!("{warning}");
             }
             if let Some(out) = &out {
                 plan::write_json_atomic(out, &result)?;

@@ -9,7 +9,7 @@
 //! - [`coloring`]: greedy colouring into independent sets;
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles;
 //! - [`model`]: a scene compiled to its effects; [`sim`]: time stepping; [`cost`], [`grad`]: costs
-//!   and gradients.
+//!   and gradients; [`strain`]: edge strain.
 
 pub mod coloring;
 pub mod constraint;
@@ -23,6 +23,7 @@ pub mod refine;
 pub mod scene;
 pub mod sdf;
 pub mod sim;
+pub mod strain;
 
 pub use error::ClothError;
 pub use grad::{Evaluation, Metrics};
