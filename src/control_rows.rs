@@ -147,6 +147,16 @@ fn norm_sq(v: &[f64; 3]) -> f64 {
 }
 
 impl ControlRow {
+    /// The limit this row enforces (its `task.limits` field) and the step `1..=T` it constrains.
+    pub fn label(&self) -> (&'static str, usize) {
+        match *self {
+            ControlRow::Step { t, .. } => ("max_step", t + 1),
+            ControlRow::MinSeparation { t, .. } | ControlRow::MaxSeparation { t, .. } => {
+                ("gripper_separation", t)
+            }
+        }
+    }
+
     /// The row's value at the flat controls `x`.
     pub fn value(&self, model: &Model, x: &[f64]) -> f64 {
         match *self {

@@ -9,6 +9,8 @@
 mod control_rows;
 pub mod export;
 pub mod figures;
+pub mod outcome;
 pub mod plan;
 pub mod plot;
 pub mod problem;
+pub mod search;

@@ -4,11 +4,13 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{top_view_path, RolloutFigure};
+use clothopt::outcome;
 use clothopt::plan::{
     self, controls_from_nested, ensure_iterations, ensure_non_negative, ensure_positive,
     ensure_positive_or_infinite, initial_controls, PlanOptions, SolverKind,
 };
 use clothopt::problem::SafetyForm;
+use clothopt::search::{plan_with_search, SearchMode, SearchOptions};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -57,6 +59,11 @@ enum Command {
         iterations: Option<usize>,
     },
     /// Optimize the control sequence of a scene's task.
+    #[command(
+        after_help = "Exit codes: 0 the task is achieved (every target within \
+task.tolerance, plan safe); 1 error or bad input; 3 a safe plan was written but the task is not \
+achieved (the first line says why); 4 no safe plan was found (the result is still written)."
+    )]
     Optimize {
         /// A built-in scene name or a scene JSON file.
         scene: String,
@@ -89,6 +96,14 @@ enum Command {
         /// The solver.
         #[arg(long, value_enum, default_value_t = SolverKind::Sqp)]
         solver: SolverKind,
+        /// Route search: `auto` plans other routes (detours over, beside or under the obstacles
+        /// the first plan runs into, and seeded perturbations) only when the plan from the start
+        /// does not achieve the task; `always` also when it does; `off` never.
+        #[arg(long, value_enum, default_value_t = SearchMode::Auto)]
+        search: SearchMode,
+        /// Most candidate routes the search plans (2 of them seeded random perturbations).
+        #[arg(long, default_value_t = 8)]
+        starts: usize,
         /// Write the result JSON here.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -164,13 +179,17 @@ fn load_controls(scene: &Scene, model: &Model, file: Option<&Path>) -> Result<Co
 }
 
 fn main() {
-    if let Err(e) = run(Cli::parse()) {
-        eprintln!("error: {e:#}");
-        std::process::exit(1);
+    match run(Cli::parse()) {
+        Ok(code) => std::process::exit(code),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::exit(1);
+        }
     }
 }
 
-fn run(cli: Cli) -> Result<()> {
+/// Runs a command; the exit code (0, or `optimize`'s verdict: see [`outcome::exit_code`]).
+fn run(cli: Cli) -> Result<i32> {
     match cli.command {
         Command::Scenes => {
             for (name, description) in Scene::builtin_names() {
@@ -257,6 +276,8 @@ fn run(cli: Cli) -> Result<()> {
             kappa,
             reuse_band,
             solver,
+            search,
+            starts,
             out,
             tol,
             start,
@@ -294,7 +315,14 @@ fn run(cli: Cli) -> Result<()> {
                 )
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
             );
-            let mut result = plan::plan(&model, &scene, &start, &options, |info| {
+            ensure_iterations("--starts", starts)?;
+            let search = SearchOptions {
+                mode: search,
+                max_candidates: starts,
+                random_starts: SearchOptions::default().random_starts.min(starts / 4),
+                ..SearchOptions::default()
+            };
+            let mut result = plan_with_search(&model, &scene, &start, &options, &search, |info| {
                 if verbose {
                     bar.suspend(|| {
                         eprintln!(
@@ -318,9 +346,15 @@ fn run(cli: Cli) -> Result<()> {
             })?;
             bar.finish_and_clear();
             if no_timing {
-                result.wall_s = f64::NAN;
+                result.drop_timing();
             }
             let m = &result.metrics;
+            let verdict = if result.task.achieved {
+                "task achieved".to_string()
+            } else {
+                format!("task NOT achieved ({:?})", result.task.reason)
+            };
+            println!("{verdict}: {}", result.task.explanation);
             println!(
                 "scene {}  δ = {}  status {}  ({})",
                 result.scene, result.delta, result.status, result.message
@@ -334,6 +368,26 @@ fn run(cli: Cli) -> Result<()> {
                 "iterations {}  simulations {}  gradients {}{wall}",
                 result.iterations, result.evaluations, result.gradient_evaluations
             );
+            if let Some(search) = &result.search {
+                println!(
+                    "route search ({} candidates, {} simulations in all):",
+                    search.candidates.len() - 1,
+                    search.simulations
+                );
+                for c in &search.candidates {
+                    println!(
+                        "  {} {:<9} {:<16} safe {:<5} achieved {:<5} L {:>10.5} G {:>9.5}  {}",
+                        if c.kept { "*" } else { " " },
+                        c.stage,
+                        c.status,
+                        c.safe,
+                        c.achieved,
+                        c.l,
+                        c.g,
+                        c.route
+                    );
+                }
+            }
             println!("{:>10} {:>12}", "metric", "value");
             for (k, v) in [
                 ("G", m.g),
@@ -361,18 +415,27 @@ fn run(cli: Cli) -> Result<()> {
                 );
                 draw(&model, &scene, &states, &title, result.delta, &png)?;
             }
+            let code = outcome::exit_code(&result.task);
+            let written = out
+                .as_ref()
+                .map(|p| format!("; the plan is in {}", p.display()))
+                .unwrap_or_default();
             if !result.is_feasible() {
-                let written = out
-                    .as_ref()
-                    .map(|p| format!("; the best point found is in {}", p.display()))
-                    .unwrap_or_default();
-                bail!(
-                    "no feasible trajectory found (status {}: {}): constraint violation {:.3e} at the returned controls{written}",
+                eprintln!(
+                    "no safe plan: no feasible trajectory found (status {}: {}): constraint violation {:.3e} at the returned controls{written}",
                     result.status,
                     result.message,
                     result.constraint_violation
                 );
+            } else if code == 4 {
+                eprintln!(
+                    "no safe plan: the returned plan violates the safety margin (C = {:.3e}){written}",
+                    m.c
+                );
+            } else if code == 3 {
+                eprintln!("task not achieved: {}{written}", result.task.explanation);
             }
+            return Ok(code);
         }
         Command::Export {
             result,
@@ -435,7 +498,7 @@ fn run(cli: Cli) -> Result<()> {
             }
         }
     }
-    Ok(())
+    Ok(0)
 }
 
 /// What `export` needs from a result file.

@@ -1,6 +1,7 @@
 //! Running a cloth task through an optimizer and packaging the result.
 
-use crate::problem::{TaskOptions, TrajectoryProblem};
+use crate::outcome::{step_ranges, task_outcome, PlanFacts, TaskOutcome};
+use crate::problem::{RowLabel, TaskOptions, TrajectoryProblem};
 use autodiff::Tensor;
 use cloth::{Controls, Metrics, Model, Scene};
 use optim::{
@@ -163,6 +164,12 @@ pub struct PlanResult {
     /// Absolute gripper (control point) positions at steps `0..=T`: `(T + 1) × controls × 3`.
     #[serde(default)]
     pub gripper_positions: Vec<Vec<[f64; 3]>>,
+    /// Whether the plan achieved the task (targets within tolerance and safe) and, if not, why.
+    #[serde(default)]
+    pub task: TaskOutcome,
+    /// The route search, when it ran ([`crate::search`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub search: Option<crate::search::SearchReport>,
     /// Cloth grid `[rows, cols]` (particle `r·cols + c`).
     pub grid: [usize; 2],
     /// Particle index of each control point.
@@ -177,11 +184,11 @@ pub struct PlanResult {
     pub solver_status: Option<Status>,
 }
 
-fn not_timed() -> f64 {
+pub(crate) fn not_timed() -> f64 {
     f64::NAN
 }
 
-fn is_nan(v: &f64) -> bool {
+pub(crate) fn is_nan(v: &f64) -> bool {
     v.is_nan()
 }
 
@@ -207,6 +214,17 @@ impl PlanResult {
     /// True when the plan's own rollout is [safe](is_safe) at its margin.
     pub fn is_safe(&self) -> bool {
         is_safe(&self.metrics)
+    }
+
+    /// Leaves every wall-clock time out (NaN, not serialized), so that identical runs write
+    /// identical bytes.
+    pub fn drop_timing(&mut self) {
+        self.wall_s = f64::NAN;
+        if let Some(search) = &mut self.search {
+            for c in &mut search.candidates {
+                c.wall_s = f64::NAN;
+            }
+        }
     }
 
     /// True when the solver converged and the plan [is safe](PlanResult::is_safe).
@@ -342,6 +360,24 @@ pub fn plan(
     scored.task.alpha = options.task.alpha;
     scored.task.beta = options.task.beta;
     let evaluation = scored.evaluate(&controls, options.task.delta, false)?;
+    let (active_safety, active_other) = active_groups(&mut problem, &solution)?;
+    let safe = !matches!(solution.status, Status::Infeasible { .. })
+        && solution.constraint_violation <= FEASIBILITY_TOLERANCE
+        && is_safe(&evaluation.metrics);
+    let final_state = evaluation
+        .states
+        .last()
+        .ok_or_else(|| anyhow::anyhow!("the rollout has no states"))?;
+    let task = task_outcome(
+        model,
+        final_state,
+        &PlanFacts {
+            safe,
+            status: solution.status.name(),
+            active_safety,
+            active_other,
+        },
+    );
     Ok(PlanResult {
         scene: scene.name.clone(),
         delta: options.task.delta,
@@ -356,6 +392,8 @@ pub fn plan(
         metrics: evaluation.metrics,
         strain: strain_report(model, &evaluation.states),
         gripper_positions: gripper_positions(model, &evaluation.states),
+        task,
+        search: None,
         grid: [scene.cloth.rows, scene.cloth.cols],
         control_particles: model.controls.as_slice().to_vec(),
         controls: controls_to_nested(&controls),
@@ -417,6 +455,86 @@ pub fn gripper_positions(model: &Model, states: &[Tensor]) -> Vec<Vec<[f64; 3]>>
                 .collect()
         })
         .collect()
+}
+
+/// Largest value (length units, relative to the task tolerance) of an inequality row that counts
+/// as active at a returned plan: 1% of the tolerance.
+const ACTIVE_FRACTION: f64 = 1e-2;
+
+/// Smallest multiplier of an active row: below it the row does not hold the objective back.
+const ACTIVE_MULTIPLIER: f64 = 1e-8;
+
+/// The constraint groups active at the solution: rows within [`ACTIVE_FRACTION`] of the task
+/// tolerance of their bound with a positive multiplier (rows alone where the solver returned
+/// no multipliers), as labels — safety groups first, then the others.
+fn active_groups(
+    problem: &mut TrajectoryProblem<'_>,
+    solution: &optim::Solution,
+) -> anyhow::Result<(Vec<String>, Vec<String>)> {
+    let rows = problem.num_inequalities();
+    if rows == 0 || solution.x.is_empty() {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    let mut values = vec![0.0; rows];
+    problem
+        .inequalities(&solution.x, &mut values)
+        .map_err(|e| anyhow::anyhow!("re-evaluating the constraints at the plan: {e}"))?;
+    let threshold = ACTIVE_FRACTION * problem.model().task.tolerance;
+    let multipliers = &solution.multipliers.inequality;
+    let active = |r: usize| {
+        values[r] <= threshold && (multipliers.len() != rows || multipliers[r] > ACTIVE_MULTIPLIER)
+    };
+    let labels = problem.row_labels();
+    let mut safety_steps = Vec::new();
+    let mut safety_whole = false;
+    // Per collider plane: active steps, control points.
+    let mut planes: std::collections::BTreeMap<usize, (Vec<usize>, Vec<usize>)> =
+        Default::default();
+    // Per robot limit: active steps.
+    let mut limits: std::collections::BTreeMap<&str, Vec<usize>> = Default::default();
+    for (_, label) in labels.iter().enumerate().filter(|&(r, _)| active(r)) {
+        match *label {
+            RowLabel::Safety { step: Some(t) } => safety_steps.push(t),
+            RowLabel::Safety { step: None } => safety_whole = true,
+            RowLabel::ColliderPlane {
+                plane,
+                control,
+                step,
+            } => {
+                let entry = planes.entry(plane).or_default();
+                entry.0.push(step);
+                entry.1.push(control);
+            }
+            RowLabel::Limit { limit, step } => limits.entry(limit).or_default().push(step),
+        }
+    }
+    let mut safety = Vec::new();
+    if safety_whole {
+        safety.push("safety (whole rollout)".to_string());
+    }
+    if !safety_steps.is_empty() {
+        safety.push(format!("safety at steps {}", step_ranges(&safety_steps)));
+    }
+    let mut other: Vec<String> = planes
+        .into_iter()
+        .map(|(plane, (mut steps, mut controls))| {
+            steps.sort_unstable();
+            steps.dedup();
+            controls.sort_unstable();
+            controls.dedup();
+            format!(
+                "collider plane {plane} under control points {:?} at steps {}",
+                controls,
+                step_ranges(&steps)
+            )
+        })
+        .collect();
+    other.extend(limits.into_iter().map(|(limit, mut steps)| {
+        steps.sort_unstable();
+        steps.dedup();
+        format!("limit {limit} at steps {}", step_ranges(&steps))
+    }));
+    Ok((safety, other))
 }
 
 /// The SQP settings of a planning run, with KKT tolerance `tol`.

@@ -90,6 +90,32 @@ impl TaskOptions {
     }
 }
 
+/// What one inequality row of a [`TrajectoryProblem`] constrains.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RowLabel {
+    /// A safety row: of one step (per-step form), or of the whole rollout (`None`).
+    Safety {
+        /// The step `1..=T` the row constrains, `None` for the scalar and aggregate forms.
+        step: Option<usize>,
+    },
+    /// A control point kept on the free side of a collider plane at one step.
+    ColliderPlane {
+        /// Index of the plane among the colliders.
+        plane: usize,
+        /// Index of the control point.
+        control: usize,
+        /// The step `1..=T`.
+        step: usize,
+    },
+    /// A robot limit (`task.limits`) at one step.
+    Limit {
+        /// The limit: `max_strain`, `max_step`, `gripper_separation` or `workspace`.
+        limit: &'static str,
+        /// The step `1..=T` (for `max_step`, the step the move ends at).
+        step: usize,
+    },
+}
+
 /// An owned per-step cost (see [`StepCost`]).
 type BoxedStepCost<'a> = Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + 'a>;
 
@@ -164,6 +190,11 @@ impl<'a> TrajectoryProblem<'a> {
         self
     }
 
+    /// The model.
+    pub fn model(&self) -> &'a Model {
+        self.model
+    }
+
     /// The options.
     pub fn options(&self) -> &TaskOptions {
         &self.options
@@ -195,6 +226,46 @@ impl<'a> TrajectoryProblem<'a> {
             .record_soft_max_strain(tape, x, self.options.strain_kappa)?;
         let negated = tape.neg(soft);
         Some(tape.add_scalar(negated, limit))
+    }
+
+    /// What each inequality row constrains, in row order (safety rows, strain rows, step and
+    /// separation rows, collider rows, workspace rows).
+    pub fn row_labels(&self) -> Vec<RowLabel> {
+        let mut labels: Vec<RowLabel> = match self.options.safety {
+            Some(SafetyForm::PerStep) => (1..=self.safety_rows())
+                .map(|t| RowLabel::Safety { step: Some(t) })
+                .collect(),
+            _ => vec![RowLabel::Safety { step: None }; self.safety_rows()],
+        };
+        labels.extend((1..=self.strain_rows()).map(|step| RowLabel::Limit {
+            limit: "max_strain",
+            step,
+        }));
+        labels.extend(self.control.iter().map(|row| {
+            let (limit, step) = row.label();
+            RowLabel::Limit { limit, step }
+        }));
+        let (planes, k, horizon) = (
+            self.model.colliders.planes.len(),
+            self.model.n_controls(),
+            self.model.task.horizon,
+        );
+        for plane in 0..planes {
+            for control in 0..k {
+                labels.extend((1..=horizon).map(|step| RowLabel::ColliderPlane {
+                    plane,
+                    control,
+                    step,
+                }));
+            }
+        }
+        // Workspace rows: per control point, step, axis, the lower then the upper bound.
+        let workspace = self.linear.len() - planes * k * horizon;
+        labels.extend((0..workspace).map(|r| RowLabel::Limit {
+            limit: "workspace",
+            step: 1 + (r / 6) % horizon,
+        }));
+        labels
     }
 
     /// Controls tensor of a variable vector.

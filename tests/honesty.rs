@@ -119,22 +119,27 @@ fn a_provably_infeasible_problem_never_ends_converged() {
 }
 
 #[test]
-fn the_cli_exits_non_zero_in_one_line_on_an_infeasible_plan_and_keeps_the_best_point() {
+fn the_cli_exits_4_in_one_line_on_an_infeasible_plan_and_keeps_the_best_point() {
     let dir = scratch("honesty", "cli-infeasible");
     let path = write_scene(&dir, "scene.json", &infeasible_scene());
     let out = dir.join("result.json");
     let o = run(bin()
         .arg("optimize")
         .arg(&path)
-        .args(["--iterations", "30", "--out"])
+        .args(["--iterations", "30", "--search", "off", "--out"])
         .arg(&out));
     let err = stderr(&o);
     println!("{}{err}", stdout(&o));
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(4), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(
-        err.starts_with("error: no feasible trajectory found"),
+        err.starts_with("no safe plan: no feasible trajectory found"),
         "{err}"
+    );
+    assert!(
+        stdout(&o).starts_with("task NOT achieved (NoSafePlan)"),
+        "{}",
+        stdout(&o)
     );
     assert!(err.contains("constraint violation"), "{err}");
     assert!(

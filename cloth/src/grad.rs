@@ -46,8 +46,8 @@ pub struct Metrics {
     pub l: f64,
 }
 
-/// A number that JSON may hold as `null` (how `serde_json` writes ∞): `null` reads as ∞.
-fn null_as_infinity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+/// Reads a number that JSON may hold as `null` (how `serde_json` writes ∞): `null` reads as ∞.
+pub fn null_as_infinity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     let v: Option<f64> = serde::Deserialize::deserialize(d)?;
     Ok(v.unwrap_or(f64::INFINITY))
 }

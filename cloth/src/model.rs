@@ -55,6 +55,8 @@ pub struct TaskSpec {
     pub delta: f64,
     /// Robot limits (`task.limits`; empty when the scene sets none).
     pub limits: Limits,
+    /// Distance within which a target counts as reached at the final step (`task.tolerance`).
+    pub tolerance: f64,
 }
 
 /// A compiled, ready-to-simulate scene.
@@ -192,6 +194,7 @@ impl Model {
                 beta: task.beta,
                 delta: task.delta,
                 limits: task.limits.clone(),
+                tolerance: scene.tolerance(),
             },
             strain: None,
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,

@@ -374,6 +374,10 @@ pub struct Task {
     /// Safety margin `δ` of the signed-distance constraint (≥ 0, default 0).
     #[serde(default)]
     pub delta: f64,
+    /// Distance (length units) within which a target particle counts as reached at the final
+    /// step (> 0). Default: 10% of the cloth's longest side ([`Scene::default_tolerance`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
     /// Initial guess for the controls.
     pub initial_controls: InitialControls,
     /// Robot limits every plan must respect (default: none). Left out of the JSON when empty.
@@ -895,6 +899,15 @@ impl Scene {
         check_non_negative("task.beta", t.beta)?;
         check_non_negative("task.delta", t.delta)?;
         check_coordinate("task.delta", t.delta)?;
+        if let Some(tol) = t.tolerance {
+            if !(tol.is_finite() && tol > 0.0) {
+                return Err(invalid(
+                    "task.tolerance",
+                    format!("must be a finite number > 0, got {tol}"),
+                ));
+            }
+            check_coordinate("task.tolerance", tol)?;
+        }
         let m = self.controls.len();
         match &t.initial_controls {
             InitialControls::Zeros => {}
@@ -1038,6 +1051,34 @@ impl Scene {
             }
         }
         out
+    }
+
+    /// Length of the cloth's longest side: the larger of `|right|` (when `cols > 1`) and
+    /// `|down|` (when `rows > 1`); 0 for a single particle.
+    pub fn longest_side(&self) -> f64 {
+        let c = &self.cloth;
+        let len = |v: &[f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let right = if c.cols > 1 { len(&c.right) } else { 0.0 };
+        let down = if c.rows > 1 { len(&c.down) } else { 0.0 };
+        right.max(down)
+    }
+
+    /// Default of `task.tolerance`: 10% of [`Scene::longest_side`] (1e-3 for a cloth of one
+    /// particle, which has no side to measure).
+    pub fn default_tolerance(&self) -> f64 {
+        let side = self.longest_side();
+        if side > 0.0 {
+            0.1 * side
+        } else {
+            1e-3
+        }
+    }
+
+    /// The task's target tolerance: `task.tolerance`, or [`Scene::default_tolerance`].
+    pub fn tolerance(&self) -> f64 {
+        self.task
+            .tolerance
+            .unwrap_or_else(|| self.default_tolerance())
     }
 
     /// Particle indices of the control particles, in control order.

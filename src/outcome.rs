@@ -1,0 +1,205 @@
+//! Whether a plan achieved its task and, when it did not, why.
+//!
+//! A target is reached when its particle ends (at step `T` of the re-simulated rollout) within the
+//! task tolerance of its position. A task is *achieved* when every target is reached **and** the
+//! plan is safe. A plan that misses says which of the [`Reason`]s holds, checked in this order:
+//! no safe plan; the solver stopped early (iteration limit, stall); constraints active at the
+//! returned plan hold the cloth back (safety rows, or other rows such as collider planes); none is
+//! active, so the plan sits in a local minimum of `L`.
+
+use autodiff::Tensor;
+use cloth::Model;
+use serde::{Deserialize, Serialize};
+
+/// Why a task was or was not achieved.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Reason {
+    /// Every target within tolerance, and the plan is safe.
+    Achieved,
+    /// The safety rows are active at the returned plan: the margin `δ` (or a route too narrow for
+    /// the cloth) holds the cloth back.
+    SafetyActive,
+    /// Rows other than safety (control points against collider planes, robot limits) are active
+    /// at the returned plan and hold the cloth back.
+    LimitsActive,
+    /// The solver converged with no constraint active: a local minimum of `L = G + αT + βE`
+    /// (another route, or smaller `α`/`β`, may reach the targets).
+    LocalMinimum,
+    /// The solver stopped at its iteration limit before converging.
+    IterationLimit,
+    /// The solver stopped without converging (negligible step, line-search failure, QP failure).
+    Stalled,
+    /// The returned plan is not safe (it violates the safety margin or the optimizer's rows).
+    #[default]
+    NoSafePlan,
+}
+
+/// The task section of a result: how close the cloth came to its targets, and the verdict.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TaskOutcome {
+    /// Every target reached and the plan safe.
+    pub achieved: bool,
+    /// Distance within which a target counts as reached (`task.tolerance`).
+    pub tolerance: f64,
+    /// Largest final distance of a target particle from its position.
+    pub max_target_error: f64,
+    /// Root mean square of the final target distances.
+    pub rms_target_error: f64,
+    /// Final distance of each target particle from its position, in target order.
+    pub target_errors: Vec<f64>,
+    /// How many targets are within tolerance.
+    pub targets_reached: usize,
+    /// The verdict's reason.
+    pub reason: Reason,
+    /// The verdict in words.
+    pub explanation: String,
+    /// Constraint groups active at the returned plan (e.g. `safety at steps 4–6`); empty when
+    /// none is.
+    pub active_constraints: Vec<String>,
+}
+
+/// The final distance of each target particle from its position.
+pub fn target_errors(model: &Model, final_state: &Tensor) -> Vec<f64> {
+    let positions = &model.task.target_positions;
+    model
+        .task
+        .targets
+        .as_slice()
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| {
+            (0..3)
+                .map(|j| (final_state.get(p, j) - positions.get(i, j)).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .collect()
+}
+
+/// What the verdict needs besides the rollout.
+#[derive(Clone, Debug)]
+pub struct PlanFacts<'a> {
+    /// The plan is safe (feasible for the optimizer's rows and within the safety margin).
+    pub safe: bool,
+    /// The solver's status name (`converged`, `iteration_limit`, …).
+    pub status: &'a str,
+    /// Labels of the active safety groups.
+    pub active_safety: Vec<String>,
+    /// Labels of the other active groups.
+    pub active_other: Vec<String>,
+}
+
+/// The task outcome of a plan whose re-simulated rollout ends in `final_state`.
+pub fn task_outcome(model: &Model, final_state: &Tensor, facts: &PlanFacts<'_>) -> TaskOutcome {
+    let tolerance = model.task.tolerance;
+    let errors = target_errors(model, final_state);
+    let max = errors.iter().copied().fold(0.0, f64::max);
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
+    let reached = errors.iter().filter(|&&e| e <= tolerance).count();
+    let all_reached = reached == errors.len();
+    let missed = format!(
+        "{} of {} targets within {tolerance:.4} (largest error {max:.4})",
+        reached,
+        errors.len()
+    );
+    let (reason, explanation) = if !facts.safe {
+        (
+            Reason::NoSafePlan,
+            format!("no safe plan: the returned plan violates the safety margin or the optimizer's rows; {missed}"),
+        )
+    } else if all_reached {
+        (
+            Reason::Achieved,
+            format!("every target within {tolerance:.4} (largest error {max:.4}), plan safe"),
+        )
+    } else if facts.status == "iteration_limit" {
+        (
+            Reason::IterationLimit,
+            format!("the solver hit its iteration limit before converging; {missed}"),
+        )
+    } else if facts.status != "converged" {
+        (
+            Reason::Stalled,
+            format!(
+                "the solver stopped without converging ({}); {missed}",
+                facts.status
+            ),
+        )
+    } else if !facts.active_safety.is_empty() {
+        (
+            Reason::SafetyActive,
+            format!(
+                "the safety margin holds the cloth back ({} active); {missed}",
+                facts.active_safety.join(", ")
+            ),
+        )
+    } else if !facts.active_other.is_empty() {
+        (
+            Reason::LimitsActive,
+            format!(
+                "constraints hold the cloth back ({} active); {missed}",
+                facts.active_other.join(", ")
+            ),
+        )
+    } else {
+        (
+            Reason::LocalMinimum,
+            format!("converged with no constraint active: a local minimum of L; {missed}"),
+        )
+    };
+    let mut active_constraints = facts.active_safety.clone();
+    active_constraints.extend(facts.active_other.iter().cloned());
+    TaskOutcome {
+        achieved: reason == Reason::Achieved,
+        tolerance,
+        max_target_error: max,
+        rms_target_error: rms,
+        target_errors: errors,
+        targets_reached: reached,
+        reason,
+        explanation,
+        active_constraints,
+    }
+}
+
+/// Compresses sorted step numbers into ranges: `[1, 2, 3, 7]` → `"1–3, 7"`.
+pub fn step_ranges(steps: &[usize]) -> String {
+    let mut parts = Vec::new();
+    let mut i = 0;
+    while i < steps.len() {
+        let mut j = i;
+        while j + 1 < steps.len() && steps[j + 1] == steps[j] + 1 {
+            j += 1;
+        }
+        parts.push(if i == j {
+            steps[i].to_string()
+        } else {
+            format!("{}–{}", steps[i], steps[j])
+        });
+        i = j + 1;
+    }
+    parts.join(", ")
+}
+
+/// Process exit code for a planning verdict: 0 achieved, 3 a safe plan that does not achieve
+/// the task, 4 no safe plan (1 is left for errors and bad input).
+pub fn exit_code(outcome: &TaskOutcome) -> i32 {
+    match outcome.reason {
+        Reason::Achieved => 0,
+        Reason::NoSafePlan => 4,
+        _ => 3,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn step_ranges_compress_runs() {
+        assert_eq!(step_ranges(&[1, 2, 3, 7, 9, 10]), "1–3, 7, 9–10");
+        assert_eq!(step_ranges(&[]), "");
+        assert_eq!(step_ranges(&[4]), "4");
+    }
+}

@@ -1,0 +1,233 @@
+//! Route search: when the plan from the initial guess does not achieve the task, plan from other
+//! routes and keep the best.
+//!
+//! 1. Plan from the given start ([`crate::plan::plan`]). With [`SearchMode::Auto`] an achieved
+//!    task ends the search here: no extra work.
+//! 2. Propose candidate routes from the scene's geometry ([`routes::propose`]).
+//! 3. *Cheap stage:* optimize every candidate at the warm-up sharpness `κ` (smooth, conservative
+//!    safety rows) with a small iteration budget, in parallel (rayon; results in candidate order,
+//!    so the outcome is the same for any thread count).
+//! 4. *Polish:* the best few cheap results, ranked by (safe, achieved, `L`), are planned in full
+//!    from where they stopped — once one of them achieves the task, only candidates that achieved
+//!    it at the cheap stage too.
+//! 5. Keep the best of the first plan and the polished ones by the same ranking.
+//!
+//! The search lives in the root package: `optim` stays problem-agnostic.
+
+pub mod routes;
+
+use crate::plan::{plan, PlanOptions, PlanResult};
+use cloth::{Controls, Model, Scene};
+use optim::IterationInfo;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::cmp::Ordering;
+use std::time::Instant;
+
+/// When the planner searches for other routes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum SearchMode {
+    /// Only when the plan from the initial guess does not achieve the task.
+    Auto,
+    /// Always, even when the first plan achieves the task.
+    Always,
+    /// Never: plan from the initial guess only.
+    Off,
+}
+
+/// Settings of the route search.
+#[derive(Clone, Debug)]
+pub struct SearchOptions {
+    /// When to search. Default [`SearchMode::Auto`].
+    pub mode: SearchMode,
+    /// Seeded random perturbations among the candidates. Default 2.
+    pub random_starts: usize,
+    /// Most candidates (geometric routes first, then the random ones). Default 8.
+    pub max_candidates: usize,
+    /// Iteration budget of each candidate's cheap stage. Default 30.
+    pub cheap_iterations: usize,
+    /// How many of the best cheap results are planned in full. Default 2.
+    pub polish: usize,
+    /// Seed of the random perturbations. Default 0.
+    pub seed: u64,
+}
+
+impl Default for SearchOptions {
+    fn default() -> Self {
+        SearchOptions {
+            mode: SearchMode::Auto,
+            random_starts: 2,
+            max_candidates: 8,
+            cheap_iterations: 30,
+            polish: 2,
+            seed: 0,
+        }
+    }
+}
+
+impl SearchOptions {
+    /// Checks the counts, naming the first bad one.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        crate::plan::ensure_iterations("cheap_iterations", self.cheap_iterations)?;
+        crate::plan::ensure_iterations("max_candidates", self.max_candidates)?;
+        crate::plan::ensure_iterations("polish", self.polish)
+    }
+}
+
+/// One planned candidate, as listed in the result.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CandidateReport {
+    /// How the route was built (`initial guess` for the first plan).
+    pub route: String,
+    /// `first` (the plan from the given start), `cheap` or `polished`.
+    pub stage: String,
+    /// Solver status of that stage.
+    pub status: String,
+    /// Safe at the returned controls.
+    pub safe: bool,
+    /// Task achieved.
+    pub achieved: bool,
+    /// Objective `L`.
+    #[serde(rename = "L")]
+    pub l: f64,
+    /// Target error `G`.
+    #[serde(rename = "G")]
+    pub g: f64,
+    /// Smallest signed distance to the safety obstacles over the rollout (∞ without any,
+    /// `null` in JSON, which reads back as ∞).
+    #[serde(deserialize_with = "cloth::grad::null_as_infinity")]
+    pub min_sdf: f64,
+    /// Rollouts simulated by that stage.
+    pub simulations: usize,
+    /// Wall-clock seconds of that stage (left out under `--no-timing`).
+    #[serde(
+        skip_serializing_if = "crate::plan::is_nan",
+        default = "crate::plan::not_timed"
+    )]
+    pub wall_s: f64,
+    /// This is the plan returned.
+    pub kept: bool,
+}
+
+/// The search section of a result.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SearchReport {
+    /// The mode it ran in.
+    pub mode: SearchMode,
+    /// Every planned candidate, the first plan first.
+    pub candidates: Vec<CandidateReport>,
+    /// Rollouts simulated by the whole search (the first plan included).
+    pub simulations: usize,
+}
+
+impl CandidateReport {
+    fn of(route: &str, stage: &str, r: &PlanResult) -> Self {
+        CandidateReport {
+            route: route.to_string(),
+            stage: stage.to_string(),
+            status: r.status.clone(),
+            safe: is_safe(r),
+            achieved: r.task.achieved,
+            l: r.metrics.l,
+            g: r.metrics.g,
+            min_sdf: r.metrics.min_sdf,
+            simulations: r.evaluations,
+            wall_s: r.wall_s,
+            kept: false,
+        }
+    }
+}
+
+fn is_safe(r: &PlanResult) -> bool {
+    r.is_feasible() && r.is_safe()
+}
+
+/// The ranking of plans: safe before unsafe, achieved before not, then lower `L` (NaN last).
+pub fn rank(a: &PlanResult, b: &PlanResult) -> Ordering {
+    is_safe(b)
+        .cmp(&is_safe(a))
+        .then(b.task.achieved.cmp(&a.task.achieved))
+        .then(a.metrics.l.total_cmp(&b.metrics.l))
+}
+
+/// Plans `model`'s task from `start`, searching other routes as `search` says (module docs).
+/// `progress` sees the iterations of the sequential stages (the first plan and the polish).
+pub fn plan_with_search(
+    model: &Model,
+    scene: &Scene,
+    start: &Controls,
+    options: &PlanOptions,
+    search: &SearchOptions,
+    mut progress: impl FnMut(&IterationInfo),
+) -> anyhow::Result<PlanResult> {
+    search.validate()?;
+    let clock = Instant::now();
+    let first = plan(model, scene, start, options, &mut progress)?;
+    let run = match search.mode {
+        SearchMode::Off => false,
+        SearchMode::Auto => !first.task.achieved,
+        SearchMode::Always => true,
+    };
+    if !run {
+        return Ok(first);
+    }
+    let candidates = routes::propose(
+        model,
+        start,
+        options.task.delta,
+        search.random_starts,
+        search.seed,
+        search.max_candidates,
+    );
+    // Cheap stage: warm-up sharpness only, a small budget, looser tolerance.
+    let mut cheap_options = options.clone();
+    cheap_options.iterations = search.cheap_iterations;
+    if let Some(kappa) = options.kappa_warmup {
+        cheap_options.task.kappa = kappa.min(options.task.kappa);
+    }
+    cheap_options.kappa_warmup = None;
+    cheap_options.tol_optimality = 10.0 * options.tol_optimality;
+    let cheap: Vec<PlanResult> = candidates
+        .par_iter()
+        .map(|c| plan(model, scene, &c.controls, &cheap_options, |_| {}))
+        .collect::<anyhow::Result<_>>()?;
+    let mut order: Vec<usize> = (0..cheap.len()).collect();
+    order.sort_by(|&a, &b| rank(&cheap[a], &cheap[b]).then(a.cmp(&b)));
+    let mut reports = vec![CandidateReport::of("initial guess", "first", &first)];
+    reports.extend(
+        candidates
+            .iter()
+            .zip(&cheap)
+            .map(|(c, r)| CandidateReport::of(&c.route, "cheap", r)),
+    );
+    let mut best = first;
+    let mut best_report = 0;
+    for &i in order.iter().take(search.polish) {
+        // Once a polished plan achieves the task, only candidates that already achieve it at the
+        // cheap stage can still rank above it.
+        if best.task.achieved && is_safe(&best) && !cheap[i].task.achieved {
+            break;
+        }
+        let start = crate::plan::controls_from_nested(model, &cheap[i].controls)?;
+        let polished = plan(model, scene, &start, options, &mut progress)?;
+        reports.push(CandidateReport::of(
+            &candidates[i].route,
+            "polished",
+            &polished,
+        ));
+        if rank(&polished, &best) == Ordering::Less {
+            best = polished;
+            best_report = reports.len() - 1;
+        }
+    }
+    reports[best_report].kept = true;
+    let simulations = reports.iter().map(|r| r.simulations).sum();
+    best.search = Some(SearchReport {
+        mode: search.mode,
+        candidates: reports,
+        simulations,
+    });
+    best.wall_s = clock.elapsed().as_secs_f64();
+    Ok(best)
+}

@@ -1,0 +1,511 @@
+//! Candidate routes from the scene's geometry.
+//!
+//! A route is a path for the grippers, turned into per-step displacements (the controls). Routes
+//! are built from two base paths — the initial guess and the straight path that translates the
+//! cloth by the targets' mean displacement — and from detours around the safety obstacles that a
+//! base path's rollout runs into:
+//!
+//! 1. simulate the base path and mark the steps where the cloth comes closer than `δ + clearance`
+//!    to a safety obstacle (`clearance` = the task tolerance); consecutive marked steps form a
+//!    *blocked segment*;
+//! 2. for each segment and each of 8 directions perpendicular to the travel (over, under, left,
+//!    right and the diagonals; "up" is against gravity), find the smallest offset `s` such that the
+//!    cloth of every step of the segment, translated by `s·n`, keeps `δ + clearance` from every
+//!    safety obstacle while the grippers stay on the free side of every collider plane: the
+//!    cloth's extent, plus `δ`, taken over, beside or under the obstacle;
+//! 3. a detour offsets the base path by `s·n` over the segment, ramping linearly from the
+//!    previous keypoint (the start, or the previous segment) and back to the end.
+//!
+//! Seeded random perturbations (a via-point at a random step with a random perpendicular offset
+//! up to the cloth's size) complete the set. Everything is deterministic.
+
+use autodiff::Tensor;
+use cloth::sdf::SignedDistance;
+use cloth::{Controls, Model};
+use rand::{RngExt, SeedableRng};
+use rand_xorshift::XorShiftRng;
+
+/// A candidate start for the planner: controls and a label saying how they were built.
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    /// How the route was built, e.g. `straight, over (0.85) at steps 3–5`.
+    pub route: String,
+    /// The controls (`T × 3K`).
+    pub controls: Controls,
+}
+
+/// Gripper positions of a route: `paths[t][k]`, steps `0..=T`.
+type Paths = Vec<Vec<[f64; 3]>>;
+
+/// The 8 detour directions as (name, weight along up, weight along left).
+const DIRECTIONS: [(&str, f64, f64); 8] = [
+    ("over", 1.0, 0.0),
+    ("under", -1.0, 0.0),
+    ("left", 0.0, 1.0),
+    ("right", 0.0, -1.0),
+    ("over-left", 1.0, 1.0),
+    ("over-right", 1.0, -1.0),
+    ("under-left", -1.0, 1.0),
+    ("under-right", -1.0, -1.0),
+];
+
+/// Offsets tried per detour direction: `s = h, 2h, …` up to this many steps.
+const OFFSET_STEPS: usize = 400;
+
+/// Proposes routes for `model`'s task at margin `delta` (see the module docs): detours of the
+/// initial guess `initial` and of the straight path, and `random` seeded perturbations, at most
+/// `limit` in all (detours first, by base path and then by the size of their offsets).
+pub fn propose(
+    model: &Model,
+    initial: &Controls,
+    delta: f64,
+    random: usize,
+    seed: u64,
+    limit: usize,
+) -> Vec<Candidate> {
+    let geometry = Geometry::new(model, delta);
+    let straight = geometry.straight_paths();
+    let bases = [
+        ("initial guess", paths_of(model, initial)),
+        ("straight", straight.clone()),
+    ];
+    let mut out = vec![Candidate {
+        route: "straight".into(),
+        controls: controls_of(&straight),
+    }];
+    // Detours per base path, ordered by rank (best direction per segment first).
+    let mut detours: Vec<Vec<Candidate>> = Vec::new();
+    for (name, base) in &bases {
+        let Ok(states) = model.simulate(&controls_of(base)) else {
+            continue;
+        };
+        detours.push(geometry.detours(name, base, &states));
+    }
+    // Interleave the bases so both get candidates under the limit.
+    let longest = detours.iter().map(Vec::len).max().unwrap_or(0);
+    for rank in 0..longest {
+        for list in &detours {
+            if let Some(c) = list.get(rank) {
+                out.push(c.clone());
+            }
+        }
+    }
+    // The same controls twice (e.g. the initial guess *is* the straight path) plan once.
+    let mut unique: Vec<Candidate> = Vec::new();
+    for c in out {
+        if !unique
+            .iter()
+            .any(|u| u.controls.data() == c.controls.data())
+        {
+            unique.push(c);
+        }
+    }
+    unique.truncate(limit.saturating_sub(random).max(1));
+    unique.extend(geometry.random_routes(&straight, random, seed));
+    unique
+}
+
+/// What the proposals need to know about the scene.
+struct Geometry<'a> {
+    model: &'a Model,
+    delta: f64,
+    clearance: f64,
+    /// Unit "up" and "left", perpendicular to the travel direction.
+    up: [f64; 3],
+    left: [f64; 3],
+    /// Largest offset tried.
+    reach: f64,
+    /// Offset increment.
+    increment: f64,
+    /// The cloth's size (largest rest extent).
+    size: f64,
+}
+
+impl<'a> Geometry<'a> {
+    fn new(model: &'a Model, delta: f64) -> Self {
+        let displacement = mean_target_displacement(model);
+        let gravity = model.gravity_step.unwrap_or([0.0, 0.0, -1.0]);
+        let world_up = normalized(scale(gravity, -1.0)).unwrap_or([0.0, 0.0, 1.0]);
+        let travel = normalized(displacement).unwrap_or_else(|| any_perpendicular(world_up));
+        // Up without its travel component; if travel is vertical, any perpendicular.
+        let up = normalized(sub(world_up, scale(travel, dot(world_up, travel))))
+            .unwrap_or_else(|| any_perpendicular(travel));
+        let left = cross(up, travel);
+        let size = extent(&model.rest);
+        let obstacles = obstacle_extent(model);
+        let clearance = model.task.tolerance;
+        let increment = (0.5 * clearance).max(1e-3 * (size + obstacles).max(1e-9));
+        let reach = 2.0 * (size + obstacles + delta + clearance);
+        Geometry {
+            model,
+            delta,
+            clearance,
+            up,
+            left,
+            reach: reach.min(increment * OFFSET_STEPS as f64),
+            increment,
+            size,
+        }
+    }
+
+    /// Grippers translated by the targets' mean displacement, in `T` equal steps.
+    fn straight_paths(&self) -> Paths {
+        let d = mean_target_displacement(self.model);
+        let start = gripper_starts(self.model);
+        let horizon = self.model.task.horizon;
+        (0..=horizon)
+            .map(|t| {
+                let f = t as f64 / horizon as f64;
+                start.iter().map(|&p| add(p, scale(d, f))).collect()
+            })
+            .collect()
+    }
+
+    /// Detours of `base` around the obstacles its rollout `states` runs into, best first.
+    fn detours(&self, name: &str, base: &Paths, states: &[Tensor]) -> Vec<Candidate> {
+        let safety = &self.model.safety_obstacles;
+        if safety.is_empty() {
+            return Vec::new();
+        }
+        let limit = self.delta + self.clearance;
+        let blocked: Vec<usize> = (1..states.len())
+            .filter(|&t| min_distance(safety, &states[t], [0.0; 3]) < limit)
+            .collect();
+        let segments = runs(&blocked);
+        if segments.is_empty() {
+            return Vec::new();
+        }
+        // Per segment: the clear directions, smallest offset first.
+        let options: Vec<Vec<(usize, f64)>> = segments
+            .iter()
+            .map(|&(a, b)| {
+                let mut found: Vec<(usize, f64)> = (0..DIRECTIONS.len())
+                    .filter_map(|d| {
+                        self.clear_offset(base, states, a, b, self.direction(d))
+                            .map(|s| (d, s))
+                    })
+                    .collect();
+                found.sort_by(|x, y| x.1.total_cmp(&y.1).then(x.0.cmp(&y.0)));
+                found
+            })
+            .collect();
+        let ranks = options.iter().map(Vec::len).max().unwrap_or(0);
+        let mut out = Vec::new();
+        for rank in 0..ranks {
+            let choice: Vec<(usize, usize, [f64; 3], f64, &str)> = segments
+                .iter()
+                .zip(&options)
+                .filter_map(|(&(a, b), opts)| {
+                    let &(d, s) = opts.get(rank).or(opts.last())?;
+                    Some((a, b, self.direction(d), s, DIRECTIONS[d].0))
+                })
+                .collect();
+            if choice.is_empty() {
+                continue;
+            }
+            let label = choice
+                .iter()
+                .map(|(a, b, _, s, dir)| {
+                    let steps = if a == b {
+                        format!("step {a}")
+                    } else {
+                        format!("steps {a}–{b}")
+                    };
+                    format!("{dir} ({s:.2}) at {steps}")
+                })
+                .collect::<Vec<_>>()
+                .join("; ");
+            let offsets: Vec<(usize, usize, [f64; 3])> = choice
+                .iter()
+                .map(|&(a, b, n, s, _)| (a, b, scale(n, s)))
+                .collect();
+            out.push(Candidate {
+                route: format!("{name}, {label}"),
+                controls: controls_of(&offset_paths(base, &offsets)),
+            });
+        }
+        out
+    }
+
+    /// Unit vector of detour direction `d`.
+    fn direction(&self, d: usize) -> [f64; 3] {
+        let (_, u, l) = DIRECTIONS[d];
+        normalized(add(scale(self.up, u), scale(self.left, l))).unwrap_or(self.up)
+    }
+
+    /// The smallest offset `s` along `n` for which the cloth of steps `a..=b`, translated by
+    /// `s·n`, keeps `δ + clearance` from the safety obstacles, with the grippers on the free side
+    /// of every collider plane; `None` within [`Geometry::reach`].
+    fn clear_offset(
+        &self,
+        base: &Paths,
+        states: &[Tensor],
+        a: usize,
+        b: usize,
+        n: [f64; 3],
+    ) -> Option<f64> {
+        let limit = self.delta + self.clearance;
+        let safety = &self.model.safety_obstacles;
+        let planes = &self.model.colliders.planes;
+        let mut s = self.increment;
+        while s <= self.reach {
+            let shift = scale(n, s);
+            let grippers_free = (a..=b).all(|t| {
+                base[t].iter().all(|&g| {
+                    let p = add(g, shift);
+                    let v = nalgebra::Vector3::new(p[0], p[1], p[2]);
+                    planes.iter().all(|pl| pl.distance(&v) >= 0.0)
+                })
+            });
+            if grippers_free && (a..=b).all(|t| min_distance(safety, &states[t], shift) >= limit) {
+                return Some(s);
+            }
+            s += self.increment;
+        }
+        None
+    }
+
+    /// `count` seeded perturbations of `base`: one via-point at a random interior step, offset
+    /// perpendicular to the travel by up to the cloth's size.
+    fn random_routes(&self, base: &Paths, count: usize, seed: u64) -> Vec<Candidate> {
+        let horizon = self.model.task.horizon;
+        let mut rng = XorShiftRng::seed_from_u64(seed);
+        (0..count)
+            .map(|i| {
+                let t = if horizon > 1 {
+                    rng.random_range(1..horizon)
+                } else {
+                    1
+                };
+                let angle = rng.random_range(0.0..std::f64::consts::TAU);
+                let r = rng.random_range(0.0..=1.0) * self.size;
+                let n = add(scale(self.up, angle.sin()), scale(self.left, angle.cos()));
+                let offset = scale(n, r);
+                Candidate {
+                    route: format!("random {i}: via-point at step {t}, offset {r:.2}"),
+                    controls: controls_of(&offset_paths(base, &[(t, t, offset)])),
+                }
+            })
+            .collect()
+    }
+}
+
+/// `base` with each `(a, b, o)` offset `o` applied over steps `a..=b`, ramping linearly between
+/// keypoints: 0 at step 0, the segments' offsets, and 0 at step `T` (unless the last segment
+/// reaches `T`).
+fn offset_paths(base: &Paths, segments: &[(usize, usize, [f64; 3])]) -> Paths {
+    let horizon = base.len() - 1;
+    let mut keys: Vec<(usize, [f64; 3])> = vec![(0, [0.0; 3])];
+    for &(a, b, o) in segments {
+        keys.push((a.max(1), o));
+        keys.push((b.max(a).max(1), o));
+    }
+    if keys.last().is_some_and(|&(t, _)| t < horizon) {
+        keys.push((horizon, [0.0; 3]));
+    }
+    let offset_at = |t: usize| -> [f64; 3] {
+        for w in keys.windows(2) {
+            let ((t0, o0), (t1, o1)) = (w[0], w[1]);
+            if t >= t0 && t <= t1 {
+                if t1 == t0 {
+                    return o1;
+                }
+                let f = (t - t0) as f64 / (t1 - t0) as f64;
+                return add(scale(o0, 1.0 - f), scale(o1, f));
+            }
+        }
+        keys.last().map_or([0.0; 3], |&(_, o)| o)
+    };
+    base.iter()
+        .enumerate()
+        .map(|(t, row)| {
+            let o = offset_at(t);
+            row.iter().map(|&p| add(p, o)).collect()
+        })
+        .collect()
+}
+
+/// Maximal runs of consecutive step numbers, as `(first, last)`.
+fn runs(steps: &[usize]) -> Vec<(usize, usize)> {
+    let mut out: Vec<(usize, usize)> = Vec::new();
+    for &t in steps {
+        match out.last_mut() {
+            Some((_, last)) if *last + 1 == t => *last = t,
+            _ => out.push((t, t)),
+        }
+    }
+    out
+}
+
+/// The smallest signed distance of the particles of `x`, translated by `shift`, to `sdf`.
+fn min_distance(sdf: &cloth::sdf::Union, x: &Tensor, shift: [f64; 3]) -> f64 {
+    x.data()
+        .chunks_exact(3)
+        .map(|p| {
+            sdf.distance(&nalgebra::Vector3::new(
+                p[0] + shift[0],
+                p[1] + shift[1],
+                p[2] + shift[2],
+            ))
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Gripper positions along `controls` (rest positions plus the running sum of displacements).
+pub fn paths_of(model: &Model, controls: &Controls) -> Paths {
+    let mut p = gripper_starts(model);
+    let mut out = vec![p.clone()];
+    for t in 0..controls.rows() {
+        for (k, q) in p.iter_mut().enumerate() {
+            let u = &controls.row(t)[3 * k..3 * k + 3];
+            *q = [q[0] + u[0], q[1] + u[1], q[2] + u[2]];
+        }
+        out.push(p.clone());
+    }
+    out
+}
+
+/// Controls (per-step displacements) of gripper paths.
+fn controls_of(paths: &Paths) -> Controls {
+    let horizon = paths.len() - 1;
+    let k = paths.first().map_or(0, Vec::len);
+    let data = (0..horizon)
+        .flat_map(|t| (0..k).flat_map(move |c| sub(paths[t + 1][c], paths[t][c])))
+        .collect();
+    Tensor::new(horizon, 3 * k, data)
+}
+
+fn gripper_starts(model: &Model) -> Vec<[f64; 3]> {
+    model
+        .controls
+        .as_slice()
+        .iter()
+        .map(|&p| std::array::from_fn(|j| model.rest.get(p, j)))
+        .collect()
+}
+
+/// Mean over targets of (target position − the particle's rest position).
+fn mean_target_displacement(model: &Model) -> [f64; 3] {
+    let targets = model.task.targets.as_slice();
+    let n = targets.len().max(1) as f64;
+    let mut d = [0.0; 3];
+    for (i, &p) in targets.iter().enumerate() {
+        for (j, dj) in d.iter_mut().enumerate() {
+            *dj += (model.task.target_positions.get(i, j) - model.rest.get(p, j)) / n;
+        }
+    }
+    d
+}
+
+/// Largest side of the axis-aligned box around `x`'s points.
+fn extent(x: &Tensor) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in x.data().chunks_exact(3) {
+        for j in 0..3 {
+            lo[j] = lo[j].min(p[j]);
+            hi[j] = hi[j].max(p[j]);
+        }
+    }
+    (0..3).map(|j| hi[j] - lo[j]).fold(0.0, f64::max)
+}
+
+/// Largest side of the box around the safety spheres (planes are unbounded and add nothing).
+fn obstacle_extent(model: &Model) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for set in &model.safety_obstacles.spheres {
+        for (c, &r) in set.centers.iter().zip(&set.radii) {
+            for j in 0..3 {
+                lo[j] = lo[j].min(c[j] - r);
+                hi[j] = hi[j].max(c[j] + r);
+            }
+        }
+    }
+    (0..3).map(|j| hi[j] - lo[j]).fold(0.0, f64::max)
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `a/|a|`, or `None` for a (nearly) zero vector.
+fn normalized(a: [f64; 3]) -> Option<[f64; 3]> {
+    let n = dot(a, a).sqrt();
+    (n > 1e-12).then(|| scale(a, 1.0 / n))
+}
+
+/// A unit vector perpendicular to the unit vector `a`.
+fn any_perpendicular(a: [f64; 3]) -> [f64; 3] {
+    let axis = if a[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    normalized(cross(a, axis)).unwrap_or([0.0, 0.0, 1.0])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_split_at_gaps() {
+        assert_eq!(runs(&[1, 2, 3, 6, 7, 9]), vec![(1, 3), (6, 7), (9, 9)]);
+        assert!(runs(&[]).is_empty());
+    }
+
+    #[test]
+    fn offsets_ramp_between_keypoints_and_return_to_the_base_at_the_end() {
+        let base: Paths = (0..=4).map(|t| vec![[t as f64, 0.0, 0.0]]).collect();
+        let out = offset_paths(&base, &[(2, 2, [0.0, 0.0, 1.0])]);
+        let z: Vec<f64> = out.iter().map(|r| r[0][2]).collect();
+        assert_eq!(z, vec![0.0, 0.5, 1.0, 0.5, 0.0]);
+        // A segment that reaches the last step keeps its offset there.
+        let out = offset_paths(&base, &[(3, 4, [0.0, 2.0, 0.0])]);
+        assert_eq!(out[4][0][1], 2.0);
+        assert_eq!(out[3][0][1], 2.0);
+    }
+
+    #[test]
+    fn controls_and_paths_are_inverse() {
+        let paths: Paths = vec![
+            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
+            vec![[0.5, 1.0, 0.0], [1.5, 1.0, 0.0]],
+            vec![[0.5, 2.0, 3.0], [1.0, 2.0, 0.0]],
+        ];
+        let u = controls_of(&paths);
+        assert_eq!(u.shape(), (2, 6));
+        assert_eq!(u.row(1), &[0.0, 1.0, 3.0, -0.5, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn directions_are_perpendicular_to_the_travel() {
+        let up = normalized([0.3, 0.0, 1.0]).unwrap();
+        let travel = [1.0, 0.0, 0.0];
+        let up = normalized(sub(up, scale(travel, dot(up, travel)))).unwrap();
+        let left = cross(up, travel);
+        assert!(dot(left, travel).abs() < 1e-15 && dot(left, up).abs() < 1e-15);
+        assert!((dot(left, left) - 1.0).abs() < 1e-15);
+    }
+}
