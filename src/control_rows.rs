@@ -88,9 +88,19 @@ pub(crate) enum ControlRow {
     /// `(m² − ‖u_{t,k}‖²)/(2m) ≥ 0`: gripper `k` moves at most `m` in step `t` (0-based).
     Step { t: usize, k: usize, max: f64 },
     /// `(‖d‖² − m²)/(2m) ≥ 0` with `d = p_a(t) − p_b(t)`: grippers at least `m > 0` apart.
-    MinSeparation { t: usize, a: usize, b: usize, min: f64 },
+    MinSeparation {
+        t: usize,
+        a: usize,
+        b: usize,
+        min: f64,
+    },
     /// `(m² − ‖d‖²)/(2m) ≥ 0`: grippers at most `m` apart at step `t`.
-    MaxSeparation { t: usize, a: usize, b: usize, max: f64 },
+    MaxSeparation {
+        t: usize,
+        a: usize,
+        b: usize,
+        max: f64,
+    },
 }
 
 /// The smooth rows of `model`'s step and separation limits. Squared norms keep every row smooth

@@ -36,7 +36,14 @@ struct Measured {
 fn solve(scene: &Scene) -> (Model, PlanResult) {
     let model = Model::from_scene(scene).unwrap();
     let start = clothopt::plan::initial_controls(scene, &model).unwrap();
-    let result = plan(&model, scene, &start, &PlanOptions::for_model(&model), |_| {}).unwrap();
+    let result = plan(
+        &model,
+        scene,
+        &start,
+        &PlanOptions::for_model(&model),
+        |_| {},
+    )
+    .unwrap();
     (model, result)
 }
 
@@ -121,8 +128,16 @@ fn every_limit_holds_on_the_resimulated_plan() {
     }));
     let got = measure(&model, &r);
     assert!(r.is_feasible(), "{}", r.message);
-    assert!(got.separation.1 <= wide + SLACK, "{:?} vs {wide}", got.separation);
-    assert!(got.separation.0 >= 0.9 - SLACK, "{:?} vs 0.9", got.separation);
+    assert!(
+        got.separation.1 <= wide + SLACK,
+        "{:?} vs {wide}",
+        got.separation
+    );
+    assert!(
+        got.separation.0 >= 0.9 - SLACK,
+        "{:?} vs 0.9",
+        got.separation
+    );
 
     let strain = 0.3 * m.max_strain;
     let (model, r) = solve(&stretching_scene(Limits {
@@ -131,7 +146,11 @@ fn every_limit_holds_on_the_resimulated_plan() {
     }));
     let got = measure(&model, &r);
     assert!(r.is_feasible(), "{}", r.message);
-    assert!(got.max_strain <= strain + SLACK, "{} > {strain}", got.max_strain);
+    assert!(
+        got.max_strain <= strain + SLACK,
+        "{} > {strain}",
+        got.max_strain
+    );
 }
 
 #[test]

@@ -9,8 +9,8 @@ use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_AR
 use crate::error::ClothError;
 use crate::projection::Projection;
 use crate::scene::{BendingModel, Limits, Obstacle, Scene, Stiffness};
-use crate::strain::EdgeStrain;
 use crate::sdf::{Plane, SignedDistance, SphereSet, Union};
+use crate::strain::EdgeStrain;
 use autodiff::{DynRowFn, Real, RowFn, RowIndex, Tensor};
 use nalgebra::Vector3;
 use std::sync::Arc;

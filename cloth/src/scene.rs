@@ -1513,7 +1513,12 @@ mod tests {
 
     // --- parse errors (serde names the field) ---
     // --- task.limits ---
-    rejects!(max_step_zero, "task.limits.max_step", "must be positive", |v| v["task"]["limits"] = json!({"max_step": 0.0}));
+    rejects!(
+        max_step_zero,
+        "task.limits.max_step",
+        "must be positive",
+        |v| v["task"]["limits"] = json!({"max_step": 0.0})
+    );
     rejects!(
         max_strain_negative,
         "task.limits.max_strain",
