@@ -421,11 +421,15 @@ pub fn strain_report(model: &Model, states: &[Tensor]) -> StrainReport {
 /// Strain above which a plan without a `task.limits.max_strain` gets a warning: 10%.
 pub const STRAIN_WARNING_THRESHOLD: f64 = 0.1;
 
-/// A one-line warning when `result` stretches an edge beyond [`STRAIN_WARNING_THRESHOLD`] and the
-/// scene sets no `max_strain` limit; `None` otherwise.
+/// A one-line warning when a feasible `result` stretches an edge beyond
+/// [`STRAIN_WARNING_THRESHOLD`] and the scene sets no `max_strain` limit; `None` otherwise (an
+/// infeasible plan gets its own one-line error and must not be executed anyway).
 pub fn strain_warning(model: &Model, result: &PlanResult) -> Option<String> {
     let strain = &result.strain;
-    if model.task.limits.max_strain.is_some() || strain.max <= STRAIN_WARNING_THRESHOLD {
+    if !result.is_feasible()
+        || model.task.limits.max_strain.is_some()
+        || strain.max <= STRAIN_WARNING_THRESHOLD
+    {
         return None;
     }
     let step = strain
