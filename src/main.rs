@@ -4,7 +4,6 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{top_view_path, RolloutFigure};
-use clothopt::outcome;
 use clothopt::plan::{
     self, controls_from_nested, ensure_iterations, ensure_non_negative, ensure_positive,
     ensure_positive_or_infinite, initial_controls, PlanOptions, SolverKind,
@@ -17,6 +16,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 mod cli_progress;
+mod cli_summary;
 use cli_progress::Reporter;
 use std::path::{Path, PathBuf};
 
@@ -465,66 +465,9 @@ fn run(cli: Cli) -> Result<i32> {
             if no_timing {
                 result.drop_timing();
             }
-            let m = &result.metrics;
-            let verdict = if result.task.achieved {
-                "task achieved".to_string()
-            } else {
-                format!("task NOT achieved ({:?})", result.task.reason)
-            };
-            println!("{verdict}: {}", result.task.explanation);
-            println!(
-                "scene {}  δ = {}  status {}  ({})",
-                result.scene, result.delta, result.status, result.message
-            );
-            let wall = if no_timing {
-                String::new()
-            } else {
-                format!("  wall {:.2} s", result.wall_s)
-            };
-            let per_stage = result
-                .stages
-                .iter()
-                .map(|s| match s.kappa {
-                    Some(k) => format!("κ = {k}: {} {}", s.iterations, s.status),
-                    None => format!("{} {}", s.iterations, s.status),
-                })
-                .collect::<Vec<_>>()
-                .join(", ");
-            println!(
-                "iterations {} ({per_stage})  simulations {}  gradients {}{wall}",
-                result.iterations, result.evaluations, result.gradient_evaluations
-            );
-            if let Some(search) = &result.search {
-                println!(
-                    "route search ({} candidates, {} simulations in all):",
-                    search.candidates.len() - 1,
-                    search.simulations
-                );
-                for c in &search.candidates {
-                    println!(
-                        "  {} {:<9} {:<16} safe {:<5} achieved {:<5} L {:>10.5} G {:>9.5}  {}",
-                        if c.kept { "*" } else { " " },
-                        c.stage,
-                        c.status,
-                        c.safe,
-                        c.achieved,
-                        c.l,
-                        c.g,
-                        c.route
-                    );
-                }
-            }
-            println!("{:>10} {:>12}", "metric", "value");
-            for (k, v) in [
-                ("G", m.g),
-                ("αT", m.alpha_t),
-                ("βE", m.beta_e),
-                ("L", m.l),
-                ("C", m.c),
-                ("min SDF", m.min_sdf),
-                ("swept SDF", m.min_sdf_swept),
-            ] {
-                println!("{k:>10} {v:>12.6}");
+            cli_summary::print_summary(&result, no_timing);
+            if let Some(warning) = plan::strain_warning(&model, &result) {
+                eprintln!("{warning}");
             }
             if let Some(out) = &out {
                 plan::write_json_atomic(out, &result)?;
@@ -537,34 +480,7 @@ fn run(cli: Cli) -> Result<i32> {
                 );
                 draw(&model, &scene, &states, &title, result.delta, &png)?;
             }
-            for w in &result.warnings {
-                eprintln!("warning: {w}");
-            }
-            let code = outcome::exit_code(&result.task);
-            let written = out
-                .as_ref()
-                .map(|p| format!("; the plan is in {}", p.display()))
-                .unwrap_or_default();
-            if !result.is_feasible() {
-                eprintln!(
-                    "no safe plan: no feasible trajectory found (status {}: {}): constraint violation {:.3e} at the returned controls{written}",
-                    result.status,
-                    result.message,
-                    result.constraint_violation
-                );
-            } else if code == 4 {
-                eprintln!(
-                    "no safe plan: the returned plan violates the safety margin (C = {:.3e}){written}",
-                    m.c
-                );
-            } else if code == 3 {
-                eprintln!("task not achieved: {}{written}", result.task.explanation);
-            }
-            if result.status == "interrupted" {
-                eprintln!("interrupted: the best plan so far is the result");
-                return Ok(130);
-            }
-            return Ok(code);
+            return Ok(cli_summary::report_verdict(&result, out.as_deref()));
         }
         Command::Export {
             result,

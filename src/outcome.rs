@@ -206,6 +206,8 @@ pub fn active_groups(
     // Per collider plane: active steps, control points.
     let mut planes: std::collections::BTreeMap<usize, (Vec<usize>, Vec<usize>)> =
         Default::default();
+    // Per robot limit: active steps.
+    let mut limits: std::collections::BTreeMap<&str, Vec<usize>> = Default::default();
     for (_, label) in labels.iter().enumerate().filter(|&(r, _)| active(r)) {
         match *label {
             RowLabel::Safety { step: Some(t) } => safety_steps.push(t),
@@ -219,6 +221,7 @@ pub fn active_groups(
                 entry.0.push(step);
                 entry.1.push(control);
             }
+            RowLabel::Limit { limit, step } => limits.entry(limit).or_default().push(step),
         }
     }
     let mut safety = Vec::new();
@@ -228,7 +231,7 @@ pub fn active_groups(
     if !safety_steps.is_empty() {
         safety.push(format!("safety at steps {}", step_ranges(&safety_steps)));
     }
-    let other = planes
+    let mut other: Vec<String> = planes
         .into_iter()
         .map(|(plane, (mut steps, mut controls))| {
             steps.sort_unstable();
@@ -242,6 +245,11 @@ pub fn active_groups(
             )
         })
         .collect();
+    other.extend(limits.into_iter().map(|(limit, mut steps)| {
+        steps.sort_unstable();
+        steps.dedup();
+        format!("limit {limit} at steps {}", step_ranges(&steps))
+    }));
     Ok((safety, other))
 }
 

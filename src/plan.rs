@@ -171,8 +171,16 @@ pub struct PlanResult {
     /// not be evaluated, `null` in JSON). See [`PlanResult::is_feasible`].
     #[serde(default, deserialize_with = "null_as_nan")]
     pub constraint_violation: f64,
-    /// The paper's metrics at the returned controls.
+    /// The paper's metrics at the returned controls. `min_sdf` and `min_sdf_swept` are `null`
+    /// when the scene has no safety obstacle (there is no distance to measure; they read back as
+    /// ∞), so a script should test for `null` before comparing them with `δ`.
     pub metrics: Metrics,
+    /// Edge strain of the returned plan's rollout.
+    #[serde(default)]
+    pub strain: StrainReport,
+    /// Absolute gripper (control point) positions at steps `0..=T`: `(T + 1) × controls × 3`.
+    #[serde(default)]
+    pub gripper_positions: Vec<Vec<[f64; 3]>>,
     /// Whether the plan achieved the task (targets within tolerance and safe) and, if not, why.
     #[serde(default)]
     pub task: TaskOutcome,
@@ -502,6 +510,8 @@ pub fn plan(
         kkt_residual: solution.kkt_residual,
         constraint_violation: solution.constraint_violation,
         metrics: evaluation.metrics,
+        strain: strain_report(model, &evaluation.states),
+        gripper_positions: gripper_positions(model, &evaluation.states),
         task,
         stages,
         feasibility_tolerance: options.tol_feasibility,
@@ -554,6 +564,8 @@ pub fn snapshot(
         kkt_residual: f64::NAN,
         constraint_violation: violation,
         task: task_outcome(model, final_state, &facts),
+        strain: strain_report(model, &evaluation.states),
+        gripper_positions: gripper_positions(model, &evaluation.states),
         metrics: evaluation.metrics,
         stages: Vec::new(),
         feasibility_tolerance: options.tol_feasibility,
@@ -565,6 +577,65 @@ pub fn snapshot(
         states: Some(evaluation.states.iter().map(state_points).collect()),
         solver_status: None,
     })
+}
+
+/// Edge strain `|x_i − x_j|/L₀ − 1` of a rollout (0.1 = stretched 10% beyond its rest length).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+pub struct StrainReport {
+    /// The largest edge strain at each step `0..=T` (step 0 is the rest state: 0).
+    pub max_per_step: Vec<f64>,
+    /// The largest over every step.
+    pub max: f64,
+}
+
+/// The strain of the rollout `states` (`T + 1` states) of `model`.
+pub fn strain_report(model: &Model, states: &[Tensor]) -> StrainReport {
+    let max_per_step = model.max_strain_per_step(states);
+    let max = max_per_step.iter().copied().fold(0.0, f64::max);
+    StrainReport { max_per_step, max }
+}
+
+/// Strain above which a plan without a `task.limits.max_strain` gets a warning: 10%.
+pub const STRAIN_WARNING_THRESHOLD: f64 = 0.1;
+
+/// A one-line warning when a feasible `result` stretches an edge beyond
+/// [`STRAIN_WARNING_THRESHOLD`] and the scene sets no `max_strain` limit; `None` otherwise (an
+/// infeasible plan gets its own one-line error and must not be executed anyway).
+pub fn strain_warning(model: &Model, result: &PlanResult) -> Option<String> {
+    let strain = &result.strain;
+    if !result.is_feasible()
+        || model.task.limits.max_strain.is_some()
+        || strain.max <= STRAIN_WARNING_THRESHOLD
+    {
+        return None;
+    }
+    let step = strain
+        .max_per_step
+        .iter()
+        .position(|&s| s == strain.max)
+        .unwrap_or(0);
+    Some(format!(
+        "warning: the plan stretches an edge to {:.2}× its rest length (strain {:.1}% at step {step}, \
+         above {:.0}%); set task.limits.max_strain to bound it",
+        1.0 + strain.max,
+        100.0 * strain.max,
+        100.0 * STRAIN_WARNING_THRESHOLD
+    ))
+}
+
+/// Absolute positions of every control point at every state: `(T + 1) × controls × 3`.
+pub fn gripper_positions(model: &Model, states: &[Tensor]) -> Vec<Vec<[f64; 3]>> {
+    states
+        .iter()
+        .map(|x| {
+            model
+                .controls
+                .as_slice()
+                .iter()
+                .map(|&p| [x.get(p, 0), x.get(p, 1), x.get(p, 2)])
+                .collect()
+        })
+        .collect()
 }
 
 /// The SQP settings of a planning run, with KKT tolerance `tol`.

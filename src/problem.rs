@@ -4,9 +4,19 @@
 //! the smooth part `G + βE`, with `αT = α Σ_t ‖u_t − u_{t−1}‖` declared as norm terms so the SQP
 //! treats their kinks exactly (epigraph second-order cones). Inequalities, all `≥ 0`:
 //! - the safety constraint, in one of two forms ([`SafetyForm`]);
-//! - linear rows keeping every control point on the free side of every collider plane at every
-//!   step (the simulator pins control particles, so only this keeps them out of the floor).
+//! - one smooth row per step for `task.limits.max_strain`: `s_max − softmax_edges(strain) ≥ 0`,
+//!   pulled back through the rollout with the loss and safety rows (see [`TaskOptions::strain_kappa`]);
+//! - smooth rows on the controls alone for `max_step` and `gripper_separation`
+//!   ([`crate::control_rows`]);
+//! - linear rows keeping every control point on the free side of every collider plane and inside
+//!   `task.limits.workspace` at every step (the simulator pins control particles, so only this
+//!   keeps them out of the floor).
+//!
+//! Grippers are cloth particles, so the safety rows keep them `δ` from the safety obstacles too.
+//!
+//! Row order: safety, strain, control rows (step, separation), linear rows (colliders, workspace).
 
+use crate::control_rows::{collider_rows, control_rows, workspace_rows, ControlRow, LinearRow};
 use autodiff::{soft_min_value, soft_min_weights, Tape, Tensor, Var};
 use cloth::grad::StepCost;
 use cloth::{ClothError, Controls, Model};
@@ -44,7 +54,15 @@ pub struct TaskOptions {
     /// Sharpness `κ` (1/length) of the per-step soft minimum; it lies within `ln(count)/κ` below
     /// the true minimum, so the constraint is slightly conservative.
     pub kappa: f64,
+    /// Sharpness of the smooth maximum over edges in the `max_strain` rows (dimensionless; default
+    /// [`DEFAULT_STRAIN_KAPPA`]). The smooth maximum lies within `ln(edges)/κ` above the true
+    /// one, so a plan meets the limit with up to that much to spare (0.011 on a 10 × 10 cloth at
+    /// 500).
+    pub strain_kappa: f64,
 }
+
+/// Default [`TaskOptions::strain_kappa`].
+pub const DEFAULT_STRAIN_KAPPA: f64 = 500.0;
 
 impl TaskOptions {
     /// The scene's own weights and margin, the per-step safety form when the scene has safety
@@ -57,6 +75,7 @@ impl TaskOptions {
             safety: model.safety.is_some().then_some(SafetyForm::PerStep),
             swept: false,
             kappa: 3000.0,
+            strain_kappa: DEFAULT_STRAIN_KAPPA,
         }
     }
 
@@ -88,6 +107,13 @@ pub enum RowLabel {
         /// The step `1..=T`.
         step: usize,
     },
+    /// A robot limit (`task.limits`) at one step.
+    Limit {
+        /// The limit: `max_strain`, `max_step`, `gripper_separation` or `workspace`.
+        limit: &'static str,
+        /// The step `1..=T` (for `max_step`, the step the move ends at).
+        step: usize,
+    },
 }
 
 /// An owned per-step cost (see [`StepCost`]).
@@ -95,13 +121,6 @@ type BoxedStepCost<'a> = Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> +
 
 /// Interpolation parameters of the swept-path samples between two steps.
 const SWEPT_SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
-
-/// A linear inequality `offset + Σ coeff·x ≥ 0`.
-#[derive(Clone, Debug)]
-struct LinearRow {
-    coeffs: Vec<(usize, f64)>,
-    offset: f64,
-}
 
 /// Forward results at one point.
 struct Forward {
@@ -112,6 +131,8 @@ struct Forward {
     per_step: Vec<f64>,
     /// The constraint rows handed to the optimizer.
     safety: Vec<f64>,
+    /// The strain rows (`max_strain − smooth max strain`, steps 1..T).
+    strain: Vec<f64>,
 }
 
 /// Gradients at one point.
@@ -120,7 +141,9 @@ struct Backward {
     objective: Vec<f64>,
     /// Gradients of the safety rows (zero where not `computed`).
     safety: Vec<Vec<f64>>,
-    /// Which safety rows were pulled back.
+    /// Gradients of the strain rows (zero where not `computed`).
+    strain: Vec<Vec<f64>>,
+    /// Which safety rows, then strain rows, were pulled back.
     computed: Vec<bool>,
 }
 
@@ -128,6 +151,8 @@ struct Backward {
 pub struct TrajectoryProblem<'a> {
     model: &'a Model,
     options: TaskOptions,
+    /// Smooth rows on the controls alone (step size, gripper separation).
+    control: Vec<ControlRow>,
     linear: Vec<LinearRow>,
     forward: Option<Forward>,
     backward: Option<Backward>,
@@ -142,10 +167,12 @@ pub struct TrajectoryProblem<'a> {
 impl<'a> TrajectoryProblem<'a> {
     /// The problem of `model`'s task with `options`.
     pub fn new(model: &'a Model, options: TaskOptions) -> Self {
-        let linear = collider_rows(model);
+        let mut linear = collider_rows(model);
+        linear.extend(workspace_rows(model));
         TrajectoryProblem {
             model,
             options,
+            control: control_rows(model),
             linear,
             forward: None,
             backward: None,
@@ -182,7 +209,27 @@ impl<'a> TrajectoryProblem<'a> {
         }
     }
 
-    /// What each inequality row constrains, in row order (safety rows, then collider rows).
+    /// Number of strain rows (`T` with a `max_strain` limit on a cloth with stretch edges, else 0).
+    fn strain_rows(&self) -> usize {
+        if self.model.task.limits.max_strain.is_some() && self.model.strain.is_some() {
+            self.model.task.horizon
+        } else {
+            0
+        }
+    }
+
+    /// Records the strain row of step `t`: `max_strain − smooth max strain`.
+    fn record_step_strain(&self, tape: &mut Tape, x: Var) -> Option<Var> {
+        let limit = self.model.task.limits.max_strain?;
+        let soft = self
+            .model
+            .record_soft_max_strain(tape, x, self.options.strain_kappa)?;
+        let negated = tape.neg(soft);
+        Some(tape.add_scalar(negated, limit))
+    }
+
+    /// What each inequality row constrains, in row order (safety rows, strain rows, step and
+    /// separation rows, collider rows, workspace rows).
     pub fn row_labels(&self) -> Vec<RowLabel> {
         let mut labels: Vec<RowLabel> = match self.options.safety {
             Some(SafetyForm::PerStep) => (1..=self.safety_rows())
@@ -190,6 +237,14 @@ impl<'a> TrajectoryProblem<'a> {
                 .collect(),
             _ => vec![RowLabel::Safety { step: None }; self.safety_rows()],
         };
+        labels.extend((1..=self.strain_rows()).map(|step| RowLabel::Limit {
+            limit: "max_strain",
+            step,
+        }));
+        labels.extend(self.control.iter().map(|row| {
+            let (limit, step) = row.label();
+            RowLabel::Limit { limit, step }
+        }));
         let (planes, k, horizon) = (
             self.model.colliders.planes.len(),
             self.model.n_controls(),
@@ -204,6 +259,12 @@ impl<'a> TrajectoryProblem<'a> {
                 }));
             }
         }
+        // Workspace rows: per control point, step, axis, the lower then the upper bound.
+        let workspace = self.linear.len() - planes * k * horizon;
+        labels.extend((0..workspace).map(|r| RowLabel::Limit {
+            limit: "workspace",
+            step: 1 + (r / 6) % horizon,
+        }));
         labels
     }
 
@@ -241,6 +302,7 @@ impl<'a> TrajectoryProblem<'a> {
             let mut smooth = 0.0;
             let mut safety = vec![0.0; self.safety_rows()];
             let mut per_step = Vec::new();
+            let mut strain = Vec::with_capacity(self.strain_rows());
             for t in 1..states.len() {
                 tape.clear();
                 let xp = tape.leaf(states[t - 1].clone());
@@ -262,6 +324,11 @@ impl<'a> TrajectoryProblem<'a> {
                     }
                     _ => {}
                 }
+                if self.strain_rows() > 0 {
+                    if let Some(s) = self.record_step_strain(&mut tape, xv) {
+                        strain.push(tape.value(s).item());
+                    }
+                }
             }
             match self.options.safety {
                 Some(SafetyForm::PerStep) if !safety.is_empty() => {
@@ -278,6 +345,7 @@ impl<'a> TrajectoryProblem<'a> {
                 smooth,
                 per_step,
                 safety,
+                strain,
             });
         }
         self.forward
@@ -290,13 +358,19 @@ impl<'a> TrajectoryProblem<'a> {
     fn ensure_backward(
         &mut self,
         x: &[f64],
-        wanted: Option<&[bool]>,
+        wanted_rows: Option<&[bool]>,
     ) -> Result<&Backward, EvalError> {
+        let wanted = wanted_rows;
         let rows = self.safety_rows();
-        let wanted: Vec<bool> = match wanted {
+        let strain_rows = self.strain_rows();
+        let mut wanted: Vec<bool> = match wanted {
             Some(w) if self.options.safety == Some(SafetyForm::PerStep) => w[..rows].to_vec(),
             _ => vec![true; rows],
         };
+        wanted.extend_from_slice(&match wanted_rows {
+            Some(w) => w[rows..rows + strain_rows].to_vec(),
+            None => vec![true; strain_rows],
+        });
         let cached = self
             .backward
             .as_ref()
@@ -340,6 +414,18 @@ impl<'a> TrajectoryProblem<'a> {
                 let s = this.record_step_safety(tape, xp, xv)?;
                 Some(tape.scale(s, w))
             };
+            let strain_active: Vec<usize> =
+                (0..strain_rows).filter(|&r| wanted[rows + r]).collect();
+            let strain_costs: Vec<BoxedStepCost<'_>> = strain_active
+                .iter()
+                .map(|&row| {
+                    Box::new(move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
+                        (t == row + 1)
+                            .then(|| this.record_step_strain(tape, xv))
+                            .flatten()
+                    }) as BoxedStepCost<'_>
+                })
+                .collect();
             let mut costs: Vec<StepCost<'_>> = vec![&loss];
             match self.options.safety {
                 Some(SafetyForm::Scalar) if self.safety_rows() == 1 => costs.push(&scalar),
@@ -349,6 +435,7 @@ impl<'a> TrajectoryProblem<'a> {
                 }
                 _ => {}
             }
+            costs.extend(strain_costs.iter().map(|b| b.as_ref() as StepCost<'_>));
             let mut grads = self
                 .model
                 .gradients(&forward.states, &controls, &costs)
@@ -357,23 +444,29 @@ impl<'a> TrajectoryProblem<'a> {
             let mut safety = vec![vec![0.0; x.len()]; self.safety_rows()];
             match self.options.safety {
                 Some(SafetyForm::Scalar | SafetyForm::Aggregate) => {
-                    for (row, g) in safety.iter_mut().zip(grads) {
+                    for (row, g) in safety.iter_mut().zip(grads.by_ref()) {
                         *row = g.into_data();
                     }
                 }
                 Some(SafetyForm::PerStep) => {
-                    for (&r, g) in active.iter().zip(grads) {
+                    for (&r, g) in active.iter().zip(grads.by_ref()) {
                         safety[r] = g.into_data();
                     }
                 }
                 None => {}
             }
+            let mut strain = vec![vec![0.0; x.len()]; strain_rows];
+            for (&r, g) in strain_active.iter().zip(grads) {
+                strain[r] = g.into_data();
+            }
             drop(per_step);
+            drop(strain_costs);
             self.gradient_evaluations += 1;
             self.backward = Some(Backward {
                 x: x.to_vec(),
                 objective,
                 safety,
+                strain,
                 computed: wanted,
             });
         }
@@ -390,16 +483,25 @@ impl<'a> TrajectoryProblem<'a> {
         wanted: Option<&[bool]>,
         jac: &mut Jacobian,
     ) -> Result<(), EvalError> {
-        let k = self.safety_rows();
-        let safety = self.ensure_backward(x, wanted)?.safety.clone();
-        let linear = &self.linear;
+        let backward = self.ensure_backward(x, wanted)?;
+        let tape_rows: Vec<Vec<f64>> = backward
+            .safety
+            .iter()
+            .chain(&backward.strain)
+            .cloned()
+            .collect();
+        let k = tape_rows.len();
         let Jacobian::Dense(m) = jac else {
             return Err(EvalError::new("expected a dense Jacobian"));
         };
-        for (r, row) in safety.iter().enumerate() {
+        for (r, row) in tape_rows.iter().enumerate() {
             m.row_mut(r).copy_from_slice(row);
         }
-        for (r, row) in linear.iter().enumerate() {
+        for (r, row) in self.control.iter().enumerate() {
+            row.gradient(self.model, x, m.row_mut(k + r));
+        }
+        let k = k + self.control.len();
+        for (r, row) in self.linear.iter().enumerate() {
             for &(j, a) in &row.coeffs {
                 m.row_mut(k + r)[j] = a;
             }
@@ -417,38 +519,13 @@ fn eval_error(e: ClothError) -> EvalError {
     EvalError::new(e.to_string())
 }
 
-/// Rows keeping each control point on the free side of each collider plane at steps 1..T:
-/// `n·(p_k⁰ + Σ_{s<t} u_{s,k} − q) ≥ 0`.
-fn collider_rows(model: &Model) -> Vec<LinearRow> {
-    let planes = &model.colliders.planes;
-    let (horizon, k) = (model.task.horizon, model.n_controls());
-    let mut rows = Vec::new();
-    for plane in planes {
-        for (c, &p) in model.controls.as_slice().iter().enumerate() {
-            let start: f64 = (0..3)
-                .map(|j| plane.normal[j] * (model.rest.get(p, j) - plane.point[j]))
-                .sum();
-            for t in 1..=horizon {
-                let coeffs = (0..t)
-                    .flat_map(|s| (0..3).map(move |j| (s * 3 * k + 3 * c + j, plane.normal[j])))
-                    .collect();
-                rows.push(LinearRow {
-                    coeffs,
-                    offset: start,
-                });
-            }
-        }
-    }
-    rows
-}
-
 impl Problem for TrajectoryProblem<'_> {
     fn num_variables(&self) -> usize {
         self.model.task.horizon * 3 * self.model.n_controls()
     }
 
     fn num_inequalities(&self) -> usize {
-        self.safety_rows() + self.linear.len()
+        self.safety_rows() + self.strain_rows() + self.control.len() + self.linear.len()
     }
 
     fn initial_hessian(&self) -> Option<DenseMatrix> {
@@ -488,10 +565,15 @@ impl Problem for TrajectoryProblem<'_> {
     }
 
     fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
-        let k = self.safety_rows();
-        c[..k].copy_from_slice(&self.ensure_forward(x)?.safety);
-        for (ci, row) in c[k..].iter_mut().zip(&self.linear) {
-            *ci = row.offset + row.coeffs.iter().map(|&(j, a)| a * x[j]).sum::<f64>();
+        let (k, s) = (self.safety_rows(), self.strain_rows());
+        let forward = self.ensure_forward(x)?;
+        c[..k].copy_from_slice(&forward.safety);
+        c[k..k + s].copy_from_slice(&forward.strain);
+        let model = self.model;
+        let control = self.control.iter().map(|row| row.value(model, x));
+        let linear = self.linear.iter().map(|row| row.value(x));
+        for (ci, v) in c[k + s..].iter_mut().zip(control.chain(linear)) {
+            *ci = v;
         }
         Ok(())
     }

@@ -11,6 +11,7 @@
 //! - [`controls`]: the controls tensor viewed by (step, gripper);
 //! - [`model`]: a scene compiled to its effects; [`registry`]: constraint types scene files name; [`sim`]: time stepping; [`cost`], [`grad`]: costs
 //!   and gradients;
+//! - [`strain`]: edge strain;
 //! - [`newton`]: the converged (Newton) step and its implicit gradients, beside XPBD.
 
 pub mod coloring;
@@ -28,6 +29,7 @@ pub mod registry;
 pub mod scene;
 pub mod sdf;
 pub mod sim;
+pub mod strain;
 
 pub use controls::ControlsView;
 pub use error::ClothError;

@@ -10,8 +10,9 @@ use crate::error::ClothError;
 use crate::newton::terms::{ConstraintTerms, Terms};
 use crate::newton::Solver;
 use crate::projection::Projection;
-use crate::scene::{BendingModel, Obstacle, Scene, Stiffness};
+use crate::scene::{BendingModel, Limits, Obstacle, Scene, Stiffness};
 use crate::sdf::{Plane, SignedDistance, SphereSet, Union};
+use crate::strain::EdgeStrain;
 use autodiff::{DynRowFn, Real, RowFn, RowIndex, Tensor};
 use nalgebra::Vector3;
 use std::sync::Arc;
@@ -56,6 +57,8 @@ pub struct TaskSpec {
     pub beta: f64,
     /// Safety margin `δ`.
     pub delta: f64,
+    /// Robot limits (`task.limits`; empty when the scene sets none).
+    pub limits: Limits,
     /// Distance within which a target counts as reached at the final step (`task.tolerance`).
     pub tolerance: f64,
 }
@@ -87,6 +90,9 @@ pub struct Model {
     pub colliders: Union,
     /// The task.
     pub task: TaskSpec,
+    /// Edge strain `|x_i − x_j|/L₀ − 1` per stretch edge (`6 → 1`) with the edges' particles;
+    /// `None` when the cloth has no stretch edge of positive rest length.
+    pub strain: Option<(Arc<dyn DynRowFn>, Arc<RowIndex>)>,
     /// Bytes [`Model::gradients`] may keep in recordings for the backward pass (two at a time:
     /// one pulled back while the next is recorded). A step whose recording would not fit half of
     /// it is recorded in blocks of iterations from checkpoints of a plain forward sweep (one more
@@ -201,17 +207,29 @@ impl Model {
                 alpha: task.alpha,
                 beta: task.beta,
                 delta: task.delta,
+                limits: task.limits.clone(),
                 tolerance: scene.tolerance(),
             },
+            strain: None,
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
             solver: scene.physics.solver(),
         };
 
         let edges = mesh.stretch_edges();
-        let rest = edges
+        let rest: Vec<f64> = edges
             .iter()
             .map(|&[i, j]| model.rest_distance(i, j))
             .collect();
+        let (strained, strain_rest): (Vec<[usize; 2]>, Vec<f64>) = edges
+            .iter()
+            .zip(&rest)
+            .filter(|&(_, &l)| l > 0.0)
+            .map(|(&e, &l)| (e, l))
+            .unzip();
+        if !strained.is_empty() {
+            let f: Arc<dyn DynRowFn> = Arc::new(EdgeStrain { rest: strain_rest });
+            model.strain = Some((f, Arc::new(RowIndex::new(2, flatten(&strained)))));
+        }
         model.add_constraints(
             "stretch",
             Distance { rest },

@@ -429,6 +429,50 @@ pub struct Task {
     pub tolerance: Option<f64>,
     /// Initial guess for the controls.
     pub initial_controls: InitialControls,
+    /// Robot limits every plan must respect (default: none). Left out of the JSON when empty.
+    #[serde(default, skip_serializing_if = "Limits::is_empty")]
+    pub limits: Limits,
+}
+
+/// Robot limits on a plan (`task.limits`); every field is optional.
+///
+/// Grippers are the control particles; their absolute position at step `t` is the rest position
+/// plus the sum of the controls (per-step displacements) of steps `0..t`. Steps `1..=T` are
+/// constrained; step 0 (the rest state) must already satisfy the workspace and separation limits.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Limits {
+    /// Largest Euclidean gripper displacement per step (length units, > 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_step: Option<f64>,
+    /// Axis-aligned box every gripper stays in at every step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub workspace: Option<Workspace>,
+    /// `[min, max]` distance between every pair of grippers at every step (`0 ≤ min ≤ max`,
+    /// `max > 0`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gripper_separation: Option<[f64; 2]>,
+    /// Largest relative stretch `|x_i − x_j|/L₀ − 1` of any stretch edge at any step (> 0,
+    /// dimensionless: 0.1 is 10%).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_strain: Option<f64>,
+}
+
+impl Limits {
+    /// True when no limit is set.
+    pub fn is_empty(&self) -> bool {
+        *self == Limits::default()
+    }
+}
+
+/// An axis-aligned box `min ≤ p ≤ max` (per coordinate, length units).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Workspace {
+    /// Lower corner.
+    pub min: [f64; 3],
+    /// Upper corner.
+    pub max: [f64; 3],
 }
 
 /// Target position of one particle.
@@ -1005,6 +1049,73 @@ impl Scene {
                 }
             }
         }
+        self.validate_limits()
+    }
+
+    fn validate_limits(&self) -> Result<(), SceneError> {
+        let limits = &self.task.limits;
+        if let Some(step) = limits.max_step {
+            check_positive("task.limits.max_step", step)?;
+            check_coordinate("task.limits.max_step", step)?;
+        }
+        if let Some(strain) = limits.max_strain {
+            check_positive("task.limits.max_strain", strain)?;
+            check_coordinate("task.limits.max_strain", strain)?;
+        }
+        let rest = self.rest_positions();
+        let grippers: Vec<([usize; 2], [f64; 3])> = self
+            .controls
+            .iter()
+            .zip(self.control_indices())
+            .map(|(&rc, p)| (rc, rest[p]))
+            .collect();
+        if let Some(w) = &limits.workspace {
+            check_vec3("task.limits.workspace.min", &w.min)?;
+            check_vec3("task.limits.workspace.max", &w.max)?;
+            for j in 0..3 {
+                if w.min[j] > w.max[j] {
+                    return Err(invalid(
+                        format!("task.limits.workspace.min[{j}]"),
+                        format!("{} exceeds max[{j}] = {}", w.min[j], w.max[j]),
+                    ));
+                }
+            }
+            for ([r, c], p) in &grippers {
+                if (0..3).any(|j| p[j] < w.min[j] || p[j] > w.max[j]) {
+                    return Err(invalid(
+                        "task.limits.workspace",
+                        format!("control point ({r}, {c}) starts outside it, at {p:?}"),
+                    ));
+                }
+            }
+        }
+        if let Some([lo, hi]) = limits.gripper_separation {
+            let field = "task.limits.gripper_separation";
+            check_non_negative(&format!("{field}[0]"), lo)?;
+            check_coordinate(&format!("{field}[0]"), lo)?;
+            check_positive(&format!("{field}[1]"), hi)?;
+            check_coordinate(&format!("{field}[1]"), hi)?;
+            if lo > hi {
+                return Err(invalid(
+                    field,
+                    format!("min {lo} exceeds max {hi} (expected [min, max])"),
+                ));
+            }
+            for (a, (ra, pa)) in grippers.iter().enumerate() {
+                for (rb, pb) in &grippers[a + 1..] {
+                    let d = norm(&[pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]]);
+                    if d < lo || d > hi {
+                        return Err(invalid(
+                            field,
+                            format!(
+                                "control points ({}, {}) and ({}, {}) start {d} apart, outside [{lo}, {hi}]",
+                                ra[0], ra[1], rb[0], rb[1]
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
         Ok(())
     }
 
@@ -1496,6 +1607,71 @@ mod tests {
     );
 
     // --- parse errors (serde names the field) ---
+    // --- task.limits ---
+    rejects!(
+        max_step_zero,
+        "task.limits.max_step",
+        "must be positive",
+        |v| v["task"]["limits"] = json!({"max_step": 0.0})
+    );
+    rejects!(
+        max_strain_negative,
+        "task.limits.max_strain",
+        "must be positive",
+        |v| v["task"]["limits"] = json!({"max_strain": -0.1})
+    );
+    rejects!(
+        workspace_inverted,
+        "task.limits.workspace.min[2]",
+        "exceeds max[2]",
+        |v| v["task"]["limits"] = json!({"workspace": {"min": [-5, -5, 3], "max": [5, 5, 1]}})
+    );
+    rejects!(
+        workspace_excludes_start,
+        "task.limits.workspace",
+        "control point (0, 0) starts outside it",
+        |v| v["task"]["limits"] = json!({"workspace": {"min": [-5, -5, 2.5], "max": [5, 5, 5]}})
+    );
+    rejects!(
+        separation_inverted,
+        "task.limits.gripper_separation",
+        "min 2 exceeds max 1",
+        |v| v["task"]["limits"] = json!({"gripper_separation": [2.0, 1.0]})
+    );
+    rejects!(
+        separation_max_zero,
+        "task.limits.gripper_separation[1]",
+        "must be positive",
+        |v| v["task"]["limits"] = json!({"gripper_separation": [0.0, 0.0]})
+    );
+    rejects!(
+        separation_excludes_start,
+        "task.limits.gripper_separation",
+        "start 1 apart",
+        |v| v["task"]["limits"] = json!({"gripper_separation": [0.2, 0.5]})
+    );
+    rejects_struct!(max_step_nan, "task.limits.max_step", "finite", |s| s
+        .task
+        .limits
+        .max_step =
+        Some(f64::NAN));
+
+    #[test]
+    fn limits_round_trip_and_reject_unknown_fields() {
+        let mut v = base_value();
+        v["task"]["limits"] = json!({"max_step": 0.5, "max_strain": 0.5});
+        let scene = Scene::from_json_str(&v.to_string()).expect("valid");
+        assert_eq!(scene.task.limits.max_step, Some(0.5));
+        assert_eq!(scene.task.limits.workspace, None);
+        let back = Scene::from_json_str(&scene.to_json_pretty()).expect("round trip");
+        assert_eq!(back, scene);
+        // No limits: the field is left out, so limit-free scenes print as before.
+        let plain = Scene::builtin("u_obstacle").expect("builtin");
+        assert!(!plain.to_json_pretty().contains("limits"));
+        let msg = parse_error_after(|v| v["task"]["limits"] = json!({"max_speed": 1.0}));
+        assert!(msg.contains("max_speed"), "{msg}");
+    }
+
     #[test]
     fn unknown_top_level_field() {
         let msg = parse_error_after(|v| {
