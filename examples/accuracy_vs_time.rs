@@ -12,6 +12,8 @@
 //!
 //! `cargo run --release --example accuracy_vs_time [-- --out FILE --png-dir DIR --quick --jax PYTHON]`
 
+mod support;
+
 use anyhow::{anyhow, ensure, Context, Result};
 use autodiff::Tensor;
 use clap::{Parser, Subcommand};
@@ -318,14 +320,6 @@ fn time_runs<T>(reps: usize, budget_s: f64, mut f: impl FnMut() -> Result<T>) ->
     })
 }
 
-/// A `/proc/self/status` field in kB (`VmHWM`, `VmRSS`); `None` where there is no procfs.
-fn proc_status_kb(field: &str) -> Option<f64> {
-    let text = std::fs::read_to_string("/proc/self/status").ok()?;
-    text.lines()
-        .find_map(|l| l.strip_prefix(field)?.strip_prefix(':'))
-        .and_then(|v| v.split_whitespace().next()?.parse().ok())
-}
-
 fn rel_err(a: &Tensor, b: &Tensor) -> f64 {
     let diff: f64 = a
         .data()
@@ -393,14 +387,14 @@ fn measure_mesh(
     let start = plan::initial_controls(&scene, &model)?;
     let delta = scene.task.delta;
     let row = pool.install(|| -> Result<MeshRow> {
-        let hwm0 = proc_status_kb("VmHWM");
+        let hwm0 = support::proc_status_kb("VmHWM");
         let mut l = f64::NAN;
         let fg = time_runs(reps, budget_s, || {
             let ev = model.evaluate_loss_gradient(&start, delta)?;
             l = ev.metrics.l;
             Ok(ev)
         })?;
-        let hwm1 = proc_status_kb("VmHWM");
+        let hwm1 = support::proc_status_kb("VmHWM");
         let fwd = time_runs(reps, budget_s, || Ok(model.evaluate(&start, delta, false)?))?;
         Ok(MeshRow {
             scene: "u_obstacle".into(),
@@ -598,26 +592,10 @@ struct JaxOut {
     grad_l: Vec<Vec<[f64; 3]>>,
 }
 
-/// Runs `python script SCENE n n_iter` and parses its JSON line.
+/// Runs the JAX reference for `scene` at mesh size `n`.
 fn run_jax(python: &Path, script: &Path, scene: &str, n: usize, n_iter: usize) -> Result<JaxOut> {
     let code = if scene == "u_obstacle" { "U" } else { scene };
-    let out = Command::new(python)
-        .arg(script)
-        .args([code, &n.to_string(), &n_iter.to_string()])
-        .output()
-        .with_context(|| format!("cannot run {}", python.display()))?;
-    ensure!(
-        out.status.success(),
-        "JAX benchmark failed: {}",
-        String::from_utf8_lossy(&out.stderr).trim()
-    );
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text
-        .lines()
-        .rev()
-        .find(|l| l.trim_start().starts_with('{'))
-        .ok_or_else(|| anyhow!("the JAX benchmark printed no JSON"))?;
-    Ok(serde_json::from_str(line)?)
+    support::run_jax(python, script, code, n, n_iter)
 }
 
 fn fmt_opt(v: Option<f64>, prec: usize) -> String {

@@ -10,6 +10,8 @@
 //! (VmHWM) is its own. Every scene's description says whether it is achievable; the table
 //! compares that with what the planner reports.
 
+mod support;
+
 use anyhow::{ensure, Context, Result};
 use clap::{Parser, Subcommand};
 use cloth::{Model, Scene};
@@ -201,18 +203,10 @@ fn plan_one(file: &Path, search: SearchMode, result_path: &Path) -> Result<()> {
     };
     let result = plan_with_search(&model, &scene, &start, &options, &search, |_| {})?;
     plan::write_json_atomic(result_path, &result)?;
-    if let Some(kb) = proc_status_kb("VmHWM") {
+    if let Some(kb) = support::proc_status_kb("VmHWM") {
         println!("{:.1}", kb / 1024.0);
     }
     Ok(())
-}
-
-/// A `/proc/self/status` field in kB; `None` where there is no procfs.
-fn proc_status_kb(field: &str) -> Option<f64> {
-    let text = std::fs::read_to_string("/proc/self/status").ok()?;
-    text.lines()
-        .find_map(|l| l.strip_prefix(field)?.strip_prefix(':'))
-        .and_then(|v| v.split_whitespace().next()?.parse().ok())
 }
 
 fn draw(scene: &Scene, result: &PlanResult, dir: &Path) -> Result<()> {

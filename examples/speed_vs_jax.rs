@@ -11,7 +11,9 @@
 //! JAX is not a dependency of this workspace: without a Python that can `import jax`, the example
 //! prints our times, says so, and exits with success.
 
-use anyhow::{anyhow, ensure, Context, Result};
+mod support;
+
+use anyhow::Result;
 use clap::Parser;
 use cloth::{Model, Scene};
 use serde::Deserialize;
@@ -85,23 +87,7 @@ fn jax_available(python: &Path) -> bool {
 
 /// Runs the JAX benchmark at mesh size `n` and parses its JSON line.
 fn jax(python: &Path, script: &Path, n: usize) -> Result<JaxOut> {
-    let out = Command::new(python)
-        .arg(script)
-        .args(["U", &n.to_string(), &ITERATIONS.to_string()])
-        .output()
-        .with_context(|| format!("cannot run {}", python.display()))?;
-    ensure!(
-        out.status.success(),
-        "the JAX benchmark failed: {}",
-        String::from_utf8_lossy(&out.stderr).trim()
-    );
-    let text = String::from_utf8_lossy(&out.stdout);
-    let line = text
-        .lines()
-        .rev()
-        .find(|l| l.trim_start().starts_with('{'))
-        .ok_or_else(|| anyhow!("the JAX benchmark printed no JSON"))?;
-    Ok(serde_json::from_str(line)?)
+    support::run_jax(python, script, "U", n, ITERATIONS)
 }
 
 fn main() -> Result<()> {

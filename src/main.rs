@@ -465,10 +465,10 @@ fn run(cli: Cli) -> Result<i32> {
             if no_timing {
                 result.drop_timing();
             }
-            cli_summary::print_summary(&result, no_timing);
             if let Some(warning) = plan::strain_warning(&model, &result) {
-                eprintln!("{warning}");
+                result.warnings.push(warning);
             }
+            cli_summary::print_summary(&result, no_timing);
             if let Some(out) = &out {
                 plan::write_json_atomic(out, &result)?;
             }

@@ -432,9 +432,7 @@ pub fn plan(
     let mut watch = watch.into_inner();
     let status = match watch.stopped {
         Some(reason) => {
-            if let Some((_, x)) = watch.best.take() {
-                solution.x = x;
-            }
+            let found = watch.best.take().map(|(_, x)| solution.x = x).is_some();
             let mut c = vec![0.0; problem.num_inequalities()];
             problem
                 .inequalities(&solution.x, &mut c)
@@ -443,12 +441,17 @@ pub fn plan(
             solution.kkt_residual = f64::NAN;
             solution.multipliers = Default::default();
             solution.message = format!(
-                "{} after {} iterations; returning the best feasible iterate seen",
+                "{} after {} iterations; {}",
                 match reason {
                     crate::anytime::StopReason::TimeLimit => "time limit reached",
                     crate::anytime::StopReason::Interrupted => "interrupted",
                 },
-                warm_iterations + solution.iterations
+                warm_iterations + solution.iterations,
+                if found {
+                    "returning the best feasible iterate seen"
+                } else {
+                    "no feasible iterate was seen, returning the last one"
+                }
             );
             reason.status().to_string()
         }
@@ -615,7 +618,7 @@ pub fn strain_warning(model: &Model, result: &PlanResult) -> Option<String> {
         .position(|&s| s == strain.max)
         .unwrap_or(0);
     Some(format!(
-        "warning: the plan stretches an edge to {:.2}× its rest length (strain {:.1}% at step {step}, \
+        "the plan stretches an edge to {:.2}× its rest length (strain {:.1}% at step {step}, \
          above {:.0}%); set task.limits.max_strain to bound it",
         1.0 + strain.max,
         100.0 * strain.max,

@@ -466,7 +466,10 @@ impl Model {
     ) -> Result<RecordedRollout, ClothError> {
         let horizon = self.task.horizon;
         let lower_bound = horizon * self.iterations.max(1) * self.recorded_bytes_per_iteration();
-        if costs.is_empty() || lower_bound > self.checkpoint_budget {
+        // Newton steps are differentiated implicitly ([`Model::gradients`] dispatches), not by
+        // recording their iterations.
+        let newton = matches!(self.solver, crate::newton::Solver::Newton(_));
+        if newton || costs.is_empty() || lower_bound > self.checkpoint_budget {
             return Ok(RecordedRollout {
                 states: self.simulate(controls)?,
                 recordings: None,
