@@ -65,14 +65,20 @@ pub fn propose(
 ) -> Vec<Candidate> {
     let geometry = Geometry::new(model, delta);
     let straight = geometry.straight_paths();
-    let bases = [
-        ("initial guess", paths_of(model, initial)),
-        ("straight", straight.clone()),
-    ];
-    let mut out = vec![Candidate {
-        route: "straight".into(),
-        controls: controls_of(&straight),
-    }];
+    // The initial guess and the straight path; one of them when they coincide (to rounding).
+    let guess = paths_of(model, initial);
+    let mut bases = vec![("initial guess", guess.clone())];
+    if !same_paths(&guess, &straight) {
+        bases.push(("straight", straight.clone()));
+    }
+    // The straight path itself, unless it is the initial guess (already planned first).
+    let mut out = Vec::new();
+    if bases.len() > 1 {
+        out.push(Candidate {
+            route: "straight".into(),
+            controls: controls_of(&straight),
+        });
+    }
     // Detours per base path, ordered by rank (best direction per segment first).
     let mut detours: Vec<Vec<Candidate>> = Vec::new();
     for (name, base) in &bases {
@@ -323,6 +329,17 @@ fn offset_paths(base: &Paths, segments: &[(usize, usize, [f64; 3])]) -> Paths {
             row.iter().map(|&p| add(p, o)).collect()
         })
         .collect()
+}
+
+/// True when two gripper paths agree to 1e-9 of their largest coordinate.
+fn same_paths(a: &Paths, b: &Paths) -> bool {
+    let points = || a.iter().chain(b).flatten().flatten();
+    let scale = points().fold(0.0, |m: f64, v| m.max(v.abs()));
+    a.len() == b.len()
+        && a.iter()
+            .flatten()
+            .zip(b.iter().flatten())
+            .all(|(p, q)| p.iter().zip(q).all(|(x, y)| (x - y).abs() <= 1e-9 * scale))
 }
 
 /// Maximal runs of consecutive step numbers, as `(first, last)`.
