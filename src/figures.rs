@@ -20,7 +20,7 @@ pub struct RolloutFigure {
 
 impl RolloutFigure {
     /// The rollout `states` (`T + 1` frames) of `model` on a `grid` cloth: the initial, a middle and
-    /// the final frame, the control paths, the safety spheres grown by `delta` (if any), the
+    /// the final frame (labelled with their largest edge strain), the control paths, the safety spheres grown by `delta` (if any), the
     /// targets and a horizontal collider plane (if any).
     pub fn new(
         model: &Model,
@@ -33,9 +33,20 @@ impl RolloutFigure {
         let last = states.len().saturating_sub(1);
         let mut picks = vec![0, last / 2, last];
         picks.dedup();
+        // Each frame's label gives its largest edge strain (|x_i − x_j|/L₀ − 1), so a figure shows
+        // how far a plan stretches the cloth.
+        let strain = model.max_strain_per_step(states);
         let frames = picks
             .iter()
-            .map(|&t| (points(&states[t]), format!("step {t}")))
+            .map(|&t| {
+                let label = match strain.get(t) {
+                    Some(s) if model.groups.iter().any(|g| g.name == "stretch") => {
+                        format!("step {t}, max strain {:.0}%", 100.0 * s)
+                    }
+                    _ => format!("step {t}"),
+                };
+                (points(&states[t]), label)
+            })
             .collect();
         let control_paths = model
             .controls
@@ -155,5 +166,20 @@ mod tests {
         assert_eq!(safety.len(), 18);
         assert_eq!(spheres_with_role(ObstacleRole::Both), safety);
         assert_eq!(spheres_with_role(ObstacleRole::Collider), safety);
+    }
+
+    #[test]
+    fn frame_labels_give_the_largest_edge_strain_of_their_step() {
+        let scene = Scene::builtin("u_obstacle").unwrap();
+        let model = Model::from_scene(&scene).unwrap();
+        let u = crate::plan::initial_controls(&scene, &model).unwrap();
+        let states = model.simulate(&u).unwrap();
+        let figure = RolloutFigure::new(&model, (10, 10), &states, "t", None);
+        let strain = model.max_strain_per_step(&states);
+        let labels: Vec<&str> = figure.frames.iter().map(|(_, l)| l.as_str()).collect();
+        assert_eq!(labels[0], "step 0, max strain 0%");
+        let last = format!("step 10, max strain {:.0}%", 100.0 * strain[10]);
+        assert_eq!(labels[2], last);
+        assert!(strain[10] > 0.0);
     }
 }
