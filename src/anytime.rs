@@ -26,6 +26,17 @@ impl StopReason {
     }
 }
 
+/// The best feasible iterate of a run so far.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Best {
+    /// Its objective.
+    pub objective: f64,
+    /// The point.
+    pub x: Vec<f64>,
+    /// Its constraint violation (at most the feasibility tolerance).
+    pub violation: f64,
+}
+
 /// Watches the iterations of a run: keeps the best feasible iterate (lowest objective among those
 /// whose violation is within the feasibility tolerance) and stops the run at the deadline or when
 /// the stop flag is raised. Once stopped, it stops every later stage at its first iteration.
@@ -34,8 +45,8 @@ pub struct Watch {
     deadline: Option<Instant>,
     stop: Option<Arc<AtomicBool>>,
     tol_feasibility: f64,
-    /// Objective and point of the best feasible iterate so far.
-    pub best: Option<(f64, Vec<f64>)>,
+    /// The best feasible iterate so far.
+    pub best: Option<Best>,
     /// Why the run was stopped, if it was.
     pub stopped: Option<StopReason>,
 }
@@ -77,9 +88,16 @@ impl Watch {
         let feasible = info.constraint_violation <= self.tol_feasibility;
         if feasible
             && info.objective.is_finite()
-            && self.best.as_ref().is_none_or(|(f, _)| info.objective < *f)
+            && self
+                .best
+                .as_ref()
+                .is_none_or(|b| info.objective < b.objective)
         {
-            self.best = Some((info.objective, info.x.clone()));
+            self.best = Some(Best {
+                objective: info.objective,
+                x: info.x.clone(),
+                violation: info.constraint_violation,
+            });
         }
         if self.stopped.is_none() {
             self.stopped = self.expired();
@@ -118,11 +136,17 @@ mod tests {
         assert!(w.observe(&info(5.0, 0.0, 1.0)).is_continue());
         assert!(w.observe(&info(1.0, 0.5, 2.0)).is_continue()); // infeasible: not kept
         assert!(w.observe(&info(3.0, 1e-7, 3.0)).is_continue());
-        assert_eq!(w.best, Some((3.0, vec![3.0])));
+        assert_eq!(
+            w.best.as_ref().map(|b| (b.objective, b.x.clone())),
+            Some((3.0, vec![3.0]))
+        );
         flag.store(true, Ordering::Relaxed);
         assert!(w.observe(&info(9.0, 0.0, 4.0)).is_break());
         assert_eq!(w.stopped, Some(StopReason::Interrupted));
-        assert_eq!(w.best, Some((3.0, vec![3.0])));
+        assert_eq!(
+            w.best.as_ref().map(|b| (b.objective, b.x.clone())),
+            Some((3.0, vec![3.0]))
+        );
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! seconds on stderr otherwise, a one-line estimate when the run is likely to take minutes, and
 //! the best feasible plan so far written to `--out` every few seconds.
 
+use clothopt::anytime::Watch;
 use indicatif::{ProgressBar, ProgressStyle};
 use optim::IterationInfo;
 use std::io::IsTerminal;
@@ -24,9 +25,8 @@ pub struct Reporter {
     estimated: bool,
     /// Iteration budget of the whole run (all κ stages), for the estimate.
     budget: usize,
-    tol_feasibility: f64,
-    /// Best feasible iterate: objective, point, violation, iterations so far.
-    best: Option<(f64, Vec<f64>, f64)>,
+    /// Keeps the best feasible iterate (no deadline or stop flag: `plan` enforces those).
+    watch: Watch,
     seen: usize,
     unsaved: bool,
 }
@@ -56,8 +56,7 @@ impl Reporter {
             last_write: now,
             estimated: false,
             budget,
-            tol_feasibility,
-            best: None,
+            watch: Watch::new(None, None, tol_feasibility),
             seen: 0,
             unsaved: false,
         }
@@ -68,10 +67,9 @@ impl Reporter {
     pub fn iteration(&mut self, info: &IterationInfo, save: &mut dyn FnMut(&[f64], f64, usize)) {
         self.seen += 1;
         let elapsed = self.start.elapsed();
-        if info.constraint_violation <= self.tol_feasibility
-            && self.best.as_ref().is_none_or(|b| info.objective < b.0)
-        {
-            self.best = Some((info.objective, info.x.clone(), info.constraint_violation));
+        let before = self.watch.best.as_ref().map(|b| b.objective);
+        let _ = self.watch.observe(info);
+        if self.watch.best.as_ref().map(|b| b.objective) != before {
             self.unsaved = true;
         }
         if self.verbose {
@@ -121,8 +119,8 @@ impl Reporter {
             );
         }
         if self.unsaved && now - self.last_write >= EVERY {
-            if let Some((_, x, violation)) = &self.best {
-                save(x, *violation, self.seen);
+            if let Some(best) = &self.watch.best {
+                save(&best.x, best.violation, self.seen);
             }
             self.last_write = now;
             self.unsaved = false;

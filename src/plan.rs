@@ -432,7 +432,7 @@ pub fn plan(
     let mut watch = watch.into_inner();
     let status = match watch.stopped {
         Some(reason) => {
-            let found = watch.best.take().map(|(_, x)| solution.x = x).is_some();
+            let found = watch.best.take().map(|b| solution.x = b.x).is_some();
             let mut c = vec![0.0; problem.num_inequalities()];
             problem
                 .inequalities(&solution.x, &mut c)
@@ -458,10 +458,7 @@ pub fn plan(
         None => solution.status.name().to_string(),
     };
     let controls = problem.controls(&solution.x);
-    let mut scored = model.clone();
-    scored.task.alpha = options.task.alpha;
-    scored.task.beta = options.task.beta;
-    let evaluation = scored.evaluate(&controls, options.task.delta, false)?;
+    let evaluation = rescore(model, &controls, options)?;
     let (active_safety, active_other) = active_groups(&mut problem, &solution)?;
     let safe = !matches!(solution.status, Status::Infeasible { .. })
         && solution.constraint_violation <= options.tol_feasibility
@@ -528,6 +525,19 @@ pub fn plan(
     })
 }
 
+/// The rollout of `controls` with the run's weights and margin (not the scene's): what a result
+/// reports.
+fn rescore(
+    model: &Model,
+    controls: &Controls,
+    options: &PlanOptions,
+) -> anyhow::Result<cloth::grad::Evaluation> {
+    let mut scored = model.clone();
+    scored.task.alpha = options.task.alpha;
+    scored.task.beta = options.task.beta;
+    Ok(scored.evaluate(controls, options.task.delta, false)?)
+}
+
 /// The result of controls `x` (flattened `T × 3K`) of a run still under way: status `running`,
 /// the metrics and task verdict of their rollout, `iterations` so far. The CLI writes it as the
 /// best-so-far file; `violation` is the optimizer's row violation at `x`.
@@ -540,10 +550,7 @@ pub fn snapshot(
     options: &PlanOptions,
 ) -> anyhow::Result<PlanResult> {
     let controls = Tensor::new(model.task.horizon, 3 * model.n_controls(), x.to_vec());
-    let mut scored = model.clone();
-    scored.task.alpha = options.task.alpha;
-    scored.task.beta = options.task.beta;
-    let evaluation = scored.evaluate(&controls, options.task.delta, false)?;
+    let evaluation = rescore(model, &controls, options)?;
     let safe = violation <= options.tol_feasibility && is_safe(&evaluation.metrics);
     let final_state = evaluation
         .states

@@ -37,10 +37,21 @@ fn the_deepest_start_intrusion_is_found_per_obstacle() {
         e.contains("obstacles[0] (spheres), sphere 1") && e.contains("0.0500"),
         "{e}"
     );
-    // Outside the sphere but inside δ: a warning, not an error.
-    let (error, warnings) = judge_start(&scene, 0.0);
-    assert!(error.is_some());
-    assert!(warnings.is_empty());
+    // Moved 0.1 down, the sphere is 0.05 outside the particle: inside δ = 0.1, a warning naming
+    // the distance, not an error; with δ = 0.01 nothing at all.
+    let mut outside = scene.clone();
+    if let Obstacle::Spheres(set) = &mut outside.obstacles[0] {
+        set.centers[1][2] = 0.75;
+    }
+    let (error, warnings) = judge_start(&outside, 0.1);
+    assert!(error.is_none(), "{error:?}");
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0].contains("starts 0.0500 from obstacles[0] (spheres), sphere 1"),
+        "{}",
+        warnings[0]
+    );
+    assert_eq!(judge_start(&outside, 0.01), (None, Vec::new()));
 }
 
 #[test]
