@@ -14,5 +14,6 @@ pub mod outcome;
 pub mod plan;
 pub mod plot;
 pub mod problem;
+pub mod request;
 pub mod search;
 pub mod start_check;

@@ -9,7 +9,8 @@ use clothopt::plan::{
     ensure_positive_or_infinite, initial_controls, PlanOptions, SolverKind,
 };
 use clothopt::problem::SafetyForm;
-use clothopt::search::{plan_with_search, SearchMode, SearchOptions};
+use clothopt::request::{error_chain, OptimizeRequest};
+use clothopt::search::{plan_with_search, SearchMode};
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -213,20 +214,18 @@ impl PhysicsArgs {
     }
 }
 
+/// The command-line spelling of a setting: `reuse_band` → `--reuse-band`.
+fn flag_name(field: &str) -> String {
+    format!("--{}", field.replace('_', "-"))
+}
+
 /// Applies `check` to a flag's value when the flag was given.
 fn check_flag(flag: &str, value: Option<f64>, check: fn(&str, f64) -> Result<()>) -> Result<()> {
     value.map_or(Ok(()), |v| check(flag, v))
 }
 
 fn load_scene(name: &str) -> Result<Scene> {
-    let path = Path::new(name);
-    if path.exists() || name.ends_with(".json") {
-        Ok(Scene::load(path)?)
-    } else {
-        // The error lists the built-in scenes itself.
-        Scene::builtin(name)
-            .map_err(|e| anyhow::anyhow!("{e}; or give the path of a scene JSON file"))
-    }
+    clothopt::request::load_scene(name)
 }
 
 /// A controls file, or any JSON object with a `controls` key (such as a result).
@@ -257,22 +256,6 @@ fn main() {
             std::process::exit(1);
         }
     }
-}
-
-/// The error and its causes joined by `: `, leaving out a cause whose text the message before it
-/// already contains (a `SceneError::Io` says its OS error itself and also returns it as its source).
-fn error_chain(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if out.is_empty() {
-            out = text;
-        } else if !out.contains(&text) {
-            out.push_str(": ");
-            out.push_str(&text);
-        }
-    }
-    out
 }
 
 /// Overrides the scene's solver sweeps per step (`physics.iterations`) by `--sweeps`, if given.
@@ -390,15 +373,24 @@ fn run(cli: Cli) -> Result<i32> {
             time_limit,
             physics,
         } => {
-            check_flag("--delta", delta, ensure_non_negative)?;
-            check_flag("--alpha", alpha, ensure_non_negative)?;
-            check_flag("--beta", beta, ensure_non_negative)?;
-            check_flag("--kappa", kappa, ensure_positive)?;
-            check_flag("--reuse-band", reuse_band, ensure_positive_or_infinite)?;
-            ensure_positive("--tol", tol)?;
-            ensure_positive("--feasibility-tol", feasibility_tol)?;
-            check_flag("--time-limit", time_limit, ensure_non_negative)?;
-            ensure_iterations("--iterations", iterations)?;
+            let request = OptimizeRequest {
+                delta,
+                alpha,
+                beta,
+                iterations,
+                safety,
+                swept,
+                kappa,
+                reuse_band,
+                solver,
+                search,
+                starts,
+                tol,
+                feasibility_tol,
+                allow_unsafe_start,
+                time_limit,
+            };
+            request.check(&flag_name)?;
             if let Some(n) = sweeps {
                 ensure_iterations("--sweeps", n)?;
             }
@@ -406,32 +398,8 @@ fn run(cli: Cli) -> Result<i32> {
             apply_sweeps(&mut scene, sweeps)?;
             physics.apply(&mut scene)?;
             let model = Model::from_scene(&scene)?;
-            let mut options = PlanOptions::for_model(&model);
-            options.iterations = iterations;
-            options.solver = solver;
-            if let Some(d) = delta {
-                options.task.delta = d;
-            }
-            options.task.alpha = alpha.unwrap_or(options.task.alpha);
-            options.task.beta = beta.unwrap_or(options.task.beta);
-            options.task.safety = model.safety.is_some().then_some(safety);
-            options.task.swept = swept;
-            options.tol_optimality = tol;
-            options.tol_feasibility = feasibility_tol;
-            options.allow_unsafe_start = allow_unsafe_start;
-            options.task.kappa = kappa.unwrap_or(options.task.kappa);
-            options.reuse_band = reuse_band.unwrap_or(options.reuse_band);
             let start = load_controls(&scene, &model, start.as_deref())?;
-            ensure_iterations("--starts", starts)?;
-            let search = SearchOptions {
-                mode: search,
-                max_candidates: starts,
-                random_starts: SearchOptions::default().random_starts.min(starts / 4),
-                ..SearchOptions::default()
-            };
-            if let Some(limit) = time_limit {
-                options.deadline = Some(std::time::Instant::now() + Duration::from_secs_f64(limit));
-            }
+            let (mut options, search) = request.options(&model, &flag_name)?;
             let stop = Arc::new(AtomicBool::new(false));
             options.stop = Some(stop.clone());
             // First Ctrl-C: stop the optimizer and write the best plan so far; a second one quits.

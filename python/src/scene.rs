@@ -1,0 +1,293 @@
+//! `clothopt.Scene`: a validated scene and its compiled model; simulate, differentiate, optimize.
+
+use crate::arrays::{controls_in, controls_out};
+use crate::errors::{bad_argument, to_py};
+use crate::results::{Plan, Rollout};
+use clap::ValueEnum;
+use clothopt::plan::{ensure_non_negative, initial_controls};
+use clothopt::problem::SafetyForm;
+use clothopt::request::{load_scene, OptimizeRequest};
+use clothopt::search::{plan_with_search, SearchMode};
+use cloth::Model;
+use numpy::{AllowTypeChange, PyArray3, PyArrayLikeDyn};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyType};
+
+/// Controls as the Python API takes them: any float array-like `(T, K, 3)` or `(T, 3K)`.
+type ControlsArg<'py> = PyArrayLikeDyn<'py, f64, AllowTypeChange>;
+
+/// A cloth scene (cloth, material, physics, obstacles, task), validated and compiled.
+///
+/// Build one with `Scene.load(name_or_path)` or `Scene.from_dict(d)`. Controls are float64 arrays
+/// of shape `(T, K, 3)`: one displacement per step `t` and control point `k`.
+#[pyclass(module = "clothopt", frozen)]
+pub struct Scene {
+    scene: cloth::Scene,
+    model: Model,
+}
+
+impl Scene {
+    fn new(scene: cloth::Scene) -> PyResult<Self> {
+        let model = Model::from_scene(&scene).map_err(|e| to_py(e.into()))?;
+        Ok(Scene { scene, model })
+    }
+
+    /// The given controls, or the scene's initial guess.
+    fn controls(&self, controls: Option<ControlsArg<'_>>) -> PyResult<cloth::Controls> {
+        match controls {
+            Some(c) => controls_in(&self.model, &c),
+            None => initial_controls(&self.scene, &self.model).map_err(|e| to_py(e.into())),
+        }
+    }
+
+    /// `delta`, checked, or the scene's own margin.
+    fn delta(&self, delta: Option<f64>) -> PyResult<f64> {
+        match delta {
+            Some(d) => {
+                ensure_non_negative("delta", d).map_err(bad_argument)?;
+                Ok(d)
+            }
+            None => Ok(self.scene.task.delta),
+        }
+    }
+}
+
+/// A `snake_case` choice (`"per_step"`, `"sqp"`, `"auto"`) of one of the CLI's value enums.
+fn choice<T: ValueEnum>(field: &str, value: &str) -> PyResult<T> {
+    let spelled = value.replace('_', "-");
+    T::from_str(&spelled, true).map_err(|_| {
+        let names: Vec<String> = T::value_variants()
+            .iter()
+            .filter_map(|v| v.to_possible_value())
+            .map(|p| format!("'{}'", p.get_name().replace('-', "_")))
+            .collect();
+        PyValueError::new_err(format!(
+            "{field}: must be one of {}, got '{value}'",
+            names.join(", ")
+        ))
+    })
+}
+
+#[pymethods]
+impl Scene {
+    /// Scene.load(name_or_path: str) -> Scene
+    ///
+    /// A built-in scene by name (see `clothopt.builtin_scenes()`), or a scene JSON file by path.
+    /// Raises ValueError for an invalid scene (the message names the field, e.g.
+    /// `task.horizon: must be at least 1`) or an unknown name, FileNotFoundError for a missing file.
+    #[classmethod]
+    fn load(_cls: &Bound<'_, PyType>, name_or_path: &str) -> PyResult<Self> {
+        let scene = load_scene(name_or_path).map_err(to_py)?;
+        Scene::new(scene)
+    }
+
+    /// Scene.from_dict(d: dict) -> Scene
+    ///
+    /// A scene from a dict in the scene JSON format (`docs/scene-format.md`), e.g. one from
+    /// `Scene.to_dict()` with a field changed. Raises ValueError naming the bad field.
+    #[classmethod]
+    fn from_dict(_cls: &Bound<'_, PyType>, d: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let py = d.py();
+        let text: String = py
+            .import("json")?
+            .call_method1("dumps", (d,))?
+            .extract()?;
+        let scene = cloth::Scene::from_json_str(&text).map_err(|e| to_py(e.into()))?;
+        Scene::new(scene)
+    }
+
+    /// to_dict() -> dict: the scene in the scene JSON format.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        py.import("json")?
+            .call_method1("loads", (self.scene.to_json_pretty(),))
+    }
+
+    /// The scene's name.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.scene.name
+    }
+
+    /// Number of steps `T` of the horizon.
+    #[getter]
+    fn horizon(&self) -> usize {
+        self.model.task.horizon
+    }
+
+    /// Number of cloth particles `N`.
+    #[getter]
+    fn n_particles(&self) -> usize {
+        self.model.n_particles()
+    }
+
+    /// Number of control points `K` (grippers).
+    #[getter]
+    fn n_controls(&self) -> usize {
+        self.model.n_controls()
+    }
+
+    /// The scene's safety margin δ.
+    #[getter]
+    fn delta_default(&self) -> f64 {
+        self.scene.task.delta
+    }
+
+    /// Shape `(T, K, 3)` of the controls.
+    #[getter]
+    fn controls_shape(&self) -> (usize, usize, usize) {
+        (self.model.task.horizon, self.model.n_controls(), 3)
+    }
+
+    /// initial_controls() -> ndarray (T, K, 3): the scene's initial guess.
+    fn initial_controls<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let c = self.controls(None)?;
+        Ok(controls_out(py, &c))
+    }
+
+    /// simulate(controls=None, delta=None) -> Rollout
+    ///
+    /// Simulates `controls` (array-like `(T, K, 3)`; default the initial guess) and evaluates the
+    /// metrics with safety margin `delta` (default the scene's). The rollout's `states` are
+    /// `(T+1, N, 3)`, the first the rest state. The GIL is released while it runs.
+    #[pyo3(signature = (controls=None, delta=None))]
+    fn simulate(
+        &self,
+        py: Python<'_>,
+        controls: Option<ControlsArg<'_>>,
+        delta: Option<f64>,
+    ) -> PyResult<Rollout> {
+        let u = self.controls(controls)?;
+        let delta = self.delta(delta)?;
+        let ev = py
+            .detach(|| self.model.evaluate(&u, delta, false))
+            .map_err(|e| to_py(e.into()))?;
+        Ok(Rollout::new(py, &ev.metrics, &u, &ev.states, delta))
+    }
+
+    /// grad(controls=None, delta=None) -> (values, dL_dU, dC_dU)
+    ///
+    /// The CLI's `grad`: `values` is a dict with `L`, `G`, `T`, `E`, `C`, `min_sdf` (float);
+    /// `dL_dU` and `dC_dU` are the gradients of `L = G + αT + βE` and of the safety measure `C`
+    /// with respect to the controls, each `(T, K, 3)` float64 (`dC_dU` is zero for a scene
+    /// without safety obstacles, where `C` is 0). The GIL is released while it runs.
+    #[pyo3(signature = (controls=None, delta=None))]
+    fn grad<'py>(
+        &self,
+        py: Python<'py>,
+        controls: Option<ControlsArg<'py>>,
+        delta: Option<f64>,
+    ) -> PyResult<(
+        Bound<'py, PyDict>,
+        Bound<'py, PyArray3<f64>>,
+        Bound<'py, PyArray3<f64>>,
+    )> {
+        let u = self.controls(controls)?;
+        let delta = self.delta(delta)?;
+        let ev = py
+            .detach(|| self.model.evaluate(&u, delta, true))
+            .map_err(|e| to_py(e.into()))?;
+        let m = ev.metrics;
+        let values = PyDict::new(py);
+        for (k, v) in [
+            ("L", m.l),
+            ("G", m.g),
+            ("T", m.t),
+            ("E", m.e),
+            ("C", m.c),
+            ("min_sdf", m.min_sdf),
+        ] {
+            values.set_item(k, v)?;
+        }
+        let zero = || autodiff::Tensor::zeros(u.rows(), u.cols());
+        let grad_l = ev.grad_l.unwrap_or_else(zero);
+        let grad_c = ev.grad_c.unwrap_or_else(zero);
+        Ok((values, controls_out(py, &grad_l), controls_out(py, &grad_c)))
+    }
+
+    /// optimize(delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp",
+    /// search="auto", starts=6, safety="per_step", swept=False, kappa=None, reuse_band=None,
+    /// tol=1e-4, feasibility_tol=1e-8, allow_unsafe_start=False, time_limit=None, start=None,
+    /// timing=True) -> Plan
+    ///
+    /// Plans the scene's task exactly as `clothopt optimize` does (same defaults; `None` takes
+    /// the scene's value): `solver` is "sqp" or "lbfgs", `search` "auto", "always" or "off",
+    /// `safety` "per_step", "aggregate" or "scalar"; `start` the starting controls
+    /// `(T, K, 3)` (default the initial guess); `time_limit` in seconds; `timing=False` leaves the
+    /// wall-clock time out of the result (as `--no-timing`). Raises ValueError for a bad setting
+    /// (named as here, e.g. `delta must be a finite number ≥ 0, got -1`). The GIL is released
+    /// while it runs.
+    #[pyo3(signature = (
+        delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp", search="auto",
+        starts=6, safety="per_step", swept=false, kappa=None, reuse_band=None, tol=1e-4,
+        feasibility_tol=clothopt::plan::FEASIBILITY_TOLERANCE, allow_unsafe_start=false,
+        time_limit=None, start=None, timing=true
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn optimize(
+        &self,
+        py: Python<'_>,
+        delta: Option<f64>,
+        alpha: Option<f64>,
+        beta: Option<f64>,
+        iterations: usize,
+        solver: &str,
+        search: &str,
+        starts: usize,
+        safety: &str,
+        swept: bool,
+        kappa: Option<f64>,
+        reuse_band: Option<f64>,
+        tol: f64,
+        feasibility_tol: f64,
+        allow_unsafe_start: bool,
+        time_limit: Option<f64>,
+        start: Option<ControlsArg<'_>>,
+        timing: bool,
+    ) -> PyResult<Plan> {
+        let request = OptimizeRequest {
+            delta,
+            alpha,
+            beta,
+            iterations,
+            safety: choice::<SafetyForm>("safety", safety)?,
+            swept,
+            kappa,
+            reuse_band,
+            solver: choice("solver", solver)?,
+            search: choice::<SearchMode>("search", search)?,
+            starts,
+            tol,
+            feasibility_tol,
+            allow_unsafe_start,
+            time_limit,
+        };
+        let field = |f: &str| f.to_string();
+        request.check(&field).map_err(bad_argument)?;
+        let u = self.controls(start)?;
+        let (options, search) = request.options(&self.model, &field).map_err(bad_argument)?;
+        let mut result = py
+            .detach(|| plan_with_search(&self.model, &self.scene, &u, &options, &search, |_| {}))
+            .map_err(to_py)?;
+        if !timing {
+            result.drop_timing();
+        }
+        if let Some(warning) = clothopt::plan::strain_warning(&self.model, &result) {
+            result.warnings.push(warning);
+        }
+        Ok(Plan::new(result))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Scene(name={:?}, grid=({}, {}), horizon={}, controls={}, delta={}, effects={:?})",
+            self.scene.name,
+            self.scene.cloth.rows,
+            self.scene.cloth.cols,
+            self.model.task.horizon,
+            self.model.n_controls(),
+            self.scene.task.delta,
+            self.model.effects()
+        )
+    }
+}

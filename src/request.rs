@@ -1,0 +1,164 @@
+//! What a caller asks of a run, shared by the CLI and the Python package: a scene by name or
+//! path ([`load_scene`]), and the `optimize` settings ([`OptimizeRequest`]) checked and turned into
+//! [`PlanOptions`] and [`SearchOptions`]. Error messages name the setting the way the caller
+//! spells it (`--delta` on the command line, `delta` from Python).
+
+use crate::plan::{
+    ensure_iterations, ensure_non_negative, ensure_positive, ensure_positive_or_infinite,
+    PlanOptions, SolverKind, FEASIBILITY_TOLERANCE,
+};
+use crate::problem::SafetyForm;
+use crate::search::{SearchMode, SearchOptions};
+use cloth::{Model, Scene};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// A built-in scene by name, or a scene JSON file by path (an existing path, or any name ending
+/// in `.json`). An unknown name is an error listing the built-in scenes.
+pub fn load_scene(name_or_path: &str) -> anyhow::Result<Scene> {
+    let path = Path::new(name_or_path);
+    if path.exists() || name_or_path.ends_with(".json") {
+        Ok(Scene::load(path)?)
+    } else {
+        // The error lists the built-in scenes itself.
+        Scene::builtin(name_or_path).map_err(|e| {
+            // The scene error stays a cause, so a caller can tell a bad scene from other errors.
+            let text = format!("{e}; or give the path of a scene JSON file");
+            anyhow::Error::new(e).context(text)
+        })
+    }
+}
+
+/// The error and its causes joined by `: `, leaving out a cause whose text the message before it
+/// already contains (a `SceneError::Io` says its OS error itself and also returns it as its source).
+pub fn error_chain(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.is_empty() {
+            out = text;
+        } else if !out.contains(&text) {
+            out.push_str(": ");
+            out.push_str(&text);
+        }
+    }
+    out
+}
+
+/// The settings of an `optimize` run; `None` takes the scene's own value.
+#[derive(Clone, Debug)]
+pub struct OptimizeRequest {
+    /// Safety margin δ.
+    pub delta: Option<f64>,
+    /// Weight α of the trajectory irregularity.
+    pub alpha: Option<f64>,
+    /// Weight β of the elastic energy.
+    pub beta: Option<f64>,
+    /// Optimizer iteration limit per κ stage (default 200).
+    pub iterations: usize,
+    /// Form of the safety constraint (default per step).
+    pub safety: SafetyForm,
+    /// Also keep the straight paths between steps δ away.
+    pub swept: bool,
+    /// Sharpness κ of the soft minimum (default the planner's, 3000).
+    pub kappa: Option<f64>,
+    /// Jacobian reuse band (default off).
+    pub reuse_band: Option<f64>,
+    /// The solver (default SQP).
+    pub solver: SolverKind,
+    /// Route search mode (default auto).
+    pub search: SearchMode,
+    /// Most candidate routes of the search (default 6).
+    pub starts: usize,
+    /// Scaled KKT tolerance (default 1e-4).
+    pub tol: f64,
+    /// Feasibility tolerance (default [`FEASIBILITY_TOLERANCE`]).
+    pub feasibility_tol: f64,
+    /// Plan even when the cloth starts inside an obstacle.
+    pub allow_unsafe_start: bool,
+    /// Wall-clock limit in seconds.
+    pub time_limit: Option<f64>,
+}
+
+impl Default for OptimizeRequest {
+    /// The CLI's defaults.
+    fn default() -> Self {
+        OptimizeRequest {
+            delta: None,
+            alpha: None,
+            beta: None,
+            iterations: 200,
+            safety: SafetyForm::PerStep,
+            swept: false,
+            kappa: None,
+            reuse_band: None,
+            solver: SolverKind::Sqp,
+            search: SearchMode::Auto,
+            starts: 6,
+            tol: 1e-4,
+            feasibility_tol: FEASIBILITY_TOLERANCE,
+            allow_unsafe_start: false,
+            time_limit: None,
+        }
+    }
+}
+
+impl OptimizeRequest {
+    /// Checks every setting before any scene is read; an error names the setting as
+    /// `name(field)` spells it (e.g. `delta` → `--delta`).
+    pub fn check(&self, name: &dyn Fn(&str) -> String) -> anyhow::Result<()> {
+        let optional: [(&str, Option<f64>, fn(&str, f64) -> anyhow::Result<()>); 5] = [
+            ("delta", self.delta, ensure_non_negative),
+            ("alpha", self.alpha, ensure_non_negative),
+            ("beta", self.beta, ensure_non_negative),
+            ("kappa", self.kappa, ensure_positive),
+            ("reuse_band", self.reuse_band, ensure_positive_or_infinite),
+        ];
+        for (field, value, check) in optional {
+            if let Some(v) = value {
+                check(&name(field), v)?;
+            }
+        }
+        ensure_positive(&name("tol"), self.tol)?;
+        ensure_positive(&name("feasibility_tol"), self.feasibility_tol)?;
+        if let Some(limit) = self.time_limit {
+            ensure_non_negative(&name("time_limit"), limit)?;
+        }
+        ensure_iterations(&name("iterations"), self.iterations)
+    }
+
+    /// The planner's and the route search's options for `model` (checks `starts`; call
+    /// [`OptimizeRequest::check`] first). A time limit starts counting now.
+    pub fn options(
+        &self,
+        model: &Model,
+        name: &dyn Fn(&str) -> String,
+    ) -> anyhow::Result<(PlanOptions, SearchOptions)> {
+        let mut options = PlanOptions::for_model(model);
+        options.iterations = self.iterations;
+        options.solver = self.solver;
+        if let Some(d) = self.delta {
+            options.task.delta = d;
+        }
+        options.task.alpha = self.alpha.unwrap_or(options.task.alpha);
+        options.task.beta = self.beta.unwrap_or(options.task.beta);
+        options.task.safety = model.safety.is_some().then_some(self.safety);
+        options.task.swept = self.swept;
+        options.tol_optimality = self.tol;
+        options.tol_feasibility = self.feasibility_tol;
+        options.allow_unsafe_start = self.allow_unsafe_start;
+        options.task.kappa = self.kappa.unwrap_or(options.task.kappa);
+        options.reuse_band = self.reuse_band.unwrap_or(options.reuse_band);
+        ensure_iterations(&name("starts"), self.starts)?;
+        let search = SearchOptions {
+            mode: self.search,
+            max_candidates: self.starts,
+            random_starts: SearchOptions::default().random_starts.min(self.starts / 4),
+            ..SearchOptions::default()
+        };
+        if let Some(limit) = self.time_limit {
+            options.deadline = Some(Instant::now() + Duration::from_secs_f64(limit));
+        }
+        Ok((options, search))
+    }
+}
