@@ -5,8 +5,8 @@ use clap::{Parser, Subcommand};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{top_view_path, RolloutFigure};
 use clothopt::plan::{
-    self, controls_from_nested, ensure_iterations, ensure_non_negative, ensure_positive,
-    ensure_positive_or_infinite, initial_controls, PlanOptions, SolverKind,
+    self, controls_from_nested, ensure_iterations, ensure_non_negative, initial_controls,
+    SolverKind,
 };
 use clothopt::problem::SafetyForm;
 use clothopt::request::{error_chain, OptimizeRequest};
@@ -14,7 +14,6 @@ use clothopt::search::{plan_with_search, SearchMode};
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
 
 mod cli_progress;
 mod cli_summary;

@@ -9,7 +9,10 @@ use pyo3::prelude::*;
 
 /// Controls given as an array-like of shape `(T, K, 3)` (or the flat `(T, 3K)`), checked against
 /// `model`: `T` steps of the horizon, `K` control points, finite entries.
-pub fn controls_in(model: &Model, controls: &PyArrayLikeDyn<'_, f64, AllowTypeChange>) -> PyResult<Controls> {
+pub fn controls_in(
+    model: &Model,
+    controls: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+) -> PyResult<Controls> {
     let (t, k) = (model.task.horizon, model.n_controls());
     let view = controls.as_array();
     let shape = view.shape().to_vec();
@@ -53,7 +56,10 @@ pub fn nested_out<'py>(py: Python<'py>, nested: &[Vec<[f64; 3]>]) -> Bound<'py, 
 /// States `x⁰…xᵀ` (each `N × 3`) as one array `(T+1, N, 3)`.
 pub fn states_out<'py>(py: Python<'py>, states: &[Tensor]) -> Bound<'py, PyArray3<f64>> {
     let n = states.first().map_or(0, Tensor::rows);
-    let data: Vec<f64> = states.iter().flat_map(|x| x.data().iter().copied()).collect();
+    let data: Vec<f64> = states
+        .iter()
+        .flat_map(|x| x.data().iter().copied())
+        .collect();
     Array3::from_shape_vec((states.len(), n, 3), data)
         .expect("every state is N × 3")
         .into_pyarray(py)

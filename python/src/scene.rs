@@ -4,11 +4,11 @@ use crate::arrays::{controls_in, controls_out};
 use crate::errors::{bad_argument, to_py};
 use crate::results::{Plan, Rollout};
 use clap::ValueEnum;
+use cloth::Model;
 use clothopt::plan::{ensure_non_negative, initial_controls};
 use clothopt::problem::SafetyForm;
 use clothopt::request::{load_scene, OptimizeRequest};
 use clothopt::search::{plan_with_search, SearchMode};
-use cloth::Model;
 use numpy::{AllowTypeChange, PyArray3, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -89,10 +89,7 @@ impl Scene {
     #[classmethod]
     fn from_dict(_cls: &Bound<'_, PyType>, d: &Bound<'_, PyAny>) -> PyResult<Self> {
         let py = d.py();
-        let text: String = py
-            .import("json")?
-            .call_method1("dumps", (d,))?
-            .extract()?;
+        let text: String = py.import("json")?.call_method1("dumps", (d,))?.extract()?;
         let scene = cloth::Scene::from_json_str(&text).map_err(|e| to_py(e.into()))?;
         Scene::new(scene)
     }
