@@ -45,6 +45,9 @@ pub fn error_chain(e: &anyhow::Error) -> String {
     out
 }
 
+/// A check of one numeric setting: its name as the caller spells it, and its value.
+type Check = fn(&str, f64) -> anyhow::Result<()>;
+
 /// The settings of an `optimize` run; `None` takes the scene's own value.
 #[derive(Clone, Debug)]
 pub struct OptimizeRequest {
@@ -107,7 +110,7 @@ impl OptimizeRequest {
     /// Checks every setting before any scene is read; an error names the setting as
     /// `name(field)` spells it (e.g. `delta` → `--delta`).
     pub fn check(&self, name: &dyn Fn(&str) -> String) -> anyhow::Result<()> {
-        let optional: [(&str, Option<f64>, fn(&str, f64) -> anyhow::Result<()>); 5] = [
+        let optional: [(&str, Option<f64>, Check); 5] = [
             ("delta", self.delta, ensure_non_negative),
             ("alpha", self.alpha, ensure_non_negative),
             ("beta", self.beta, ensure_non_negative),
