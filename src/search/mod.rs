@@ -157,7 +157,11 @@ pub fn rank(a: &PlanResult, b: &PlanResult) -> Ordering {
 }
 
 /// The best plan so far, the index of its report, and every report.
-type Tally<'r> = (&'r mut PlanResult, &'r mut usize, &'r mut Vec<CandidateReport>);
+type Tally<'r> = (
+    &'r mut PlanResult,
+    &'r mut usize,
+    &'r mut Vec<CandidateReport>,
+);
 
 /// Radius of the goal stage's goal row, as a fraction of the task tolerance.
 const GOAL_FRACTION: f64 = 0.98;

@@ -20,8 +20,8 @@
 //! up to the cloth's size) complete the set. Everything is deterministic.
 
 use autodiff::Tensor;
-use cloth::sdf::SignedDistance;
 use cloth::controls::ControlsView;
+use cloth::sdf::SignedDistance;
 use cloth::{Controls, Model};
 use rand::{RngExt, SeedableRng};
 use rand_xorshift::XorShiftRng;
