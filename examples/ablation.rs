@@ -289,15 +289,7 @@ fn run_job(job: Job, task: &Task, args: &Args, progress: &Progress) -> Result<Ru
             objective_at_2 = Some(info.objective);
         }
         if progress.verbose {
-            eprintln!(
-                "{label:<22} it {:>4}  f {:>12.8}  kkt {:>8.1e}  step {:>8.1e}  len {:>7.1e}  evals {}",
-                info.iteration,
-                info.objective,
-                info.kkt_residual,
-                info.step_norm,
-                info.step_length,
-                info.function_evaluations
-            );
+            eprintln!("{label:<22} {info}");
         }
         bar.set_position(info.iteration as u64);
         bar.set_message(format!("f {:.5}", info.objective));

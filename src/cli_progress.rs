@@ -73,19 +73,7 @@ impl Reporter {
             self.unsaved = true;
         }
         if self.verbose {
-            self.bar.suspend(|| {
-                eprintln!(
-                    "it {:>4}  f {:>12.8}  viol {:>9.2e}  kkt {:>9.2e}  step {:>9.2e}  α {:>7.1e}  ν {:>7.1e}  evals {}",
-                    info.iteration,
-                    info.objective,
-                    info.constraint_violation,
-                    info.kkt_residual,
-                    info.step_norm,
-                    info.step_length,
-                    info.penalty,
-                    info.function_evaluations
-                )
-            });
+            self.bar.suspend(|| eprintln!("{info}"));
         }
         if !self.estimated && self.seen >= 2 {
             self.estimated = true;

@@ -1,7 +1,11 @@
-//! Figures of cloth rollouts: builds [`crate::plot`] figures from a model and its states.
+//! Figures of cloth rollouts: builds [`crate::plot`] figures from a model and its states — still
+//! views ([`RolloutFigure`]), an animated GIF ([`draw_rollout_gif`]) and the HTML viewer
+//! ([`write_rollout_html`]).
 
-use crate::plot::{self, PlotError, Sphere, TrajectoryFigure};
+use crate::plot::{self, Closest, PlotError, Rollout, Sphere, TrajectoryFigure};
 use autodiff::Tensor;
+use cloth::nalgebra::Vector3;
+use cloth::sdf::SignedDistance;
 use cloth::Model;
 use std::path::Path;
 
@@ -29,10 +33,22 @@ impl RolloutFigure {
         title: &str,
         delta: Option<f64>,
     ) -> Self {
-        let points = crate::plan::state_points;
         let last = states.len().saturating_sub(1);
         let mut picks = vec![0, last / 2, last];
         picks.dedup();
+        Self::with_frames(model, grid, states, title, delta, &picks)
+    }
+
+    /// The same figure showing the frames `picks` (indices into `states`).
+    pub fn with_frames(
+        model: &Model,
+        grid: (usize, usize),
+        states: &[Tensor],
+        title: &str,
+        delta: Option<f64>,
+        picks: &[usize],
+    ) -> Self {
+        let points = crate::plan::state_points;
         // Each frame's label gives its largest edge strain (|x_i − x_j|/L₀ − 1), so a figure shows
         // how far a plan stretches the cloth.
         let strain = model.max_strain_per_step(states);
@@ -59,25 +75,16 @@ impl RolloutFigure {
                     .collect()
             })
             .collect();
-        let spheres = obstacle_spheres(model);
-        let ground_z = model
-            .colliders
-            .planes
-            .iter()
-            .chain(&model.safety_obstacles.planes)
-            .find(|p| p.normal[2] > 0.999)
-            .map(|p| p.point[2]);
-        let targets = points(&model.task.target_positions);
         RolloutFigure {
             title: title.to_string(),
             grid,
             frames,
             control_paths,
-            spheres,
-            targets,
+            spheres: obstacle_spheres(model),
+            targets: points(&model.task.target_positions),
             target_particles: model.task.targets.as_slice().to_vec(),
-            ground_z,
-            safety_margin: delta.filter(|_| !model.safety_obstacles.is_empty()),
+            ground_z: ground_z(model),
+            safety_margin: safety_margin(model, delta),
         }
     }
 
@@ -110,6 +117,107 @@ impl RolloutFigure {
     pub fn draw_top(&self, path: &Path) -> Result<(), PlotError> {
         plot::draw_trajectory_top(&self.figure(), path)
     }
+}
+
+/// Draws the rollout `states` of `model` on a `grid` cloth as an animated GIF to `path`: one 3-D view
+/// per step (a quarter of a second each) on fixed axes, titled with the step.
+pub fn draw_rollout_gif(
+    model: &Model,
+    grid: (usize, usize),
+    states: &[Tensor],
+    title: &str,
+    delta: Option<f64>,
+    path: &Path,
+) -> Result<(), PlotError> {
+    let last = states.len().saturating_sub(1);
+    let steps: Vec<RolloutFigure> = (0..states.len())
+        .map(|t| {
+            let title = format!("{title}  (step {t} of {last})");
+            RolloutFigure::with_frames(model, grid, states, &title, delta, &[t])
+        })
+        .collect();
+    let figures: Vec<TrajectoryFigure> = steps.iter().map(RolloutFigure::figure).collect();
+    plot::draw_trajectory_gif(&figures, 25, path)
+}
+
+/// The rollout `states` of `model` on a `grid` cloth for the HTML viewer: every state, the
+/// obstacles, targets, control particles, and per step the particle closest to the safety
+/// obstacles (none when the scene has none).
+pub fn rollout_view(
+    model: &Model,
+    grid: (usize, usize),
+    states: &[Tensor],
+    title: &str,
+    delta: Option<f64>,
+) -> Rollout {
+    let states: Vec<Vec<[f64; 3]>> = states.iter().map(crate::plan::state_points).collect();
+    let closest = if model.safety_obstacles.is_empty() {
+        Vec::new()
+    } else {
+        states.iter().map(|s| closest_particle(model, s)).collect()
+    };
+    Rollout {
+        title: title.to_string(),
+        triangles: plot::grid_triangles(grid.0, grid.1),
+        control_particles: model.controls.as_slice().to_vec(),
+        spheres: obstacle_spheres(model),
+        ground_z: ground_z(model),
+        targets: crate::plan::state_points(&model.task.target_positions),
+        target_particles: model.task.targets.as_slice().to_vec(),
+        safety_margin: safety_margin(model, delta),
+        closest,
+        states,
+        ..Rollout::default()
+    }
+}
+
+/// Writes the HTML viewer of a rollout (see [`rollout_view`]) to `path`.
+pub fn write_rollout_html(
+    model: &Model,
+    grid: (usize, usize),
+    states: &[Tensor],
+    title: &str,
+    delta: Option<f64>,
+    path: &Path,
+) -> Result<(), PlotError> {
+    plot::write_rollout_html(&rollout_view(model, grid, states, title, delta), path)
+}
+
+/// The particle of `state` with the smallest signed distance to the safety obstacles (the first
+/// of equals).
+fn closest_particle(model: &Model, state: &[[f64; 3]]) -> Closest {
+    let mut best = Closest {
+        particle: 0,
+        distance: f64::INFINITY,
+    };
+    for (i, p) in state.iter().enumerate() {
+        let d = model
+            .safety_obstacles
+            .distance(&Vector3::new(p[0], p[1], p[2]));
+        if d < best.distance {
+            best = Closest {
+                particle: i,
+                distance: d,
+            };
+        }
+    }
+    best
+}
+
+/// The height of a horizontal collider or safety plane, if the model has one.
+fn ground_z(model: &Model) -> Option<f64> {
+    model
+        .colliders
+        .planes
+        .iter()
+        .chain(&model.safety_obstacles.planes)
+        .find(|p| p.normal[2] > 0.999)
+        .map(|p| p.point[2])
+}
+
+/// δ, when the model has safety obstacles to keep it from.
+fn safety_margin(model: &Model, delta: Option<f64>) -> Option<f64> {
+    delta.filter(|_| !model.safety_obstacles.is_empty())
 }
 
 /// Every sphere of the safety obstacles and the colliders, once: a sphere set with role `both` is in
@@ -181,5 +289,35 @@ mod tests {
         let last = format!("step 10, max strain {:.0}%", 100.0 * strain[10]);
         assert_eq!(labels[2], last);
         assert!(strain[10] > 0.0);
+    }
+
+    #[test]
+    fn the_viewer_marks_the_particle_nearest_the_obstacles_at_every_step() {
+        let scene = Scene::builtin("u_obstacle").unwrap();
+        let model = Model::from_scene(&scene).unwrap();
+        let u = crate::plan::initial_controls(&scene, &model).unwrap();
+        let states = model.simulate(&u).unwrap();
+        let view = rollout_view(&model, (10, 10), &states, "t", Some(scene.task.delta));
+        assert_eq!(view.closest.len(), states.len());
+        assert_eq!(view.safety_margin, Some(scene.task.delta));
+        let metrics = model.metrics(&states, &u, scene.task.delta);
+        // Metrics count the steps after the fixed step 0.
+        let min = view.closest[1..]
+            .iter()
+            .map(|c| c.distance)
+            .fold(f64::INFINITY, f64::min);
+        // The smallest per-step distance is the rollout's min SDF (same SDF, same particles).
+        assert!(
+            (min - metrics.min_sdf).abs() < 1e-12,
+            "{min} vs {}",
+            metrics.min_sdf
+        );
+        for (c, s) in view.closest.iter().zip(&view.states) {
+            let p = s[c.particle];
+            let d = model
+                .safety_obstacles
+                .distance(&Vector3::new(p[0], p[1], p[2]));
+            assert_eq!(d, c.distance);
+        }
     }
 }

@@ -3,7 +3,7 @@
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use cloth::{Controls, Model, Scene};
-use clothopt::figures::{top_view_path, RolloutFigure};
+use clothopt::figures::{self, top_view_path, RolloutFigure};
 use clothopt::plan::{
     self, controls_from_nested, ensure_iterations, ensure_non_negative, initial_controls,
     SolverKind,
@@ -48,6 +48,8 @@ enum Command {
         /// Draw the rollout: a 3-D view here and a top view beside it (`*_top.png`).
         #[arg(long)]
         png: Option<PathBuf>,
+        #[command(flatten)]
+        watch: WatchArgs,
         /// Solver sweeps per time step (default: the scene's `physics.iterations`).
         #[arg(long)]
         sweeps: Option<usize>,
@@ -144,6 +146,8 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         /// Draw the result: a 3-D view here and a top view beside it (`*_top.png`).
         #[arg(long)]
         png: Option<PathBuf>,
+        #[command(flatten)]
+        watch: WatchArgs,
         /// Print one line per optimizer iteration to stderr.
         #[arg(long)]
         verbose: bool,
@@ -172,6 +176,41 @@ achieved (the first line says why); 4 no safe plan was found (the result is stil
         #[arg(long)]
         obj: Option<PathBuf>,
     },
+}
+
+/// The animated outputs shared by `simulate` and `optimize`.
+#[derive(clap::Args, Debug)]
+struct WatchArgs {
+    /// Write the rollout as one self-contained HTML page to watch (orbit with the mouse, time
+    /// slider, play; the particle nearest the obstacles marked at every step).
+    #[arg(long)]
+    html: Option<PathBuf>,
+    /// Write the rollout as an animated GIF, one 3-D view per step.
+    #[arg(long)]
+    gif: Option<PathBuf>,
+}
+
+impl WatchArgs {
+    /// Writes the HTML page and/or the GIF of a rollout.
+    fn write(
+        &self,
+        model: &Model,
+        scene: &Scene,
+        states: &[autodiff::Tensor],
+        title: &str,
+        delta: f64,
+    ) -> Result<()> {
+        let grid = (scene.cloth.rows, scene.cloth.cols);
+        if let Some(path) = &self.html {
+            figures::write_rollout_html(model, grid, states, title, Some(delta), path)?;
+            println!("wrote {}", path.display());
+        }
+        if let Some(path) = &self.gif {
+            figures::draw_rollout_gif(model, grid, states, title, Some(delta), path)?;
+            println!("wrote {}", path.display());
+        }
+        Ok(())
+    }
 }
 
 /// The physics solver flags shared by `simulate`, `grad` and `optimize`.
@@ -279,6 +318,7 @@ fn run(cli: Cli) -> Result<i32> {
             controls,
             out,
             png,
+            watch,
             sweeps,
             physics,
         } => {
@@ -304,16 +344,11 @@ fn run(cli: Cli) -> Result<i32> {
                 });
                 plan::write_json_atomic(&out, &result)?;
             }
+            let title = format!("{} (simulated)", scene.name);
             if let Some(png) = png {
-                draw(
-                    &model,
-                    &scene,
-                    &ev.states,
-                    &format!("{} (simulated)", scene.name),
-                    scene.task.delta,
-                    &png,
-                )?;
+                draw(&model, &scene, &ev.states, &title, scene.task.delta, &png)?;
             }
+            watch.write(&model, &scene, &ev.states, &title, scene.task.delta)?;
         }
         Command::Grad {
             scene,
@@ -367,6 +402,7 @@ fn run(cli: Cli) -> Result<i32> {
             allow_unsafe_start,
             start,
             png,
+            watch,
             verbose,
             no_timing,
             time_limit,
@@ -439,13 +475,16 @@ fn run(cli: Cli) -> Result<i32> {
             if let Some(out) = &out {
                 plan::write_json_atomic(out, &result)?;
             }
-            if let Some(png) = png {
+            if png.is_some() || watch.html.is_some() || watch.gif.is_some() {
                 let states = plan::states_of(&result)?;
                 let title = format!(
                     "{}  δ = {}  ({})",
                     result.scene, result.delta, result.status
                 );
-                draw(&model, &scene, &states, &title, result.delta, &png)?;
+                if let Some(png) = png {
+                    draw(&model, &scene, &states, &title, result.delta, &png)?;
+                }
+                watch.write(&model, &scene, &states, &title, result.delta)?;
             }
             return Ok(cli_summary::report_verdict(&result, out.as_deref()));
         }

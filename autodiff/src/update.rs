@@ -2,9 +2,13 @@
 //!
 //! Both the plain `f64` path and the recording [`crate::Tape`] call [`update_rows`], so their
 //! forward values agree bit for bit.
+//!
+//! Here too the batch forms of every [`RowFn`]: the blanket [`DynRowFn`] implementation and its
+//! in-place kernels for rows of points (fixed row widths, blocks of [`ROW_BLOCK`] rows, bounds
+//! checked once up front, rayon above [`crate::rowfn::PARALLEL_MIN_ROWS`] rows).
 
 use crate::index::RowIndex;
-use crate::rowfn::DynRowFn;
+use crate::rowfn::{for_each_row_chunk, for_row_ranges, DynRowFn, RowFn, ROW_BLOCK, SEED_CHUNK};
 use crate::tensor::Tensor;
 
 /// Checks that `f`, `index`, `state` and `carry` fit together for [`update_rows`].
@@ -93,4 +97,398 @@ pub fn update_rows(
 ) {
     check_update(f, index, state, carry);
     f.update_batch(index, state, carry, saved);
+}
+
+impl<F: RowFn> DynRowFn for F {
+    fn n_in(&self) -> usize {
+        RowFn::n_in(self)
+    }
+    fn n_out(&self) -> usize {
+        RowFn::n_out(self)
+    }
+    fn eval_batch(&self, input: &[f64], output: &mut [f64]) {
+        let (n_in, n_out) = (RowFn::n_in(self), RowFn::n_out(self));
+        for_each_row_chunk(output, n_out, |first, out| {
+            for (k, o) in out.chunks_exact_mut(n_out).enumerate() {
+                let r = first + k;
+                self.eval(r, &input[r * n_in..(r + 1) * n_in], o);
+            }
+        });
+    }
+    fn vjp_batch(&self, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+        let (n_in, n_out) = (RowFn::n_in(self), RowFn::n_out(self));
+        for_each_row_chunk(in_adj, n_in, |first, ia| {
+            for (k, a) in ia.chunks_exact_mut(n_in).enumerate() {
+                let r = first + k;
+                let (x, oa) = (
+                    &input[r * n_in..(r + 1) * n_in],
+                    &out_adj[r * n_out..(r + 1) * n_out],
+                );
+                self.vjp(r, x, oa, a);
+            }
+        });
+    }
+    fn update_batch(
+        &self,
+        index: &RowIndex,
+        state: &mut Tensor,
+        carry: &mut Tensor,
+        saved: Option<&mut Vec<f64>>,
+    ) {
+        // Points (3 columns) with one carried value: fixed row widths, so every copy is a move.
+        if points_layout(index, state, carry) {
+            let (s, c) = (state.data_mut(), carry.data_mut());
+            return by_arity!(index.arity(), update_points(self, index, s, c, saved));
+        }
+        // Any other layout: gather, evaluate, scatter.
+        let mut local = Vec::new();
+        let inputs = saved.unwrap_or(&mut local);
+        gather_update_inputs(index, state, carry, inputs);
+        let mut outputs = vec![0.0; inputs.len()];
+        self.eval_batch(inputs, &mut outputs);
+        scatter_update_outputs(index, &outputs, state, carry);
+    }
+    fn vjp_update_batch(
+        &self,
+        index: &RowIndex,
+        inputs: &[f64],
+        state_adj: &mut Tensor,
+        carry_adj: &mut Tensor,
+    ) {
+        if points_layout(index, state_adj, carry_adj) {
+            let (s, c) = (state_adj.data_mut(), carry_adj.data_mut());
+            return by_arity!(index.arity(), vjp_update_points(self, index, inputs, s, c));
+        }
+        let mut out_adj = Vec::new();
+        gather_update_inputs(index, state_adj, carry_adj, &mut out_adj);
+        let mut in_adj = vec![0.0; inputs.len()];
+        self.vjp_batch(inputs, &out_adj, &mut in_adj);
+        scatter_update_outputs(index, &in_adj, state_adj, carry_adj);
+    }
+    fn vjp_update_batch_seeds(
+        &self,
+        index: &RowIndex,
+        inputs: &[f64],
+        state_adj: &mut [Tensor],
+        carry_adj: &mut [Tensor],
+    ) {
+        assert_eq!(
+            state_adj.len(),
+            carry_adj.len(),
+            "one carry adjoint per seed"
+        );
+        let points = state_adj
+            .iter()
+            .zip(carry_adj.iter())
+            .all(|(s, c)| points_layout(index, s, c));
+        if state_adj.len() > 1 && points {
+            for (s, c) in state_adj
+                .chunks_mut(SEED_CHUNK)
+                .zip(carry_adj.chunks_mut(SEED_CHUNK))
+            {
+                by_arity!(
+                    index.arity(),
+                    vjp_update_points_seeds(self, index, inputs, s, c)
+                );
+            }
+            return;
+        }
+        for (s, c) in state_adj.iter_mut().zip(carry_adj.iter_mut()) {
+            self.vjp_update_batch(index, inputs, s, c);
+        }
+    }
+}
+
+/// True when an update's rows are `1..=4` points (3 columns) and one carried value: the layout
+/// the fixed-width kernels below serve.
+fn points_layout(index: &RowIndex, state: &Tensor, carry: &Tensor) -> bool {
+    state.cols() == 3 && carry.cols() == 1 && (1..=4).contains(&index.arity())
+}
+
+/// `kernel::<F, A>(args)` for the arity `A` (1 to 4) of a [`points_layout`] update.
+macro_rules! by_arity {
+    ($arity:expr, $kernel:ident ( $($arg:expr),* )) => {
+        match $arity {
+            1 => $kernel::<F, 1>($($arg),*),
+            2 => $kernel::<F, 2>($($arg),*),
+            3 => $kernel::<F, 3>($($arg),*),
+            4 => $kernel::<F, 4>($($arg),*),
+            a => unreachable!("points_layout admits arities 1 to 4, not {a}"),
+        }
+    };
+}
+use by_arity;
+
+/// Largest row of [`update_points`]: four points and one carried value.
+const MAX_POINT_ROW: usize = 13;
+
+/// [`DynRowFn::update_batch`] for rows of `A` points (3 values each) and one carried value,
+/// writing in place, [`ROW_BLOCK`] rows at a time. Rows share no point, so blocks run in any
+/// order and chunks of rows in parallel on the same state.
+#[inline(always)]
+fn update_points<F: RowFn, const A: usize>(
+    f: &F,
+    index: &RowIndex,
+    state: &mut [f64],
+    carry: &mut [f64],
+    saved: Option<&mut Vec<f64>>,
+) {
+    let rows = index.rows();
+    let len = rows * (3 * A + 1);
+    // The saved inputs are written straight into the buffer's spare capacity (every value once,
+    // below), not zero-filled first: that fill was 4% of a recorded rollout.
+    let saved = saved.map(|s| {
+        s.clear();
+        s.reserve(len);
+        (
+            SharedRows {
+                ptr: s.as_mut_ptr(),
+                len,
+            },
+            s,
+        )
+    });
+    let saved_rows = saved.as_ref().map(|(rows, _)| *rows);
+    let (state, carry) = (SharedRows::new(state), SharedRows::new(carry));
+    // SAFETY (of `for_point_blocks`): `check_update` asserted the index is disjoint and in range.
+    for_point_blocks::<A>(index, state, carry, |first, x, y| {
+        if let Some(s) = saved_rows {
+            // SAFETY: this block's rows of the saved inputs are written by this block alone.
+            unsafe { s.write((3 * A + 1) * first, x) };
+        }
+        f.eval_rows(first, x, y);
+    });
+    if let Some((_, s)) = saved {
+        // SAFETY: the blocks above wrote all `len` values (every row once).
+        unsafe { s.set_len(len) };
+    }
+}
+
+/// [`DynRowFn::vjp_update_batch`] for the layout of [`update_points`].
+#[inline(always)]
+fn vjp_update_points<F: RowFn, const A: usize>(
+    f: &F,
+    index: &RowIndex,
+    inputs: &[f64],
+    state_adj: &mut [f64],
+    carry_adj: &mut [f64],
+) {
+    check_adjoints::<A>(index, inputs, state_adj.len(), carry_adj.len());
+    let (state, carry) = (SharedRows::new(state_adj), SharedRows::new(carry_adj));
+    for_point_blocks::<A>(index, state, carry, |first, oa, ia| {
+        let width = 3 * A + 1;
+        let rows = oa.len() / width;
+        // `vjp_rows` accumulates.
+        ia.fill(0.0);
+        f.vjp_rows(
+            first,
+            &inputs[width * first..width * (first + rows)],
+            oa,
+            ia,
+        );
+    });
+}
+
+/// Runs `body(first, rows_in, rows_out)` over an in-place update's rows in blocks of up to
+/// [`ROW_BLOCK`]: `rows_in` holds the block's gathered rows (`A` points and a carried value
+/// each); `body` writes all of `rows_out`, which goes back to the same rows after it.
+///
+/// The caller has checked that `index` is disjoint and in range for `state` and `carry`.
+#[inline(always)]
+fn for_point_blocks<const A: usize>(
+    index: &RowIndex,
+    state: SharedRows,
+    carry: SharedRows,
+    body: impl Fn(usize, &[f64], &mut [f64]) + Sync,
+) {
+    let idx = index.as_slice();
+    for_row_ranges(index.rows(), |range| {
+        // Computed here, not captured, so every copy below has a compile-time length.
+        let width = 3 * A + 1;
+        let mut x = [0.0; MAX_POINT_ROW * ROW_BLOCK];
+        let mut y = [0.0; MAX_POINT_ROW * ROW_BLOCK];
+        let mut first = range.start;
+        while first < range.end {
+            let n = ROW_BLOCK.min(range.end - first);
+            // SAFETY: the index is disjoint and in range (checked by the caller), so the block's
+            // points and carried values are touched by this block alone.
+            unsafe {
+                for b in 0..n {
+                    let xb = &mut x[width * b..width * b + width];
+                    gather_point_row::<A>(idx, first + b, state, carry, xb);
+                }
+                body(first, &x[..width * n], &mut y[..width * n]);
+                for b in 0..n {
+                    let yb = &y[width * b..width * b + width];
+                    scatter_point_row::<A>(idx, first + b, state, carry, yb);
+                }
+            }
+            first += n;
+        }
+    });
+}
+
+/// Checks that saved inputs and adjoints (of `state_len` and `carry_len` values) fit an
+/// in-place update of `A` points per row, so the kernels may index them unchecked.
+fn check_adjoints<const A: usize>(
+    index: &RowIndex,
+    inputs: &[f64],
+    state_len: usize,
+    carry_len: usize,
+) {
+    let rows = index.rows();
+    assert_eq!(
+        inputs.len(),
+        rows * (3 * A + 1),
+        "vjp_update_batch: saved inputs"
+    );
+    assert!(
+        index.is_disjoint() && 3 * index.bound() <= state_len && carry_len == rows,
+        "vjp_update_batch: index does not fit the adjoints"
+    );
+}
+
+/// [`DynRowFn::vjp_update_batch_seeds`] for the layout of [`update_points`], up to
+/// [`SEED_CHUNK`] seeds: each row's saved inputs are read once and handed to
+/// [`RowFn::vjp_seeds`] with every seed's output adjoint.
+fn vjp_update_points_seeds<F: RowFn, const A: usize>(
+    f: &F,
+    index: &RowIndex,
+    inputs: &[f64],
+    state_adj: &mut [Tensor],
+    carry_adj: &mut [Tensor],
+) {
+    let seeds = state_adj.len();
+    assert!(seeds <= SEED_CHUNK, "at most SEED_CHUNK seeds at once");
+    for (s, c) in state_adj.iter().zip(carry_adj.iter()) {
+        check_adjoints::<A>(index, inputs, s.data().len(), c.data().len());
+    }
+    // Fixed arrays, not vectors: this runs once per update node and seed chunk.
+    let (mut states, mut carries) = (
+        [SharedRows::EMPTY; SEED_CHUNK],
+        [SharedRows::EMPTY; SEED_CHUNK],
+    );
+    for (k, (s, c)) in state_adj.iter_mut().zip(carry_adj.iter_mut()).enumerate() {
+        states[k] = SharedRows::new(s.data_mut());
+        carries[k] = SharedRows::new(c.data_mut());
+    }
+    let (states, carries) = (&states[..seeds], &carries[..seeds]);
+    let idx = index.as_slice();
+    for_row_ranges(index.rows(), |range| {
+        let width = 3 * A + 1;
+        let mut oa = [0.0; MAX_POINT_ROW * SEED_CHUNK];
+        let mut ia = [0.0; MAX_POINT_ROW * SEED_CHUNK];
+        for k in range {
+            // SAFETY: as in `update_points` (asserted above), for every seed's buffers.
+            unsafe {
+                for (s, (&state, &carry)) in states.iter().zip(carries).enumerate() {
+                    let ob = &mut oa[width * s..width * s + width];
+                    gather_point_row::<A>(idx, k, state, carry, ob);
+                    ia[width * s..width * s + width].fill(0.0);
+                }
+                f.vjp_seeds(
+                    k,
+                    &inputs[width * k..width * k + width],
+                    &oa[..width * seeds],
+                    &mut ia[..width * seeds],
+                );
+                for (s, (&state, &carry)) in states.iter().zip(carries).enumerate() {
+                    let ib = &ia[width * s..width * s + width];
+                    scatter_point_row::<A>(idx, k, state, carry, ib);
+                }
+            }
+        }
+    });
+}
+
+/// Copies row `k`'s `A` points and carried value into `dst` (`3A + 1` values).
+///
+/// # Safety
+/// As [`SharedRows::slice`]: the index is in range for `state` and `carry`, and no other task
+/// touches row `k`'s values.
+#[inline(always)]
+unsafe fn gather_point_row<const A: usize>(
+    idx: &[usize],
+    k: usize,
+    state: SharedRows,
+    carry: SharedRows,
+    dst: &mut [f64],
+) {
+    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
+        dst[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p, 3));
+    }
+    dst[3 * A] = carry.slice(k, 1)[0];
+}
+
+/// Writes `src` (`3A + 1` values) back to row `k`'s points and carried value.
+///
+/// # Safety
+/// As [`gather_point_row`].
+#[inline(always)]
+unsafe fn scatter_point_row<const A: usize>(
+    idx: &[usize],
+    k: usize,
+    state: SharedRows,
+    carry: SharedRows,
+    src: &[f64],
+) {
+    for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
+        state
+            .slice(3 * p, 3)
+            .copy_from_slice(&src[3 * j..3 * j + 3]);
+    }
+    carry.slice(k, 1)[0] = src[3 * A];
+}
+
+/// A buffer that several rayon tasks write at once, each to values no other task touches.
+#[derive(Clone, Copy)]
+struct SharedRows {
+    ptr: *mut f64,
+    len: usize,
+}
+
+// SAFETY: only used for writes to disjoint ranges (see `update_points`).
+unsafe impl Send for SharedRows {}
+unsafe impl Sync for SharedRows {}
+
+impl SharedRows {
+    /// No buffer (a placeholder in fixed arrays).
+    const EMPTY: SharedRows = SharedRows {
+        ptr: std::ptr::null_mut(),
+        len: 0,
+    };
+
+    fn new(data: &mut [f64]) -> Self {
+        SharedRows {
+            ptr: data.as_mut_ptr(),
+            len: data.len(),
+        }
+    }
+
+    /// Copies `src` to the values from `start`, which may be uninitialized (no reference to them
+    /// is made).
+    ///
+    /// # Safety
+    /// As [`SharedRows::slice`].
+    #[inline(always)]
+    unsafe fn write(self, start: usize, src: &[f64]) {
+        debug_assert!(start + src.len() <= self.len);
+        std::ptr::copy_nonoverlapping(src.as_ptr(), self.ptr.add(start), src.len());
+    }
+
+    /// `n` values from `start`.
+    ///
+    /// # Safety
+    /// They must lie inside the buffer (the kernels check their index's bound up front), and no
+    /// other live reference may overlap them.
+    #[inline(always)]
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn slice<'a>(self, start: usize, n: usize) -> &'a mut [f64] {
+        debug_assert!(
+            start + n <= self.len,
+            "SharedRows: {start}+{n} > {}",
+            self.len
+        );
+        std::slice::from_raw_parts_mut(self.ptr.add(start), n)
+    }
 }

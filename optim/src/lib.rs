@@ -33,6 +33,8 @@ mod qp;
 mod settings;
 mod sqp;
 mod status;
+/// Test problems with published optima (feature `test-problems`; on for this crate's own tests).
+#[cfg(feature = "test-problems")]
 pub mod test_problems;
 
 pub use error::{EvalError, OptimError};

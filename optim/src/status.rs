@@ -87,6 +87,26 @@ pub struct IterationInfo {
     pub x: Vec<f64>,
 }
 
+impl std::fmt::Display for IterationInfo {
+    /// The one-line iteration report used by every log:
+    /// `it    3  f   0.87952300  viol   4.53e-9  kkt   1.14e-3  step   2.10e-2  α   1.0e0  ν   1.0e1  evals 5`
+    /// (step norm, line-search length α, largest penalty ν, function evaluations so far).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "it {:>4}  f {:>12.8}  viol {:>9.2e}  kkt {:>9.2e}  step {:>9.2e}  α {:>7.1e}  ν {:>7.1e}  evals {}",
+            self.iteration,
+            self.objective,
+            self.constraint_violation,
+            self.kkt_residual,
+            self.step_norm,
+            self.step_length,
+            self.penalty,
+            self.function_evaluations
+        )
+    }
+}
+
 /// Lagrange multipliers at the returned point (SQP: from the last QP subproblem; L-BFGS: bound
 /// multipliers from the gradient).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -136,4 +156,30 @@ pub struct Solution {
     /// too badly conditioned to pass [`DenseMatrix::is_symmetric_positive_definite`].
     #[serde(skip)]
     pub hessian: Option<DenseMatrix>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::IterationInfo;
+
+    #[test]
+    fn an_iteration_prints_itself_on_one_line() {
+        let info = IterationInfo {
+            iteration: 3,
+            objective: 0.879523,
+            constraint_violation: 4.53e-9,
+            kkt_residual: 1.14e-3,
+            step_norm: 2.1e-2,
+            step_length: 1.0,
+            penalty: 10.0,
+            linearized_violation: 0.0,
+            function_evaluations: 5,
+            gradient_evaluations: 4,
+            x: vec![1.0],
+        };
+        assert_eq!(
+            info.to_string(),
+            "it    3  f   0.87952300  viol   4.53e-9  kkt   1.14e-3  step   2.10e-2  α   1.0e0  ν   1.0e1  evals 5"
+        );
+    }
 }

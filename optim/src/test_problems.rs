@@ -1,8 +1,9 @@
 //! Standard test problems with published optima: a Hock–Schittkowski selection (W. Hock, K. Schittkowski,
 //! *Test Examples for Nonlinear Programming Codes*, 1981) and the chained Rosenbrock function.
 //!
-//! Used by the crate's tests and the `hock_schittkowski` example; public so that benchmarks and other
-//! crates can exercise the solvers on the same problems. [`FailsAfter`] wraps any problem so that its
+//! Used by the crate's tests and the `hock_schittkowski` example; behind the `test-problems` feature
+//! (not solver API), so that benchmarks and other crates can still exercise the solvers on the same
+//! problems. [`FailsAfter`] wraps any problem so that its
 //! objective evaluations start failing after a budget.
 
 use crate::error::EvalError;
