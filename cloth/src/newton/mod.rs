@@ -28,8 +28,12 @@ use crate::model::Model;
 
 /// Default [`NewtonSettings::tolerance`]: `‖∇Φ‖` at most `1e-10` of its value at `x̃`.
 pub const DEFAULT_TOLERANCE: f64 = 1e-10;
-/// Default [`NewtonSettings::max_iterations`].
-pub const DEFAULT_MAX_ITERATIONS: usize = 50;
+/// Default [`NewtonSettings::max_iterations`]: a guard against true non-convergence, not a
+/// budget. Near the SQP's iterates on `u_obstacle` a step can need 171 iterations (measured over
+/// 200 perturbed controls: long stretches on the projected Hessian while edges are compressed);
+/// at the former cap of 50, 17 of those 200 rollouts failed, and the planner's line search,
+/// which takes a failed evaluation for "step too long", shrank its steps to 1e-9 and stalled.
+pub const DEFAULT_MAX_ITERATIONS: usize = 500;
 
 /// Convergence settings of the Newton solver.
 #[derive(Clone, Copy, Debug, PartialEq)]

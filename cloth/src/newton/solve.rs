@@ -6,6 +6,9 @@
 //! definite. The step is scaled by backtracking (Armijo) on `Φ`. Where `Φ`'s predicted decrease is
 //! below its round-off, the full step is taken if it reduces `‖∇Φ‖`; otherwise (and when the step
 //! itself is round-off) the state is as converged as `f64` allows ([`StepStats::at_roundoff`]).
+//! A state is returned as converged only where the exact Hessian is positive definite (a
+//! minimizer, where the implicit gradient is defined): a loose tolerance can be met at a saddle of
+//! `Φ` (measured: `physics.tolerance` 1e-4 on `u_obstacle`), and the solve then goes on.
 
 use super::assembly::{HessianKind, Pattern};
 use super::factor::Factor;
@@ -36,6 +39,9 @@ pub struct StepStats {
     /// The tolerance was not reached, but the Newton step had shrunk to the coordinates'
     /// round-off (the residual is the floor `f64` allows).
     pub at_roundoff: bool,
+    /// Iterations that were within the tolerance but not at a minimizer (the exact Hessian was
+    /// not positive definite), so the solve went on.
+    pub at_saddle: usize,
 }
 
 /// A model's Newton system with its buffers: built once per rollout.
@@ -105,8 +111,15 @@ impl NewtonSystem {
             if !stats.residual.is_finite() {
                 check_finite(&x, step)?;
             }
+            // The exact Hessian's factorization: the Newton matrix below, and the test that x is
+            // a minimizer (the implicit gradient needs it positive definite at the returned state).
+            let exact_pd = self.factor.factorize(p, &self.values);
             if stats.residual <= settings.tolerance {
-                return Ok((x, stats));
+                if exact_pd {
+                    return Ok((x, stats));
+                }
+                // Within the tolerance but at a saddle of Φ: keep descending.
+                stats.at_saddle += 1;
             }
             let not_converged = |stats: &StepStats| ClothError::NewtonNotConverged {
                 step,
@@ -118,7 +131,7 @@ impl NewtonSystem {
                 return Err(not_converged(&stats));
             }
             stats.iterations += 1;
-            if !self.factor.factorize(p, &self.values) {
+            if !exact_pd {
                 stats.projected += 1;
                 let values = Some((&mut self.values[..], HessianKind::Projected));
                 p.assemble(x.data(), xt_d, &mut self.grad, values);
