@@ -4,7 +4,9 @@
 //! effects it calls for. Constraints are written once as a generic function `C` ([`constraint`]);
 //! the projection's `∇C` and the backward pass both come from `autodiff`.
 //!
-//! - [`scene`]: the scene file format and its validation;
+//! - [`scene`]: the scene file format, its validation, built-ins and JSON printing;
+//! - [`layout`]: the geometry a scene derives (rest positions, control and target indices);
+//! - [`geometry`]: shared vector helpers;
 //! - [`mesh`]: the grid mesh and its constraints in canonical order;
 //! - [`coloring`]: greedy colouring into independent sets;
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles;
@@ -19,7 +21,9 @@ pub mod constraint;
 pub mod controls;
 pub mod cost;
 pub mod error;
+pub mod geometry;
 pub mod grad;
+pub mod layout;
 pub mod mesh;
 pub mod model;
 pub mod newton;

@@ -4,7 +4,7 @@
 //! safety constraint and their derivatives. Conventions: at a sphere's centre the distance is
 //! `−r` with gradient 0 (the norm's convention); on a tie between spheres, the first sphere wins.
 
-use crate::constraint::norm;
+use crate::geometry::norm;
 use autodiff::{Dual, Real};
 use nalgebra::Vector3;
 
