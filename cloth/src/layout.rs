@@ -3,7 +3,8 @@
 //! compiles from.
 
 use crate::mesh::GridMesh;
-use crate::scene::{InitialControls, Scene};
+use crate::scene::{InitialControls, Obstacle, Scene};
+use crate::sdf::{Capsule, Cuboid, Plane, SignedDistance, SphereSet, Surface, Union};
 
 impl Scene {
     /// The cloth's grid mesh (`cloth.rows × cloth.cols`).
@@ -102,5 +103,74 @@ impl Scene {
         let u = self.initial_controls_array();
         let values = u.iter().flatten().flatten().copied().collect();
         autodiff::Tensor::new(u.len(), 3 * self.controls.len(), values)
+    }
+}
+
+impl Obstacle {
+    /// The obstacle's runtime signed distance field, as a one-obstacle [`Union`]. A mesh obstacle
+    /// whose file has not been read ([`Scene::load_files`]) gives an empty union.
+    pub fn field(&self) -> Union {
+        let mut u = Union::default();
+        match self {
+            Obstacle::Spheres(s) => u.spheres.push(SphereSet {
+                centers: s.centers.clone(),
+                radii: s.radii.clone(),
+            }),
+            Obstacle::Plane(p) => u.planes.push(Plane {
+                point: p.point,
+                normal: p.normalized(),
+            }),
+            Obstacle::Capsule(c) => u.capsules.push(Capsule {
+                a: c.a,
+                b: c.b,
+                radius: c.radius,
+            }),
+            Obstacle::Box(b) => u
+                .boxes
+                .push(Cuboid::new(b.center, b.half_extents, b.rotation)),
+            Obstacle::Mesh(m) => u.meshes.extend(m.surface.clone()),
+        }
+        u
+    }
+
+    /// The signed distance of `p` to the obstacle.
+    pub fn signed_distance(&self, p: [f64; 3]) -> f64 {
+        self.field().distance(&nalgebra::Vector3::from(p))
+    }
+
+    /// A closed tessellation of a bounded obstacle (capsule, box, mesh, each sphere of a sphere
+    /// set) for figures; `None` for a plane.
+    pub fn surface_triangles(&self) -> Option<Surface> {
+        let merge = |parts: Vec<Surface>| {
+            let mut out: Surface = (Vec::new(), Vec::new());
+            for (v, t) in parts {
+                let offset = out.0.len();
+                out.0.extend(v);
+                out.1.extend(t.iter().map(|tri| tri.map(|i| i + offset)));
+            }
+            out
+        };
+        match self {
+            Obstacle::Spheres(s) => Some(merge(
+                s.centers
+                    .iter()
+                    .zip(&s.radii)
+                    .map(|(&c, &r)| crate::sdf::sphere_surface(c, r))
+                    .collect(),
+            )),
+            Obstacle::Plane(_) => None,
+            Obstacle::Capsule(c) => Some(
+                Capsule {
+                    a: c.a,
+                    b: c.b,
+                    radius: c.radius,
+                }
+                .surface_triangles(),
+            ),
+            Obstacle::Box(b) => {
+                Some(Cuboid::new(b.center, b.half_extents, b.rotation).surface_triangles())
+            }
+            Obstacle::Mesh(m) => m.surface.as_ref().map(|s| s.surface_triangles()),
+        }
     }
 }

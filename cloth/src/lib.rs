@@ -6,10 +6,11 @@
 //!
 //! - [`scene`]: the scene file format, its validation, built-ins and JSON printing;
 //! - [`layout`]: the geometry a scene derives (rest positions, control and target indices);
-//! - [`geometry`]: shared vector helpers;
+//! - [`geometry`]: shared vector helpers; [`obj`]: the OBJ triangle-mesh reader;
 //! - [`mesh`]: the grid mesh and its constraints in canonical order;
 //! - [`coloring`]: greedy colouring into independent sets;
-//! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles;
+//! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles
+//!   (spheres, planes, capsules, boxes, closed meshes);
 //! - [`controls`]: the controls tensor viewed by (step, gripper);
 //! - [`model`]: a scene compiled to its effects; [`registry`]: constraint types scene files name; [`sim`]: time stepping; [`cost`], [`grad`]: costs
 //!   and gradients;
@@ -27,6 +28,7 @@ pub mod layout;
 pub mod mesh;
 pub mod model;
 pub mod newton;
+pub mod obj;
 pub mod projection;
 pub mod refine;
 pub mod registry;

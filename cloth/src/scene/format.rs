@@ -232,7 +232,8 @@ impl Physics {
     }
 }
 
-/// An obstacle; JSON objects tagged by `"type"`: `"spheres"` or `"plane"`.
+/// An obstacle; JSON objects tagged by `"type"`: `"spheres"`, `"plane"`, `"capsule"`, `"box"` or
+/// `"mesh"`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase")]
 pub enum Obstacle {
@@ -240,6 +241,12 @@ pub enum Obstacle {
     Spheres(SphereSetSpec),
     /// A half-space bounded by a plane (`{"type": "plane", "point": [...], "normal": [...], "role": ...}`).
     Plane(PlaneSpec),
+    /// A capsule (`{"type": "capsule", "a": [...], "b": [...], "radius": r, "role": ...}`).
+    Capsule(CapsuleSpec),
+    /// A box (`{"type": "box", "center": [...], "half_extents": [...], "rotation": [w, x, y, z], "role": ...}`).
+    Box(BoxSpec),
+    /// A closed triangle mesh read from an OBJ file (`{"type": "mesh", "file": "tool.obj", "role": ...}`).
+    Mesh(MeshSpec),
 }
 
 impl Obstacle {
@@ -248,8 +255,55 @@ impl Obstacle {
         match self {
             Obstacle::Spheres(s) => s.role,
             Obstacle::Plane(p) => p.role,
+            Obstacle::Capsule(c) => c.role,
+            Obstacle::Box(b) => b.role,
+            Obstacle::Mesh(m) => m.role,
         }
     }
+}
+
+/// The points within `radius` of the segment `a–b`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CapsuleSpec {
+    /// One end of the axis.
+    pub a: [f64; 3],
+    /// The other end of the axis (may equal `a`: a sphere).
+    pub b: [f64; 3],
+    /// Radius (> 0).
+    pub radius: f64,
+    /// How the obstacle is used.
+    pub role: ObstacleRole,
+}
+
+/// A box: centre, half extents along its axes, and an optional rotation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSpec {
+    /// Centre.
+    pub center: [f64; 3],
+    /// Half extents along the box's own axes (each > 0).
+    pub half_extents: [f64; 3],
+    /// Rotation from the box's axes to the world as a quaternion `[w, x, y, z]` (any nonzero
+    /// length; normalised). Default: axis-aligned.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<[f64; 4]>,
+    /// How the obstacle is used.
+    pub role: ObstacleRole,
+}
+
+/// A closed triangle mesh from a Wavefront OBJ file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    /// The OBJ file, relative to the scene file (or to the working directory for a scene given as
+    /// text). It must be a closed, consistently oriented triangle mesh.
+    pub file: String,
+    /// How the obstacle is used.
+    pub role: ObstacleRole,
+    /// The field read from `file` when the scene was loaded ([`crate::Scene::load`]); `None` until then.
+    #[serde(skip)]
+    pub surface: Option<crate::sdf::MeshSdf>,
 }
 
 /// A union of spheres; its signed distance is `min_s (|x − c_s| − r_s)`.

@@ -4,6 +4,8 @@ use serde::Serialize;
 
 use super::SceneError;
 
+/// `text` with control characters (newlines, tabs, …) escaped, so an error quoting user input
+/// (an unknown field name, a scene name) stays on one line.
 pub(super) fn one_line(text: &str) -> String {
     text.chars()
         .map(|c| {
@@ -16,6 +18,8 @@ pub(super) fn one_line(text: &str) -> String {
         .collect()
 }
 
+/// Pretty-prints `value` as JSON with arrays of scalars on one line. With serde_json's
+/// `float_roundtrip` feature (enabled in this workspace) every `f64` reads back bit-identically.
 pub fn to_json_pretty_compact<T: Serialize + ?Sized>(
     value: &T,
 ) -> Result<String, serde_json::Error> {

@@ -18,6 +18,7 @@
 //! library; [`Scene::builtin_names`] lists them.
 
 mod builtin;
+mod files;
 mod format;
 mod json;
 mod validate;
@@ -85,24 +86,31 @@ pub enum SceneError {
     },
 }
 
-/// `text` with control characters (newlines, tabs, …) escaped, so an error quoting user input
-
 impl Scene {
     /// Parses a scene from JSON text and validates it.
+    ///
+    /// Files the scene names (mesh obstacles) are read relative to the working directory.
     pub fn from_json_str(text: &str) -> Result<Scene, SceneError> {
-        let scene: Scene = serde_json::from_str(text).map_err(|e| parse_error(text, &e))?;
+        Scene::from_json_str_in(text, Path::new(""))
+    }
+
+    /// Parses a scene from JSON text, reads the files it names relative to `base`
+    /// ([`Scene::load_files`]) and validates it.
+    pub fn from_json_str_in(text: &str, base: &Path) -> Result<Scene, SceneError> {
+        let mut scene: Scene = serde_json::from_str(text).map_err(|e| parse_error(text, &e))?;
+        scene.load_files(base)?;
         scene.validate()?;
         Ok(scene)
     }
 
-    /// Reads, parses and validates a scene file.
+    /// Reads, parses and validates a scene file; the files it names are relative to its folder.
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
             path: path.to_path_buf(),
             source,
         })?;
-        Scene::from_json_str(&text)
+        Scene::from_json_str_in(&text, path.parent().unwrap_or(Path::new("")))
     }
 
     /// One of the built-in scenes (see [`Scene::builtin_names`]), embedded from `examples/scenes/`.
@@ -129,5 +137,13 @@ impl Scene {
         // Serializing these plain data types cannot fail whatever their values (no maps, no fallible
         // custom serializers; non-finite floats are written as `null`), so this never panics.
         to_json_pretty_compact(self).expect("serializing a Scene is infallible")
+    }
+}
+
+/// A [`SceneError::Invalid`] for `field`.
+fn invalid(field: impl Into<String>, reason: impl Into<String>) -> SceneError {
+    SceneError::Invalid {
+        field: field.into(),
+        reason: reason.into(),
     }
 }

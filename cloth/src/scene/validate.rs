@@ -1,15 +1,8 @@
 //! Scene validation: every bad value is rejected with the path of its field.
 
 use super::format::*;
-use super::{Scene, SceneError, MAX_COORDINATE, MAX_HORIZON, MAX_PARTICLES};
+use super::{invalid, Scene, SceneError, MAX_COORDINATE, MAX_HORIZON, MAX_PARTICLES};
 use crate::geometry::{cross, norm3, unit};
-
-fn invalid(field: impl Into<String>, reason: impl Into<String>) -> SceneError {
-    SceneError::Invalid {
-        field: field.into(),
-        reason: reason.into(),
-    }
-}
 
 fn counted(n: usize, singular: &str, plural: &str) -> String {
     format!("{n} {}", if n == 1 { singular } else { plural })
@@ -71,8 +64,6 @@ fn check_stiffness(field: &str, k: &Stiffness) -> Result<(), SceneError> {
         )),
     }
 }
-
-/// Pretty-prints `value` as JSON with arrays of scalars on one line. With serde_json's
 
 impl Scene {
     /// Checks every value; the first problem found is returned as [`SceneError::Invalid`] naming the field.
@@ -297,6 +288,43 @@ impl Scene {
                     for (j, &r) in s.radii.iter().enumerate() {
                         check_positive(&format!("{base}.radii[{j}]"), r)?;
                         check_coordinate(&format!("{base}.radii[{j}]"), r)?;
+                    }
+                }
+                Obstacle::Capsule(c) => {
+                    check_vec3(&format!("{base}.a"), &c.a)?;
+                    check_vec3(&format!("{base}.b"), &c.b)?;
+                    check_positive(&format!("{base}.radius"), c.radius)?;
+                    check_coordinate(&format!("{base}.radius"), c.radius)?;
+                }
+                Obstacle::Box(b) => {
+                    check_vec3(&format!("{base}.center"), &b.center)?;
+                    for (k, &h) in b.half_extents.iter().enumerate() {
+                        check_positive(&format!("{base}.half_extents[{k}]"), h)?;
+                        check_coordinate(&format!("{base}.half_extents[{k}]"), h)?;
+                    }
+                    if let Some(q) = &b.rotation {
+                        for (k, &x) in q.iter().enumerate() {
+                            check_coordinate(&format!("{base}.rotation[{k}]"), x)?;
+                        }
+                        let m = q.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                        if m == 0.0 {
+                            return Err(invalid(
+                                format!("{base}.rotation"),
+                                "zero quaternion; give [w, x, y, z] of nonzero length",
+                            ));
+                        }
+                    }
+                }
+                Obstacle::Mesh(m) => {
+                    if m.surface.is_none() {
+                        return Err(invalid(
+                            format!("{base}.file"),
+                            format!(
+                                "`{}` has not been read (Scene::load and Scene::from_json_str read it; \
+                                 a scene built in code calls Scene::load_files)",
+                                m.file
+                            ),
+                        ));
                     }
                 }
                 Obstacle::Plane(p) => {
