@@ -38,7 +38,7 @@ pub fn print_summary(result: &PlanResult, no_timing: bool) {
     );
     if let Some(search) = &result.search {
         println!(
-            "route search ({} candidates, {} simulations in all):",
+            "route search ({} stages after the first plan, {} simulations in all):",
             search.candidates.len() - 1,
             search.simulations
         );

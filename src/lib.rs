@@ -3,16 +3,19 @@
 //! Glue between the `cloth` simulator and the `optim` solvers: [`problem::TrajectoryProblem`]
 //! casts a cloth task as an optimization problem (its rows on the controls alone, robot limits
 //! and collider planes, in `control_rows`); [`plan`] runs it and packages the result;
-//! [`plot`] draws figures and [`figures`] builds them from rollouts; [`export`] writes way-points
+//! `plot` (the `viz` crate, feature `figures`) draws figures and `figures` builds them from rollouts; [`export`] writes way-points
 //! and meshes for robots and viewers.
 
 pub mod anytime;
 mod control_rows;
 pub mod export;
+#[cfg(feature = "figures")]
 pub mod figures;
 pub mod outcome;
 pub mod plan;
-pub mod plot;
 pub mod problem;
 pub mod search;
+/// Plotting (the `viz` crate), for callers that draw their own figures.
+#[cfg(feature = "figures")]
+pub use viz as plot;
 pub mod start_check;

@@ -222,6 +222,8 @@ pub fn active_groups(
                 entry.1.push(control);
             }
             RowLabel::Limit { limit, step } => limits.entry(limit).or_default().push(step),
+            // The goal row asks the cloth to reach its targets: it never holds it back.
+            RowLabel::Goal => {}
         }
     }
     let mut safety = Vec::new();

@@ -6,6 +6,9 @@
 //! - the safety constraint, in one of two forms ([`SafetyForm`]);
 //! - one smooth row per step for `task.limits.max_strain`: `s_max − softmax_edges(strain) ≥ 0`,
 //!   pulled back through the rollout with the loss and safety rows (see [`TaskOptions::strain_kappa`]);
+//! - optionally ([`TaskOptions::goal_radius`]) one smooth row requiring every target particle to
+//!   end within a radius of its position: the route search's last resort when a safe plan misses
+//!   its targets, turning "reach the goal" from a cost into a constraint;
 //! - smooth rows on the controls alone for `max_step` and `gripper_separation`
 //!   ([`crate::control_rows`]);
 //! - linear rows keeping every control point on the free side of every collider plane and inside
@@ -14,7 +17,8 @@
 //!
 //! Grippers are cloth particles, so the safety rows keep them `δ` from the safety obstacles too.
 //!
-//! Row order: safety, strain, control rows (step, separation), linear rows (colliders, workspace).
+//! Row order: safety, strain, goal, control rows (step, separation), linear rows (colliders,
+//! workspace).
 
 use crate::control_rows::{collider_rows, control_rows, workspace_rows, ControlRow, LinearRow};
 use autodiff::{soft_min_value, soft_min_weights, Tape, Tensor, Var};
@@ -59,7 +63,17 @@ pub struct TaskOptions {
     /// one, so a plan meets the limit with up to that much to spare (0.011 on a 10 × 10 cloth at
     /// 500).
     pub strain_kappa: f64,
+    /// Require every target particle to end (step `T`) within this distance of its position: one
+    /// row `(r/2)·(1 − smax_i ‖x_i − p_i‖²/r²) ≥ 0`, with the soft maximum at sharpness
+    /// [`GOAL_KAPPA`] (it lies within `ln(targets)/GOAL_KAPPA` above the true maximum, so a plan
+    /// meeting the row has every target within `r·√(1 − ln(targets)/GOAL_KAPPA)`, 0.99 `r` for
+    /// 10 targets). Near the bound the row reads `≈ r − max distance`. Default `None`: reaching
+    /// the targets is left to the objective.
+    pub goal_radius: Option<f64>,
 }
+
+/// Sharpness of the soft maximum over the targets' squared relative distances in the goal row.
+pub const GOAL_KAPPA: f64 = 100.0;
 
 /// Default [`TaskOptions::strain_kappa`].
 pub const DEFAULT_STRAIN_KAPPA: f64 = 500.0;
@@ -76,6 +90,7 @@ impl TaskOptions {
             swept: false,
             kappa: 3000.0,
             strain_kappa: DEFAULT_STRAIN_KAPPA,
+            goal_radius: None,
         }
     }
 
@@ -98,6 +113,8 @@ pub enum RowLabel {
         /// The step `1..=T` the row constrains, `None` for the scalar and aggregate forms.
         step: Option<usize>,
     },
+    /// The goal row: every target within [`TaskOptions::goal_radius`] at step `T`.
+    Goal,
     /// A control point kept on the free side of a collider plane at one step.
     ColliderPlane {
         /// Index of the plane among the colliders.
@@ -133,6 +150,8 @@ struct Forward {
     safety: Vec<f64>,
     /// The strain rows (`max_strain − smooth max strain`, steps 1..T).
     strain: Vec<f64>,
+    /// The goal row, if any.
+    goal: Vec<f64>,
 }
 
 /// Gradients at one point.
@@ -143,7 +162,9 @@ struct Backward {
     safety: Vec<Vec<f64>>,
     /// Gradients of the strain rows (zero where not `computed`).
     strain: Vec<Vec<f64>>,
-    /// Which safety rows, then strain rows, were pulled back.
+    /// Gradient of the goal row, if any (zero where not `computed`).
+    goal: Vec<Vec<f64>>,
+    /// Which safety rows, then strain rows, then the goal row were pulled back.
     computed: Vec<bool>,
 }
 
@@ -218,6 +239,27 @@ impl<'a> TrajectoryProblem<'a> {
         }
     }
 
+    /// Number of goal rows (1 with a [`TaskOptions::goal_radius`] and targets, else 0).
+    fn goal_rows(&self) -> usize {
+        usize::from(self.options.goal_radius.is_some() && self.model.task.targets.rows() > 0)
+    }
+
+    /// Records the goal row on the final state `x` (see [`TaskOptions::goal_radius`]).
+    fn record_goal(&self, tape: &mut Tape, x: Var) -> Option<Var> {
+        let r = self.options.goal_radius?;
+        let reached = tape.gather(x, &self.model.task.targets);
+        let target = tape.leaf(self.model.task.target_positions.clone());
+        let diff = tape.sub(reached, target);
+        let sq = tape.square(diff);
+        let dist2 = tape.row_sum(sq);
+        // smax(e) = −smin(−e) over the relative squared distances e_i = d_i²/r².
+        let neg_rel = tape.scale(dist2, -1.0 / (r * r));
+        let smin = tape.soft_min(neg_rel, GOAL_KAPPA);
+        // (r/2)(1 − smax) = (r/2)(1 + smin).
+        let one_plus = tape.add_scalar(smin, 1.0);
+        Some(tape.scale(one_plus, 0.5 * r))
+    }
+
     /// Records the strain row of step `t`: `max_strain − smooth max strain`.
     fn record_step_strain(&self, tape: &mut Tape, x: Var) -> Option<Var> {
         let limit = self.model.task.limits.max_strain?;
@@ -228,8 +270,8 @@ impl<'a> TrajectoryProblem<'a> {
         Some(tape.add_scalar(negated, limit))
     }
 
-    /// What each inequality row constrains, in row order (safety rows, strain rows, step and
-    /// separation rows, collider rows, workspace rows).
+    /// What each inequality row constrains, in row order (safety rows, strain rows, the goal row,
+    /// step and separation rows, collider rows, workspace rows).
     pub fn row_labels(&self) -> Vec<RowLabel> {
         let mut labels: Vec<RowLabel> = match self.options.safety {
             Some(SafetyForm::PerStep) => (1..=self.safety_rows())
@@ -241,6 +283,7 @@ impl<'a> TrajectoryProblem<'a> {
             limit: "max_strain",
             step,
         }));
+        labels.extend((0..self.goal_rows()).map(|_| RowLabel::Goal));
         labels.extend(self.control.iter().map(|row| {
             let (limit, step) = row.label();
             RowLabel::Limit { limit, step }
@@ -303,6 +346,7 @@ impl<'a> TrajectoryProblem<'a> {
             let mut safety = vec![0.0; self.safety_rows()];
             let mut per_step = Vec::new();
             let mut strain = Vec::with_capacity(self.strain_rows());
+            let mut goal = Vec::with_capacity(self.goal_rows());
             for t in 1..states.len() {
                 tape.clear();
                 let xp = tape.leaf(states[t - 1].clone());
@@ -329,6 +373,11 @@ impl<'a> TrajectoryProblem<'a> {
                         strain.push(tape.value(s).item());
                     }
                 }
+                if t == self.model.task.horizon && self.goal_rows() > 0 {
+                    if let Some(g) = self.record_goal(&mut tape, xv) {
+                        goal.push(tape.value(g).item());
+                    }
+                }
             }
             match self.options.safety {
                 Some(SafetyForm::PerStep) if !safety.is_empty() => {
@@ -346,6 +395,7 @@ impl<'a> TrajectoryProblem<'a> {
                 per_step,
                 safety,
                 strain,
+                goal,
             });
         }
         self.forward
@@ -363,6 +413,7 @@ impl<'a> TrajectoryProblem<'a> {
         let wanted = wanted_rows;
         let rows = self.safety_rows();
         let strain_rows = self.strain_rows();
+        let goal_rows = self.goal_rows();
         let mut wanted: Vec<bool> = match wanted {
             Some(w) if self.options.safety == Some(SafetyForm::PerStep) => w[..rows].to_vec(),
             _ => vec![true; rows],
@@ -370,6 +421,11 @@ impl<'a> TrajectoryProblem<'a> {
         wanted.extend_from_slice(&match wanted_rows {
             Some(w) => w[rows..rows + strain_rows].to_vec(),
             None => vec![true; strain_rows],
+        });
+        let tape_rows = rows + strain_rows;
+        wanted.extend_from_slice(&match wanted_rows {
+            Some(w) => w[tape_rows..tape_rows + goal_rows].to_vec(),
+            None => vec![true; goal_rows],
         });
         let cached = self
             .backward
@@ -426,6 +482,11 @@ impl<'a> TrajectoryProblem<'a> {
                     }) as BoxedStepCost<'_>
                 })
                 .collect();
+            let horizon = self.model.task.horizon;
+            let want_goal = goal_rows > 0 && wanted[rows + strain_rows];
+            let goal_cost = move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
+                (t == horizon).then(|| this.record_goal(tape, xv)).flatten()
+            };
             let mut costs: Vec<StepCost<'_>> = vec![&loss];
             match self.options.safety {
                 Some(SafetyForm::Scalar) if self.safety_rows() == 1 => costs.push(&scalar),
@@ -436,6 +497,9 @@ impl<'a> TrajectoryProblem<'a> {
                 _ => {}
             }
             costs.extend(strain_costs.iter().map(|b| b.as_ref() as StepCost<'_>));
+            if want_goal {
+                costs.push(&goal_cost);
+            }
             let mut grads = self
                 .model
                 .gradients(&forward.states, &controls, &costs)
@@ -456,8 +520,14 @@ impl<'a> TrajectoryProblem<'a> {
                 None => {}
             }
             let mut strain = vec![vec![0.0; x.len()]; strain_rows];
-            for (&r, g) in strain_active.iter().zip(grads) {
+            for (&r, g) in strain_active.iter().zip(grads.by_ref()) {
                 strain[r] = g.into_data();
+            }
+            let mut goal = vec![vec![0.0; x.len()]; goal_rows];
+            if want_goal {
+                if let (Some(row), Some(g)) = (goal.first_mut(), grads.next()) {
+                    *row = g.into_data();
+                }
             }
             drop(per_step);
             drop(strain_costs);
@@ -467,6 +537,7 @@ impl<'a> TrajectoryProblem<'a> {
                 objective,
                 safety,
                 strain,
+                goal,
                 computed: wanted,
             });
         }
@@ -488,6 +559,7 @@ impl<'a> TrajectoryProblem<'a> {
             .safety
             .iter()
             .chain(&backward.strain)
+            .chain(&backward.goal)
             .cloned()
             .collect();
         let k = tape_rows.len();
@@ -525,7 +597,11 @@ impl Problem for TrajectoryProblem<'_> {
     }
 
     fn num_inequalities(&self) -> usize {
-        self.safety_rows() + self.strain_rows() + self.control.len() + self.linear.len()
+        self.safety_rows()
+            + self.strain_rows()
+            + self.goal_rows()
+            + self.control.len()
+            + self.linear.len()
     }
 
     fn initial_hessian(&self) -> Option<DenseMatrix> {
@@ -565,14 +641,15 @@ impl Problem for TrajectoryProblem<'_> {
     }
 
     fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
-        let (k, s) = (self.safety_rows(), self.strain_rows());
+        let (k, s, g) = (self.safety_rows(), self.strain_rows(), self.goal_rows());
         let forward = self.ensure_forward(x)?;
         c[..k].copy_from_slice(&forward.safety);
         c[k..k + s].copy_from_slice(&forward.strain);
+        c[k + s..k + s + g].copy_from_slice(&forward.goal);
         let model = self.model;
         let control = self.control.iter().map(|row| row.value(model, x));
         let linear = self.linear.iter().map(|row| row.value(x));
-        for (ci, v) in c[k + s..].iter_mut().zip(control.chain(linear)) {
+        for (ci, v) in c[k + s + g..].iter_mut().zip(control.chain(linear)) {
             *ci = v;
         }
         Ok(())

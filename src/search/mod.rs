@@ -3,14 +3,19 @@
 //!
 //! 1. Plan from the given start ([`crate::plan::plan`]). With [`SearchMode::Auto`] an achieved
 //!    task ends the search here: no extra work.
-//! 2. Propose candidate routes from the scene's geometry ([`routes::propose`]).
-//! 3. *Cheap stage:* optimize every candidate at the warm-up sharpness `κ` (smooth, conservative
+//! 2. *Goal stage:* a safe plan that misses its targets is planned again from where it ended with
+//!    the targets as a constraint ([`crate::problem::TaskOptions::goal_radius`]) rather than
+//!    only a cost: a plan that misses because `αT + βE` outweighs the last centimetres of `G`
+//!    reaches them here, on the same route. With `Auto`, success ends the search.
+//! 3. Propose candidate routes from the scene's geometry ([`routes::propose`]).
+//! 4. *Cheap stage:* optimize every candidate at the warm-up sharpness `κ` (smooth, conservative
 //!    safety rows) with a small iteration budget, in parallel (rayon; results in candidate order,
 //!    so the outcome is the same for any thread count).
-//! 4. *Polish:* the best few cheap results, ranked by (safe, achieved, `L`), are planned in full
+//! 5. *Polish:* the best few cheap results, ranked by (safe, achieved, `L`), are planned in full
 //!    from where they stopped — each only while its cheap result ranks above the best plan so
 //!    far (the first plan included), so a search that finds nothing better costs one cheap stage.
-//! 5. Keep the best of the first plan and the polished ones by the same ranking.
+//!    A polished plan that becomes the best gets its own goal stage.
+//! 6. Keep the best of every stage by the same ranking.
 //!
 //! The search lives in the root package: `optim` stays problem-agnostic.
 
@@ -151,6 +156,99 @@ pub fn rank(a: &PlanResult, b: &PlanResult) -> Ordering {
         .then(a.metrics.l.total_cmp(&b.metrics.l))
 }
 
+/// The best plan so far, the index of its report, and every report.
+type Tally<'r> = (&'r mut PlanResult, &'r mut usize, &'r mut Vec<CandidateReport>);
+
+/// Radius of the goal stage's goal row, as a fraction of the task tolerance.
+const GOAL_FRACTION: f64 = 0.98;
+
+/// Keeps `result` (reported as `route`, `stage`) when it ranks above the best plan so far.
+fn tally(route: &str, stage: &str, result: PlanResult, (best, best_report, reports): Tally<'_>) {
+    reports.push(CandidateReport::of(route, stage, &result));
+    if rank(&result, best) == Ordering::Less {
+        *best = result;
+        *best_report = reports.len() - 1;
+    }
+}
+
+/// The goal stage: when the best plan so far is safe but misses its targets, plan again from it
+/// with the targets as a constraint ([`crate::problem::TaskOptions::goal_radius`] at
+/// [`GOAL_FRACTION`] of the tolerance) instead of only a cost, and keep the result if it ranks
+/// above. Where the targets cannot be reached safely the stage ends infeasible and is not kept.
+fn goal_stage(
+    model: &Model,
+    scene: &Scene,
+    options: &PlanOptions,
+    route: &str,
+    progress: &mut impl FnMut(&IterationInfo),
+    (best, best_report, reports): Tally<'_>,
+) -> anyhow::Result<()> {
+    if !is_safe(best) || best.task.achieved || model.task.targets.rows() == 0 {
+        return Ok(());
+    }
+    let mut goal = options.clone();
+    goal.task.goal_radius = Some(GOAL_FRACTION * model.task.tolerance);
+    goal.kappa_warmup = None;
+    let start = crate::plan::controls_from_nested(model, &best.controls)?;
+    let result = plan(model, scene, &start, &goal, &mut *progress)?;
+    tally(route, "goal", result, (best, best_report, reports));
+    Ok(())
+}
+
+/// The cheap stage over every candidate, then the polish of the best few (module docs, steps
+/// 3–4). Returns the route of the polished plan that became the best, if one did.
+fn route_stages(
+    model: &Model,
+    scene: &Scene,
+    options: &PlanOptions,
+    search: &SearchOptions,
+    candidates: &[routes::Candidate],
+    progress: &mut impl FnMut(&IterationInfo),
+    (best, best_report, reports): Tally<'_>,
+) -> anyhow::Result<Option<String>> {
+    // Cheap stage: warm-up sharpness only, a small budget, looser tolerance.
+    let mut cheap_options = options.clone();
+    cheap_options.iterations = search.cheap_iterations;
+    if let Some(kappa) = options.kappa_warmup {
+        cheap_options.task.kappa = kappa.min(options.task.kappa);
+    }
+    cheap_options.kappa_warmup = None;
+    cheap_options.tol_optimality = 10.0 * options.tol_optimality;
+    let cheap: Vec<PlanResult> = candidates
+        .par_iter()
+        .map(|c| plan(model, scene, &c.controls, &cheap_options, |_| {}))
+        .collect::<anyhow::Result<_>>()?;
+    let mut order: Vec<usize> = (0..cheap.len()).collect();
+    order.sort_by(|&a, &b| rank(&cheap[a], &cheap[b]).then(a.cmp(&b)));
+    reports.extend(
+        candidates
+            .iter()
+            .zip(&cheap)
+            .map(|(c, r)| CandidateReport::of(&c.route, "cheap", r)),
+    );
+    let mut kept = None;
+    for &i in order.iter().take(search.polish) {
+        // Only candidates whose cheap result already ranks above the best plan so far are worth
+        // a full plan (the order is best first, so the rest rank lower too).
+        if rank(&cheap[i], best) != Ordering::Less {
+            break;
+        }
+        let start = crate::plan::controls_from_nested(model, &cheap[i].controls)?;
+        let polished = plan(model, scene, &start, options, &mut *progress)?;
+        let before = *best_report;
+        tally(
+            &candidates[i].route,
+            "polished",
+            polished,
+            (&mut *best, &mut *best_report, &mut *reports),
+        );
+        if *best_report != before {
+            kept = Some(candidates[i].route.clone());
+        }
+    }
+    Ok(kept)
+}
+
 /// Plans `model`'s task from `start`, searching other routes as `search` says (module docs).
 /// `progress` sees the iterations of the sequential stages (the first plan and the polish).
 pub fn plan_with_search(
@@ -174,53 +272,46 @@ pub fn plan_with_search(
     if !run {
         return Ok(first);
     }
-    let candidates = routes::propose(
-        model,
-        start,
-        options.task.delta,
-        search.random_starts,
-        search.seed,
-        search.max_candidates,
-    );
-    // Cheap stage: warm-up sharpness only, a small budget, looser tolerance.
-    let mut cheap_options = options.clone();
-    cheap_options.iterations = search.cheap_iterations;
-    if let Some(kappa) = options.kappa_warmup {
-        cheap_options.task.kappa = kappa.min(options.task.kappa);
-    }
-    cheap_options.kappa_warmup = None;
-    cheap_options.tol_optimality = 10.0 * options.tol_optimality;
-    let cheap: Vec<PlanResult> = candidates
-        .par_iter()
-        .map(|c| plan(model, scene, &c.controls, &cheap_options, |_| {}))
-        .collect::<anyhow::Result<_>>()?;
-    let mut order: Vec<usize> = (0..cheap.len()).collect();
-    order.sort_by(|&a, &b| rank(&cheap[a], &cheap[b]).then(a.cmp(&b)));
     let mut reports = vec![CandidateReport::of("initial guess", "first", &first)];
-    reports.extend(
-        candidates
-            .iter()
-            .zip(&cheap)
-            .map(|(c, r)| CandidateReport::of(&c.route, "cheap", r)),
-    );
     let mut best = first;
     let mut best_report = 0;
-    for &i in order.iter().take(search.polish) {
-        // Only candidates whose cheap result already ranks above the best plan so far are worth
-        // a full plan (the order is best first, so the rest rank lower too).
-        if rank(&cheap[i], &best) != Ordering::Less {
-            break;
-        }
-        let start = crate::plan::controls_from_nested(model, &cheap[i].controls)?;
-        let polished = plan(model, scene, &start, options, &mut progress)?;
-        reports.push(CandidateReport::of(
-            &candidates[i].route,
-            "polished",
-            &polished,
-        ));
-        if rank(&polished, &best) == Ordering::Less {
-            best = polished;
-            best_report = reports.len() - 1;
+    // The goal stage on the first plan: a plan that misses narrowly often reaches its targets
+    // once they are a constraint rather than a cost, with no new route.
+    goal_stage(
+        model,
+        scene,
+        options,
+        "initial guess",
+        &mut progress,
+        (&mut best, &mut best_report, &mut reports),
+    )?;
+    if !(best.task.achieved && search.mode == SearchMode::Auto) {
+        let candidates = routes::propose(
+            model,
+            start,
+            options.task.delta,
+            search.random_starts,
+            search.seed,
+            search.max_candidates,
+        );
+        let polished_best = route_stages(
+            model,
+            scene,
+            options,
+            search,
+            &candidates,
+            &mut progress,
+            (&mut best, &mut best_report, &mut reports),
+        )?;
+        if let Some(route) = polished_best {
+            goal_stage(
+                model,
+                scene,
+                options,
+                &route,
+                &mut progress,
+                (&mut best, &mut best_report, &mut reports),
+            )?;
         }
     }
     reports[best_report].kept = true;

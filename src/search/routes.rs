@@ -21,6 +21,7 @@
 
 use autodiff::Tensor;
 use cloth::sdf::SignedDistance;
+use cloth::controls::ControlsView;
 use cloth::{Controls, Model};
 use rand::{RngExt, SeedableRng};
 use rand_xorshift::XorShiftRng;
@@ -370,26 +371,24 @@ fn min_distance(sdf: &cloth::sdf::Union, x: &Tensor, shift: [f64; 3]) -> f64 {
 
 /// Gripper positions along `controls` (rest positions plus the running sum of displacements).
 pub fn paths_of(model: &Model, controls: &Controls) -> Paths {
-    let mut p = gripper_starts(model);
-    let mut out = vec![p.clone()];
-    for t in 0..controls.rows() {
-        for (k, q) in p.iter_mut().enumerate() {
-            let u = &controls.row(t)[3 * k..3 * k + 3];
-            *q = [q[0] + u[0], q[1] + u[1], q[2] + u[2]];
-        }
-        out.push(p.clone());
-    }
-    out
+    let per_gripper: Vec<Vec<[f64; 3]>> = gripper_starts(model)
+        .into_iter()
+        .enumerate()
+        .map(|(k, start)| controls.gripper_path(k, start))
+        .collect();
+    (0..=controls.n_steps())
+        .map(|t| per_gripper.iter().map(|path| path[t]).collect())
+        .collect()
 }
 
 /// Controls (per-step displacements) of gripper paths.
 fn controls_of(paths: &Paths) -> Controls {
-    let horizon = paths.len() - 1;
-    let k = paths.first().map_or(0, Vec::len);
-    let data = (0..horizon)
-        .flat_map(|t| (0..k).flat_map(move |c| sub(paths[t + 1][c], paths[t][c])))
+    let steps: Vec<Vec<[f64; 3]>> = paths
+        .windows(2)
+        .map(|w| w[1].iter().zip(&w[0]).map(|(&b, &a)| sub(b, a)).collect())
         .collect();
-    Tensor::new(horizon, 3 * k, data)
+    cloth::controls::controls_from_steps(&steps)
+        .unwrap_or_else(|| Tensor::zeros(0, 3 * paths.first().map_or(0, Vec::len)))
 }
 
 fn gripper_starts(model: &Model) -> Vec<[f64; 3]> {

@@ -1,0 +1,144 @@
+//! The goal row (`TaskOptions::goal_radius`) and the search's goal stage: the row's Jacobian
+//! matches central differences; a plan that misses its targets only because the objective trades
+//! them against smoothness reaches them in the goal stage; an unreachable goal is never kept.
+
+mod common;
+
+use cloth::scene::Target;
+use cloth::{Model, Scene};
+use clothopt::outcome::{target_errors, Reason};
+use clothopt::plan::{controls_from_nested, initial_controls, PlanOptions, PlanResult};
+use clothopt::problem::{RowLabel, TaskOptions, TrajectoryProblem};
+use clothopt::search::{plan_with_search, SearchMode, SearchOptions};
+use common::{noise, small};
+use optim::{Jacobian, Problem};
+use proptest::prelude::*;
+
+/// A 4 × 4 hanging cloth, `T = 4`, whose bottom row should move 0.6 m sideways; the trajectory
+/// and energy weights are large, so the unconstrained optimum stops short of the targets.
+fn reluctant_scene(tolerance: f64) -> Scene {
+    let mut s = small(4, 4, 4, 30);
+    s.task.targets = (0..4)
+        .map(|c| Target {
+            particle: [3, c],
+            position: [-0.5 + c as f64 / 3.0, 0.6, 0.0],
+        })
+        .collect();
+    s.task.alpha = 2.0;
+    s.task.beta = 0.05;
+    s.task.tolerance = Some(tolerance);
+    s.validate().unwrap();
+    s
+}
+
+fn search(scene: &Scene, mode: SearchMode) -> (Model, PlanResult) {
+    let model = Model::from_scene(scene).unwrap();
+    let start = initial_controls(scene, &model).unwrap();
+    let options = PlanOptions::for_model(&model);
+    let search = SearchOptions {
+        mode,
+        ..SearchOptions::default()
+    };
+    let result = plan_with_search(&model, scene, &start, &options, &search, |_| {}).unwrap();
+    (model, result)
+}
+
+fn resimulated_errors(model: &Model, result: &PlanResult) -> Vec<f64> {
+    let controls = controls_from_nested(model, &result.controls).unwrap();
+    let states = model.simulate(&controls).unwrap();
+    target_errors(model, states.last().unwrap())
+}
+
+#[test]
+fn the_goal_row_follows_the_strain_rows_and_counts_once() {
+    let scene = reluctant_scene(0.05);
+    let model = Model::from_scene(&scene).unwrap();
+    let mut options = TaskOptions::for_model(&model);
+    let without = TrajectoryProblem::new(&model, options.clone()).num_inequalities();
+    options.goal_radius = Some(0.05);
+    let p = TrajectoryProblem::new(&model, options);
+    assert_eq!(p.num_inequalities(), without + 1);
+    let labels = p.row_labels();
+    assert_eq!(labels.len(), without + 1);
+    assert_eq!(labels.iter().filter(|l| **l == RowLabel::Goal).count(), 1);
+}
+
+#[test]
+fn the_goal_stage_reaches_targets_the_objective_trades_away() {
+    let tolerance = 0.05;
+    let scene = reluctant_scene(tolerance);
+    let (model, off) = search(&scene, SearchMode::Off);
+    assert!(off.is_safe() && off.is_feasible());
+    assert!(
+        !off.task.achieved && off.task.max_target_error > tolerance,
+        "the scene must miss without the goal stage: {:?}",
+        off.task
+    );
+    let (_, on) = search(&scene, SearchMode::Auto);
+    assert!(on.task.achieved, "{:?}", on.task);
+    assert_eq!(on.task.reason, Reason::Achieved);
+    let errors = resimulated_errors(&model, &on);
+    assert_eq!(errors, on.task.target_errors);
+    assert!(errors.iter().all(|&e| e <= tolerance), "{errors:?}");
+    let report = on.search.as_ref().expect("a search report");
+    let kept: Vec<_> = report.candidates.iter().filter(|c| c.kept).collect();
+    assert_eq!(kept.len(), 1);
+    assert_eq!(kept[0].stage, "goal");
+    // The constrained plan pays for the targets in L, never more than the first plan's G saves.
+    assert!(on.metrics.l >= off.metrics.l - 1e-9);
+}
+
+#[test]
+fn an_unreachable_goal_is_not_kept() {
+    // A target 50 m away cannot be reached by a 1 m cloth in 4 steps of a bounded size.
+    let mut scene = reluctant_scene(0.05);
+    scene.task.targets[0].position = [0.0, 50.0, 0.0];
+    scene.task.limits.max_step = Some(0.5);
+    scene.validate().unwrap();
+    let (_, on) = search(&scene, SearchMode::Auto);
+    assert!(!on.task.achieved);
+    assert!(on.is_safe() && on.is_feasible(), "{}", on.status);
+    let report = on.search.as_ref().unwrap();
+    assert!(report
+        .candidates
+        .iter()
+        .any(|c| c.stage == "goal" && !c.kept));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(6))]
+
+    /// The goal row against central differences along a random direction, at random controls
+    /// and radii (rows active and inactive alike: it is smooth everywhere).
+    #[test]
+    fn goal_row_matches_central_differences(
+        seed in 0u64..1000,
+        scale in 0.05f64..0.3,
+        radius in 0.05f64..2.0,
+    ) {
+        let scene = reluctant_scene(0.05);
+        let model = Model::from_scene(&scene).unwrap();
+        let mut options = TaskOptions::for_model(&model);
+        options.goal_radius = Some(radius);
+        let mut p = TrajectoryProblem::new(&model, options);
+        let (n, m) = (p.num_variables(), p.num_inequalities());
+        let row = p.row_labels().iter().position(|l| *l == RowLabel::Goal).unwrap();
+        let x: Vec<f64> = noise(seed, n).iter().map(|v| scale * v).collect();
+        let mut jac = Jacobian::dense(m, n);
+        p.inequality_jacobian(&x, &mut jac).unwrap();
+        let Jacobian::Dense(jac) = jac else { panic!("dense") };
+        let d = noise(seed + 7919, n);
+        let h = 1e-6;
+        let at = |s: f64, p: &mut TrajectoryProblem| {
+            let xs: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + s * b).collect();
+            let mut c = vec![0.0; m];
+            p.inequalities(&xs, &mut c).unwrap();
+            c[row]
+        };
+        let (cp, cm) = (at(h, &mut p), at(-h, &mut p));
+        let fd = (cp - cm) / (2.0 * h);
+        let an: f64 = jac.row(row).iter().zip(&d).map(|(a, b)| a * b).sum();
+        prop_assert!(an != 0.0);
+        prop_assert!((fd - an).abs() <= 1e-6 * an.abs().max(1.0), "{} vs FD {}", an, fd);
+    }
+}
