@@ -19,6 +19,8 @@ pub struct Intrusion {
     pub distance: f64,
     /// The obstacle is a safety obstacle (its margin `δ` applies).
     pub safety: bool,
+    /// The obstacle's JSON type: `spheres`, `plane`, `capsule`, `box` or `mesh`.
+    pub kind: &'static str,
 }
 
 impl Intrusion {
@@ -26,7 +28,7 @@ impl Intrusion {
     pub fn name(&self) -> String {
         match self.sphere {
             Some(s) => format!("obstacles[{}] (spheres), sphere {s}", self.obstacle),
-            None => format!("obstacles[{}] (plane)", self.obstacle),
+            None => format!("obstacles[{}] ({})", self.obstacle, self.kind),
         }
     }
 }
@@ -41,6 +43,13 @@ pub fn start_intrusions(scene: &Scene, delta: f64) -> Vec<Intrusion> {
         let safety = obstacle.role().is_safety();
         let limit = if safety { delta } else { 0.0 };
         let mut deepest: Option<Intrusion> = None;
+        let kind = match obstacle {
+            Obstacle::Spheres(_) => "spheres",
+            Obstacle::Plane(_) => "plane",
+            Obstacle::Capsule(_) => "capsule",
+            Obstacle::Box(_) => "box",
+            Obstacle::Mesh(_) => "mesh",
+        };
         let mut consider = |sphere: Option<usize>, particle: usize, distance: f64| {
             if distance < limit && deepest.as_ref().is_none_or(|d| distance < d.distance) {
                 deepest = Some(Intrusion {
@@ -49,6 +58,7 @@ pub fn start_intrusions(scene: &Scene, delta: f64) -> Vec<Intrusion> {
                     particle: [particle / cols, particle % cols],
                     distance,
                     safety,
+                    kind,
                 });
             }
         };
@@ -66,6 +76,11 @@ pub fn start_intrusions(scene: &Scene, delta: f64) -> Vec<Intrusion> {
                 for (i, p) in rest.iter().enumerate() {
                     let d = (0..3).map(|j| n[j] * (p[j] - plane.point[j])).sum();
                     consider(None, i, d);
+                }
+            }
+            other => {
+                for (i, p) in rest.iter().enumerate() {
+                    consider(None, i, other.signed_distance(*p));
                 }
             }
         }

@@ -14,7 +14,7 @@
 
 mod common;
 
-use cloth::scene::{Obstacle, ObstacleRole, Plane, SphereSet, Stiffness, Target};
+use cloth::scene::{Obstacle, ObstacleRole, PlaneSpec, SphereSetSpec, Stiffness, Target};
 use cloth::{Model, Scene};
 use clothopt::plan::{self, initial_controls, PlanOptions, PlanResult};
 use clothopt::problem::TrajectoryProblem;
@@ -32,12 +32,12 @@ fn infeasible_scene() -> Scene {
     let mut s = small(4, 4, 3, 20);
     s.name = "infeasible_planes".into();
     s.obstacles = vec![
-        Obstacle::Plane(Plane {
+        Obstacle::Plane(PlaneSpec {
             point: [0.0, 0.0, 1.0],
             normal: [0.0, 0.0, -1.0],
             role: ObstacleRole::Safety,
         }),
-        Obstacle::Plane(Plane {
+        Obstacle::Plane(PlaneSpec {
             point: [0.0, 0.0, 0.0],
             normal: [0.0, 0.0, 1.0],
             role: ObstacleRole::Collider,
@@ -249,7 +249,7 @@ fn an_absurd_margin_around_the_target_is_never_a_false_success() {
     // units away. Whatever the solver manages in 40 iterations, `converged` and a zero exit code
     // only come with a plan that truly keeps the margin.
     let mut scene = small(4, 4, 3, 20);
-    scene.obstacles = vec![Obstacle::Spheres(SphereSet {
+    scene.obstacles = vec![Obstacle::Spheres(SphereSetSpec {
         centers: vec![[-0.5, 1.0, 1.5], [0.5, 1.0, 1.5]],
         radii: vec![0.5, 0.5],
         role: ObstacleRole::Safety,

@@ -4,7 +4,7 @@
 
 mod common;
 
-use cloth::scene::{InitialControls, Obstacle, ObstacleRole, SphereSet, Target};
+use cloth::scene::{InitialControls, Obstacle, ObstacleRole, SphereSetSpec, Target};
 use cloth::{Model, Scene};
 use clothopt::outcome::{target_errors, Reason};
 use clothopt::plan::{controls_from_nested, initial_controls, PlanOptions, PlanResult};
@@ -98,7 +98,7 @@ fn plan_with_search_on(scene: &Scene) -> (Model, PlanResult) {
 /// The blocked scene with its right target inside a safety sphere (not achievable).
 fn unreachable_scene() -> Scene {
     let mut scene = blocked_scene();
-    scene.obstacles = vec![Obstacle::Spheres(SphereSet {
+    scene.obstacles = vec![Obstacle::Spheres(SphereSetSpec {
         centers: vec![[0.3, 1.0, 0.4]],
         radii: vec![0.2],
         role: ObstacleRole::Safety,

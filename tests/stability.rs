@@ -22,7 +22,7 @@ mod common;
 
 use autodiff::Tensor;
 use cloth::scene::{
-    Bending, BendingModel, Obstacle, ObstacleRole, Plane, SphereSet, Stiffness, Target,
+    Bending, BendingModel, Obstacle, ObstacleRole, PlaneSpec, SphereSetSpec, Stiffness, Target,
 };
 use cloth::{Evaluation, Model};
 use clothopt::problem::{SafetyForm, TaskOptions, TrajectoryProblem};
@@ -33,7 +33,7 @@ use optim::{Jacobian, Problem};
 // helpers
 
 fn spheres(centers: Vec<[f64; 3]>, radii: Vec<f64>, role: ObstacleRole) -> Obstacle {
-    Obstacle::Spheres(SphereSet {
+    Obstacle::Spheres(SphereSetSpec {
         centers,
         radii,
         role,
@@ -674,7 +674,7 @@ fn ground_plane_exactly_at_a_particles_height() {
     for gravity in [[0.0, 0.0, 0.0], [0.0, 0.0, -9.8]] {
         let mut scene = small(4, 4, 3, 20);
         scene.physics.gravity = gravity;
-        scene.obstacles = vec![Obstacle::Plane(Plane {
+        scene.obstacles = vec![Obstacle::Plane(PlaneSpec {
             point: [0.0, 0.0, 1.0],
             normal: [0.0, 0.0, 1.0],
             role: ObstacleRole::Both,

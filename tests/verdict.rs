@@ -4,7 +4,7 @@
 
 mod common;
 
-use cloth::scene::{Obstacle, ObstacleRole, SphereSet};
+use cloth::scene::{Obstacle, ObstacleRole, SphereSetSpec};
 use cloth::Scene;
 use clothopt::start_check::{judge_start, start_intrusions};
 use common::{bin, files_in, run, scratch, stderr, stdout, write_scene};
@@ -13,7 +13,7 @@ use common::{bin, files_in, run, scratch, stderr, stdout, write_scene};
 /// (−0.5, −1.5, 1.0)) lies 0.05 inside a safety sphere of radius 0.2.
 fn start_inside() -> Scene {
     let mut s = common::small(4, 4, 3, 10);
-    s.obstacles = vec![Obstacle::Spheres(SphereSet {
+    s.obstacles = vec![Obstacle::Spheres(SphereSetSpec {
         centers: vec![[5.0, 5.0, 5.0], [-0.5, -1.5, 0.85]],
         radii: vec![0.1, 0.2],
         role: ObstacleRole::Safety,

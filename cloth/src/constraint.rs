@@ -149,11 +149,8 @@ pub fn hessian_vector_by_duals<C: Constraint>(c: &C, instance: usize, x: &[f64],
 /// Coordinates per instance of the largest arity.
 const MAX_D: usize = 3 * MAX_ARITY;
 
-/// `|v|` through [`Real::sqrt`], so a zero vector has gradient 0.
-#[inline]
-pub fn norm<R: Real>(v: &Vector3<R>) -> R {
-    v.dot(v).sqrt()
-}
+/// `|v|` through [`Real::sqrt`] (re-exported from [`crate::geometry`] for constraint authors).
+pub use crate::geometry::norm;
 
 /// `C = |p₀ − p₁| − d⁰`: the paper's stretch and (distance-type) bending constraint.
 #[derive(Clone, Debug)]

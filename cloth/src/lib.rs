@@ -4,10 +4,13 @@
 //! effects it calls for. Constraints are written once as a generic function `C` ([`constraint`]);
 //! the projection's `∇C` and the backward pass both come from `autodiff`.
 //!
-//! - [`scene`]: the scene file format and its validation;
+//! - [`scene`]: the scene file format, its validation, built-ins and JSON printing;
+//! - [`layout`]: the geometry a scene derives (rest positions, control and target indices);
+//! - [`geometry`]: shared vector helpers; [`obj`]: the OBJ triangle-mesh reader;
 //! - [`mesh`]: the grid mesh and its constraints in canonical order;
 //! - [`coloring`]: greedy colouring into independent sets;
-//! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles;
+//! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles
+//!   (spheres, planes, capsules, boxes, closed meshes);
 //! - [`controls`]: the controls tensor viewed by (step, gripper);
 //! - [`model`]: a scene compiled to its effects; [`registry`]: constraint types scene files name; [`sim`]: time stepping; [`cost`], [`grad`]: costs
 //!   and gradients;
@@ -19,10 +22,13 @@ pub mod constraint;
 pub mod controls;
 pub mod cost;
 pub mod error;
+pub mod geometry;
 pub mod grad;
+pub mod layout;
 pub mod mesh;
 pub mod model;
 pub mod newton;
+pub mod obj;
 pub mod projection;
 pub mod refine;
 pub mod registry;

@@ -11,7 +11,7 @@ use crate::newton::terms::{ConstraintTerms, Terms};
 use crate::newton::Solver;
 use crate::projection::Projection;
 use crate::scene::{BendingModel, Limits, Obstacle, Scene, Stiffness};
-use crate::sdf::{Plane, SignedDistance, SphereSet, Union};
+use crate::sdf::{SignedDistance, Union};
 use crate::strain::EdgeStrain;
 use autodiff::{DynRowFn, Real, RowFn, RowIndex, Tensor};
 use nalgebra::Vector3;
@@ -439,21 +439,11 @@ fn split_obstacles(obstacles: &[Obstacle]) -> (Union, Union) {
     let (mut colliders, mut safety) = (Union::default(), Union::default());
     for o in obstacles {
         let role = o.role();
-        let add = |u: &mut Union| match o {
-            Obstacle::Spheres(s) => u.spheres.push(SphereSet {
-                centers: s.centers.clone(),
-                radii: s.radii.clone(),
-            }),
-            Obstacle::Plane(p) => u.planes.push(Plane {
-                point: p.point,
-                normal: p.normalized(),
-            }),
-        };
         if role.is_collider() {
-            add(&mut colliders);
+            colliders.extend(o.field());
         }
         if role.is_safety() {
-            add(&mut safety);
+            safety.extend(o.field());
         }
     }
     (colliders, safety)

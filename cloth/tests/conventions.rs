@@ -219,6 +219,7 @@ fn tie_between_spheres_takes_the_first_sphere() {
     let union = Union {
         spheres: vec![set(vec![a, b])],
         planes: vec![ground.clone()],
+        ..Default::default()
     };
     assert_eq!(sdf_and_gradient(union, [0.0; 3]), (0.5, [-1.0, 0.0, 0.0]));
     assert_eq!(sdf_and_gradient(ground, [0.0; 3]), (0.5, [0.0, 0.0, 1.0]));

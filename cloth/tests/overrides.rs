@@ -168,7 +168,7 @@ proptest! {
         let pl = plane(&mut rng);
         check(&Collision { sdf: spheres.clone() }, &x, &v)?;
         check(&Collision { sdf: pl.clone() }, &x, &v)?;
-        let union = Union { spheres: vec![spheres], planes: vec![pl] };
+        let union = Union { spheres: vec![spheres], planes: vec![pl], ..Default::default() };
         check(&Collision { sdf: union }, &x, &v)?;
     }
 }
@@ -243,6 +243,7 @@ fn kinks_follow_the_dual_conventions() {
                 point: [0.0, 0.0, 0.0],
                 normal: [1.0, 0.0, 0.0],
             }],
+            ..Default::default()
         },
     };
     // The first sphere: |(0, 1.5, 0)| − 0.5 = 1; the plane: x = 1; the second sphere: 1.30.

@@ -5,8 +5,8 @@
 
 use autodiff::Tensor;
 use cloth::scene::{
-    Bending, BendingModel, InitialControls, Obstacle, ObstacleRole, Plane, SphereSet, Stiffness,
-    Target,
+    Bending, BendingModel, InitialControls, Obstacle, ObstacleRole, PlaneSpec, SphereSetSpec,
+    Stiffness, Target,
 };
 use cloth::{Model, Scene};
 
@@ -88,7 +88,7 @@ pub fn small_scene(
 
 /// A sphere-set obstacle.
 pub fn spheres(centers: Vec<[f64; 3]>, radii: Vec<f64>, role: ObstacleRole) -> Obstacle {
-    Obstacle::Spheres(SphereSet {
+    Obstacle::Spheres(SphereSetSpec {
         centers,
         radii,
         role,
@@ -97,7 +97,7 @@ pub fn spheres(centers: Vec<[f64; 3]>, radii: Vec<f64>, role: ObstacleRole) -> O
 
 /// A plane obstacle.
 pub fn plane(point: [f64; 3], normal: [f64; 3], role: ObstacleRole) -> Obstacle {
-    Obstacle::Plane(Plane {
+    Obstacle::Plane(PlaneSpec {
         point,
         normal,
         role,

@@ -1,10 +1,18 @@
-//! Signed distance fields of obstacles: sphere sets and planes (positive outside).
+//! Signed distance fields of obstacles: sphere sets, planes, capsules, boxes and closed triangle
+//! meshes (positive outside).
 //!
 //! Written generically over [`Real`], so the same code serves the simulator's colliders, the
 //! safety constraint and their derivatives. Conventions: at a sphere's centre the distance is
 //! `−r` with gradient 0 (the norm's convention); on a tie between spheres, the first sphere wins.
 
-use crate::constraint::norm;
+pub mod bvh;
+pub mod mesh;
+pub mod shapes;
+
+pub use mesh::MeshSdf;
+pub use shapes::{sphere_surface, Capsule, Cuboid, Surface};
+
+use crate::geometry::norm;
 use autodiff::{Dual, Real};
 use nalgebra::Vector3;
 
@@ -139,20 +147,43 @@ pub struct Union {
     pub spheres: Vec<SphereSet>,
     /// Planes.
     pub planes: Vec<Plane>,
+    /// Capsules.
+    pub capsules: Vec<Capsule>,
+    /// Boxes.
+    pub boxes: Vec<Cuboid>,
+    /// Closed triangle meshes.
+    pub meshes: Vec<MeshSdf>,
 }
 
 impl Union {
     /// True when the union holds no obstacle.
     pub fn is_empty(&self) -> bool {
-        self.spheres.is_empty() && self.planes.is_empty()
+        self.spheres.is_empty()
+            && self.planes.is_empty()
+            && self.capsules.is_empty()
+            && self.boxes.is_empty()
+            && self.meshes.is_empty()
     }
 
-    /// Number of primitives (spheres, then planes).
+    /// Appends `other`'s obstacles to this union's.
+    pub fn extend(&mut self, other: Union) {
+        self.spheres.extend(other.spheres);
+        self.planes.extend(other.planes);
+        self.capsules.extend(other.capsules);
+        self.boxes.extend(other.boxes);
+        self.meshes.extend(other.meshes);
+    }
+
+    /// Number of primitives (spheres, planes, capsules, boxes, meshes).
     pub fn component_count(&self) -> usize {
-        self.spheres.iter().map(|s| s.radii.len()).sum::<usize>() + self.planes.len()
+        self.spheres.iter().map(|s| s.radii.len()).sum::<usize>()
+            + self.planes.len()
+            + self.capsules.len()
+            + self.boxes.len()
+            + self.meshes.len()
     }
 
-    /// The signed distance of `p` to each primitive (spheres, then planes); their minimum is
+    /// The signed distance of `p` to each primitive (spheres, planes, capsules, boxes, meshes); their minimum is
     /// [`SignedDistance::distance`].
     pub fn components<R: Real>(&self, p: &Vector3<R>, out: &mut [R]) {
         let mut k = 0;
@@ -166,6 +197,18 @@ impl Union {
             out[k] = plane.distance(p);
             k += 1;
         }
+        for d in self.others(p) {
+            out[k] = d;
+            k += 1;
+        }
+    }
+
+    /// The distances to the capsules, boxes and meshes, in that order.
+    fn others<'a, R: Real>(&'a self, p: &'a Vector3<R>) -> impl Iterator<Item = R> + 'a {
+        let capsules = self.capsules.iter().map(move |c| c.distance(p));
+        let boxes = self.boxes.iter().map(move |b| b.distance(p));
+        let meshes = self.meshes.iter().map(move |m| m.distance(p));
+        capsules.chain(boxes).chain(meshes)
     }
 }
 
@@ -183,6 +226,9 @@ impl SignedDistance for Union {
         }
         for pl in &self.planes {
             take(pl.distance(p));
+        }
+        for d in self.others(p) {
+            take(d);
         }
         best.unwrap_or_else(|| R::cst(f64::INFINITY))
     }
@@ -202,12 +248,29 @@ impl SignedDistance for Union {
         for pl in &self.planes {
             take(pl.distance_gradient(p));
         }
+        for c in &self.capsules {
+            take(c.distance_gradient(p));
+        }
+        for b in &self.boxes {
+            take(b.distance_gradient(p));
+        }
+        for m in &self.meshes {
+            take(m.distance_gradient(p));
+        }
         best.unwrap_or_else(|| (R::cst(f64::INFINITY), Vector3::zeros()))
     }
 
     fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
         let spheres = self.spheres.iter().map(|s| s.min_along_segment(a, b));
         let planes = self.planes.iter().map(|p| p.min_along_segment(a, b));
-        spheres.chain(planes).fold(f64::INFINITY, f64::min)
+        let capsules = self.capsules.iter().map(|c| c.min_along_segment(a, b));
+        let boxes = self.boxes.iter().map(|c| c.min_along_segment(a, b));
+        let meshes = self.meshes.iter().map(|m| m.min_along_segment(a, b));
+        spheres
+            .chain(planes)
+            .chain(capsules)
+            .chain(boxes)
+            .chain(meshes)
+            .fold(f64::INFINITY, f64::min)
     }
 }

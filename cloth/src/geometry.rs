@@ -1,0 +1,61 @@
+//! Shared vector helpers: the generic norm constraints and SDFs differentiate through, and the
+//! `f64` array helpers scene validation and tessellation use. A leaf module: it imports nothing
+//! from the crate.
+
+use autodiff::Real;
+use nalgebra::Vector3;
+
+/// `|v|` through [`Real::sqrt`], so a zero vector has gradient 0.
+#[inline]
+pub fn norm<R: Real>(v: &Vector3<R>) -> R {
+    v.dot(v).sqrt()
+}
+
+/// `|v|` of a plain `f64` triple.
+pub fn norm3(v: &[f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// `v/|v|`, computed after scaling by the largest component so that neither tiny nor huge finite
+/// vectors underflow or overflow; `None` for a zero or non-finite vector.
+pub fn unit(v: &[f64; 3]) -> Option<[f64; 3]> {
+    let m = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if !(m.is_finite() && m > 0.0) {
+        return None;
+    }
+    let s = v.map(|x| x / m);
+    let n = norm3(&s);
+    Some(s.map(|x| x / n))
+}
+
+/// The cross product `a × b` of plain `f64` triples.
+pub fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// A `Vector3<R>` of constants from an `f64` triple.
+#[inline(always)]
+pub fn constant<R: Real>(v: &[f64; 3]) -> Vector3<R> {
+    Vector3::new(R::cst(v[0]), R::cst(v[1]), R::cst(v[2]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_survives_tiny_and_huge_vectors() {
+        assert_eq!(unit(&[0.0; 3]), None);
+        assert_eq!(unit(&[f64::NAN, 0.0, 0.0]), None);
+        let u = unit(&[3e-300, 4e-300, 0.0]).unwrap();
+        assert!((u[0] - 0.6).abs() < 1e-15 && (u[1] - 0.8).abs() < 1e-15);
+        let u = unit(&[3e300, 4e300, 0.0]).unwrap();
+        assert!((u[0] - 0.6).abs() < 1e-15 && (u[1] - 0.8).abs() < 1e-15);
+        assert_eq!(cross(&[1.0, 0.0, 0.0], &[0.0, 1.0, 0.0]), [0.0, 0.0, 1.0]);
+        assert_eq!(norm3(&[3.0, 4.0, 0.0]), 5.0);
+    }
+}

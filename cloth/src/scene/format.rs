@@ -1,0 +1,455 @@
+//! The scene format's types: what a scene file may say (serde, unknown fields rejected).
+
+use std::fmt;
+
+use serde::de::{self, Deserializer, Visitor};
+use serde::{Deserialize, Serialize, Serializer};
+
+use crate::geometry::unit;
+
+/// A complete scene: cloth, material, physics, controls, obstacles and task.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Short identifier, e.g. `u_obstacle`.
+    pub name: String,
+    /// One-line human description (default empty).
+    #[serde(default)]
+    pub description: String,
+    /// Grid size, placement and particle mass.
+    pub cloth: ClothSpec,
+    /// Constraint stiffnesses.
+    pub material: Material,
+    /// Time step, gravity and solver iterations.
+    pub physics: Physics,
+    /// `(row, col)` of each control (gripped) particle, in control order. May be empty.
+    pub controls: Vec<[usize; 2]>,
+    /// Obstacles (default none).
+    #[serde(default)]
+    pub obstacles: Vec<Obstacle>,
+    /// Targets, cost weights, horizon and initial control guess.
+    pub task: Task,
+    /// Constraints of user-registered types (default none); see [`crate::registry`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub custom_constraints: Vec<crate::registry::CustomConstraint>,
+}
+
+/// The cloth grid: `rows × cols` particles laid out on a parallelogram.
+///
+/// Particle `(r, c)` rests at `top_left + right·c/max(cols−1, 1) + down·r/max(rows−1, 1)`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClothSpec {
+    /// Number of particle rows (≥ 1).
+    pub rows: usize,
+    /// Number of particle columns (≥ 1).
+    pub cols: usize,
+    /// Rest position of particle `(0, 0)`.
+    pub top_left: [f64; 3],
+    /// Vector from particle `(0, 0)` to `(0, cols−1)`.
+    pub right: [f64; 3],
+    /// Vector from particle `(0, 0)` to `(rows−1, 0)`.
+    pub down: [f64; 3],
+    /// Mass of every particle (default 1.0).
+    #[serde(default = "default_particle_mass")]
+    pub particle_mass: f64,
+}
+
+fn default_particle_mass() -> f64 {
+    1.0
+}
+
+/// Constraint stiffnesses.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Stiffness of the stretch (edge distance) constraints.
+    pub stretch: Stiffness,
+    /// Bending model and stiffness; `None` (the default) means no bending constraints.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bending: Option<Bending>,
+}
+
+/// Bending constraints: which model and how stiff.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bending {
+    /// The bending model (default [`BendingModel::Distance`]).
+    #[serde(default)]
+    pub model: BendingModel,
+    /// Bending stiffness.
+    pub stiffness: Stiffness,
+}
+
+/// Bending model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BendingModel {
+    /// The paper's: a distance constraint between the two vertices opposite each interior edge
+    /// ([`crate::mesh::GridMesh::bending_pairs`]). JSON `"distance"`.
+    #[default]
+    Distance,
+    /// Dihedral-angle constraint on each interior edge's two triangles ([`crate::mesh::GridMesh::dihedral_quads`]).
+    /// JSON `"dihedral"`.
+    Dihedral,
+}
+
+/// A constraint stiffness `k`: a positive finite number, or rigid (JSON string `"inf"`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Stiffness {
+    /// A finite stiffness (validation requires it to be positive).
+    Finite(f64),
+    /// Infinitely stiff (rigid): compliance 0. JSON `"inf"`.
+    Infinite,
+}
+
+impl Stiffness {
+    /// The inverse of [`Stiffness::value`]: `f64::INFINITY` is [`Stiffness::Infinite`].
+    pub fn from_value(k: f64) -> Self {
+        if k == f64::INFINITY {
+            Stiffness::Infinite
+        } else {
+            Stiffness::Finite(k)
+        }
+    }
+
+    /// The stiffness as a number: `k`, or `f64::INFINITY` for [`Stiffness::Infinite`].
+    pub fn value(&self) -> f64 {
+        match *self {
+            Stiffness::Finite(k) => k,
+            Stiffness::Infinite => f64::INFINITY,
+        }
+    }
+
+    /// XPBD time-step compliance `α̃ = 1/(k·dt²)`, evaluated as `(1/k)/(dt·dt)` (the same rounding as the
+    /// reference implementation); 0 for [`Stiffness::Infinite`].
+    pub fn compliance(&self, dt: f64) -> f64 {
+        match *self {
+            Stiffness::Finite(k) => (1.0 / k) / (dt * dt),
+            Stiffness::Infinite => 0.0,
+        }
+    }
+
+    /// True for [`Stiffness::Infinite`].
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Stiffness::Infinite)
+    }
+}
+
+impl Serialize for Stiffness {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        match *self {
+            Stiffness::Finite(k) => serializer.serialize_f64(k),
+            Stiffness::Infinite => serializer.serialize_str("inf"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Stiffness {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct StiffnessVisitor;
+        impl Visitor<'_> for StiffnessVisitor {
+            type Value = Stiffness;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a positive number or the string \"inf\"")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Stiffness, E> {
+                Ok(Stiffness::Finite(v))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Stiffness, E> {
+                Ok(Stiffness::Finite(v as f64))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Stiffness, E> {
+                Ok(Stiffness::Finite(v as f64))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<Stiffness, E> {
+                if v == "inf" {
+                    Ok(Stiffness::Infinite)
+                } else {
+                    Err(E::invalid_value(de::Unexpected::Str(v), &self))
+                }
+            }
+        }
+        deserializer.deserialize_any(StiffnessVisitor)
+    }
+}
+
+/// Time stepping.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Physics {
+    /// Time step `Δt` (> 0).
+    pub dt: f64,
+    /// Gravitational acceleration.
+    pub gravity: [f64; 3],
+    /// Gauss–Seidel iterations per time step (≥ 1; XPBD only).
+    pub iterations: usize,
+    /// The step solver: `"xpbd"` (default) or `"newton"` (converged physics, see
+    /// [`crate::newton`]).
+    #[serde(default, skip_serializing_if = "SolverKind::is_xpbd")]
+    pub solver: SolverKind,
+    /// Newton only: relative `‖∇Φ‖` at which a step has converged, in `(0, 1)`; default
+    /// [`crate::newton::DEFAULT_TOLERANCE`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
+    /// Newton only: iterations per step (≥ 1); default
+    /// [`crate::newton::DEFAULT_MAX_ITERATIONS`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_newton_iterations: Option<usize>,
+}
+
+/// The step solver named by `physics.solver`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SolverKind {
+    /// XPBD Gauss–Seidel sweeps, `physics.iterations` per step.
+    #[default]
+    Xpbd,
+    /// Newton's method to `physics.tolerance`.
+    Newton,
+}
+
+impl SolverKind {
+    fn is_xpbd(&self) -> bool {
+        *self == SolverKind::Xpbd
+    }
+}
+
+impl Physics {
+    /// The solver these settings describe, with Newton's defaults filled in.
+    pub fn solver(&self) -> crate::newton::Solver {
+        use crate::newton::{NewtonSettings, Solver};
+        match self.solver {
+            SolverKind::Xpbd => Solver::Xpbd,
+            SolverKind::Newton => {
+                let d = NewtonSettings::default();
+                Solver::Newton(NewtonSettings {
+                    tolerance: self.tolerance.unwrap_or(d.tolerance),
+                    max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),
+                })
+            }
+        }
+    }
+}
+
+/// An obstacle; JSON objects tagged by `"type"`: `"spheres"`, `"plane"`, `"capsule"`, `"box"` or
+/// `"mesh"`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase")]
+pub enum Obstacle {
+    /// A union of spheres (`{"type": "spheres", "centers": [...], "radii": [...], "role": ...}`).
+    Spheres(SphereSetSpec),
+    /// A half-space bounded by a plane (`{"type": "plane", "point": [...], "normal": [...], "role": ...}`).
+    Plane(PlaneSpec),
+    /// A capsule (`{"type": "capsule", "a": [...], "b": [...], "radius": r, "role": ...}`).
+    Capsule(CapsuleSpec),
+    /// A box (`{"type": "box", "center": [...], "half_extents": [...], "rotation": [w, x, y, z], "role": ...}`).
+    Box(BoxSpec),
+    /// A closed triangle mesh read from an OBJ file (`{"type": "mesh", "file": "tool.obj", "role": ...}`).
+    Mesh(MeshSpec),
+}
+
+impl Obstacle {
+    /// How the obstacle is used.
+    pub fn role(&self) -> ObstacleRole {
+        match self {
+            Obstacle::Spheres(s) => s.role,
+            Obstacle::Plane(p) => p.role,
+            Obstacle::Capsule(c) => c.role,
+            Obstacle::Box(b) => b.role,
+            Obstacle::Mesh(m) => m.role,
+        }
+    }
+}
+
+/// The points within `radius` of the segment `a–b`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CapsuleSpec {
+    /// One end of the axis.
+    pub a: [f64; 3],
+    /// The other end of the axis (may equal `a`: a sphere).
+    pub b: [f64; 3],
+    /// Radius (> 0).
+    pub radius: f64,
+    /// How the obstacle is used.
+    pub role: ObstacleRole,
+}
+
+/// A box: centre, half extents along its axes, and an optional rotation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSpec {
+    /// Centre.
+    pub center: [f64; 3],
+    /// Half extents along the box's own axes (each > 0).
+    pub half_extents: [f64; 3],
+    /// Rotation from the box's axes to the world as a quaternion `[w, x, y, z]` (any nonzero
+    /// length; normalised). Default: axis-aligned.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<[f64; 4]>,
+    /// How the obstacle is used.
+    pub role: ObstacleRole,
+}
+
+/// A closed triangle mesh from a Wavefront OBJ file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    /// The OBJ file, relative to the scene file (or to the working directory for a scene given as
+    /// text). It must be a closed, consistently oriented triangle mesh.
+    pub file: String,
+    /// How the obstacle is used.
+    pub role: ObstacleRole,
+    /// The field read from `file` when the scene was loaded ([`crate::Scene::load`]); `None` until then.
+    #[serde(skip)]
+    pub surface: Option<crate::sdf::MeshSdf>,
+}
+
+/// A union of spheres; its signed distance is `min_s (|x − c_s| − r_s)`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereSetSpec {
+    /// Sphere centres.
+    pub centers: Vec<[f64; 3]>,
+    /// Sphere radii (one per centre, each > 0).
+    pub radii: Vec<f64>,
+    /// How the obstacle is used.
+    pub role: ObstacleRole,
+}
+
+/// A plane through `point`; the free side is the one `normal` points to.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaneSpec {
+    /// A point on the plane.
+    pub point: [f64; 3],
+    /// Normal pointing to the free side, as written in the file (any nonzero length);
+    /// use [`PlaneSpec::normalized`] for the unit normal.
+    pub normal: [f64; 3],
+    /// How the obstacle is used.
+    pub role: ObstacleRole,
+}
+
+impl PlaneSpec {
+    /// The unit normal `normal/|normal|`. Validation guarantees `normal` is finite and nonzero; for an
+    /// unvalidated zero or non-finite normal the result is NaN.
+    pub fn normalized(&self) -> [f64; 3] {
+        unit(&self.normal).unwrap_or([f64::NAN; 3])
+    }
+}
+
+/// How an obstacle takes part in the problem.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ObstacleRole {
+    /// Only a safety constraint for the optimizer (not simulated). JSON `"safety"`.
+    Safety,
+    /// A physical collider projected by the simulator (not a safety constraint). JSON `"collider"`.
+    Collider,
+    /// Both a safety constraint and a physical collider. JSON `"both"`.
+    Both,
+}
+
+impl ObstacleRole {
+    /// True if the optimizer treats the obstacle as a safety constraint (`safety` or `both`).
+    pub fn is_safety(&self) -> bool {
+        matches!(self, ObstacleRole::Safety | ObstacleRole::Both)
+    }
+
+    /// True if the simulator projects particles out of the obstacle (`collider` or `both`).
+    pub fn is_collider(&self) -> bool {
+        matches!(self, ObstacleRole::Collider | ObstacleRole::Both)
+    }
+}
+
+/// The optimisation task.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Task {
+    /// Number of time steps `T` (≥ 1); there are `T` control vectors per control particle.
+    pub horizon: usize,
+    /// Target positions of some particles at the final step (at least one, no particle twice).
+    pub targets: Vec<Target>,
+    /// Weight `α` of the trajectory irregularity term (≥ 0).
+    pub alpha: f64,
+    /// Weight `β` of the elastic energy term (≥ 0).
+    pub beta: f64,
+    /// Safety margin `δ` of the signed-distance constraint (≥ 0, default 0).
+    #[serde(default)]
+    pub delta: f64,
+    /// Distance (length units) within which a target particle counts as reached at the final
+    /// step (> 0). Default: 10% of the cloth's longest side ([`Scene::default_tolerance`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
+    /// Initial guess for the controls.
+    pub initial_controls: InitialControls,
+    /// Robot limits every plan must respect (default: none). Left out of the JSON when empty.
+    #[serde(default, skip_serializing_if = "Limits::is_empty")]
+    pub limits: Limits,
+}
+
+/// Robot limits on a plan (`task.limits`); every field is optional.
+///
+/// Grippers are the control particles; their absolute position at step `t` is the rest position
+/// plus the sum of the controls (per-step displacements) of steps `0..t`. Steps `1..=T` are
+/// constrained; step 0 (the rest state) must already satisfy the workspace and separation limits.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Limits {
+    /// Largest Euclidean gripper displacement per step (length units, > 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_step: Option<f64>,
+    /// Axis-aligned box every gripper stays in at every step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub workspace: Option<Workspace>,
+    /// `[min, max]` distance between every pair of grippers at every step (`0 ≤ min ≤ max`,
+    /// `max > 0`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gripper_separation: Option<[f64; 2]>,
+    /// Largest relative stretch `|x_i − x_j|/L₀ − 1` of any stretch edge at any step (> 0,
+    /// dimensionless: 0.1 is 10%).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_strain: Option<f64>,
+}
+
+impl Limits {
+    /// True when no limit is set.
+    pub fn is_empty(&self) -> bool {
+        *self == Limits::default()
+    }
+}
+
+/// An axis-aligned box `min ≤ p ≤ max` (per coordinate, length units).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Workspace {
+    /// Lower corner.
+    pub min: [f64; 3],
+    /// Upper corner.
+    pub max: [f64; 3],
+}
+
+/// Target position of one particle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Target {
+    /// `(row, col)` of the particle.
+    pub particle: [usize; 2],
+    /// Its desired position at the final step.
+    pub position: [f64; 3],
+}
+
+/// Initial guess for the control displacements.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum InitialControls {
+    /// All displacements zero. JSON `"zeros"`.
+    Zeros,
+    /// Every step uses the same displacement per control particle (one vector per control).
+    /// JSON `{"constant": [[x, y, z], ...]}`.
+    Constant(Vec<[f64; 3]>),
+    /// One vector per control particle per step (`horizon × controls`).
+    /// JSON `{"explicit": [[[x, y, z], ...], ...]}`.
+    Explicit(Vec<Vec<[f64; 3]>>),
+}

@@ -1,0 +1,310 @@
+//! Capsules and (optionally rotated) boxes, generic over [`Real`]; and the surface tessellations
+//! figures draw obstacles with.
+
+use super::SignedDistance;
+use crate::geometry::{constant, norm};
+use autodiff::Real;
+use nalgebra::Vector3;
+
+/// A surface as triangles: vertices and counter-clockwise (seen from outside) index triples.
+pub type Surface = (Vec<[f64; 3]>, Vec<[usize; 3]>);
+
+/// Segments around a circle in [`Capsule::surface_triangles`] and [`sphere_surface`].
+const SEGMENTS: usize = 16;
+
+/// The points within `radius` of the segment `a–b`: `|p − closest(a–b, p)| − radius`.
+///
+/// The closest point's parameter `t = (p − a)·(b − a)/|b − a|²` is clamped to `[0, 1]` on its
+/// value, so at an end cap the distance is the end sphere's; `a = b` is a sphere.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Capsule {
+    /// One end of the axis.
+    pub a: [f64; 3],
+    /// The other end of the axis.
+    pub b: [f64; 3],
+    /// Radius (> 0).
+    pub radius: f64,
+}
+
+impl SignedDistance for Capsule {
+    fn distance<R: Real>(&self, p: &Vector3<R>) -> R {
+        let a = constant::<R>(&self.a);
+        let ab: [f64; 3] = std::array::from_fn(|k| self.b[k] - self.a[k]);
+        let len2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+        let ap = p - a;
+        let t = if len2 > 0.0 {
+            (ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / len2
+        } else {
+            R::zero()
+        };
+        let t = if t.value() <= 0.0 {
+            R::zero()
+        } else if t.value() >= 1.0 {
+            R::one()
+        } else {
+            t
+        };
+        let closest = a + constant::<R>(&ab) * t;
+        norm(&(p - closest)) - self.radius
+    }
+}
+
+impl Capsule {
+    /// A closed tessellation: a cylinder of [`SEGMENTS`] sides capped by two hemispheres.
+    pub fn surface_triangles(&self) -> Surface {
+        let a = Vector3::from(self.a);
+        let b = Vector3::from(self.b);
+        let axis = b - a;
+        let w = if axis.norm() > 0.0 {
+            axis.normalize()
+        } else {
+            Vector3::z()
+        };
+        let (u, v) = orthonormal_pair(&w);
+        // Rings from the pole below `a` to the pole above `b`: a hemisphere's latitudes at each end.
+        let half = SEGMENTS / 4;
+        let mut rings: Vec<(Vector3<f64>, f64, f64)> = Vec::new(); // centre, axial offset, ring radius
+        for k in 1..=half {
+            let phi = std::f64::consts::FRAC_PI_2 * (1.0 - k as f64 / half as f64);
+            rings.push((a, -self.radius * phi.sin(), self.radius * phi.cos()));
+        }
+        for k in 0..half {
+            let phi = std::f64::consts::FRAC_PI_2 * (k as f64 / half as f64);
+            rings.push((b, self.radius * phi.sin(), self.radius * phi.cos()));
+        }
+        let point = |c: &Vector3<f64>, off: f64, r: f64, j: usize| {
+            let th = 2.0 * std::f64::consts::PI * j as f64 / SEGMENTS as f64;
+            let q = c + w * off + (u * th.cos() + v * th.sin()) * r;
+            [q.x, q.y, q.z]
+        };
+        let mut vertices = vec![[
+            a.x - w.x * self.radius,
+            a.y - w.y * self.radius,
+            a.z - w.z * self.radius,
+        ]];
+        for (c, off, r) in &rings {
+            vertices.extend((0..SEGMENTS).map(|j| point(c, *off, *r, j)));
+        }
+        vertices.push([
+            b.x + w.x * self.radius,
+            b.y + w.y * self.radius,
+            b.z + w.z * self.radius,
+        ]);
+        (
+            vertices.clone(),
+            ring_triangles(rings.len(), vertices.len() - 1),
+        )
+    }
+}
+
+/// Triangles of a closed surface of revolution: pole 0, `n_rings` rings of [`SEGMENTS`] vertices
+/// (ring `k` starts at `1 + k·SEGMENTS`, rings run from the bottom pole upwards), and pole `top`.
+fn ring_triangles(n_rings: usize, top: usize) -> Vec<[usize; 3]> {
+    let at = |k: usize, j: usize| 1 + k * SEGMENTS + j % SEGMENTS;
+    let mut tris = Vec::new();
+    for j in 0..SEGMENTS {
+        tris.push([0, at(0, j + 1), at(0, j)]);
+    }
+    for k in 0..n_rings - 1 {
+        for j in 0..SEGMENTS {
+            tris.push([at(k, j), at(k, j + 1), at(k + 1, j + 1)]);
+            tris.push([at(k, j), at(k + 1, j + 1), at(k + 1, j)]);
+        }
+    }
+    for j in 0..SEGMENTS {
+        tris.push([top, at(n_rings - 1, j), at(n_rings - 1, j + 1)]);
+    }
+    tris
+}
+
+/// Two unit vectors that make a right-handed orthonormal frame `(u, v, w)` with the unit `w`.
+fn orthonormal_pair(w: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let helper = if w.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let u = helper.cross(w).normalize();
+    (u, w.cross(&u))
+}
+
+/// A sphere's closed tessellation (for figures), like a capsule of zero length.
+pub fn sphere_surface(center: [f64; 3], radius: f64) -> Surface {
+    Capsule {
+        a: center,
+        b: center,
+        radius,
+    }
+    .surface_triangles()
+}
+
+/// A box `|Rᵀ(p − c)|ₖ ≤ hₖ`: centre `c`, half extents `h`, rotation `R` (body to world).
+///
+/// With `q = Rᵀ(p − c)` and `dₖ = |qₖ| − hₖ`, the distance is `|max(d, 0)|` outside and `max_k dₖ`
+/// inside (the exact Euclidean signed distance of a box).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cuboid {
+    /// Centre.
+    pub center: [f64; 3],
+    /// Half extents along the body axes (each > 0).
+    pub half_extents: [f64; 3],
+    /// Rotation matrix, rows of `R` (body axes are its columns).
+    pub rotation: [[f64; 3]; 3],
+}
+
+impl Cuboid {
+    /// A box rotated by the quaternion `[w, x, y, z]` (normalised here; validation rejects zero).
+    pub fn new(center: [f64; 3], half_extents: [f64; 3], rotation: Option<[f64; 4]>) -> Cuboid {
+        let [w, x, y, z] = rotation.unwrap_or([1.0, 0.0, 0.0, 0.0]);
+        let n = (w * w + x * x + y * y + z * z).sqrt();
+        let (w, x, y, z) = (w / n, x / n, y / n, z / n);
+        let rotation = [
+            [
+                1.0 - 2.0 * (y * y + z * z),
+                2.0 * (x * y - w * z),
+                2.0 * (x * z + w * y),
+            ],
+            [
+                2.0 * (x * y + w * z),
+                1.0 - 2.0 * (x * x + z * z),
+                2.0 * (y * z - w * x),
+            ],
+            [
+                2.0 * (x * z - w * y),
+                2.0 * (y * z + w * x),
+                1.0 - 2.0 * (x * x + y * y),
+            ],
+        ];
+        Cuboid {
+            center,
+            half_extents,
+            rotation,
+        }
+    }
+
+    /// The body-frame point `q` in world coordinates, `c + R q`.
+    fn to_world(&self, q: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|i| {
+            self.center[i] + (0..3).map(|j| self.rotation[i][j] * q[j]).sum::<f64>()
+        })
+    }
+
+    /// The 8 corners and 12 outward-wound triangles.
+    pub fn surface_triangles(&self) -> Surface {
+        let h = self.half_extents;
+        let vertices = (0..8)
+            .map(|k| {
+                let s = |bit: usize| if k >> bit & 1 == 1 { 1.0 } else { -1.0 };
+                self.to_world([s(0) * h[0], s(1) * h[1], s(2) * h[2]])
+            })
+            .collect();
+        // Corner k has x = bit 0, y = bit 1, z = bit 2.
+        let faces = [
+            [0, 2, 3, 1], // z−
+            [4, 5, 7, 6], // z+
+            [0, 1, 5, 4], // y−
+            [2, 6, 7, 3], // y+
+            [0, 4, 6, 2], // x−
+            [1, 3, 7, 5], // x+
+        ];
+        let triangles = faces
+            .iter()
+            .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+            .collect();
+        (vertices, triangles)
+    }
+}
+
+impl SignedDistance for Cuboid {
+    fn distance<R: Real>(&self, p: &Vector3<R>) -> R {
+        let rel = p - constant::<R>(&self.center);
+        let d: [R; 3] = std::array::from_fn(|k| {
+            let q = rel[0] * self.rotation[0][k]
+                + rel[1] * self.rotation[1][k]
+                + rel[2] * self.rotation[2][k];
+            q.abs() - self.half_extents[k]
+        });
+        if d.iter().any(|x| x.value() > 0.0) {
+            let o = Vector3::new(d[0].relu(), d[1].relu(), d[2].relu());
+            norm(&o)
+        } else {
+            d[0].max(d[1]).max(d[2])
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sum over triangles of the signed volume `(a·(b×c))/6`: positive for outward winding.
+    fn volume((v, t): &Surface) -> f64 {
+        t.iter()
+            .map(|&[a, b, c]| {
+                let (a, b, c) = (
+                    Vector3::from(v[a]),
+                    Vector3::from(v[b]),
+                    Vector3::from(v[c]),
+                );
+                a.dot(&b.cross(&c)) / 6.0
+            })
+            .sum()
+    }
+
+    #[test]
+    fn tessellations_are_closed_and_outward() {
+        let cube = Cuboid::new(
+            [1.0, 2.0, 3.0],
+            [0.5, 1.0, 1.5],
+            Some([0.9, 0.1, 0.3, -0.2]),
+        );
+        let s = cube.surface_triangles();
+        assert_eq!((s.0.len(), s.1.len()), (8, 12));
+        assert!(
+            (volume(&s) - 6.0).abs() < 1e-12,
+            "box volume {}",
+            volume(&s)
+        );
+        for v in &s.0 {
+            assert!(cube.distance(&Vector3::from(*v)).abs() < 1e-12);
+        }
+        let cap = Capsule {
+            a: [0.0, 0.0, 0.0],
+            b: [0.0, 0.0, 2.0],
+            radius: 0.5,
+        };
+        let s = cap.surface_triangles();
+        let exact = std::f64::consts::PI * 0.25 * 2.0 + 4.0 / 3.0 * std::f64::consts::PI * 0.125;
+        let v = volume(&s);
+        assert!(
+            v > 0.9 * exact && v < exact,
+            "capsule volume {v} vs {exact}"
+        );
+        for p in &s.0 {
+            assert!(cap.distance(&Vector3::from(*p)).abs() < 1e-12);
+        }
+        let sphere = sphere_surface([0.0; 3], 1.0);
+        assert!(volume(&sphere) > 0.9 * 4.0 / 3.0 * std::f64::consts::PI);
+    }
+
+    #[test]
+    fn distances_at_known_points() {
+        let cap = Capsule {
+            a: [0.0, 0.0, 0.0],
+            b: [0.0, 0.0, 2.0],
+            radius: 0.5,
+        };
+        assert_eq!(cap.distance(&Vector3::new(1.0, 0.0, 1.0)), 0.5);
+        assert_eq!(cap.distance(&Vector3::new(0.0, 0.0, 3.0)), 0.5);
+        assert_eq!(cap.distance(&Vector3::new(0.0, 0.0, 1.0)), -0.5);
+        let cube = Cuboid::new([0.0; 3], [1.0, 2.0, 3.0], None);
+        assert_eq!(cube.distance(&Vector3::new(0.0, 0.0, 0.0)), -1.0);
+        assert_eq!(cube.distance(&Vector3::new(2.0, 0.0, 0.0)), 1.0);
+        assert_eq!(cube.distance(&Vector3::new(4.0, 6.0, 3.0)), 5.0);
+        // Rotated 90° about z: the body x axis points along world y.
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let turned = Cuboid::new([0.0; 3], [1.0, 2.0, 3.0], Some([h, 0.0, 0.0, h]));
+        assert!((turned.distance(&Vector3::new(0.0, 2.0, 0.0)) - 1.0).abs() < 1e-12);
+        assert!((turned.distance(&Vector3::new(3.0, 0.0, 0.0)) - 1.0).abs() < 1e-12);
+    }
+}
