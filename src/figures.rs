@@ -2,10 +2,10 @@
 //! views ([`RolloutFigure`]), an animated GIF ([`draw_rollout_gif`]) and the HTML viewer
 //! ([`write_rollout_html`]).
 
-use crate::plot::{self, Closest, PlotError, Rollout, Sphere, TrajectoryFigure};
+use crate::plot::{self, Closest, PlotError, Rollout, Solid, SolidRole, Sphere, TrajectoryFigure};
 use autodiff::Tensor;
 use cloth::nalgebra::Vector3;
-use cloth::sdf::SignedDistance;
+use cloth::sdf::{SignedDistance, Surface, Union};
 use cloth::Model;
 use std::path::Path;
 
@@ -16,6 +16,7 @@ pub struct RolloutFigure {
     frames: Vec<(Vec<[f64; 3]>, String)>,
     control_paths: Vec<Vec<[f64; 3]>>,
     spheres: Vec<Sphere>,
+    solids: Vec<Solid>,
     targets: Vec<[f64; 3]>,
     target_particles: Vec<usize>,
     ground_z: Option<f64>,
@@ -81,6 +82,7 @@ impl RolloutFigure {
             frames,
             control_paths,
             spheres: obstacle_spheres(model),
+            solids: obstacle_solids(model),
             targets: points(&model.task.target_positions),
             target_particles: model.task.targets.as_slice().to_vec(),
             ground_z: ground_z(model),
@@ -100,6 +102,7 @@ impl RolloutFigure {
                 .collect(),
             control_paths: self.control_paths.clone(),
             spheres: &self.spheres,
+            solids: &self.solids,
             targets: &self.targets,
             target_particles: &self.target_particles,
             ground_z: self.ground_z,
@@ -161,6 +164,7 @@ pub fn rollout_view(
         triangles: plot::grid_triangles(grid.0, grid.1),
         control_particles: model.controls.as_slice().to_vec(),
         spheres: obstacle_spheres(model),
+        solids: obstacle_solids(model),
         ground_z: ground_z(model),
         targets: crate::plan::state_points(&model.task.target_positions),
         target_particles: model.task.targets.as_slice().to_vec(),
@@ -243,6 +247,40 @@ fn obstacle_spheres(model: &Model) -> Vec<Sphere> {
     spheres
 }
 
+/// The surfaces of the obstacles that are neither spheres nor planes (capsules, boxes, meshes),
+/// of `union`.
+fn surfaces(union: &Union) -> impl Iterator<Item = Surface> + '_ {
+    let capsules = union.capsules.iter().map(|c| c.surface_triangles());
+    let boxes = union.boxes.iter().map(|b| b.surface_triangles());
+    let meshes = union.meshes.iter().map(|m| m.surface_triangles());
+    capsules.chain(boxes).chain(meshes)
+}
+
+/// Every capsule, box and mesh obstacle, once, as a closed triangle mesh coloured by its role (an
+/// obstacle with role `both` is in both of the model's lists: it becomes one solid).
+fn obstacle_solids(model: &Model) -> Vec<Solid> {
+    let mut solids: Vec<Solid> = surfaces(&model.safety_obstacles)
+        .map(|(vertices, triangles)| Solid {
+            vertices,
+            triangles,
+            role: SolidRole::Safety,
+        })
+        .collect();
+    let safety = solids.len();
+    for (vertices, triangles) in surfaces(&model.colliders) {
+        let same = |s: &Solid| s.vertices == vertices && s.triangles == triangles;
+        match solids[..safety].iter_mut().find(|s| same(s)) {
+            Some(solid) => solid.role = SolidRole::Both,
+            None => solids.push(Solid {
+                vertices,
+                triangles,
+                role: SolidRole::Collider,
+            }),
+        }
+    }
+    solids
+}
+
 /// The top-view path for a 3-D view path: `name.png` → `name_top.png`.
 pub fn top_view_path(path: &Path) -> std::path::PathBuf {
     let stem = path
@@ -274,6 +312,44 @@ mod tests {
         assert_eq!(safety.len(), 18);
         assert_eq!(spheres_with_role(ObstacleRole::Both), safety);
         assert_eq!(spheres_with_role(ObstacleRole::Collider), safety);
+    }
+
+    /// Capsules, boxes and meshes reach the figures and the viewer as solids, one per obstacle,
+    /// coloured by role.
+    #[test]
+    fn capsules_and_boxes_are_drawn_as_solids_once_with_their_role() {
+        let mut json: serde_json::Value =
+            serde_json::from_str(&Scene::builtin("drop").unwrap().to_json_pretty()).unwrap();
+        json["obstacles"] = serde_json::json!([
+            {"type": "capsule", "a": [0.2, 0.2, 0.3], "b": [0.8, 0.8, 0.3], "radius": 0.1,
+             "role": "both"},
+            {"type": "box", "center": [0.5, 0.5, -0.5], "half_extents": [1.0, 1.0, 0.2],
+             "role": "collider"},
+            {"type": "capsule", "a": [2.0, 0.0, 0.0], "b": [2.0, 1.0, 0.0], "radius": 0.2,
+             "role": "safety"}
+        ]);
+        let scene = Scene::from_json_str(&json.to_string()).unwrap();
+        let model = Model::from_scene(&scene).unwrap();
+        let solids = obstacle_solids(&model);
+        let roles: Vec<SolidRole> = solids.iter().map(|s| s.role).collect();
+        assert_eq!(
+            roles,
+            [SolidRole::Both, SolidRole::Safety, SolidRole::Collider]
+        );
+        // The box: 8 corners, 12 triangles.
+        assert_eq!(
+            (solids[2].vertices.len(), solids[2].triangles.len()),
+            (8, 12)
+        );
+        let u = crate::plan::initial_controls(&scene, &model).unwrap();
+        let states = model.simulate(&u).unwrap();
+        let grid = (scene.cloth.rows, scene.cloth.cols);
+        let figure = RolloutFigure::new(&model, grid, &states, "t", Some(0.05));
+        assert_eq!(figure.figure().solids.len(), 3);
+        assert_eq!(
+            rollout_view(&model, grid, &states, "t", None).solids.len(),
+            3
+        );
     }
 
     #[test]
