@@ -11,9 +11,11 @@
 //! 4. *Cheap stage:* optimize every candidate at the warm-up sharpness `κ` (smooth, conservative
 //!    safety rows) with a small iteration budget, in parallel (rayon; results in candidate order,
 //!    so the outcome is the same for any thread count).
-//! 5. *Polish:* the best few cheap results, ranked by (safe, achieved, `L`), are planned in full
-//!    from where they stopped — each only while its cheap result ranks above the best plan so
-//!    far (the first plan included), so a search that finds nothing better costs one cheap stage.
+//! 5. *Polish:* the best few cheap results, ranked by promise — (near safe, every target within
+//!    tolerance, `L`), where near safe allows a tenth of the tolerance of violation, since a cheap
+//!    stage often stops just short of feasibility — are planned in full from where they stopped,
+//!    each only while its cheap result ranks above the best plan so far by the same ranking (the
+//!    first plan included), so a search that finds nothing better costs one cheap stage.
 //!    A polished plan that becomes the best gets its own goal stage.
 //! 6. Keep the best of every stage by the same ranking.
 //!
@@ -156,6 +158,28 @@ pub fn rank(a: &PlanResult, b: &PlanResult) -> Ordering {
         .then(a.metrics.l.total_cmp(&b.metrics.l))
 }
 
+/// How far from safe (length units, as a fraction of the task tolerance) a cheap result may be and
+/// still be worth polishing: the cheap stage stops after a few iterations, often just short of
+/// feasibility, and the full plan restores it.
+const NEAR_SAFE_FRACTION: f64 = 0.1;
+
+/// Within `slack` of safe: the optimizer's rows violated by at most `slack`, and no particle
+/// more than `slack` inside the margin `delta` (NaN is never near safe).
+fn near_safe(r: &PlanResult, delta: f64, slack: f64) -> bool {
+    r.constraint_violation <= slack && r.metrics.min_sdf >= delta - slack
+}
+
+/// The ranking that picks cheap results to polish: near safe before not ([`near_safe`]), every
+/// target within tolerance before not (the verdict's `achieved` also asks for strict safety), then
+/// lower `L` (NaN last).
+fn polish_rank(a: &PlanResult, b: &PlanResult, delta: f64, slack: f64) -> Ordering {
+    let reached = |r: &PlanResult| r.task.targets_reached == r.task.target_errors.len();
+    near_safe(b, delta, slack)
+        .cmp(&near_safe(a, delta, slack))
+        .then(reached(b).cmp(&reached(a)))
+        .then(a.metrics.l.total_cmp(&b.metrics.l))
+}
+
 /// The best plan so far, the index of its report, and every report.
 type Tally<'r> = (
     &'r mut PlanResult,
@@ -222,8 +246,13 @@ fn route_stages(
         .par_iter()
         .map(|c| plan(model, scene, &c.controls, &cheap_options, |_| {}))
         .collect::<anyhow::Result<_>>()?;
+    let (delta, slack) = (
+        options.task.delta,
+        NEAR_SAFE_FRACTION * model.task.tolerance,
+    );
+    let by_promise = |a: &PlanResult, b: &PlanResult| polish_rank(a, b, delta, slack);
     let mut order: Vec<usize> = (0..cheap.len()).collect();
-    order.sort_by(|&a, &b| rank(&cheap[a], &cheap[b]).then(a.cmp(&b)));
+    order.sort_by(|&a, &b| by_promise(&cheap[a], &cheap[b]).then(a.cmp(&b)));
     reports.extend(
         candidates
             .iter()
@@ -232,9 +261,10 @@ fn route_stages(
     );
     let mut kept = None;
     for &i in order.iter().take(search.polish) {
-        // Only candidates whose cheap result already ranks above the best plan so far are worth
-        // a full plan (the order is best first, so the rest rank lower too).
-        if rank(&cheap[i], best) != Ordering::Less {
+        // Only candidates whose cheap result already ranks above the best plan so far (by
+        // promise: near safe counts as safe) are worth a full plan (the order is best first, so
+        // the rest rank lower too).
+        if by_promise(&cheap[i], best) != Ordering::Less {
             break;
         }
         let start = crate::plan::controls_from_nested(model, &cheap[i].controls)?;
