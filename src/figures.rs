@@ -171,7 +171,6 @@ pub fn rollout_view(
         safety_margin: safety_margin(model, delta),
         closest,
         states,
-        ..Rollout::default()
     }
 }
 
