@@ -142,3 +142,33 @@ proptest! {
         prop_assert!((fd - an).abs() <= 1e-6 * an.abs().max(1.0), "{} vs FD {}", an, fd);
     }
 }
+
+/// The polish picks cheap results by promise: a result within a tenth of the tolerance of safe
+/// counts as safe (and then ranks by targets reached and L); one further out ranks below every safe
+/// plan, however low its L.
+#[test]
+fn polish_ranks_near_safe_results_as_safe() {
+    use clothopt::search::polish_rank;
+    use std::cmp::Ordering;
+    let (_, safe) = search(&reluctant_scene(0.05), SearchMode::Off);
+    assert!(safe.is_safe() && safe.is_feasible());
+    let delta = safe.metrics.min_sdf.min(0.05);
+    let slack = 0.005;
+    let with = |violation: f64, intrusion: f64, l: f64| {
+        let mut r = safe.clone();
+        r.constraint_violation = violation;
+        r.metrics.min_sdf = delta - intrusion;
+        r.metrics.l = l;
+        r
+    };
+    let cheaper = safe.metrics.l - 0.1;
+    let near = with(0.5 * slack, 0.5 * slack, cheaper);
+    let far = with(2.0 * slack, 0.0, cheaper);
+    let deep = with(0.0, 2.0 * slack, cheaper);
+    assert_eq!(polish_rank(&near, &safe, delta, slack), Ordering::Less);
+    assert_eq!(polish_rank(&far, &safe, delta, slack), Ordering::Greater);
+    assert_eq!(polish_rank(&deep, &safe, delta, slack), Ordering::Greater);
+    let mut nan = near.clone();
+    nan.constraint_violation = f64::NAN;
+    assert_eq!(polish_rank(&nan, &safe, delta, slack), Ordering::Greater);
+}
