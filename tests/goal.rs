@@ -10,8 +10,8 @@ use clothopt::outcome::{target_errors, Reason};
 use clothopt::plan::{controls_from_nested, initial_controls, PlanOptions, PlanResult};
 use clothopt::problem::{RowLabel, TaskOptions, TrajectoryProblem};
 use clothopt::search::{plan_with_search, SearchMode, SearchOptions};
-use common::{noise, small};
-use optim::{Jacobian, Problem};
+use common::{noise, row_derivatives, small};
+use optim::Problem;
 use proptest::prelude::*;
 
 /// A 4 × 4 hanging cloth, `T = 4`, whose bottom row should move 0.6 m sideways; the trajectory
@@ -121,23 +121,11 @@ proptest! {
         let mut options = TaskOptions::for_model(&model);
         options.goal_radius = Some(radius);
         let mut p = TrajectoryProblem::new(&model, options);
-        let (n, m) = (p.num_variables(), p.num_inequalities());
+        let n = p.num_variables();
         let row = p.row_labels().iter().position(|l| *l == RowLabel::Goal).unwrap();
         let x: Vec<f64> = noise(seed, n).iter().map(|v| scale * v).collect();
-        let mut jac = Jacobian::dense(m, n);
-        p.inequality_jacobian(&x, &mut jac).unwrap();
-        let Jacobian::Dense(jac) = jac else { panic!("dense") };
         let d = noise(seed + 7919, n);
-        let h = 1e-6;
-        let at = |s: f64, p: &mut TrajectoryProblem| {
-            let xs: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + s * b).collect();
-            let mut c = vec![0.0; m];
-            p.inequalities(&xs, &mut c).unwrap();
-            c[row]
-        };
-        let (cp, cm) = (at(h, &mut p), at(-h, &mut p));
-        let fd = (cp - cm) / (2.0 * h);
-        let an: f64 = jac.row(row).iter().zip(&d).map(|(a, b)| a * b).sum();
+        let (an, fd) = row_derivatives(&mut p, &x, &d, 1e-6)[row];
         prop_assert!(an != 0.0);
         prop_assert!((fd - an).abs() <= 1e-6 * an.abs().max(1.0), "{} vs FD {}", an, fd);
     }

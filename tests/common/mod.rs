@@ -102,3 +102,32 @@ pub fn noise(seed: u64, n: usize) -> Vec<f64> {
         })
         .collect()
 }
+
+/// Every inequality row's directional derivative along `d` at `x`, analytic (from the Jacobian)
+/// and by central differences with step `h`: `(analytic, fd)` per row.
+pub fn row_derivatives(
+    p: &mut impl optim::Problem,
+    x: &[f64],
+    d: &[f64],
+    h: f64,
+) -> Vec<(f64, f64)> {
+    let (n, m) = (p.num_variables(), p.num_inequalities());
+    let mut jac = optim::Jacobian::dense(m, n);
+    p.inequality_jacobian(x, &mut jac).unwrap();
+    let optim::Jacobian::Dense(jac) = jac else {
+        panic!("dense")
+    };
+    let mut at = |s: f64| {
+        let xs: Vec<f64> = x.iter().zip(d).map(|(a, b)| a + s * b).collect();
+        let mut c = vec![0.0; m];
+        p.inequalities(&xs, &mut c).unwrap();
+        c
+    };
+    let (cp, cm) = (at(h), at(-h));
+    (0..m)
+        .map(|r| {
+            let an: f64 = jac.row(r).iter().zip(d).map(|(a, b)| a * b).sum();
+            (an, (cp[r] - cm[r]) / (2.0 * h))
+        })
+        .collect()
+}
