@@ -220,10 +220,13 @@ fn bad_mesh_cloths_are_rejected_naming_the_field_and_the_line() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// A change to a scene's JSON.
+type Edit = Box<dyn FnOnce(&mut Value)>;
+
 #[test]
 fn particles_targets_and_target_meshes_are_checked_against_the_mesh() {
     let dir = temp_dir("refs");
-    let cases: Vec<(&str, Box<dyn FnOnce(&mut Value)>, &str, &str)> = vec![
+    let cases: Vec<(&str, Edit, &str, &str)> = vec![
         (
             "vertex out of range",
             Box::new(|v| v["controls"] = json!([0, 64])),
