@@ -8,6 +8,7 @@
 
 pub mod anytime;
 mod control_rows;
+mod error;
 pub mod export;
 #[cfg(feature = "figures")]
 pub mod figures;
@@ -20,3 +21,5 @@ pub mod search;
 #[cfg(feature = "figures")]
 pub use viz as plot;
 pub mod start_check;
+
+pub use error::{error_chain, Error, Result};

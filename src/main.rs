@@ -3,13 +3,14 @@
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use cloth::{Controls, Model, Scene};
+use clothopt::error_chain;
 use clothopt::figures::{self, top_view_path, RolloutFigure};
 use clothopt::plan::{
     self, controls_from_nested, ensure_iterations, ensure_non_negative, initial_controls,
     SolverKind,
 };
 use clothopt::problem::SafetyForm;
-use clothopt::request::{error_chain, OptimizeRequest};
+use clothopt::request::OptimizeRequest;
 use clothopt::search::{plan_with_search, SearchMode};
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -258,12 +259,16 @@ fn flag_name(field: &str) -> String {
 }
 
 /// Applies `check` to a flag's value when the flag was given.
-fn check_flag(flag: &str, value: Option<f64>, check: fn(&str, f64) -> Result<()>) -> Result<()> {
-    value.map_or(Ok(()), |v| check(flag, v))
+fn check_flag(
+    flag: &str,
+    value: Option<f64>,
+    check: fn(&str, f64) -> clothopt::Result<()>,
+) -> Result<()> {
+    Ok(value.map_or(Ok(()), |v| check(flag, v))?)
 }
 
 fn load_scene(name: &str) -> Result<Scene> {
-    clothopt::request::load_scene(name)
+    Ok(clothopt::request::load_scene(name)?)
 }
 
 /// A controls file, or any JSON object with a `controls` key (such as a result).
@@ -290,7 +295,7 @@ fn main() {
     match run(Cli::parse()) {
         Ok(code) => std::process::exit(code),
         Err(e) => {
-            eprintln!("error: {}", error_chain(&e));
+            eprintln!("error: {}", error_chain(e.as_ref()));
             std::process::exit(1);
         }
     }

@@ -186,7 +186,7 @@ const ACTIVE_MULTIPLIER: f64 = 1e-8;
 pub fn active_groups(
     problem: &mut TrajectoryProblem<'_>,
     solution: &optim::Solution,
-) -> anyhow::Result<(Vec<String>, Vec<String>)> {
+) -> crate::Result<(Vec<String>, Vec<String>)> {
     let rows = problem.num_inequalities();
     if rows == 0 || solution.x.is_empty() {
         return Ok((Vec::new(), Vec::new()));
@@ -194,7 +194,10 @@ pub fn active_groups(
     let mut values = vec![0.0; rows];
     problem
         .inequalities(&solution.x, &mut values)
-        .map_err(|e| anyhow::anyhow!("re-evaluating the constraints at the plan: {e}"))?;
+        .map_err(|source| crate::Error::Evaluation {
+            what: "re-evaluating the constraints at the plan",
+            source,
+        })?;
     let threshold = ACTIVE_FRACTION * problem.model().task.tolerance;
     let multipliers = &solution.multipliers.inequality;
     let active = |r: usize| {

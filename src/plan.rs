@@ -1,6 +1,7 @@
 //! Running a cloth task through an optimizer and packaging the result.
 
 use crate::anytime::Watch;
+use crate::error::{Error, Result};
 use crate::outcome::{active_groups, task_outcome, PlanFacts, TaskOutcome};
 use crate::problem::{TaskOptions, TrajectoryProblem};
 use crate::start_check::judge_start;
@@ -68,33 +69,46 @@ pub struct PlanOptions {
 }
 
 /// `value` is a finite number ≥ 0, or an error naming it (`name`: a field or a `--flag`).
-pub fn ensure_non_negative(name: &str, value: f64) -> anyhow::Result<()> {
-    anyhow::ensure!(
+pub fn ensure_non_negative(name: &str, value: f64) -> Result<()> {
+    require(
         value.is_finite() && value >= 0.0,
-        "{name} must be a finite number ≥ 0, got {value}"
-    );
-    Ok(())
+        name,
+        format!("must be a finite number ≥ 0, got {value}"),
+    )
 }
 
 /// `value` is a finite number > 0, or an error naming it.
-pub fn ensure_positive(name: &str, value: f64) -> anyhow::Result<()> {
-    anyhow::ensure!(
+pub fn ensure_positive(name: &str, value: f64) -> Result<()> {
+    require(
         value.is_finite() && value > 0.0,
-        "{name} must be a finite number > 0, got {value}"
-    );
-    Ok(())
+        name,
+        format!("must be a finite number > 0, got {value}"),
+    )
 }
 
-/// An iteration count of at least 1, or an error naming it.
-pub fn ensure_iterations(name: &str, iterations: usize) -> anyhow::Result<()> {
-    anyhow::ensure!(iterations > 0, "{name} must be at least 1, got 0");
-    Ok(())
+/// An iteration count is at least 1, or an error naming it.
+pub fn ensure_iterations(name: &str, iterations: usize) -> Result<()> {
+    require(iterations > 0, name, "must be at least 1, got 0".into())
 }
 
-/// `value` is a number > 0 (∞ allowed), or an error naming it.
-pub fn ensure_positive_or_infinite(name: &str, value: f64) -> anyhow::Result<()> {
-    anyhow::ensure!(value > 0.0, "{name} must be a number > 0, got {value}");
-    Ok(())
+/// `value` is > 0, where ∞ is allowed (it switches a feature off), or an error naming it.
+pub fn ensure_positive_or_infinite(name: &str, value: f64) -> Result<()> {
+    require(
+        value > 0.0,
+        name,
+        format!("must be a number > 0, got {value}"),
+    )
+}
+
+/// `Ok` when `ok`, else [`Error::InvalidSetting`] for `name`.
+fn require(ok: bool, name: &str, requirement: String) -> Result<()> {
+    match ok {
+        true => Ok(()),
+        false => Err(Error::InvalidSetting {
+            name: name.to_string(),
+            requirement,
+        }),
+    }
 }
 
 impl PlanOptions {
@@ -119,7 +133,7 @@ impl PlanOptions {
     /// and positive (the soft minimum divides by it); the reuse band > 0 (∞ allowed); at least
     /// one iteration; a finite positive step bound and tolerance. [`plan`] calls it, so a bad
     /// option is an error instead of a panic or a silently NaN objective.
-    pub fn validate(&self) -> anyhow::Result<()> {
+    pub fn validate(&self) -> Result<()> {
         let t = &self.task;
         for (name, v) in [("delta", t.delta), ("alpha", t.alpha), ("beta", t.beta)] {
             ensure_non_negative(name, v)?;
@@ -335,17 +349,19 @@ pub fn plan(
     start: &Controls,
     options: &PlanOptions,
     mut progress: impl FnMut(&IterationInfo),
-) -> anyhow::Result<PlanResult> {
+) -> Result<PlanResult> {
     options.validate()?;
-    anyhow::ensure!(
-        model.n_controls() > 0,
-        "scene `{}` has no control particles: there is nothing to optimize",
-        scene.name
-    );
+    if model.n_controls() == 0 {
+        return Err(Error::NothingToOptimize {
+            scene: scene.name.clone(),
+        });
+    }
     model.check_controls(start)?;
     let (start_error, mut warnings) = judge_start(scene, options.task.delta);
     if let Some(e) = start_error {
-        anyhow::ensure!(options.allow_unsafe_start, "{e}");
+        if !options.allow_unsafe_start {
+            return Err(Error::UnsafeStart(e));
+        }
         warnings.insert(0, e);
     }
     let clock = Instant::now();
@@ -414,11 +430,11 @@ pub fn plan(
             SqpSolver::new(settings)?.solve_with_callback(&mut problem, &x0, callback)?
         }
         SolverKind::Lbfgs => {
-            anyhow::ensure!(
-                problem.num_inequalities() == 0,
-                "L-BFGS cannot handle the {} inequality constraints of this task; use the SQP",
-                problem.num_inequalities()
-            );
+            if problem.num_inequalities() > 0 {
+                return Err(Error::LbfgsWithConstraints {
+                    rows: problem.num_inequalities(),
+                });
+            }
             let settings = LbfgsSettings::builder()
                 .max_iterations(options.iterations)
                 .build()?;
@@ -440,7 +456,10 @@ pub fn plan(
             let mut c = vec![0.0; problem.num_inequalities()];
             problem
                 .inequalities(&solution.x, &mut c)
-                .map_err(|e| anyhow::anyhow!("re-evaluating the best iterate: {e}"))?;
+                .map_err(|source| Error::Evaluation {
+                    what: "re-evaluating the best iterate",
+                    source,
+                })?;
             solution.constraint_violation = c.iter().fold(0.0, |v: f64, &ci| v.max(-ci));
             solution.kkt_residual = f64::NAN;
             solution.multipliers = Default::default();
@@ -488,10 +507,7 @@ pub fn plan(
             solution.constraint_violation, options.tol_feasibility
         ));
     }
-    let final_state = evaluation
-        .states
-        .last()
-        .ok_or_else(|| anyhow::anyhow!("the rollout has no states"))?;
+    let final_state = evaluation.states.last().ok_or(Error::EmptyRollout)?;
     let task = task_outcome(
         model,
         final_state,
@@ -536,7 +552,7 @@ fn rescore(
     model: &Model,
     controls: &Controls,
     options: &PlanOptions,
-) -> anyhow::Result<cloth::grad::Evaluation> {
+) -> Result<cloth::grad::Evaluation> {
     let mut scored = model.clone();
     scored.task.alpha = options.task.alpha;
     scored.task.beta = options.task.beta;
@@ -553,14 +569,11 @@ pub fn snapshot(
     violation: f64,
     iterations: usize,
     options: &PlanOptions,
-) -> anyhow::Result<PlanResult> {
+) -> Result<PlanResult> {
     let controls = Tensor::new(model.task.horizon, 3 * model.n_controls(), x.to_vec());
     let evaluation = rescore(model, &controls, options)?;
     let safe = violation <= options.tol_feasibility && is_safe(&evaluation.metrics);
-    let final_state = evaluation
-        .states
-        .last()
-        .ok_or_else(|| anyhow::anyhow!("the rollout has no states"))?;
+    let final_state = evaluation.states.last().ok_or(Error::EmptyRollout)?;
     let facts = PlanFacts {
         safe,
         status: "running",
@@ -655,7 +668,7 @@ pub fn gripper_positions(model: &Model, states: &[Tensor]) -> Vec<Vec<[f64; 3]>>
 }
 
 /// The SQP settings of a planning run, with KKT tolerance `tol`.
-fn sqp_settings(options: &PlanOptions, tol: f64) -> anyhow::Result<SqpSettings> {
+fn sqp_settings(options: &PlanOptions, tol: f64) -> Result<SqpSettings> {
     Ok(SqpSettings::builder()
         .max_iterations(options.iterations)
         .step_bound_scale(options.step_bound)
@@ -666,11 +679,8 @@ fn sqp_settings(options: &PlanOptions, tol: f64) -> anyhow::Result<SqpSettings> 
 }
 
 /// The states of a result as tensors (`N × 3` each).
-pub fn states_of(result: &PlanResult) -> anyhow::Result<Vec<Tensor>> {
-    let states = result
-        .states
-        .as_ref()
-        .ok_or_else(|| anyhow::anyhow!("the result holds no states"))?;
+pub fn states_of(result: &PlanResult) -> Result<Vec<Tensor>> {
+    let states = result.states.as_ref().ok_or(Error::NoStates)?;
     Ok(states
         .iter()
         .map(|s| Tensor::new(s.len(), 3, s.iter().flatten().copied().collect()))
@@ -679,13 +689,13 @@ pub fn states_of(result: &PlanResult) -> anyhow::Result<Vec<Tensor>> {
 
 /// Writes `value` as pretty JSON to `path` atomically: a temporary file beside it, then a rename,
 /// so a failed run never leaves a partial file.
-pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> anyhow::Result<()> {
+pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     let text = serde_json::to_string_pretty(value)?;
     write_atomic(path, text.as_bytes())
 }
 
 /// Writes `bytes` to `path` through a temporary file and a rename.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
@@ -701,9 +711,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         f.sync_all()?;
         std::fs::rename(&tmp, path)
     })();
-    if let Err(e) = result {
+    if let Err(source) = result {
         let _ = std::fs::remove_file(&tmp);
-        return Err(anyhow::anyhow!("cannot write {}: {e}", path.display()));
+        return Err(Error::Write {
+            path: path.to_path_buf(),
+            source,
+        });
     }
     Ok(())
 }

@@ -9,44 +9,26 @@ use crate::plan::{
 };
 use crate::problem::SafetyForm;
 use crate::search::{SearchMode, SearchOptions};
+use crate::{Error, Result};
 use cloth::{Model, Scene};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// A built-in scene by name, or a scene JSON file by path (an existing path, or any name ending
 /// in `.json`). An unknown name is an error listing the built-in scenes.
-pub fn load_scene(name_or_path: &str) -> anyhow::Result<Scene> {
+pub fn load_scene(name_or_path: &str) -> Result<Scene> {
     let path = Path::new(name_or_path);
     if path.exists() || name_or_path.ends_with(".json") {
         Ok(Scene::load(path)?)
     } else {
-        // The error lists the built-in scenes itself.
-        Scene::builtin(name_or_path).map_err(|e| {
-            // The scene error stays a cause, so a caller can tell a bad scene from other errors.
-            let text = format!("{e}; or give the path of a scene JSON file");
-            anyhow::Error::new(e).context(text)
-        })
+        // The error lists the built-in scenes itself; it stays the source, so a caller can tell
+        // a bad scene from other errors.
+        Scene::builtin(name_or_path).map_err(|source| Error::UnknownScene { source })
     }
-}
-
-/// The error and its causes joined by `: `, leaving out a cause whose text the message before it
-/// already contains (a `SceneError::Io` says its OS error itself and also returns it as its source).
-pub fn error_chain(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if out.is_empty() {
-            out = text;
-        } else if !out.contains(&text) {
-            out.push_str(": ");
-            out.push_str(&text);
-        }
-    }
-    out
 }
 
 /// A check of one numeric setting: its name as the caller spells it, and its value.
-type Check = fn(&str, f64) -> anyhow::Result<()>;
+type Check = fn(&str, f64) -> Result<()>;
 
 /// The settings of an `optimize` run; `None` takes the scene's own value.
 #[derive(Clone, Debug)]
@@ -109,7 +91,7 @@ impl Default for OptimizeRequest {
 impl OptimizeRequest {
     /// Checks every setting before any scene is read; an error names the setting as
     /// `name(field)` spells it (e.g. `delta` → `--delta`).
-    pub fn check(&self, name: &dyn Fn(&str) -> String) -> anyhow::Result<()> {
+    pub fn check(&self, name: &dyn Fn(&str) -> String) -> Result<()> {
         let optional: [(&str, Option<f64>, Check); 5] = [
             ("delta", self.delta, ensure_non_negative),
             ("alpha", self.alpha, ensure_non_negative),
@@ -136,7 +118,7 @@ impl OptimizeRequest {
         &self,
         model: &Model,
         name: &dyn Fn(&str) -> String,
-    ) -> anyhow::Result<(PlanOptions, SearchOptions)> {
+    ) -> Result<(PlanOptions, SearchOptions)> {
         let mut options = PlanOptions::for_model(model);
         options.iterations = self.iterations;
         options.solver = self.solver;

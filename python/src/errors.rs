@@ -2,35 +2,32 @@
 
 use cloth::scene::SceneError;
 use cloth::ClothError;
+use clothopt::{error_chain, Error};
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyRuntimeError, PyValueError};
 use pyo3::PyErr;
 
-/// An error of a run as a Python exception: a bad scene, bad controls or a bad constraint group is
-/// a `ValueError`, an unreadable scene file an `OSError` (`FileNotFoundError` when it is missing),
-/// anything else (a diverged rollout, a failed solve) a `RuntimeError`. The message is the
-/// CLI's: the error and its causes joined by `: `.
-pub fn to_py(e: anyhow::Error) -> PyErr {
-    let message = clothopt::request::error_chain(&e);
-    for cause in e.chain() {
-        if let Some(scene) = cause.downcast_ref::<SceneError>() {
-            return scene_exception(scene, message);
+/// An error of a run as a Python exception: a bad scene, bad controls, a bad constraint group or
+/// a bad setting is a `ValueError`, an unreadable scene file an `OSError` (`FileNotFoundError`
+/// when it is missing), anything else (a diverged rollout, a failed solve) a `RuntimeError`. The
+/// message is the CLI's: the error and its causes joined by `: `.
+pub fn to_py(e: Error) -> PyErr {
+    let message = error_chain(&e);
+    match &e {
+        Error::Scene(scene) | Error::Cloth(ClothError::Scene(scene)) => {
+            scene_exception(scene, message)
         }
-        if let Some(cloth) = cause.downcast_ref::<ClothError>() {
-            match cloth {
-                ClothError::Scene(scene) => return scene_exception(scene, message),
-                ClothError::Controls(_) | ClothError::InvalidConstraint { .. } => {
-                    return PyValueError::new_err(message)
-                }
-                _ => {}
-            }
+        Error::UnknownScene { .. }
+        | Error::InvalidSetting { .. }
+        | Error::Cloth(ClothError::Controls(_) | ClothError::InvalidConstraint { .. }) => {
+            PyValueError::new_err(message)
         }
+        _ => PyRuntimeError::new_err(message),
     }
-    PyRuntimeError::new_err(message)
 }
 
 /// A bad setting (an argument the caller gave) as a `ValueError`.
-pub fn bad_argument(e: anyhow::Error) -> PyErr {
-    PyValueError::new_err(clothopt::request::error_chain(&e))
+pub fn bad_argument(e: Error) -> PyErr {
+    PyValueError::new_err(error_chain(&e))
 }
 
 fn scene_exception(scene: &SceneError, message: String) -> PyErr {

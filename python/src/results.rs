@@ -178,7 +178,7 @@ impl Plan {
     /// rename), as `clothopt optimize --out` does.
     fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
         clothopt::plan::write_json_atomic(&path, &self.result)
-            .map_err(|e| pyo3::exceptions::PyOSError::new_err(clothopt::request::error_chain(&e)))
+            .map_err(|e| pyo3::exceptions::PyOSError::new_err(clothopt::error_chain(&e)))
     }
 
     fn __repr__(&self) -> String {

@@ -75,7 +75,7 @@ impl Default for SearchOptions {
 
 impl SearchOptions {
     /// Checks the counts, naming the first bad one.
-    pub fn validate(&self) -> anyhow::Result<()> {
+    pub fn validate(&self) -> crate::Result<()> {
         crate::plan::ensure_iterations("cheap_iterations", self.cheap_iterations)?;
         crate::plan::ensure_iterations("max_candidates", self.max_candidates)?;
         crate::plan::ensure_iterations("polish", self.polish)
@@ -210,7 +210,7 @@ fn goal_stage(
     route: &str,
     progress: &mut impl FnMut(&IterationInfo),
     (best, best_report, reports): Tally<'_>,
-) -> anyhow::Result<()> {
+) -> crate::Result<()> {
     if !is_safe(best) || best.task.achieved || model.task.targets.rows() == 0 {
         return Ok(());
     }
@@ -233,7 +233,7 @@ fn route_stages(
     candidates: &[routes::Candidate],
     progress: &mut impl FnMut(&IterationInfo),
     (best, best_report, reports): Tally<'_>,
-) -> anyhow::Result<Option<String>> {
+) -> crate::Result<Option<String>> {
     // Cheap stage: warm-up sharpness only, a small budget, looser tolerance.
     let mut cheap_options = options.clone();
     cheap_options.iterations = search.cheap_iterations;
@@ -245,7 +245,7 @@ fn route_stages(
     let cheap: Vec<PlanResult> = candidates
         .par_iter()
         .map(|c| plan(model, scene, &c.controls, &cheap_options, |_| {}))
-        .collect::<anyhow::Result<_>>()?;
+        .collect::<crate::Result<_>>()?;
     let (delta, slack) = (
         options.task.delta,
         NEAR_SAFE_FRACTION * model.task.tolerance,
@@ -292,7 +292,7 @@ pub fn plan_with_search(
     options: &PlanOptions,
     search: &SearchOptions,
     mut progress: impl FnMut(&IterationInfo),
-) -> anyhow::Result<PlanResult> {
+) -> crate::Result<PlanResult> {
     search.validate()?;
     let clock = Instant::now();
     let first = plan(model, scene, start, options, &mut progress)?;
