@@ -100,7 +100,7 @@ pub trait RowFn: Send + Sync {
 pub const SEED_CHUNK: usize = 8;
 
 /// Rows per block handed to [`RowFn::eval_rows`] and [`RowFn::vjp_rows`] by the in-place kernels.
-pub const ROW_BLOCK: usize = 16;
+pub const ROW_BLOCK: usize = 8;
 
 /// `in_adj += Jᵀ out_adj` for one row, derived by forward-mode duals in chunks of [`VJP_CHUNK`]
 /// input directions.

@@ -18,7 +18,6 @@
 //! - a sphere at its centre: gradient 0, `∇²C·v = 0`; a tie between obstacles: the first one's
 //!   derivatives (as [`Real::min`]).
 
-use crate::kernels::ProjectionBlock;
 use autodiff::{Dual, Real};
 use nalgebra::Vector3;
 
@@ -59,19 +58,6 @@ pub trait Constraint: Send + Sync + 'static {
         Self: Sized,
     {
         hessian_vector_by_duals(self, instance, x, v)
-    }
-
-    /// Optional batch kernel of the forward XPBD projection: projects every row of `block` and
-    /// returns true, or returns false (the default) to leave the block to the generic per-row
-    /// projection. A kernel must give the generic projection's values bit for bit
-    /// (see [`crate::kernels`]).
-    #[inline(always)]
-    fn project_block(&self, block: &mut ProjectionBlock<'_>) -> bool
-    where
-        Self: Sized,
-    {
-        let _ = block;
-        false
     }
 }
 
@@ -214,13 +200,6 @@ impl Constraint for Distance {
             v[k] = h[k];
             v[k + 3] = -h[k];
         }
-    }
-
-    /// Four rows per AVX register ([`crate::kernels`]).
-    #[inline(always)]
-    fn project_block(&self, block: &mut ProjectionBlock<'_>) -> bool {
-        crate::kernels::distance::project(self, block);
-        true
     }
 }
 

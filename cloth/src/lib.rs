@@ -10,8 +10,7 @@
 //! - [`mesh`]: the grid mesh and its constraints in canonical order;
 //! - [`coloring`]: greedy colouring into independent sets;
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles
-//!   (spheres, planes, capsules, boxes, closed meshes); [`kernels`]: SIMD batch kernels of the
-//!   built-ins' projections;
+//!   (spheres, planes, capsules, boxes, closed meshes);
 //! - [`controls`]: the controls tensor viewed by (step, gripper);
 //! - [`model`]: a scene compiled to its effects; [`registry`]: constraint types scene files name; [`sim`]: time stepping; [`cost`], [`grad`]: costs
 //!   and gradients;
@@ -25,7 +24,6 @@ pub mod cost;
 pub mod error;
 pub mod geometry;
 pub mod grad;
-pub mod kernels;
 pub mod layout;
 pub mod mesh;
 pub mod model;

@@ -11,7 +11,6 @@
 //! it against the engine's generic dual-derived VJP.
 
 use crate::constraint::{value_and_gradient, Constraint, MAX_ARITY};
-use crate::kernels::ProjectionBlock;
 use autodiff::rowfn::{ROW_BLOCK, SEED_CHUNK};
 use autodiff::{Real, RowFn};
 use std::sync::Arc;
@@ -98,24 +97,13 @@ impl<C: Constraint> RowFn for Projection<C> {
         }
     }
 
-    /// A type's batch kernel ([`Constraint::project_block`]) where it has one. Otherwise two
-    /// passes over the block: every row's `C` and `∇C` first (into the row's outputs, as
+    /// Two passes over the block: every row's `C` and `∇C` first (into the row's outputs, as
     /// in [`Projection::eval`]), then every row's update, so the rows' long dependency chains
     /// (square root, then divisions) overlap.
     #[inline(always)]
     fn eval_rows(&self, first: usize, inputs: &[f64], outputs: &mut [f64]) {
         let (w, d) = (3 * C::ARITY + 1, 3 * C::ARITY);
         let rows = inputs.len() / w;
-        let mut block = ProjectionBlock {
-            instances: &self.instances[first..first + rows],
-            inv_mass: &self.inv_mass[first * C::ARITY..(first + rows) * C::ARITY],
-            compliance: self.compliance,
-            inputs,
-            outputs: &mut *outputs,
-        };
-        if self.constraint.project_block(&mut block) {
-            return;
-        }
         for b in 0..rows {
             let (x, y) = (&inputs[w * b..w * b + w], &mut outputs[w * b..w * b + w]);
             y[d] = self.gradient(first + b, x, &mut y[..d]);
