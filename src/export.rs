@@ -57,6 +57,19 @@ pub fn obj_mesh(points: &[[f64; 3]], rows: usize, cols: usize) -> String {
     obj
 }
 
+/// One frame of a cloth of any shape as a Wavefront OBJ mesh: its points and `triangles`
+/// (0-based particle indices, written 1-based).
+pub fn obj_triangles(points: &[[f64; 3]], triangles: &[[usize; 3]]) -> String {
+    let mut obj = String::from("# clothopt cloth frame\n");
+    for p in points {
+        let _ = writeln!(obj, "v {} {} {}", p[0], p[1], p[2]);
+    }
+    for t in triangles {
+        let _ = writeln!(obj, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    obj
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -13,6 +13,7 @@ use std::path::Path;
 pub struct RolloutFigure {
     title: String,
     grid: (usize, usize),
+    cloth_triangles: Vec<[usize; 3]>,
     frames: Vec<(Vec<[f64; 3]>, String)>,
     control_paths: Vec<Vec<[f64; 3]>>,
     spheres: Vec<Sphere>,
@@ -24,7 +25,8 @@ pub struct RolloutFigure {
 }
 
 impl RolloutFigure {
-    /// The rollout `states` (`T + 1` frames) of `model` on a `grid` cloth: the initial, a middle and
+    /// The rollout `states` (`T + 1` frames) of `model` on a `grid` cloth (`(rows, cols)`; a mesh
+    /// cloth passes `(0, 0)` and is drawn from [`Model::triangles`]): the initial, a middle and
     /// the final frame (labelled with their largest edge strain), the control paths, the safety spheres grown by `delta` (if any), the
     /// targets and a horizontal collider plane (if any).
     pub fn new(
@@ -76,9 +78,16 @@ impl RolloutFigure {
                     .collect()
             })
             .collect();
+        // A grid is drawn as quads and rows/columns; any other cloth from its triangles.
+        let cloth_triangles = if grid.0 * grid.1 == model.n_particles() {
+            Vec::new()
+        } else {
+            model.triangles.to_vec()
+        };
         RolloutFigure {
             title: title.to_string(),
             grid,
+            cloth_triangles,
             frames,
             control_paths,
             spheres: obstacle_spheres(model),
@@ -95,6 +104,7 @@ impl RolloutFigure {
         TrajectoryFigure {
             title: self.title.clone(),
             grid: self.grid,
+            cloth_triangles: &self.cloth_triangles,
             frames: self
                 .frames
                 .iter()
@@ -143,12 +153,13 @@ pub fn draw_rollout_gif(
     plot::draw_trajectory_gif(&figures, 25, path)
 }
 
-/// The rollout `states` of `model` on a `grid` cloth for the HTML viewer: every state, the
-/// obstacles, targets, control particles, and per step the particle closest to the safety
-/// obstacles (none when the scene has none).
+/// The rollout `states` of `model` for the HTML viewer: every state, the cloth's triangles
+/// ([`Model::triangles`]), the obstacles, targets, control particles, and per step the particle
+/// closest to the safety obstacles (none when the scene has none). `grid` is not used (the model
+/// knows its triangles); it is kept so that callers of the still views and the viewer pass the same.
 pub fn rollout_view(
     model: &Model,
-    grid: (usize, usize),
+    _grid: (usize, usize),
     states: &[Tensor],
     title: &str,
     delta: Option<f64>,
@@ -161,7 +172,7 @@ pub fn rollout_view(
     };
     Rollout {
         title: title.to_string(),
-        triangles: plot::grid_triangles(grid.0, grid.1),
+        triangles: model.triangles.to_vec(),
         control_particles: model.controls.as_slice().to_vec(),
         spheres: obstacle_spheres(model),
         solids: obstacle_solids(model),

@@ -335,13 +335,16 @@ fn run(cli: Cli) -> Result<i32> {
                 m.g, m.t, m.e, m.l, m.c, m.min_sdf, m.min_sdf_swept
             );
             if let Some(out) = out {
-                let result = serde_json::json!({
+                let mut result = serde_json::json!({
                     "scene": scene.name, "delta": scene.task.delta, "metrics": m,
                     "grid": [scene.cloth.rows, scene.cloth.cols],
                     "control_particles": model.controls.as_slice(),
                     "controls": plan::controls_to_nested(&u),
                     "states": ev.states.iter().map(plan::state_points).collect::<Vec<_>>(),
                 });
+                if let Some(t) = plan::mesh_triangles(&scene, &model) {
+                    result["triangles"] = serde_json::json!(t);
+                }
                 plan::write_json_atomic(&out, &result)?;
             }
             let title = format!("{} (simulated)", scene.name);
@@ -502,14 +505,28 @@ fn run(cli: Cli) -> Result<i32> {
             if parsed.states.is_empty() {
                 bail!("{}: the result has no states to export", result.display());
             }
-            if let Some(bad) = parsed.states.iter().position(|s| s.len() != rows * cols) {
+            // A mesh cloth's particle count is its states' (every triangle index must be below it).
+            let n = match &parsed.triangles {
+                Some(_) => parsed.states[0].len(),
+                None => rows * cols,
+            };
+            if let Some(bad) = parsed.states.iter().position(|s| s.len() != n) {
                 bail!(
                     "{}: states[{bad}] has {} points for a {rows} × {cols} grid",
                     result.display(),
                     parsed.states[bad].len()
                 );
             }
-            if let Some(&p) = parsed.control_particles.iter().find(|&&p| p >= rows * cols) {
+            if let Some(t) = parsed
+                .triangles
+                .iter()
+                .flatten()
+                .flatten()
+                .find(|&&p| p >= n)
+            {
+                bail!("{}: triangle particle {t} out of range", result.display());
+            }
+            if let Some(&p) = parsed.control_particles.iter().find(|&&p| p >= n) {
                 bail!("{}: control particle {p} out of range", result.display());
             }
             if waypoints.is_none() && obj.is_none() {
@@ -538,7 +555,11 @@ fn run(cli: Cli) -> Result<i32> {
                     let path = dir.join(format!("step_{t:03}.obj"));
                     plan::write_atomic(
                         &path,
-                        clothopt::export::obj_mesh(state, rows, cols).as_bytes(),
+                        match &parsed.triangles {
+                            Some(t) => clothopt::export::obj_triangles(state, t),
+                            None => clothopt::export::obj_mesh(state, rows, cols),
+                        }
+                        .as_bytes(),
                     )?;
                 }
                 println!(
@@ -556,6 +577,8 @@ fn run(cli: Cli) -> Result<i32> {
 #[derive(serde::Deserialize)]
 struct ExportInput {
     grid: [usize; 2],
+    #[serde(default)]
+    triangles: Option<Vec<[usize; 3]>>,
     control_particles: Vec<usize>,
     states: Vec<Vec<[f64; 3]>>,
 }

@@ -197,8 +197,12 @@ pub struct PlanResult {
     /// The route search, when it ran ([`crate::search`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub search: Option<crate::search::SearchReport>,
-    /// Cloth grid `[rows, cols]` (particle `r·cols + c`).
+    /// Cloth grid `[rows, cols]` (particle `r·cols + c`); `[0, 0]` for a mesh cloth.
     pub grid: [usize; 2],
+    /// A mesh cloth's triangles (particle indices); absent for a grid, whose triangles follow
+    /// from `grid`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub triangles: Option<Vec<[usize; 3]>>,
     /// Particle index of each control point.
     pub control_particles: Vec<usize>,
     /// Controls: `T × controls × 3`.
@@ -518,6 +522,7 @@ pub fn plan(
         warnings,
         search: None,
         grid: [scene.cloth.rows, scene.cloth.cols],
+        triangles: mesh_triangles(scene, model),
         control_particles: model.controls.as_slice().to_vec(),
         controls: controls_to_nested(&controls),
         states: Some(evaluation.states.iter().map(state_points).collect()),
@@ -582,6 +587,7 @@ pub fn snapshot(
         warnings: Vec::new(),
         search: None,
         grid: [scene.cloth.rows, scene.cloth.cols],
+        triangles: mesh_triangles(scene, model),
         control_particles: model.controls.as_slice().to_vec(),
         controls: controls_to_nested(&controls),
         states: Some(evaluation.states.iter().map(state_points).collect()),
@@ -700,4 +706,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
         return Err(anyhow::anyhow!("cannot write {}: {e}", path.display()));
     }
     Ok(())
+}
+
+/// A mesh cloth's triangles for the result JSON; `None` for a grid.
+pub fn mesh_triangles(scene: &Scene, model: &Model) -> Option<Vec<[usize; 3]>> {
+    scene.cloth.is_mesh().then(|| model.triangles.to_vec())
 }

@@ -4,7 +4,7 @@
 //! cloth that starts inside an obstacle (or inside a safety obstacle's margin) cannot be made safe
 //! by any plan. [`start_intrusions`] finds, for every obstacle, its deepest intrusion at step 0.
 
-use cloth::scene::{Obstacle, Scene};
+use cloth::scene::{Obstacle, ParticleRef, Scene};
 
 /// The deepest intrusion of the rest state into one obstacle.
 #[derive(Clone, Debug, PartialEq)]
@@ -13,8 +13,8 @@ pub struct Intrusion {
     pub obstacle: usize,
     /// The sphere within a sphere set; `None` for a plane.
     pub sphere: Option<usize>,
-    /// The particle, as `[row, col]`.
-    pub particle: [usize; 2],
+    /// The particle: `[row, col]` on a grid cloth, a vertex index on a mesh cloth.
+    pub particle: ParticleRef,
     /// The particle's signed distance to the primitive (negative inside).
     pub distance: f64,
     /// The obstacle is a safety obstacle (its margin `δ` applies).
@@ -38,6 +38,7 @@ impl Intrusion {
 pub fn start_intrusions(scene: &Scene, delta: f64) -> Vec<Intrusion> {
     let rest = scene.rest_positions();
     let cols = scene.cloth.cols.max(1);
+    let mesh = scene.cloth.is_mesh();
     let mut out = Vec::new();
     for (o, obstacle) in scene.obstacles.iter().enumerate() {
         let safety = obstacle.role().is_safety();
@@ -55,7 +56,11 @@ pub fn start_intrusions(scene: &Scene, delta: f64) -> Vec<Intrusion> {
                 deepest = Some(Intrusion {
                     obstacle: o,
                     sphere,
-                    particle: [particle / cols, particle % cols],
+                    particle: if mesh {
+                        ParticleRef::Vertex(particle)
+                    } else {
+                        ParticleRef::Grid([particle / cols, particle % cols])
+                    },
                     distance,
                     safety,
                     kind,
@@ -95,7 +100,10 @@ pub fn judge_start(scene: &Scene, delta: f64) -> (Option<String>, Vec<String>) {
     let mut error = None;
     let mut warnings = Vec::new();
     for i in start_intrusions(scene, delta) {
-        let at = format!("particle [{}, {}]", i.particle[0], i.particle[1]);
+        let at = match i.particle {
+            ParticleRef::Grid([r, c]) => format!("particle [{r}, {c}]"),
+            ParticleRef::Vertex(v) => format!("particle {v}"),
+        };
         if i.distance < 0.0 {
             if error.is_none() {
                 error = Some(format!(

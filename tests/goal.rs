@@ -20,7 +20,7 @@ fn reluctant_scene(tolerance: f64) -> Scene {
     let mut s = small(4, 4, 4, 30);
     s.task.targets = (0..4)
         .map(|c| Target {
-            particle: [3, c],
+            particle: [3, c].into(),
             position: [-0.5 + c as f64 / 3.0, 0.6, 0.0],
         })
         .collect();

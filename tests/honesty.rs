@@ -180,17 +180,17 @@ fn the_cli_exits_4_with_one_verdict_line_on_an_infeasible_plan_and_keeps_the_bes
 fn unreachable_scene() -> Scene {
     let mut s = small(1, 2, 3, 5);
     s.name = "unreachable".into();
-    s.controls = vec![[0, 0]];
+    s.controls = vec![[0, 0].into()];
     s.material.stretch = Stiffness::Infinite;
     s.material.bending = None;
     s.physics.gravity = [0.0; 3];
     s.task.targets = vec![
         Target {
-            particle: [0, 0],
+            particle: [0, 0].into(),
             position: [0.0, 0.0, 0.0],
         },
         Target {
-            particle: [0, 1],
+            particle: [0, 1].into(),
             position: [3.0, 0.0, 0.0],
         },
     ];

@@ -16,7 +16,7 @@ fn stretching_scene(limits: Limits) -> Scene {
     let mut s = small(5, 5, 4, 30);
     s.task.targets = (0..5)
         .map(|c| Target {
-            particle: [4, c],
+            particle: [4, c].into(),
             position: [-1.0 + 0.5 * c as f64, 1.0, 1.5],
         })
         .collect();

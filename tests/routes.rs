@@ -105,11 +105,11 @@ fn unreachable_scene() -> Scene {
     })];
     scene.task.targets = vec![
         Target {
-            particle: [5, 0],
+            particle: [5, 0].into(),
             position: [-0.3, 1.0, 0.4],
         },
         Target {
-            particle: [5, 5],
+            particle: [5, 5].into(),
             position: [0.3, 1.0, 0.4],
         },
     ];

@@ -642,7 +642,7 @@ fn a_single_free_particle() {
     let mut scene = small(1, 1, 3, 5);
     scene.controls.clear();
     scene.task.targets = vec![Target {
-        particle: [0, 0],
+        particle: [0, 0].into(),
         position: [0.0, 0.0, 0.0],
     }];
     scene.validate().unwrap();
@@ -657,7 +657,7 @@ fn a_single_free_particle() {
     }
     // A single gripped particle: the gradient of G is exactly the unit vector toward the target
     // on every step.
-    scene.controls = vec![[0, 0]];
+    scene.controls = vec![[0, 0].into()];
     let model = Model::from_scene(&scene).unwrap();
     let u = random_controls(&model, 12, 0.05);
     check_smooth("single gripped particle", &model, &u, 0.0, 1e-6);

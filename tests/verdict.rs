@@ -29,7 +29,10 @@ fn the_deepest_start_intrusion_is_found_per_obstacle() {
     let found = start_intrusions(&scene, 0.1);
     assert_eq!(found.len(), 1, "{found:?}");
     let i = &found[0];
-    assert_eq!((i.obstacle, i.sphere, i.particle), (0, Some(1), [3, 0]));
+    assert_eq!(
+        (i.obstacle, i.sphere, i.particle),
+        (0, Some(1), [3, 0].into())
+    );
     assert!((i.distance - (0.15 - 0.2)).abs() < 1e-12, "{}", i.distance);
     let (error, _) = judge_start(&scene, 0.1);
     let e = error.unwrap();

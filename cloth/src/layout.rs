@@ -2,25 +2,48 @@
 //! indices, target positions, tolerance and initial controls — what [`crate::Model::from_scene`]
 //! compiles from.
 
-use crate::mesh::GridMesh;
-use crate::scene::{InitialControls, Obstacle, Scene};
+use crate::mesh::{ClothMesh, GridMesh};
+use crate::scene::{InitialControls, Obstacle, ParticleRef, Scene};
 use crate::sdf::{Capsule, Cuboid, Plane, SignedDistance, SphereSet, Surface, Union};
 
 impl Scene {
-    /// The cloth's grid mesh (`cloth.rows × cloth.cols`).
-    pub fn mesh(&self) -> GridMesh {
-        GridMesh::new(self.cloth.rows, self.cloth.cols)
+    /// The cloth's topology: the grid's (`cloth.rows × cloth.cols`, [`GridMesh::topology`]) or
+    /// the triangles of `cloth.mesh` ([`ClothMesh::from_triangles`]). A mesh cloth whose file has
+    /// not been read ([`Scene::load_files`]) has no particles.
+    pub fn mesh(&self) -> ClothMesh {
+        if self.cloth.is_mesh() {
+            match &self.cloth.mesh_data {
+                Some(m) => ClothMesh::from_triangles(m.vertices.len(), m.triangles.clone()),
+                None => ClothMesh::from_triangles(0, Vec::new()),
+            }
+        } else {
+            GridMesh::new(self.cloth.rows, self.cloth.cols).topology()
+        }
     }
 
-    /// Number of particles, `cloth.rows × cloth.cols`.
+    /// Number of particles: `cloth.rows × cloth.cols`, or the mesh cloth's vertex count.
     pub fn n_particles(&self) -> usize {
-        self.cloth.rows * self.cloth.cols
+        if self.cloth.is_mesh() {
+            self.cloth
+                .mesh_data
+                .as_ref()
+                .map_or(0, |m| m.vertices.len())
+        } else {
+            self.cloth.rows * self.cloth.cols
+        }
     }
 
-    /// Rest positions in particle-index order (`p = r·cols + c`):
-    /// `top_left + right·(c/max(cols−1,1)) + down·(r/max(rows−1,1))`, summed left to right.
+    /// Rest positions in particle-index order. A grid's particle `p = r·cols + c` rests at
+    /// `top_left + right·(c/max(cols−1,1)) + down·(r/max(rows−1,1))`, summed left to right; a mesh
+    /// cloth's vertices rest where the file puts them.
     pub fn rest_positions(&self) -> Vec<[f64; 3]> {
         let c = &self.cloth;
+        if c.is_mesh() {
+            return c
+                .mesh_data
+                .as_ref()
+                .map_or_else(Vec::new, |m| m.vertices.clone());
+        }
         let col_den = c.cols.saturating_sub(1).max(1) as f64;
         let row_den = c.rows.saturating_sub(1).max(1) as f64;
         let mut out = Vec::with_capacity(self.n_particles());
@@ -36,10 +59,28 @@ impl Scene {
         out
     }
 
-    /// Length of the cloth's longest side: the larger of `|right|` (when `cols > 1`) and
-    /// `|down|` (when `rows > 1`); 0 for a single particle.
+    /// Length of the cloth's longest side. A grid: the larger of `|right|` (when `cols > 1`) and
+    /// `|down|` (when `rows > 1`). A mesh cloth: the largest extent of its rest vertices' bounding
+    /// box. 0 for a single particle.
     pub fn longest_side(&self) -> f64 {
         let c = &self.cloth;
+        if c.is_mesh() {
+            let rest = self.rest_positions();
+            return (0..3)
+                .map(|k| {
+                    let (lo, hi) = rest
+                        .iter()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                            (lo.min(p[k]), hi.max(p[k]))
+                        });
+                    if hi >= lo {
+                        hi - lo
+                    } else {
+                        0.0
+                    }
+                })
+                .fold(0.0, f64::max);
+        }
         let len = |v: &[f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
         let right = if c.cols > 1 { len(&c.right) } else { 0.0 };
         let down = if c.rows > 1 { len(&c.down) } else { 0.0 };
@@ -64,26 +105,43 @@ impl Scene {
             .unwrap_or_else(|| self.default_tolerance())
     }
 
+    /// The particle index a validated scene's reference names: `r·cols + c` for a grid's
+    /// `[r, c]`, the vertex index itself on a mesh cloth.
+    pub fn particle_index(&self, particle: ParticleRef) -> usize {
+        match particle {
+            ParticleRef::Grid([r, c]) => r * self.cloth.cols + c,
+            ParticleRef::Vertex(v) => v,
+        }
+    }
+
     /// Particle indices of the control particles, in control order.
     pub fn control_indices(&self) -> Vec<usize> {
         self.controls
             .iter()
-            .map(|&[r, c]| r * self.cloth.cols + c)
+            .map(|&p| self.particle_index(p))
             .collect()
     }
 
-    /// Particle indices of the targets, in target order.
+    /// Particle indices of the targets, in target order: `task.targets`, or every vertex of
+    /// `task.target_mesh`.
     pub fn target_indices(&self) -> Vec<usize> {
-        self.task
-            .targets
-            .iter()
-            .map(|t| t.particle[0] * self.cloth.cols + t.particle[1])
-            .collect()
+        match &self.task.target_mesh_data {
+            Some(vertices) => (0..vertices.len()).collect(),
+            None => self
+                .task
+                .targets
+                .iter()
+                .map(|t| self.particle_index(t.particle))
+                .collect(),
+        }
     }
 
     /// Target positions, in target order.
     pub fn target_positions(&self) -> Vec<[f64; 3]> {
-        self.task.targets.iter().map(|t| t.position).collect()
+        match &self.task.target_mesh_data {
+            Some(vertices) => vertices.clone(),
+            None => self.task.targets.iter().map(|t| t.position).collect(),
+        }
     }
 
     /// The initial control guess as a `horizon × controls` array (`[t][k]` = displacement of control `k`

@@ -1,4 +1,5 @@
-//! Rectangular grid mesh of a cloth, with the canonical constraint orderings.
+//! Cloth topology: [`ClothMesh`] (particles, triangles, stretch edges in a canonical order, bending
+//! stencils from triangle adjacency) and [`GridMesh`], the rectangular grid as one way to make it.
 //!
 //! # Conventions (fixed, so results agree with other implementations of the paper)
 //!
@@ -112,6 +113,82 @@ impl GridMesh {
         edges
     }
 
+    /// The cloth topology of this grid: its triangles with the grid's canonical edge order.
+    pub fn topology(&self) -> ClothMesh {
+        ClothMesh {
+            n_particles: self.n_particles(),
+            triangles: self.triangles.clone(),
+            edges: self.stretch_edges(),
+        }
+    }
+
+    /// The paper's distance-type bending pairs ([`ClothMesh::bending_pairs`] of
+    /// [`GridMesh::topology`]): one per interior edge in the order of [`GridMesh::stretch_edges`].
+    ///
+    /// Count: `(rows−2)·(cols−1) + (rows−1)·(cols−2) + (rows−1)·(cols−1)` (225 for `10 × 10`).
+    pub fn bending_pairs(&self) -> Vec<[usize; 2]> {
+        self.topology().bending_pairs()
+    }
+
+    /// Dihedral-bending stencils ([`ClothMesh::dihedral_quads`] of [`GridMesh::topology`]), one
+    /// per interior edge in the order of [`GridMesh::stretch_edges`].
+    pub fn dihedral_quads(&self) -> Vec<[usize; 4]> {
+        self.topology().dihedral_quads()
+    }
+}
+
+/// The topology of a cloth of any shape: its particles, triangles and stretch edges in a canonical
+/// order, from which the bending stencils follow by triangle adjacency.
+///
+/// A grid ([`GridMesh::topology`]) lists its edges in the grid order of the module docs; a mesh
+/// read from a file ([`ClothMesh::from_triangles`]) lists them in order of first use: triangles
+/// in file order, each triangle's edges `(t₀,t₁)`, `(t₁,t₂)`, `(t₂,t₀)`. Either way the order, and
+/// so the colouring, depends only on the triangle list.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ClothMesh {
+    n_particles: usize,
+    triangles: Vec<[usize; 3]>,
+    edges: Vec<[usize; 2]>,
+}
+
+impl ClothMesh {
+    /// The topology of `n_particles` particles joined by `triangles` (vertex indices below
+    /// `n_particles`; a scene's mesh cloth is checked for that, for degenerate triangles and for
+    /// edges shared by more than two triangles before it gets here).
+    pub fn from_triangles(n_particles: usize, triangles: Vec<[usize; 3]>) -> ClothMesh {
+        let mut seen = std::collections::HashSet::with_capacity(3 * triangles.len());
+        let mut edges = Vec::with_capacity(3 * triangles.len() / 2 + 1);
+        for tri in &triangles {
+            for k in 0..3 {
+                let (i, j) = (tri[k], tri[(k + 1) % 3]);
+                let e = [i.min(j), i.max(j)];
+                if seen.insert(e) {
+                    edges.push(e);
+                }
+            }
+        }
+        ClothMesh {
+            n_particles,
+            triangles,
+            edges,
+        }
+    }
+
+    /// Number of particles.
+    pub fn n_particles(&self) -> usize {
+        self.n_particles
+    }
+
+    /// The triangles, as given (a grid's are consistently oriented, see [`GridMesh::triangles`]).
+    pub fn triangles(&self) -> &[[usize; 3]] {
+        &self.triangles
+    }
+
+    /// Every edge once, in canonical order (see the type's docs), each as `[i, j]` with `i < j`.
+    pub fn stretch_edges(&self) -> Vec<[usize; 2]> {
+        self.edges.clone()
+    }
+
     /// Maps every triangle edge `[i, j]` (`i < j`) to the vertices opposite it, in triangle order.
     fn edge_opposites(&self) -> HashMap<[usize; 2], Vec<usize>> {
         let mut map: HashMap<[usize; 2], Vec<usize>> =
@@ -126,9 +203,7 @@ impl GridMesh {
     }
 
     /// The paper's distance-type bending pairs: for each interior edge, in the order of
-    /// [`GridMesh::stretch_edges`], the two vertices opposite it, as `[i, j]` with `i < j`.
-    ///
-    /// Count: `(rows−2)·(cols−1) + (rows−1)·(cols−2) + (rows−1)·(cols−1)` (225 for `10 × 10`).
+    /// [`ClothMesh::stretch_edges`], the two vertices opposite it, as `[i, j]` with `i < j`.
     pub fn bending_pairs(&self) -> Vec<[usize; 2]> {
         self.dihedral_quads()
             .into_iter()
@@ -136,15 +211,16 @@ impl GridMesh {
             .collect()
     }
 
-    /// Dihedral-bending stencils, one per interior edge (an edge shared by two triangles) in the order of
-    /// [`GridMesh::stretch_edges`]: `[e0, e1, o0, o1]` where `e0 < e1` are the shared edge's vertices, `o0`
-    /// is the vertex opposite the edge in the triangle that comes **first** in [`GridMesh::triangles`] and
-    /// `o1` the one opposite it in the later triangle (`o0`, `o1` are not sorted).
+    /// Dihedral-bending stencils, one per interior edge (an edge shared by exactly two triangles)
+    /// in the order of [`ClothMesh::stretch_edges`]: `[e0, e1, o0, o1]` where `e0 < e1` are the
+    /// shared edge's vertices, `o0` is the vertex opposite the edge in the triangle that comes
+    /// **first** in [`ClothMesh::triangles`] and `o1` the one opposite it in the later triangle
+    /// (`o0`, `o1` are not sorted).
     pub fn dihedral_quads(&self) -> Vec<[usize; 4]> {
         let opp = self.edge_opposites();
-        self.stretch_edges()
-            .into_iter()
-            .filter_map(|e| match opp.get(&e).map(Vec::as_slice) {
+        self.edges
+            .iter()
+            .filter_map(|e| match opp.get(e).map(Vec::as_slice) {
                 Some(&[o0, o1]) => Some([e[0], e[1], o0, o1]),
                 _ => None,
             })
@@ -358,5 +434,36 @@ mod tests {
             })
             .collect();
         assert!(signs.iter().all(|&s| s == signs[0]));
+    }
+
+    #[test]
+    fn a_triangle_list_gives_edges_in_first_use_order_and_the_same_stencils_as_the_grid() {
+        let grid = GridMesh::new(4, 5);
+        let from_list = ClothMesh::from_triangles(20, grid.triangles().to_vec());
+        // Same edge set, first-use order.
+        let mut a = from_list.stretch_edges();
+        let mut b = grid.stretch_edges();
+        assert_eq!(&a[..5], &[[0, 1], [1, 6], [0, 6], [5, 6], [0, 5]]);
+        a.sort_unstable();
+        b.sort_unstable();
+        assert_eq!(a, b);
+        // Every stencil of the grid appears, for the same edge, in the list's topology.
+        let mut qa = from_list.dihedral_quads();
+        let mut qb = grid.dihedral_quads();
+        // interior edges: 2·4 horizontal + 3·3 vertical + 3·4 diagonal
+        assert_eq!(qa.len(), 29);
+        qa.sort_unstable();
+        qb.sort_unstable();
+        assert_eq!(qa, qb);
+        assert_eq!(grid.topology().stretch_edges(), grid.stretch_edges());
+    }
+
+    #[test]
+    fn boundary_edges_have_no_stencil() {
+        // Two triangles sharing the edge 1–2 and a third hanging off edge 2–3.
+        let m = ClothMesh::from_triangles(5, vec![[0, 1, 2], [2, 1, 3], [2, 3, 4]]);
+        assert_eq!(m.stretch_edges().len(), 7);
+        assert_eq!(m.dihedral_quads(), vec![[1, 2, 0, 3], [2, 3, 1, 4]]);
+        assert_eq!(m.bending_pairs(), vec![[0, 3], [1, 4]]);
     }
 }

@@ -68,6 +68,9 @@ pub struct TaskSpec {
 pub struct Model {
     /// Rest (initial) positions, `N × 3`.
     pub rest: Tensor,
+    /// The cloth's triangles (particle indices; [`crate::mesh::ClothMesh::triangles`]), for
+    /// figures and exports.
+    pub triangles: Arc<[[usize; 3]]>,
     /// Inverse mass per particle (0 for control particles).
     pub inv_mass: Vec<f64>,
     /// Control particles, in the order of the controls' rows.
@@ -190,6 +193,7 @@ impl Model {
         let target_positions: Vec<f64> = scene.target_positions().into_iter().flatten().collect();
         let mut model = Model {
             rest: Tensor::new(n, 3, rest_pos.iter().flatten().copied().collect()),
+            triangles: mesh.triangles().into(),
             inv_mass,
             controls: Arc::new(RowIndex::single(controls)),
             gravity_step,
@@ -203,7 +207,7 @@ impl Model {
             task: TaskSpec {
                 horizon: task.horizon,
                 targets: Arc::new(RowIndex::single(scene.target_indices())),
-                target_positions: Tensor::new(task.targets.len(), 3, target_positions),
+                target_positions: Tensor::new(target_positions.len() / 3, 3, target_positions),
                 alpha: task.alpha,
                 beta: task.beta,
                 delta: task.delta,

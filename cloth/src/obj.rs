@@ -223,6 +223,57 @@ impl ObjMesh {
     }
 }
 
+impl ObjMesh {
+    /// Requires a cloth surface: every edge in one triangle (boundary) or two triangles traversed
+    /// in opposite directions (a consistently oriented 2-manifold, possibly open), and every
+    /// vertex in some triangle (a vertex in none would be a free particle).
+    pub fn check_cloth(&self, path: &Path) -> Result<(), ObjError> {
+        let err = |t: usize, reason: String| ObjError::Line {
+            path: path.to_path_buf(),
+            line: self.triangle_lines[t],
+            reason,
+        };
+        for ([a, b], uses) in self.edge_uses() {
+            match uses.len() {
+                1 => {}
+                2 if uses[0].1 == uses[1].1 => {
+                    return Err(err(uses[1].0, format!(
+                        "triangles {} and {} traverse edge {}–{} in the same direction (inconsistent orientation)",
+                        uses[0].0,
+                        uses[1].0,
+                        a + 1,
+                        b + 1
+                    )))
+                }
+                2 => {}
+                n => {
+                    return Err(err(uses[2].0, format!(
+                        "non-manifold: edge {}–{} is shared by {n} triangles",
+                        a + 1,
+                        b + 1
+                    )))
+                }
+            }
+        }
+        let mut used = vec![false; self.vertices.len()];
+        for tri in &self.triangles {
+            for &v in tri {
+                used[v] = true;
+            }
+        }
+        if let Some(v) = used.iter().position(|u| !u) {
+            return Err(ObjError::Mesh {
+                path: path.to_path_buf(),
+                reason: format!(
+                    "vertex {} is in no triangle (a cloth vertex must belong to a face)",
+                    v + 1
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -259,5 +310,23 @@ mod tests {
         let m = parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
         let e = m.check_closed(Path::new("t.obj")).unwrap_err().to_string();
         assert!(e.contains("open mesh"), "{e}");
+    }
+
+    #[test]
+    fn cloth_checks_accept_open_sheets_and_name_bad_topology() {
+        let path = Path::new("c.obj");
+        let sheet = parse("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n").unwrap();
+        sheet.check_cloth(path).unwrap();
+        let flipped = parse("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 4 3\n").unwrap();
+        let e = flipped.check_cloth(path).unwrap_err().to_string();
+        assert!(e.contains("line 6") && e.contains("same direction"), "{e}");
+        let fan =
+            parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n")
+                .unwrap();
+        let e = fan.check_cloth(path).unwrap_err().to_string();
+        assert!(e.contains("line 8") && e.contains("non-manifold"), "{e}");
+        let stray = parse("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 5 5 5\nf 1 2 3\n").unwrap();
+        let e = stray.check_cloth(path).unwrap_err().to_string();
+        assert!(e.contains("vertex 4 is in no triangle"), "{e}");
     }
 }

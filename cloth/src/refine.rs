@@ -1,6 +1,6 @@
 //! The same scene at another mesh resolution, for convergence and scaling studies.
 
-use crate::scene::{Scene, SceneError};
+use crate::scene::{ParticleRef, Scene, SceneError};
 
 /// The particle of a `to`-point axis nearest to particle `i` of a `from`-point axis, by fractional
 /// position along the axis.
@@ -19,6 +19,13 @@ impl Scene {
     /// points. When coarsening maps several targets to one particle, the first of them is kept.
     pub fn refined(&self, rows: usize, cols: usize) -> Result<Scene, SceneError> {
         let (r0, c0) = (self.cloth.rows, self.cloth.cols);
+        if self.cloth.is_mesh() {
+            return Err(SceneError::Invalid {
+                field: "cloth.mesh".into(),
+                reason: "a mesh cloth cannot be refined to a grid (remesh the OBJ file instead)"
+                    .into(),
+            });
+        }
         if !self.custom_constraints.is_empty() {
             // Their particle lists (e.g. every triangle) have no counterpart on another grid.
             return Err(SceneError::Invalid {
@@ -28,7 +35,12 @@ impl Scene {
                 ),
             });
         }
-        let map = |[r, c]: [usize; 2]| [map_axis(r, r0, rows), map_axis(c, c0, cols)];
+        let map = |p: ParticleRef| match p {
+            ParticleRef::Grid([r, c]) => {
+                ParticleRef::Grid([map_axis(r, r0, rows), map_axis(c, c0, cols)])
+            }
+            vertex => vertex,
+        };
         let mut scene = self.clone();
         scene.cloth.rows = rows;
         scene.cloth.cols = cols;

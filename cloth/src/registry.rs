@@ -199,6 +199,14 @@ impl Scene {
     /// Checks `custom_constraints`: every particle on the grid, every stiffness valid with a
     /// finite compliance. The types are checked when a model is built ([`ConstraintRegistry::apply`]).
     pub(crate) fn validate_custom_constraints(&self) -> Result<(), SceneError> {
+        if self.cloth.is_mesh() && !self.custom_constraints.is_empty() {
+            return Err(SceneError::Invalid {
+                field: "custom_constraints".into(),
+                reason: "name particles as [row, col] of a grid cloth; a mesh cloth (cloth.mesh) \
+                         does not support them yet"
+                    .into(),
+            });
+        }
         for (i, spec) in self.custom_constraints.iter().enumerate() {
             let base = format!("custom_constraints[{i}]");
             for (j, &[r, c]) in spec.particles.iter().enumerate() {

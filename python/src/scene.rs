@@ -276,11 +276,16 @@ impl Scene {
     }
 
     fn __repr__(&self) -> String {
+        let cloth = match &self.scene.cloth.mesh {
+            Some(file) => format!("mesh={file:?} ({} vertices)", self.model.n_particles()),
+            None => format!(
+                "grid=({}, {})",
+                self.scene.cloth.rows, self.scene.cloth.cols
+            ),
+        };
         format!(
-            "Scene(name={:?}, grid=({}, {}), horizon={}, controls={}, delta={}, effects={:?})",
+            "Scene(name={:?}, {cloth}, horizon={}, controls={}, delta={}, effects={:?})",
             self.scene.name,
-            self.scene.cloth.rows,
-            self.scene.cloth.cols,
             self.model.task.horizon,
             self.model.n_controls(),
             self.scene.task.delta,

@@ -67,14 +67,14 @@ pub fn small(rows: usize, cols: usize, horizon: usize, iterations: usize) -> Sce
     s.physics.iterations = iterations;
     s.task.horizon = horizon;
     s.controls = if cols > 1 {
-        vec![[0, 0], [0, cols - 1]]
+        vec![[0, 0].into(), [0, cols - 1].into()]
     } else {
-        vec![[0, 0]]
+        vec![[0, 0].into()]
     };
     let den = (cols.max(2) - 1) as f64;
     s.task.targets = (0..cols)
         .map(|c| Target {
-            particle: [rows - 1, c],
+            particle: [rows - 1, c].into(),
             position: [-0.5 + c as f64 / den, 1.0, 1.5],
         })
         .collect();

@@ -124,13 +124,26 @@ impl Default for View3d {
     }
 }
 
+/// One piece of a drawn cloth frame ([`TrajectoryFigure::cloth_pieces`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ClothPiece {
+    /// A translucent face through four particles (a triangle repeats its last one).
+    Face([usize; 4]),
+    /// A line between two particles.
+    Edge([usize; 2]),
+}
+
 /// A cloth trajectory to draw with [`draw_trajectory_3d`] or [`draw_trajectory_top`].
 #[derive(Debug, Clone)]
 pub struct TrajectoryFigure<'a> {
     /// Figure title.
     pub title: String,
     /// Cloth grid `(rows, cols)`; particle `p = r * cols + c`, used to draw each frame as a wireframe.
+    /// Ignored when `cloth_triangles` is not empty.
     pub grid: (usize, usize),
+    /// The triangles of a cloth of any shape (particle indices into every frame); when not empty
+    /// each frame is drawn from them (faces and edges) instead of from `grid`.
+    pub cloth_triangles: &'a [[usize; 3]],
     /// Cloth states to draw (e.g. initial, intermediate, final), each with its legend label.
     pub frames: Vec<(&'a [[f64; 3]], String)>,
     /// Path of each control point over the steps (`T + 1` points each).
@@ -152,12 +165,67 @@ pub struct TrajectoryFigure<'a> {
     pub view: View3d,
 }
 
+impl TrajectoryFigure<'_> {
+    /// The cloth's pieces in drawing order, as particle indices: a grid's quads `[a, b, e, d]`
+    /// with its row and column edges, cell by cell; a mesh's triangles as `[a, b, c, c]`, then
+    /// every triangle edge once.
+    pub fn cloth_pieces(&self) -> Vec<ClothPiece> {
+        let mut pieces = Vec::new();
+        if self.cloth_triangles.is_empty() {
+            let (rows, cols) = self.grid;
+            for r in 0..rows {
+                for c in 0..cols {
+                    let p = r * cols + c;
+                    if r + 1 < rows && c + 1 < cols {
+                        pieces.push(ClothPiece::Face([p, p + 1, p + cols + 1, p + cols]));
+                    }
+                    if c + 1 < cols {
+                        pieces.push(ClothPiece::Edge([p, p + 1]));
+                    }
+                    if r + 1 < rows {
+                        pieces.push(ClothPiece::Edge([p, p + cols]));
+                    }
+                }
+            }
+        } else {
+            let mut seen = std::collections::HashSet::new();
+            for t in self.cloth_triangles {
+                pieces.push(ClothPiece::Face([t[0], t[1], t[2], t[2]]));
+            }
+            for t in self.cloth_triangles {
+                for k in 0..3 {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    if seen.insert([a.min(b), a.max(b)]) {
+                        pieces.push(ClothPiece::Edge([a, b]));
+                    }
+                }
+            }
+        }
+        pieces
+    }
+
+    /// Particles every frame must have: `rows·cols` for a grid, one more than the largest index
+    /// of `cloth_triangles` otherwise (at least).
+    fn cloth_particles(&self) -> usize {
+        if self.cloth_triangles.is_empty() {
+            self.grid.0 * self.grid.1
+        } else {
+            self.cloth_triangles
+                .iter()
+                .flatten()
+                .max()
+                .map_or(0, |&m| m + 1)
+        }
+    }
+}
+
 impl Default for TrajectoryFigure<'_> {
     /// An empty figure with the default view; fill in the fields you need.
     fn default() -> Self {
         TrajectoryFigure {
             title: String::new(),
             grid: (0, 0),
+            cloth_triangles: &[],
             frames: Vec::new(),
             control_paths: Vec::new(),
             spheres: &[],

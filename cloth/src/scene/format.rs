@@ -22,8 +22,9 @@ pub struct Scene {
     pub material: Material,
     /// Time step, gravity and solver iterations.
     pub physics: Physics,
-    /// `(row, col)` of each control (gripped) particle, in control order. May be empty.
-    pub controls: Vec<[usize; 2]>,
+    /// Each control (gripped) particle, in control order: `[row, col]` on a grid cloth, a vertex
+    /// index on a mesh cloth. May be empty.
+    pub controls: Vec<ParticleRef>,
     /// Obstacles (default none).
     #[serde(default)]
     pub obstacles: Vec<Obstacle>,
@@ -34,15 +35,18 @@ pub struct Scene {
     pub custom_constraints: Vec<crate::registry::CustomConstraint>,
 }
 
-/// The cloth grid: `rows × cols` particles laid out on a parallelogram.
+/// The cloth: a `rows × cols` grid laid out on a parallelogram, or a triangle mesh read from an
+/// OBJ file (`mesh`).
 ///
-/// Particle `(r, c)` rests at `top_left + right·c/max(cols−1, 1) + down·r/max(rows−1, 1)`.
+/// Grid particle `(r, c)` rests at `top_left + right·c/max(cols−1, 1) + down·r/max(rows−1, 1)`.
+/// A mesh cloth's particles are the file's vertices, resting where the file puts them; its grid
+/// fields are 0 and are neither read nor written.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "ClothJson", into = "ClothJson")]
 pub struct ClothSpec {
-    /// Number of particle rows (≥ 1).
+    /// Number of particle rows (≥ 1; 0 on a mesh cloth).
     pub rows: usize,
-    /// Number of particle columns (≥ 1).
+    /// Number of particle columns (≥ 1; 0 on a mesh cloth).
     pub cols: usize,
     /// Rest position of particle `(0, 0)`.
     pub top_left: [f64; 3],
@@ -51,8 +55,138 @@ pub struct ClothSpec {
     /// Vector from particle `(0, 0)` to `(rows−1, 0)`.
     pub down: [f64; 3],
     /// Mass of every particle (default 1.0).
-    #[serde(default = "default_particle_mass")]
     pub particle_mass: f64,
+    /// The OBJ file of a mesh cloth, relative to the scene file (or to the working directory for
+    /// a scene given as text); `None` for a grid.
+    pub mesh: Option<String>,
+    /// The mesh read from `mesh` when the scene was loaded ([`crate::Scene::load_files`]); `None`
+    /// until then and for a grid.
+    pub mesh_data: Option<crate::obj::ObjMesh>,
+}
+
+impl ClothSpec {
+    /// True for a cloth read from a mesh file (`cloth.mesh`).
+    pub fn is_mesh(&self) -> bool {
+        self.mesh.is_some()
+    }
+}
+
+/// The JSON form of [`ClothSpec`]: either the grid fields or `mesh`, with `particle_mass`.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ClothJson {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    rows: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    cols: Option<usize>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    top_left: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    right: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    down: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    mesh: Option<String>,
+    #[serde(default = "default_particle_mass")]
+    particle_mass: f64,
+}
+
+impl TryFrom<ClothJson> for ClothSpec {
+    type Error = String;
+    fn try_from(j: ClothJson) -> Result<ClothSpec, String> {
+        let grid_fields = [
+            ("rows", j.rows.is_some()),
+            ("cols", j.cols.is_some()),
+            ("top_left", j.top_left.is_some()),
+            ("right", j.right.is_some()),
+            ("down", j.down.is_some()),
+        ];
+        if j.mesh.is_some() {
+            if let Some((name, _)) = grid_fields.iter().find(|(_, given)| *given) {
+                return Err(format!(
+                    "cloth: `{name}` is a grid field, but the cloth is read from `mesh`; give one or the other"
+                ));
+            }
+            return Ok(ClothSpec {
+                rows: 0,
+                cols: 0,
+                top_left: [0.0; 3],
+                right: [0.0; 3],
+                down: [0.0; 3],
+                particle_mass: j.particle_mass,
+                mesh: j.mesh,
+                mesh_data: None,
+            });
+        }
+        if let Some((name, _)) = grid_fields.iter().find(|(_, given)| !*given) {
+            return Err(format!(
+                "missing field `{name}` (a grid cloth needs rows, cols, top_left, right and down; a mesh cloth gives `mesh`)"
+            ));
+        }
+        Ok(ClothSpec {
+            rows: j.rows.unwrap_or_default(),
+            cols: j.cols.unwrap_or_default(),
+            top_left: j.top_left.unwrap_or_default(),
+            right: j.right.unwrap_or_default(),
+            down: j.down.unwrap_or_default(),
+            particle_mass: j.particle_mass,
+            mesh: None,
+            mesh_data: None,
+        })
+    }
+}
+
+impl From<ClothSpec> for ClothJson {
+    fn from(c: ClothSpec) -> ClothJson {
+        let grid = !c.is_mesh();
+        ClothJson {
+            rows: grid.then_some(c.rows),
+            cols: grid.then_some(c.cols),
+            top_left: grid.then_some(c.top_left),
+            right: grid.then_some(c.right),
+            down: grid.then_some(c.down),
+            mesh: c.mesh,
+            particle_mass: c.particle_mass,
+        }
+    }
+}
+
+/// A particle named in a scene: `[row, col]` on a grid cloth, a vertex index on a mesh cloth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ParticleRef {
+    /// `[row, col]` of a grid cloth.
+    Grid([usize; 2]),
+    /// Vertex index of a mesh cloth (0-based: the file's first `v` line is 0).
+    Vertex(usize),
+}
+
+impl From<[usize; 2]> for ParticleRef {
+    fn from(rc: [usize; 2]) -> ParticleRef {
+        ParticleRef::Grid(rc)
+    }
+}
+
+impl From<usize> for ParticleRef {
+    fn from(v: usize) -> ParticleRef {
+        ParticleRef::Vertex(v)
+    }
+}
+
+impl PartialEq<[usize; 2]> for ParticleRef {
+    fn eq(&self, rc: &[usize; 2]) -> bool {
+        *self == ParticleRef::Grid(*rc)
+    }
+}
+
+impl fmt::Display for ParticleRef {
+    /// `(r, c)` for a grid particle, `vertex v` for a mesh vertex.
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        match self {
+            ParticleRef::Grid([r, c]) => write!(f, "({r}, {c})"),
+            ParticleRef::Vertex(v) => write!(f, "vertex {v}"),
+        }
+    }
 }
 
 fn default_particle_mass() -> f64 {
@@ -369,8 +503,18 @@ impl ObstacleRole {
 pub struct Task {
     /// Number of time steps `T` (≥ 1); there are `T` control vectors per control particle.
     pub horizon: usize,
-    /// Target positions of some particles at the final step (at least one, no particle twice).
+    /// Target positions of some particles at the final step (at least one, no particle twice);
+    /// empty or left out when `target_mesh` gives the targets.
+    #[serde(default)]
     pub targets: Vec<Target>,
+    /// A mesh cloth only: an OBJ file with the cloth's vertices in their target places (the
+    /// cloth's topology); every vertex becomes a target, in vertex order, in place of `targets`.
+    /// Relative to the scene file, like `cloth.mesh`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_mesh: Option<String>,
+    /// The vertex positions read from `target_mesh` ([`crate::Scene::load_files`]).
+    #[serde(skip)]
+    pub target_mesh_data: Option<Vec<[f64; 3]>>,
     /// Weight `α` of the trajectory irregularity term (≥ 0).
     pub alpha: f64,
     /// Weight `β` of the elastic energy term (≥ 0).
@@ -434,8 +578,8 @@ pub struct Workspace {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Target {
-    /// `(row, col)` of the particle.
-    pub particle: [usize; 2],
+    /// The particle: `[row, col]` on a grid cloth, a vertex index on a mesh cloth.
+    pub particle: ParticleRef,
     /// Its desired position at the final step.
     pub position: [f64; 3],
 }

@@ -843,9 +843,9 @@ fn non_square_rest_positions() {
     s.cloth.top_left = [1.0, 2.0, 3.0];
     s.cloth.right = [4.0, 0.0, 0.0];
     s.cloth.down = [0.0, -2.0, 0.0];
-    s.controls = vec![[0, 0], [0, 4]];
+    s.controls = vec![[0, 0].into(), [0, 4].into()];
     s.task.targets = vec![Target {
-        particle: [2, 4],
+        particle: [2, 4].into(),
         position: [0.0; 3],
     }];
     s.validate().expect("valid");

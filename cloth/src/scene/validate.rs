@@ -90,6 +90,10 @@ impl Scene {
 
     fn validate_cloth(&self) -> Result<(), SceneError> {
         let c = &self.cloth;
+        if c.is_mesh() {
+            self.validate_cloth_mesh()?;
+            return self.validate_particle_mass();
+        }
         if c.rows == 0 {
             return Err(invalid("cloth.rows", "must be at least 1, got 0"));
         }
@@ -133,6 +137,38 @@ impl Scene {
                 ));
             }
         }
+        self.validate_particle_mass()
+    }
+
+    /// A mesh cloth: read, within the particle and coordinate limits.
+    fn validate_cloth_mesh(&self) -> Result<(), SceneError> {
+        let file = self.cloth.mesh.as_deref().unwrap_or_default();
+        let Some(mesh) = &self.cloth.mesh_data else {
+            return Err(invalid(
+                "cloth.mesh",
+                format!(
+                    "`{file}` has not been read (Scene::load and Scene::from_json_str read it; \
+                     a scene built in code calls Scene::load_files)"
+                ),
+            ));
+        };
+        if mesh.vertices.len() > MAX_PARTICLES {
+            return Err(invalid(
+                "cloth.mesh",
+                format!(
+                    "{} vertices exceed the limit of {MAX_PARTICLES}",
+                    mesh.vertices.len()
+                ),
+            ));
+        }
+        for (v, p) in mesh.vertices.iter().enumerate() {
+            check_vec3(&format!("cloth.mesh (`{file}` vertex {})", v + 1), p)?;
+        }
+        Ok(())
+    }
+
+    fn validate_particle_mass(&self) -> Result<(), SceneError> {
+        let c = &self.cloth;
         check_positive("cloth.particle_mass", c.particle_mass)?;
         if !(1.0 / c.particle_mass).is_finite() {
             return Err(invalid(
@@ -229,32 +265,54 @@ impl Scene {
         Ok(())
     }
 
-    /// Checks that `(row, col)` lies on the cloth.
-    fn check_particle(&self, field: &str, rc: [usize; 2]) -> Result<(), SceneError> {
-        let [r, c] = rc;
-        if r >= self.cloth.rows {
-            return Err(invalid(
+    /// Checks that a particle reference lies on the cloth and has its kind: `[row, col]` on a
+    /// grid, a vertex index on a mesh cloth.
+    fn check_particle(&self, field: &str, particle: ParticleRef) -> Result<(), SceneError> {
+        match (particle, self.cloth.is_mesh()) {
+            (ParticleRef::Grid([r, c]), false) => {
+                if r >= self.cloth.rows {
+                    return Err(invalid(
+                        field,
+                        format!("row {r} out of range (cloth.rows = {})", self.cloth.rows),
+                    ));
+                }
+                if c >= self.cloth.cols {
+                    return Err(invalid(
+                        field,
+                        format!("col {c} out of range (cloth.cols = {})", self.cloth.cols),
+                    ));
+                }
+                Ok(())
+            }
+            (ParticleRef::Vertex(v), true) => {
+                let n = self.n_particles();
+                if v >= n {
+                    return Err(invalid(
+                        field,
+                        format!("vertex {v} out of range (cloth.mesh has {n} vertices, 0-based)"),
+                    ));
+                }
+                Ok(())
+            }
+            (ParticleRef::Grid([r, c]), true) => Err(invalid(
                 field,
-                format!("row {r} out of range (cloth.rows = {})", self.cloth.rows),
-            ));
-        }
-        if c >= self.cloth.cols {
-            return Err(invalid(
+                format!("[{r}, {c}] is a grid particle, but the cloth is a mesh (cloth.mesh): name a vertex index"),
+            )),
+            (ParticleRef::Vertex(v), false) => Err(invalid(
                 field,
-                format!("col {c} out of range (cloth.cols = {})", self.cloth.cols),
-            ));
+                format!("{v} is a vertex index, but the cloth is a grid: name the particle as [row, col]"),
+            )),
         }
-        Ok(())
     }
 
     fn validate_controls(&self) -> Result<(), SceneError> {
-        for (i, &rc) in self.controls.iter().enumerate() {
+        for (i, &particle) in self.controls.iter().enumerate() {
             let field = format!("controls[{i}]");
-            self.check_particle(&field, rc)?;
-            if let Some(j) = self.controls[..i].iter().position(|&o| o == rc) {
+            self.check_particle(&field, particle)?;
+            if let Some(j) = self.controls[..i].iter().position(|&o| o == particle) {
                 return Err(invalid(
                     field,
-                    format!("particle ({}, {}) duplicates controls[{j}]", rc[0], rc[1]),
+                    format!("particle {particle} duplicates controls[{j}]"),
                 ));
             }
         }
@@ -353,7 +411,9 @@ impl Scene {
                 format!("{} exceeds the limit of {MAX_HORIZON}", t.horizon),
             ));
         }
-        if t.targets.is_empty() {
+        if t.target_mesh.is_some() {
+            self.validate_target_mesh()?;
+        } else if t.targets.is_empty() {
             return Err(invalid("task.targets", "at least one target is required"));
         }
         for (i, target) in t.targets.iter().enumerate() {
@@ -363,10 +423,9 @@ impl Scene {
                 .iter()
                 .position(|o| o.particle == target.particle)
             {
-                let [r, c] = target.particle;
                 return Err(invalid(
                     field,
-                    format!("particle ({r}, {c}) duplicates task.targets[{j}]"),
+                    format!("particle {} duplicates task.targets[{j}]", target.particle),
                 ));
             }
             check_vec3(&format!("task.targets[{i}].position"), &target.position)?;
@@ -433,6 +492,47 @@ impl Scene {
         self.validate_limits()
     }
 
+    /// `task.target_mesh`: only on a mesh cloth, in place of `task.targets`, read, finite.
+    fn validate_target_mesh(&self) -> Result<(), SceneError> {
+        let t = &self.task;
+        let file = t.target_mesh.as_deref().unwrap_or_default();
+        if !self.cloth.is_mesh() {
+            return Err(invalid(
+                "task.target_mesh",
+                "needs a mesh cloth (cloth.mesh) whose topology it shares; a grid names targets in task.targets",
+            ));
+        }
+        if !t.targets.is_empty() {
+            return Err(invalid(
+                "task.targets",
+                "give either task.targets or task.target_mesh (every vertex of it is a target), not both",
+            ));
+        }
+        let Some(vertices) = &t.target_mesh_data else {
+            return Err(invalid(
+                "task.target_mesh",
+                format!(
+                    "`{file}` has not been read (Scene::load and Scene::from_json_str read it; \
+                     a scene built in code calls Scene::load_files)"
+                ),
+            ));
+        };
+        if vertices.len() != self.n_particles() {
+            return Err(invalid(
+                "task.target_mesh",
+                format!(
+                    "`{file}` has {} vertices, the cloth has {}",
+                    vertices.len(),
+                    self.n_particles()
+                ),
+            ));
+        }
+        for (v, p) in vertices.iter().enumerate() {
+            check_vec3(&format!("task.target_mesh (`{file}` vertex {})", v + 1), p)?;
+        }
+        Ok(())
+    }
+
     fn validate_limits(&self) -> Result<(), SceneError> {
         let limits = &self.task.limits;
         if let Some(step) = limits.max_step {
@@ -444,7 +544,7 @@ impl Scene {
             check_coordinate("task.limits.max_strain", strain)?;
         }
         let rest = self.rest_positions();
-        let grippers: Vec<([usize; 2], [f64; 3])> = self
+        let grippers: Vec<(ParticleRef, [f64; 3])> = self
             .controls
             .iter()
             .zip(self.control_indices())
@@ -461,11 +561,11 @@ impl Scene {
                     ));
                 }
             }
-            for ([r, c], p) in &grippers {
+            for (particle, p) in &grippers {
                 if (0..3).any(|j| p[j] < w.min[j] || p[j] > w.max[j]) {
                     return Err(invalid(
                         "task.limits.workspace",
-                        format!("control point ({r}, {c}) starts outside it, at {p:?}"),
+                        format!("control point {particle} starts outside it, at {p:?}"),
                     ));
                 }
             }
@@ -489,8 +589,7 @@ impl Scene {
                         return Err(invalid(
                             field,
                             format!(
-                                "control points ({}, {}) and ({}, {}) start {d} apart, outside [{lo}, {hi}]",
-                                ra[0], ra[1], rb[0], rb[1]
+                                "control points {ra} and {rb} start {d} apart, outside [{lo}, {hi}]"
                             ),
                         ));
                     }

@@ -74,10 +74,10 @@ pub fn small_scene(
             stiffness: Stiffness::Finite(k),
         }),
     };
-    s.controls = vec![[0, 0], [0, cols - 1]];
+    s.controls = vec![[0, 0].into(), [0, cols - 1].into()];
     s.task.targets = (0..cols)
         .map(|c| Target {
-            particle: [rows - 1, c],
+            particle: [rows - 1, c].into(),
             position: [-0.5 + c as f64 / (cols - 1) as f64, 1.0, 1.5],
         })
         .collect();

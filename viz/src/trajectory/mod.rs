@@ -17,8 +17,17 @@ pub(crate) use prims::Projector;
 
 pub(crate) fn validate_trajectory(fig: &TrajectoryFigure) -> Result<(), PlotError> {
     let (rows, cols) = fig.grid;
+    let mesh = !fig.cloth_triangles.is_empty();
+    let needed = fig.cloth_particles();
     for (k, (frame, label)) in fig.frames.iter().enumerate() {
-        if frame.len() != rows * cols {
+        if mesh && frame.len() < needed {
+            return Err(PlotError::InvalidData(format!(
+                "frame {k} (\"{label}\") has {} particles but the cloth triangles use particle {}",
+                frame.len(),
+                needed - 1
+            )));
+        }
+        if !mesh && frame.len() != rows * cols {
             return Err(PlotError::InvalidData(format!(
                 "frame {k} (\"{label}\") has {} particles but the grid {rows}×{cols} needs {}",
                 frame.len(),
@@ -49,10 +58,17 @@ pub(crate) fn validate_trajectory(fig: &TrajectoryFigure) -> Result<(), PlotErro
     for (k, p) in fig.targets.iter().enumerate() {
         check_point(&format!("target {k}"), p)?;
     }
-    if let Some(&bad) = fig.target_particles.iter().find(|&&i| i >= rows * cols) {
-        return Err(PlotError::InvalidData(format!(
-            "target particle {bad} is outside the {rows}×{cols} grid"
-        )));
+    let particles = if mesh {
+        fig.frames.first().map_or(needed, |(f, _)| f.len())
+    } else {
+        rows * cols
+    };
+    if let Some(&bad) = fig.target_particles.iter().find(|&&i| i >= particles) {
+        return Err(PlotError::InvalidData(if mesh {
+            format!("target particle {bad} is outside the cloth's {particles} particles")
+        } else {
+            format!("target particle {bad} is outside the {rows}×{cols} grid")
+        }));
     }
     if let Some(z) = fig.ground_z {
         check_finite("ground_z", z)?;
@@ -126,18 +142,12 @@ pub(crate) fn render_hidden_cloth(
     if fig.spheres.is_empty() && fig.solids.is_empty() {
         return Ok(());
     }
-    let (rows, cols) = fig.grid;
+    let pieces = fig.cloth_pieces();
     for (k, (frame, _)) in fig.frames.iter().enumerate() {
         let c = FRAME_COLORS[k % FRAME_COLORS.len()];
-        let at = |r: usize, cc: usize| proj.px(frame[r * cols + cc]);
-        for r in 0..rows {
-            for cc in 0..cols {
-                if cc + 1 < cols {
-                    draw_dashed(root, at(r, cc), at(r, cc + 1), c)?;
-                }
-                if r + 1 < rows {
-                    draw_dashed(root, at(r, cc), at(r + 1, cc), c)?;
-                }
+        for piece in &pieces {
+            if let crate::ClothPiece::Edge([a, b]) = *piece {
+                draw_dashed(root, proj.px(frame[a]), proj.px(frame[b]), c)?;
             }
         }
     }

@@ -8,7 +8,7 @@ use plotters::prelude::*;
 use crate::legend::draw_shaded_disc;
 use crate::render::{de, Area};
 use crate::style::*;
-use crate::{PlotError, Solid, SolidRole, Sphere, TrajectoryFigure};
+use crate::{ClothPiece, PlotError, Solid, SolidRole, Sphere, TrajectoryFigure};
 
 pub(crate) type Coord3 = Cartesian3d<RangedCoordf64, RangedCoordf64, RangedCoordf64>;
 
@@ -74,26 +74,15 @@ pub(crate) fn mid(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 
 /// Cloth wireframes, control paths and spheres as depth-sortable primitives.
 pub(crate) fn scene_prims(fig: &TrajectoryFigure) -> Vec<Prim> {
-    let (rows, cols) = fig.grid;
+    let pieces = fig.cloth_pieces();
     let mut prims = Vec::new();
     for (k, (frame, _)) in fig.frames.iter().enumerate() {
         let c = FRAME_COLORS[k % FRAME_COLORS.len()];
-        let at = |r: usize, cc: usize| frame[r * cols + cc];
-        for r in 0..rows {
-            for cc in 0..cols {
-                if r + 1 < rows && cc + 1 < cols {
-                    prims.push(Prim::Quad(
-                        [at(r, cc), at(r, cc + 1), at(r + 1, cc + 1), at(r + 1, cc)],
-                        c.mix(0.10),
-                    ));
-                }
-                if cc + 1 < cols {
-                    prims.push(Prim::Segment(at(r, cc), at(r, cc + 1), c, 1));
-                }
-                if r + 1 < rows {
-                    prims.push(Prim::Segment(at(r, cc), at(r + 1, cc), c, 1));
-                }
-            }
+        for piece in &pieces {
+            prims.push(match *piece {
+                ClothPiece::Face(face) => Prim::Quad(face.map(|p| frame[p]), c.mix(0.10)),
+                ClothPiece::Edge([a, b]) => Prim::Segment(frame[a], frame[b], c, 1),
+            });
         }
     }
     for (k, path) in fig.control_paths.iter().enumerate() {
