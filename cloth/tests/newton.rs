@@ -194,7 +194,8 @@ fn newton_settings_are_validated_with_their_json_path() {
         s.physics.solver(),
         Solver::Newton(NewtonSettings {
             tolerance: 1e-9,
-            max_iterations: cloth::newton::DEFAULT_MAX_ITERATIONS
+            max_iterations: cloth::newton::DEFAULT_MAX_ITERATIONS,
+            load_steps: 1,
         })
     );
 }

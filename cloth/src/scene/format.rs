@@ -226,6 +226,7 @@ impl Physics {
                 Solver::Newton(NewtonSettings {
                     tolerance: self.tolerance.unwrap_or(d.tolerance),
                     max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),
+                    ..d
                 })
             }
         }
