@@ -2,24 +2,24 @@
 //! search off and on (`--search auto`), one row per scene, a figure per scene.
 //!
 //! ```sh
-//! cargo run --release --example routes -- --out routes.json --png-dir figs
-//! cargo run --release --example routes -- --scenes slalom,target_inside   # a subset
+//! cargo run --release -p experiments --bin routes -- --out routes.json --png-dir figs
+//! cargo run --release -p experiments --bin routes -- --scenes slalom,target_inside   # a subset
 //! ```
 //!
 //! Each plan runs in a fresh child process (this program, `one` mode), so its peak memory
 //! (VmHWM) is its own. Every scene's description says whether it is achievable; the table
 //! compares that with what the planner reports.
 
-mod support;
-
-use anyhow::{ensure, Context, Result};
+use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use cloth::{Model, Scene};
 use clothopt::figures::RolloutFigure;
 use clothopt::plan::{self, initial_controls, PlanOptions, PlanResult};
 use clothopt::search::{plan_with_search, SearchMode, SearchOptions};
+use experiments::child;
+use experiments::measure::proc_status_kb;
+use experiments::report::write_json;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 #[derive(Parser)]
 struct Cli {
@@ -113,8 +113,7 @@ fn main() -> Result<()> {
     }
     print_table(&rows);
     if let Some(out) = &cli.out {
-        plan::write_json_atomic(out, &rows)?;
-        println!("wrote {}", out.display());
+        write_json(out, &rows)?;
     }
     Ok(())
 }
@@ -133,30 +132,24 @@ fn achievable(description: &str) -> Option<bool> {
 
 /// Plans `file` in a fresh child process with `search`.
 fn spawn(file: &Path, search: SearchMode) -> Result<(Run, PlanResult)> {
-    let exe = std::env::current_exe().context("cannot locate this example's executable")?;
     let tmp = tempfile_path(file, search);
     let mode = match search {
         SearchMode::Off => "off",
         SearchMode::Auto => "auto",
         SearchMode::Always => "always",
     };
-    let out = Command::new(exe)
-        .arg("one")
-        .arg(file)
-        .args(["--search", mode, "--result"])
-        .arg(&tmp)
-        .output()
-        .context("cannot start the planning child")?;
-    ensure!(
-        out.status.success(),
-        "{} (search {mode}) failed: {}",
-        file.display(),
-        String::from_utf8_lossy(&out.stderr).trim()
-    );
+    let stdout = child::run(
+        child::this_program()?
+            .arg("one")
+            .arg(file)
+            .args(["--search", mode, "--result"])
+            .arg(&tmp),
+        &format!("planning {} (search {mode})", file.display()),
+    )?;
     let text = std::fs::read_to_string(&tmp)?;
     let _ = std::fs::remove_file(&tmp);
     let result: PlanResult = serde_json::from_str(&text)?;
-    let peak: Option<f64> = String::from_utf8_lossy(&out.stdout).trim().parse().ok();
+    let peak: Option<f64> = stdout.trim().parse().ok();
     let route = result
         .search
         .as_ref()
@@ -203,7 +196,7 @@ fn plan_one(file: &Path, search: SearchMode, result_path: &Path) -> Result<()> {
     };
     let result = plan_with_search(&model, &scene, &start, &options, &search, |_| {})?;
     plan::write_json_atomic(result_path, &result)?;
-    if let Some(kb) = support::proc_status_kb("VmHWM") {
+    if let Some(kb) = proc_status_kb("VmHWM") {
         println!("{:.1}", kb / 1024.0);
     }
     Ok(())

@@ -16,7 +16,7 @@
 //! Runs go to `--jobs` worker threads (default 2); the simulator is bitwise deterministic whatever
 //! the thread count, so the results do not depend on it (the wall times do).
 //!
-//! `cargo run --release --example ablation [-- --out FILE --png-dir DIR]`
+//! `cargo run --release -p experiments --bin ablation [-- --out FILE --png-dir DIR]`
 
 use anyhow::{bail, Context, Result};
 use autodiff::Tensor;
@@ -25,6 +25,7 @@ use cloth::{Controls, Model, Scene};
 use clothopt::figures::RolloutFigure;
 use clothopt::plan::{self, PlanOptions, PlanResult, SolverKind};
 use clothopt::plot::{self, BarChart, TrajectoryFigure, View3d};
+use experiments::report::{write_json, Verdict};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -402,13 +403,6 @@ fn g_bound(task: &str) -> Option<f64> {
     }
 }
 
-/// One checked claim.
-#[derive(serde::Serialize)]
-struct Verdict {
-    pass: bool,
-    claim: String,
-}
-
 fn main() {
     if let Err(e) = run(Args::parse()) {
         eprintln!("error: {e:#}");
@@ -603,7 +597,7 @@ fn run(args: Args) -> Result<()> {
     }
     println!("\nVerdicts:");
     for v in &verdicts {
-        println!("  {} {}", if v.pass { "PASS" } else { "FAIL" }, v.claim);
+        println!("  {v}");
     }
     let label = |r: &Run| format!("{} {}", tasks[r.job.task].name, r.job.variant.name());
     let (converged, open): (Vec<&Run>, Vec<&Run>) =
@@ -690,8 +684,7 @@ fn run(args: Args) -> Result<()> {
         if let Some(l) = &lbfgs {
             doc["lbfgs_comparison"] = run_json(l, &tasks)?;
         }
-        plan::write_json_atomic(out, &doc)?;
-        println!("wrote {}", out.display());
+        write_json(out, &doc)?;
     }
 
     if let Some(dir) = &args.png_dir {

@@ -6,20 +6,18 @@
 //! (`bench_jax.py`: jit, float64, CPU) run as a subprocess at the same setting, and the ratios
 //! JAX ÷ ours (above 1: we are faster). Shared machines are noisy, so compare only within a run.
 //!
-//! `cargo run --release --example speed_vs_jax [-- --python /tmp/jaxenv/bin/python --reps 7]`
+//! `cargo run --release -p experiments --bin speed_vs_jax [-- --python /tmp/jaxenv/bin/python --reps 7]`
 //!
 //! JAX is not a dependency of this workspace: without a Python that can `import jax`, the example
 //! prints our times, says so, and exits with success.
 
-mod support;
-
 use anyhow::Result;
 use clap::Parser;
 use cloth::{Model, Scene};
+use experiments::child::{jax_available, run_jax};
+use experiments::measure::time_runs;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::Instant;
 
 #[derive(Parser)]
 struct Args {
@@ -48,16 +46,9 @@ struct JaxOut {
 }
 
 /// Median seconds of `reps` runs of `f`, after one warm-up run.
-fn median_s(reps: usize, mut f: impl FnMut() -> Result<()>) -> Result<f64> {
+fn median_s<T>(reps: usize, mut f: impl FnMut() -> Result<T>) -> Result<f64> {
     f()?;
-    let mut t: Vec<f64> = (0..reps.max(1))
-        .map(|_| {
-            let s = Instant::now();
-            f().map(|()| s.elapsed().as_secs_f64())
-        })
-        .collect::<Result<_>>()?;
-    t.sort_by(f64::total_cmp);
-    Ok(t[t.len() / 2])
+    Ok(time_runs(reps, f64::INFINITY, f)?.median_s)
 }
 
 /// Our (forward, forward + ∇L) medians at mesh size `n`.
@@ -66,28 +57,14 @@ fn ours(n: usize, reps: usize) -> Result<(f64, f64)> {
     scene.physics.iterations = ITERATIONS;
     let model = Model::from_scene(&scene)?;
     let (u, delta) = (scene.initial_controls(), scene.task.delta);
-    let fwd = median_s(reps, || {
-        std::hint::black_box(model.evaluate(&u, delta, false)?);
-        Ok(())
-    })?;
-    let grad = median_s(reps, || {
-        std::hint::black_box(model.evaluate_loss_gradient(&u, delta)?);
-        Ok(())
-    })?;
+    let fwd = median_s(reps, || Ok(model.evaluate(&u, delta, false)?))?;
+    let grad = median_s(reps, || Ok(model.evaluate_loss_gradient(&u, delta)?))?;
     Ok((fwd, grad))
-}
-
-/// Whether `python` can import jax.
-fn jax_available(python: &Path) -> bool {
-    Command::new(python)
-        .args(["-c", "import jax"])
-        .output()
-        .is_ok_and(|o| o.status.success())
 }
 
 /// Runs the JAX benchmark at mesh size `n` and parses its JSON line.
 fn jax(python: &Path, script: &Path, n: usize) -> Result<JaxOut> {
-    support::run_jax(python, script, "U", n, ITERATIONS)
+    run_jax(python, script, "U", n, ITERATIONS)
 }
 
 fn main() -> Result<()> {

@@ -8,7 +8,7 @@
 //! twists), so each δ is a continuation: it is solved from the scene's initial guess and from the
 //! plans of the smaller δ, and the best converged, feasible plan is kept.
 //!
-//! `cargo run --release --example safety [-- --out FILE --png-dir DIR]`
+//! `cargo run --release -p experiments --bin safety [-- --out FILE --png-dir DIR]`
 
 use anyhow::Result;
 use autodiff::Tensor;
@@ -16,6 +16,7 @@ use clap::Parser;
 use cloth::{Model, Scene};
 use clothopt::figures::RolloutFigure;
 use clothopt::plan::{self, PlanOptions, PlanResult};
+use experiments::report::{pass_fail, write_json};
 use std::path::PathBuf;
 
 #[derive(Parser)]
@@ -214,7 +215,7 @@ fn main() -> Result<()> {
         all_ok &= ok;
         println!(
             "  {} {:<14} {} {} L = {:.4}{}{}",
-            if ok { "PASS" } else { "FAIL" },
+            pass_fail(ok),
             run.label,
             if feasible { "feasible," } else { "INFEASIBLE," },
             r.status,
@@ -230,8 +231,8 @@ fn main() -> Result<()> {
 
     if let Some(out) = &args.out {
         let results: Vec<&PlanResult> = runs.iter().map(|r| &r.result).collect();
-        plan::write_json_atomic(out, &serde_json::json!({ "runs": results }))?;
-        println!("\nwrote {}", out.display());
+        println!();
+        write_json(out, &serde_json::json!({ "runs": results }))?;
     }
     if let Some(dir) = &args.png_dir {
         std::fs::create_dir_all(dir)?;

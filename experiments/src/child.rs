@@ -1,0 +1,99 @@
+//! Child processes: a fresh copy of the running experiment (so that a measurement's peak memory
+//! is its own) and the JAX reference benchmark, each checked for success and its output parsed.
+
+use anyhow::{anyhow, ensure, Context, Result};
+use serde::de::DeserializeOwned;
+use std::path::Path;
+use std::process::Command;
+
+/// A command that runs this program again (an experiment's hidden child mode).
+pub fn this_program() -> Result<Command> {
+    let exe = std::env::current_exe().context("cannot locate this experiment's executable")?;
+    Ok(Command::new(exe))
+}
+
+/// Runs `command` and returns its standard output; `what` names it in the errors (start failure,
+/// or a non-zero exit with the child's standard error).
+pub fn run(command: &mut Command, what: &str) -> Result<String> {
+    let out = command
+        .output()
+        .with_context(|| format!("cannot start {what}"))?;
+    ensure!(
+        out.status.success(),
+        "{what} failed: {}",
+        String::from_utf8_lossy(&out.stderr).trim()
+    );
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// The last line of `text` that starts with `{`, parsed as JSON (children may print progress
+/// before it).
+pub fn last_json_line<T: DeserializeOwned>(text: &str, what: &str) -> Result<T> {
+    let line = text
+        .lines()
+        .rev()
+        .find(|l| l.trim_start().starts_with('{'))
+        .ok_or_else(|| anyhow!("{what} printed no JSON"))?;
+    serde_json::from_str(line).with_context(|| format!("unreadable JSON from {what}"))
+}
+
+/// Whether `python` can `import jax`.
+pub fn jax_available(python: &Path) -> bool {
+    Command::new(python)
+        .args(["-c", "import jax"])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// Runs the JAX reference `python script SCENE n n_iter` (`SCENE` as the script names it, e.g.
+/// `U` for `u_obstacle`) and parses the last JSON line it prints.
+pub fn run_jax<T: DeserializeOwned>(
+    python: &Path,
+    script: &Path,
+    scene: &str,
+    n: usize,
+    n_iter: usize,
+) -> Result<T> {
+    let what = format!(
+        "the JAX benchmark ({} {})",
+        python.display(),
+        script.display()
+    );
+    let stdout = run(
+        Command::new(python)
+            .arg(script)
+            .args([scene, &n.to_string(), &n_iter.to_string()]),
+        &what,
+    )?;
+    last_json_line(&stdout, &what)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(serde::Deserialize, Debug, PartialEq)]
+    struct Line {
+        a: u32,
+    }
+
+    #[test]
+    fn the_last_json_line_wins() {
+        let text = "compiling …\n{\"a\": 1}\nnoise\n  {\"a\": 2}\ndone\n";
+        assert_eq!(last_json_line::<Line>(text, "x").unwrap(), Line { a: 2 });
+        let e = last_json_line::<Line>("no json here", "the child").unwrap_err();
+        assert_eq!(e.to_string(), "the child printed no JSON");
+        assert!(last_json_line::<Line>("{\"b\": 1}", "x").is_err());
+    }
+
+    #[test]
+    fn a_failing_child_reports_its_stderr() {
+        let mut c = Command::new("sh");
+        c.args(["-c", "echo out; echo 'bad input' >&2; exit 3"]);
+        let e = run(&mut c, "the child").unwrap_err();
+        assert_eq!(e.to_string(), "the child failed: bad input");
+        let mut ok = Command::new("sh");
+        ok.args(["-c", "echo 42"]);
+        assert_eq!(run(&mut ok, "the child").unwrap().trim(), "42");
+    }
+}

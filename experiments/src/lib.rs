@@ -1,0 +1,10 @@
+//! What the experiment binaries (`src/bin/`) share: timing and memory measurement
+//! ([`measure`]), running child processes and the JAX reference ([`child`]), and report output
+//! — verdicts, table cells, JSON files ([`report`]).
+//!
+//! Run an experiment with `cargo run --release -p experiments --bin NAME -- ARGS`; the binaries
+//! are `safety`, `ablation`, `accuracy_vs_time`, `routes` and `speed_vs_jax`.
+
+pub mod child;
+pub mod measure;
+pub mod report;
