@@ -224,6 +224,9 @@ struct PhysicsArgs {
     /// Newton's relative ‖∇Φ‖ tolerance, in (0, 1) (default: the scene's, else 1e-10).
     #[arg(long)]
     physics_tolerance: Option<f64>,
+    /// Newton's load steps per time step, ≥ 1 (default: the scene's, else 1).
+    #[arg(long)]
+    physics_load_steps: Option<usize>,
 }
 
 /// `--physics` values.
@@ -248,6 +251,12 @@ impl PhysicsArgs {
                 bail!("--physics-tolerance must be in (0, 1), got {tol}");
             }
             scene.physics.tolerance = Some(tol);
+        }
+        if let Some(k) = self.physics_load_steps {
+            if k == 0 {
+                bail!("--physics-load-steps must be at least 1, got 0");
+            }
+            scene.physics.load_steps = Some(k);
         }
         Ok(())
     }

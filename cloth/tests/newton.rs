@@ -166,6 +166,15 @@ fn newton_settings_are_validated_with_their_json_path() {
     s.physics.max_newton_iterations = Some(0);
     let e = s.validate().err().unwrap().to_string();
     assert!(e.contains("physics.max_newton_iterations"), "{e}");
+    let mut s = newton_scene(&base);
+    s.physics.load_steps = Some(0);
+    let e = s.validate().err().unwrap().to_string();
+    assert!(e.contains("physics.load_steps"), "{e}");
+    s.physics.load_steps = Some(3);
+    let Solver::Newton(settings) = s.physics.solver() else {
+        panic!("newton scene");
+    };
+    assert_eq!(settings.load_steps, 3);
     // Too few iterations is a named error, not a silent state.
     let mut s = newton_scene(&base);
     s.physics.max_newton_iterations = Some(1);
@@ -194,7 +203,8 @@ fn newton_settings_are_validated_with_their_json_path() {
         s.physics.solver(),
         Solver::Newton(NewtonSettings {
             tolerance: 1e-9,
-            max_iterations: cloth::newton::DEFAULT_MAX_ITERATIONS
+            max_iterations: cloth::newton::DEFAULT_MAX_ITERATIONS,
+            load_steps: 1,
         })
     );
 }

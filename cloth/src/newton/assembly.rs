@@ -166,6 +166,16 @@ impl Pattern {
         }
     }
 
+    /// Copies the coordinates without a degree of freedom (the held control particles) of the
+    /// full state `from` into `to`.
+    pub fn hold_fixed(&self, from: &[f64], to: &mut [f64]) {
+        for (p, &d) in self.dof_of.iter().enumerate() {
+            if d == NONE {
+                to[3 * p..3 * p + 3].copy_from_slice(&from[3 * p..3 * p + 3]);
+            }
+        }
+    }
+
     /// Adds `step · v` (degree-of-freedom order) to the free coordinates of a full state.
     pub fn add_scaled(&self, x: &mut [f64], step: f64, v: &[f64]) {
         for (p, &d) in self.dof_of.iter().enumerate() {

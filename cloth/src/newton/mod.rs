@@ -42,6 +42,13 @@ pub struct NewtonSettings {
     pub tolerance: f64,
     /// Newton iterations per step before [`ClothError::NewtonNotConverged`].
     pub max_iterations: usize,
+    /// Load steps (continuation) per time step: the control move is applied in this many equal
+    /// parts, each solve starting from the last one's minimizer (`1`: one solve from `x̃`). Where
+    /// a step's `Φ` has several minima (a cloth that can buckle either way), one solve from `x̃`
+    /// can take a long, projected-Hessian path whose end switches between minima under a `1e-11`
+    /// change of the controls; continuation follows one branch (`cloth/tests/newton_branches.rs`).
+    /// The final minimizer is of the same `Φ`, so the implicit gradients are unchanged.
+    pub load_steps: usize,
 }
 
 impl Default for NewtonSettings {
@@ -49,6 +56,7 @@ impl Default for NewtonSettings {
         NewtonSettings {
             tolerance: DEFAULT_TOLERANCE,
             max_iterations: DEFAULT_MAX_ITERATIONS,
+            load_steps: 1,
         }
     }
 }

@@ -92,14 +92,31 @@ impl NewtonSystem {
         step: usize,
         settings: &NewtonSettings,
     ) -> Result<(Tensor, StepStats), ClothError> {
+        self.solve_from(xt, xt, step, settings)
+    }
+
+    /// Minimizes `Φ` for the predicted state `xt`, starting from `start`'s free particles (the
+    /// control particles are held at `xt`'s positions). The tolerance stays relative to
+    /// `‖∇Φ(xt)‖`.
+    ///
+    /// # Errors
+    /// [`ClothError::NewtonNotConverged`] when the tolerance is not reached.
+    pub fn solve_from(
+        &mut self,
+        start: &Tensor,
+        xt: &Tensor,
+        step: usize,
+        settings: &NewtonSettings,
+    ) -> Result<(Tensor, StepStats), ClothError> {
         let p = &self.pattern;
         let xt_d = xt.data();
-        let mut x = xt.clone();
         let mut stats = StepStats::default();
-        p.assemble(x.data(), xt_d, &mut self.grad, None);
+        p.assemble(xt_d, xt_d, &mut self.grad, None);
         let r0 = norm(&self.grad);
+        let mut x = start.clone();
+        p.hold_fixed(xt_d, x.data_mut());
         if r0 == 0.0 {
-            return Ok((x, stats));
+            return Ok((xt.clone(), stats));
         }
         let mut phi = p.energy(x.data(), xt_d);
         let mut trial = x.clone();
@@ -208,12 +225,45 @@ impl Model {
         let mut stats = Vec::with_capacity(self.task.horizon);
         states.push(self.rest.clone());
         for t in 0..self.task.horizon {
-            let xt = self.begin_step(&states[t], &self.step_controls(controls, t));
-            let (x, s) = system.solve(&xt, t + 1, settings)?;
+            let u = self.step_controls(controls, t);
+            let (x, s) = self.solve_step_newton(&mut system, &states[t], &u, t + 1, settings)?;
             check_finite(&x, t + 1)?;
             states.push(x);
             stats.push(s);
         }
         Ok((states, stats))
+    }
+
+    /// One step (number `step`, 1-based) from `x_prev` with control move `u`, by
+    /// [`NewtonSettings::load_steps`] continuation solves: the control particles move by
+    /// `u · j / load_steps`, `j = 1, …`, each solve starting from the last one's minimizer; the
+    /// iteration counts are summed and the residual is the last solve's.
+    fn solve_step_newton(
+        &self,
+        system: &mut NewtonSystem,
+        x_prev: &Tensor,
+        u: &Tensor,
+        step: usize,
+        settings: &NewtonSettings,
+    ) -> Result<(Tensor, StepStats), ClothError> {
+        let k = settings.load_steps.max(1);
+        let mut x: Option<Tensor> = None;
+        let mut total = StepStats::default();
+        for j in 1..=k {
+            let mut uj = u.clone();
+            if j < k {
+                let s = j as f64 / k as f64;
+                uj.data_mut().iter_mut().for_each(|v| *v *= s);
+            }
+            let xt = self.begin_step(x_prev, &uj);
+            let (xj, sj) = system.solve_from(x.as_ref().unwrap_or(&xt), &xt, step, settings)?;
+            x = Some(xj);
+            total.iterations += sj.iterations;
+            total.projected += sj.projected;
+            total.at_saddle += sj.at_saddle;
+            total.residual = sj.residual;
+            total.at_roundoff = sj.at_roundoff;
+        }
+        Ok((x.expect("at least one load step"), total))
     }
 }

@@ -330,6 +330,10 @@ pub struct Physics {
     /// [`crate::newton::DEFAULT_MAX_ITERATIONS`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_newton_iterations: Option<usize>,
+    /// Newton only: load steps per time step (≥ 1; default 1), see
+    /// [`crate::newton::NewtonSettings::load_steps`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_steps: Option<usize>,
 }
 
 /// The step solver named by `physics.solver`.
@@ -360,6 +364,7 @@ impl Physics {
                 Solver::Newton(NewtonSettings {
                     tolerance: self.tolerance.unwrap_or(d.tolerance),
                     max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),
+                    load_steps: self.load_steps.unwrap_or(d.load_steps),
                 })
             }
         }

@@ -213,6 +213,9 @@ impl Scene {
                 ));
             }
         }
+        if p.load_steps == Some(0) {
+            return Err(invalid("physics.load_steps", "must be at least 1, got 0"));
+        }
         if p.max_newton_iterations == Some(0) {
             return Err(invalid(
                 "physics.max_newton_iterations",
