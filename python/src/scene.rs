@@ -69,6 +69,13 @@ fn choice<T: ValueEnum>(field: &str, value: &str) -> PyResult<T> {
     })
 }
 
+/// What `Scene.grad` returns: the values dict, `dL_dU` and `dC_dU`.
+type GradTuple<'py> = (
+    Bound<'py, PyDict>,
+    Bound<'py, PyArray3<f64>>,
+    Bound<'py, PyArray3<f64>>,
+);
+
 #[pymethods]
 impl Scene {
     /// Scene.load(name_or_path: str) -> Scene
@@ -174,11 +181,7 @@ impl Scene {
         py: Python<'py>,
         controls: Option<ControlsArg<'py>>,
         delta: Option<f64>,
-    ) -> PyResult<(
-        Bound<'py, PyDict>,
-        Bound<'py, PyArray3<f64>>,
-        Bound<'py, PyArray3<f64>>,
-    )> {
+    ) -> PyResult<GradTuple<'py>> {
         let u = self.controls(controls)?;
         let delta = self.delta(delta)?;
         let ev = py
