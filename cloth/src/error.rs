@@ -53,6 +53,20 @@ pub enum ClothError {
         /// The tolerance asked for.
         tolerance: f64,
     },
+    /// A Newton step came to rest at a stationary point of `Φ` that is not a minimizer (its
+    /// exact Hessian is not positive definite): the cloth can buckle either way there, and the
+    /// implicit gradient of the step is not defined.
+    #[error(
+        "Newton solver stopped at step {step} at a saddle of Φ, not a minimizer (the exact Hessian \
+         is not positive definite; relative residual ‖∇Φ‖ {residual:e}): the step's gradient is \
+         not defined there"
+    )]
+    NewtonSaddle {
+        /// Time step (1-based).
+        step: usize,
+        /// `‖∇Φ‖` relative to its value at the step's predicted state.
+        residual: f64,
+    },
     /// The model has a constraint group Newton's method cannot handle.
     #[error("physics.solver \"newton\": constraint group `{group}`: {reason}")]
     NewtonUnsupported {

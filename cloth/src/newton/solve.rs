@@ -115,7 +115,17 @@ impl NewtonSystem {
         let r0 = norm(&self.grad);
         let mut x = start.clone();
         p.hold_fixed(xt_d, x.data_mut());
+        let saddle = |stats: &StepStats| ClothError::NewtonSaddle {
+            step,
+            residual: stats.residual,
+        };
         if r0 == 0.0 {
+            // x̃ is already stationary; it must still be a minimizer for the implicit gradient.
+            let values = Some((&mut self.values[..], HessianKind::Exact));
+            p.assemble(xt_d, xt_d, &mut self.grad, values);
+            if !self.factor.factorize(p, &self.values) {
+                return Err(saddle(&stats));
+            }
             return Ok((xt.clone(), stats));
         }
         let mut phi = p.energy(x.data(), xt_d);
@@ -165,7 +175,12 @@ impl NewtonSystem {
             let d_max = self.dir.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             if d_max <= ROUNDOFF_STEP * f64::EPSILON * x_max {
                 stats.at_roundoff = true;
-                return Ok((x, stats));
+                // As converged as f64 allows, but only a minimizer has an implicit gradient.
+                return if exact_pd {
+                    Ok((x, stats))
+                } else {
+                    Err(saddle(&stats))
+                };
             }
             let slope: f64 = self.dir.iter().zip(&self.grad).map(|(d, g)| d * g).sum();
             let mut alpha = 1.0;
@@ -179,7 +194,11 @@ impl NewtonSystem {
                 p.assemble(trial.data(), xt_d, &mut g, None);
                 if norm(&g) >= res {
                     stats.at_roundoff = true;
-                    return Ok((x, stats));
+                    return if exact_pd {
+                        Ok((x, stats))
+                    } else {
+                        Err(saddle(&stats))
+                    };
                 }
                 accepted = Some(p.energy(trial.data(), xt_d));
             } else {
