@@ -155,15 +155,8 @@ pub fn draw_rollout_gif(
 
 /// The rollout `states` of `model` for the HTML viewer: every state, the cloth's triangles
 /// ([`Model::triangles`]), the obstacles, targets, control particles, and per step the particle
-/// closest to the safety obstacles (none when the scene has none). `grid` is not used (the model
-/// knows its triangles); it is kept so that callers of the still views and the viewer pass the same.
-pub fn rollout_view(
-    model: &Model,
-    _grid: (usize, usize),
-    states: &[Tensor],
-    title: &str,
-    delta: Option<f64>,
-) -> Rollout {
+/// closest to the safety obstacles (none when the scene has none).
+pub fn rollout_view(model: &Model, states: &[Tensor], title: &str, delta: Option<f64>) -> Rollout {
     let states: Vec<Vec<[f64; 3]>> = states.iter().map(crate::plan::state_points).collect();
     let closest = if model.safety_obstacles.is_empty() {
         Vec::new()
@@ -188,13 +181,12 @@ pub fn rollout_view(
 /// Writes the HTML viewer of a rollout (see [`rollout_view`]) to `path`.
 pub fn write_rollout_html(
     model: &Model,
-    grid: (usize, usize),
     states: &[Tensor],
     title: &str,
     delta: Option<f64>,
     path: &Path,
 ) -> Result<(), PlotError> {
-    plot::write_rollout_html(&rollout_view(model, grid, states, title, delta), path)
+    plot::write_rollout_html(&rollout_view(model, states, title, delta), path)
 }
 
 /// The particle of `state` with the smallest signed distance to the safety obstacles (the first
@@ -356,10 +348,7 @@ mod tests {
         let grid = (scene.cloth.rows, scene.cloth.cols);
         let figure = RolloutFigure::new(&model, grid, &states, "t", Some(0.05));
         assert_eq!(figure.figure().solids.len(), 3);
-        assert_eq!(
-            rollout_view(&model, grid, &states, "t", None).solids.len(),
-            3
-        );
+        assert_eq!(rollout_view(&model, &states, "t", None).solids.len(), 3);
     }
 
     #[test]
@@ -383,7 +372,7 @@ mod tests {
         let model = Model::from_scene(&scene).unwrap();
         let u = crate::plan::initial_controls(&scene, &model).unwrap();
         let states = model.simulate(&u).unwrap();
-        let view = rollout_view(&model, (10, 10), &states, "t", Some(scene.task.delta));
+        let view = rollout_view(&model, &states, "t", Some(scene.task.delta));
         assert_eq!(view.closest.len(), states.len());
         assert_eq!(view.safety_margin, Some(scene.task.delta));
         let metrics = model.metrics(&states, &u, scene.task.delta);

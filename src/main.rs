@@ -203,7 +203,7 @@ impl WatchArgs {
     ) -> Result<()> {
         let grid = (scene.cloth.rows, scene.cloth.cols);
         if let Some(path) = &self.html {
-            figures::write_rollout_html(model, grid, states, title, Some(delta), path)?;
+            figures::write_rollout_html(model, states, title, Some(delta), path)?;
             println!("wrote {}", path.display());
         }
         if let Some(path) = &self.gif {

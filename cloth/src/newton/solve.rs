@@ -108,26 +108,25 @@ impl NewtonSystem {
         step: usize,
         settings: &NewtonSettings,
     ) -> Result<(Tensor, StepStats), ClothError> {
-        let p = &self.pattern;
         let xt_d = xt.data();
         let mut stats = StepStats::default();
-        p.assemble(xt_d, xt_d, &mut self.grad, None);
-        let r0 = norm(&self.grad);
-        let mut x = start.clone();
-        p.hold_fixed(xt_d, x.data_mut());
         let saddle = |stats: &StepStats| ClothError::NewtonSaddle {
             step,
             residual: stats.residual,
         };
-        if r0 == 0.0 {
+        self.pattern.assemble(xt_d, xt_d, &mut self.grad, None);
+        if norm(&self.grad) == 0.0 {
             // x̃ is already stationary; it must still be a minimizer for the implicit gradient.
-            let values = Some((&mut self.values[..], HessianKind::Exact));
-            p.assemble(xt_d, xt_d, &mut self.grad, values);
-            if !self.factor.factorize(p, &self.values) {
-                return Err(saddle(&stats));
-            }
-            return Ok((xt.clone(), stats));
+            return if self.factorize_exact(xt_d, xt_d) {
+                Ok((xt.clone(), stats))
+            } else {
+                Err(saddle(&stats))
+            };
         }
+        let r0 = norm(&self.grad);
+        let p = &self.pattern;
+        let mut x = start.clone();
+        p.hold_fixed(xt_d, x.data_mut());
         let mut phi = p.energy(x.data(), xt_d);
         let mut trial = x.clone();
         loop {

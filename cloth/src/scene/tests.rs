@@ -54,6 +54,13 @@ fn set(v: &mut Value, pointer: &str, x: Value) {
         .unwrap_or_else(|| panic!("{pointer}")) = x;
 }
 
+/// A rejection names `expected` as its field, its message starts with that path and gives `reason`.
+fn assert_names_field(field: &str, msg: &str, expected: &str, reason: &str) {
+    assert_eq!(field, expected, "message: {msg}");
+    assert!(msg.starts_with(&format!("{expected}: ")), "{msg}");
+    assert!(msg.contains(reason), "{msg}");
+}
+
 /// One test per rejection case (JSON edit): asserts the exact field path and that the one-line
 /// message starts with it.
 macro_rules! rejects {
@@ -63,9 +70,7 @@ macro_rules! rejects {
             let (field, msg) = invalid_after(|$v: &mut Value| {
                 $edit;
             });
-            assert_eq!(field, $field, "message: {msg}");
-            assert!(msg.starts_with(&format!("{}: ", $field)), "{msg}");
-            assert!(msg.contains($reason), "{msg}");
+            assert_names_field(&field, &msg, $field, $reason);
             assert!(!msg.contains('\n'), "{msg}");
         }
     };
@@ -79,9 +84,7 @@ macro_rules! rejects_struct {
             let (field, msg) = invalid_struct(|$s: &mut Scene| {
                 $edit;
             });
-            assert_eq!(field, $field, "message: {msg}");
-            assert!(msg.starts_with(&format!("{}: ", $field)), "{msg}");
-            assert!(msg.contains($reason), "{msg}");
+            assert_names_field(&field, &msg, $field, $reason);
         }
     };
 }
