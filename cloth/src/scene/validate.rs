@@ -222,6 +222,9 @@ impl Scene {
                 "must be at least 1, got 0",
             ));
         }
+        if let Some(sc) = &p.self_collision {
+            check_non_negative("physics.self_collision.thickness", sc.thickness)?;
+        }
         if p.solver == SolverKind::Newton {
             self.validate_newton()?;
         }
@@ -250,6 +253,13 @@ impl Scene {
     fn validate_newton(&self) -> Result<(), SceneError> {
         let rigid = "is rigid (infinite stiffness), which physics.solver \"newton\" does not \
                      support; give it a finite stiffness or use \"xpbd\"";
+        if self.physics.self_collision.is_some() {
+            return Err(invalid(
+                "physics.self_collision",
+                "self-collision is a rigid contact, which physics.solver \"newton\" does not \
+                 support; remove it or use physics.solver \"xpbd\"",
+            ));
+        }
         if self.material.stretch == Stiffness::Infinite {
             return Err(invalid("material.stretch", rigid));
         }
