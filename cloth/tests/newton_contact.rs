@@ -128,7 +128,10 @@ fn the_cloth_stays_outside_every_collider_kind() {
         let (min, touching) = clearance(&m, &states);
         eprintln!("{name}: min distance {min:e}, {touching} particle-steps in contact");
         assert!(min >= -1e-12, "{name}: min collider distance {min:e}");
-        assert!(touching >= 2, "{name}: {touching} particle-steps in contact");
+        assert!(
+            touching >= 2,
+            "{name}: {touching} particle-steps in contact"
+        );
         for (t, st) in stats.iter().enumerate() {
             assert!(
                 st.residual <= 1e-12 || st.at_roundoff,

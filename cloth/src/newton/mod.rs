@@ -96,7 +96,11 @@ pub fn check_supported(model: &Model) -> Result<(), ClothError> {
         });
     }
     let mut seen = vec![false; model.n_particles()];
-    for g in model.groups.iter().filter(|g| contact::is_contact(g.terms.as_ref())) {
+    for g in model
+        .groups
+        .iter()
+        .filter(|g| contact::is_contact(g.terms.as_ref()))
+    {
         for k in 0..g.terms.count() {
             let p = g.terms.particles(k)[0];
             if std::mem::replace(&mut seen[p], true) {
