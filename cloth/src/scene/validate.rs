@@ -249,7 +249,8 @@ impl Scene {
         Ok(())
     }
 
-    /// Newton's method needs a finite energy: no rigid material or collider obstacle.
+    /// Newton's method needs a finite energy: no rigid material (colliders are contact rows,
+    /// solved by its active set).
     fn validate_newton(&self) -> Result<(), SceneError> {
         let rigid = "is rigid (infinite stiffness), which physics.solver \"newton\" does not \
                      support; give it a finite stiffness or use \"xpbd\"";
@@ -267,13 +268,6 @@ impl Scene {
             if b.stiffness == Stiffness::Infinite {
                 return Err(invalid("material.bending.stiffness", rigid));
             }
-        }
-        if let Some(i) = self.obstacles.iter().position(|o| o.role().is_collider()) {
-            return Err(invalid(
-                format!("obstacles[{i}].role"),
-                "a collider is a rigid contact, which physics.solver \"newton\" does not \
-                 support; use role \"safety\" or physics.solver \"xpbd\"",
-            ));
         }
         Ok(())
     }
