@@ -590,7 +590,7 @@ fn unwritable_output_leaves_nothing_behind() {
     let o = run(bin()
         .arg("optimize")
         .arg(&scene)
-        .args(["--iterations", "2", "--out"])
+        .args(["--iterations", "2", "--search", "off", "--out"])
         .arg(dir.join("missing").join("r.json")));
     fails_cleanly(
         &o,

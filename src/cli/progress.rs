@@ -115,10 +115,16 @@ impl Reporter {
         }
     }
 
-    /// Announces a search stage after the first plan: a line on stderr (also on a terminal, above
-    /// the bar, which restarts for the stage's iterations).
+    /// Announces a search stage after the first plan: a line on stderr above the bar (which
+    /// restarts for the stage's iterations) on a terminal or with `--verbose`; otherwise, like the
+    /// progress lines, only once the run has taken [`EVERY`], so short runs stay quiet.
     pub fn stage(&mut self, stage: &str, route: &str) {
-        let elapsed = self.start.elapsed().as_secs_f64();
+        self.bar.set_position(0);
+        let elapsed = self.start.elapsed();
+        if !self.terminal && !self.verbose && elapsed < EVERY {
+            return;
+        }
+        let elapsed = elapsed.as_secs_f64();
         let what = match stage {
             "goal" => format!("goal stage (targets as constraints), route: {route}"),
             "cheap" => format!("cheap stage, {route} in parallel"),
@@ -127,7 +133,6 @@ impl Reporter {
         };
         self.bar
             .suspend(|| eprintln!("[{elapsed:>6.1} s] search: {what}"));
-        self.bar.set_position(0);
     }
 
     /// Clears the bar.
