@@ -8,7 +8,7 @@ use cloth::scene::{InitialControls, Obstacle, ObstacleRole, SphereSetSpec, Targe
 use cloth::{Model, Scene};
 use clothopt::outcome::{target_errors, Reason};
 use clothopt::plan::{controls_from_nested, initial_controls, PlanOptions, PlanResult};
-use clothopt::search::{plan_with_search, SearchMode, SearchOptions};
+use clothopt::search::{plan_with_search, Progress, SearchMode, SearchOptions};
 use common::{bin, run, scratch, stderr, stdout, write_scene};
 
 /// A 6 × 6 cloth (0.6 m, hanging from its top corners at z = 1) carried 2 m along +y over 8 steps,
@@ -41,8 +41,37 @@ fn plan_scene(scene: &Scene, mode: SearchMode) -> (Model, PlanResult) {
         mode,
         ..SearchOptions::default()
     };
-    let result = plan_with_search(&model, scene, &start, &options, &search, |_| {}).unwrap();
+    let mut stages: Vec<(String, String)> = Vec::new();
+    let mut iterations = 0;
+    let result = plan_with_search(&model, scene, &start, &options, &search, |e| match e {
+        Progress::Stage { stage, route } => stages.push((stage.into(), route.into())),
+        Progress::Iteration(_) => iterations += 1,
+    })
+    .unwrap();
+    assert!(iterations > 0, "iterations are reported");
+    assert_stages_announced(&stages, &result);
     (model, result)
+}
+
+/// Every stage after the first plan was announced once, in the order of the result's candidate
+/// list (the cheap stage once for all its candidates), with the route it started from.
+fn assert_stages_announced(announced: &[(String, String)], result: &PlanResult) {
+    let mut expected: Vec<(String, String)> = Vec::new();
+    let reports = result
+        .search
+        .as_ref()
+        .map_or(&[][..], |s| &s.candidates[..]);
+    let cheap = reports.iter().filter(|c| c.stage == "cheap").count();
+    for c in reports.iter().skip(1) {
+        let route = match c.stage.as_str() {
+            "cheap" => format!("{cheap} candidates"),
+            _ => c.route.clone(),
+        };
+        if expected.last() != Some(&(c.stage.clone(), route.clone())) || c.stage != "cheap" {
+            expected.push((c.stage.clone(), route));
+        }
+    }
+    assert_eq!(announced, &expected[..]);
 }
 
 /// The verdict's errors are those of the final state of the returned controls, re-simulated.

@@ -577,12 +577,15 @@ impl Recorder<'_> {
     fn record(&mut self, seg: &Segment, x_prev: &Tensor, mut tape: Tape) -> Recording {
         let (m, t) = (self.model, seg.t);
         let u_t = m.step_controls(self.controls, t - 1);
+        // The step's self-contacts: a function of the same state and controls as the forward's,
+        // so the same sets, bit for bit.
+        let contacts = m.contact_sets(x_prev, &u_t);
         if self.starts.len() > 1 && self.checkpoints.as_ref().map(|c| c.0) != Some(t) {
             let mut x = m.begin_step(x_prev, &u_t);
-            let mut lambdas = m.zero_lambdas();
+            let mut lambdas = m.step_lambdas(&contacts);
             let mut checkpoints = Vec::with_capacity(self.starts.len() - 1);
             for w in self.starts.windows(2) {
-                m.sweep(&mut x, &mut lambdas, w[1] - w[0]);
+                m.sweep(&mut x, &mut lambdas, w[1] - w[0], &contacts);
                 checkpoints.push((x.clone(), lambdas.clone()));
             }
             self.checkpoints = Some((t, checkpoints));
@@ -592,7 +595,7 @@ impl Recorder<'_> {
         let u = tape.leaf(u_t);
         let (x_in, lambdas_in) = if seg.block == 0 {
             let x = m.record_begin_step(&mut tape, x_prev, u);
-            (x, m.record_zero_lambdas(&mut tape))
+            (x, m.record_zero_lambdas(&mut tape, &contacts))
         } else {
             let (_, checkpoints) = self.checkpoints.as_ref().expect("checkpoints of this step");
             let (x, l) = &checkpoints[seg.block - 1];
@@ -600,7 +603,7 @@ impl Recorder<'_> {
             (x, l.iter().map(|l| tape.leaf(l.clone())).collect())
         };
         let mut lambdas = lambdas_in.clone();
-        let x = m.record_sweeps(&mut tape, x_in, &mut lambdas, seg.iterations);
+        let x = m.record_sweeps(&mut tape, x_in, &mut lambdas, seg.iterations, &contacts);
         let terms = self
             .costs
             .iter()

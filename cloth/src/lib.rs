@@ -9,6 +9,7 @@
 //! - [`geometry`]: shared vector helpers; [`obj`]: the OBJ triangle-mesh reader;
 //! - [`mesh`]: the grid mesh and its constraints in canonical order;
 //! - [`coloring`]: greedy colouring into independent sets;
+//! - [`contact`]: contacts found during the simulation (self-collision);
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles
 //!   (spheres, planes, capsules, boxes, closed meshes);
 //! - [`controls`]: the controls tensor viewed by (step, gripper);
@@ -19,6 +20,7 @@
 
 pub mod coloring;
 pub mod constraint;
+pub mod contact;
 pub mod controls;
 pub mod cost;
 pub mod error;

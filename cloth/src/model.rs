@@ -6,6 +6,7 @@
 
 use crate::coloring::{greedy_coloring, independent_sets};
 use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_ARITY};
+use crate::contact::self_collision::SelfCollision;
 use crate::error::ClothError;
 use crate::newton::terms::{ConstraintTerms, Terms};
 use crate::newton::Solver;
@@ -105,6 +106,9 @@ pub struct Model {
     pub checkpoint_budget: usize,
     /// The method that solves each step (`physics.solver`).
     pub solver: Solver,
+    /// Self-collision (`physics.self_collision`): contact sets found at the start of each step
+    /// ([`Model::contact_sets`]); `None` when the scene does not ask for it.
+    pub self_collision: Option<Arc<SelfCollision>>,
 }
 
 /// Default [`Model::checkpoint_budget`]: 32 MiB (`u_obstacle` steps fit whole up to a 20 × 20
@@ -217,6 +221,7 @@ impl Model {
             strain: None,
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
             solver: scene.physics.solver(),
+            self_collision: None,
         };
 
         let edges = mesh.stretch_edges();
@@ -276,6 +281,10 @@ impl Model {
                 free,
                 f64::INFINITY,
             )?;
+        }
+        if let Some(sc) = &scene.physics.self_collision {
+            let triangles = model.triangles.clone();
+            model.self_collision = Some(Arc::new(SelfCollision::new(sc.thickness, triangles, n)));
         }
         if !safety.is_empty() {
             model.safety = Some(Arc::new(ParticleSdf {
@@ -424,6 +433,9 @@ impl Model {
                 )
             })
             .collect();
+        if let Some(sc) = &self.self_collision {
+            parts.push(format!("self-collision (thickness {})", sc.thickness));
+        }
         if self.gravity_step.is_some() {
             parts.push("gravity".into());
         }

@@ -51,18 +51,19 @@ impl Model {
 
     /// One time step on plain `f64` data.
     pub fn step(&self, x_prev: &Tensor, u: &Tensor, scratch: &mut StepScratch) -> Tensor {
+        let contacts = self.contact_sets(x_prev, u);
         let mut x = self.begin_step(x_prev, u);
         // λ ← 0, reusing the previous step's tensors.
-        let fits =
-            (scratch.lambdas.iter().map(Tensor::rows)).eq(self.sets().map(|s| s.index.rows()));
+        let fits = (scratch.lambdas.iter().map(Tensor::rows))
+            .eq(self.step_sets(&contacts).map(|s| s.index.rows()));
         if fits {
             for l in &mut scratch.lambdas {
                 l.data_mut().fill(0.0);
             }
         } else {
-            scratch.lambdas = self.zero_lambdas();
+            scratch.lambdas = self.step_lambdas(&contacts);
         }
-        self.sweep(&mut x, &mut scratch.lambdas, self.iterations);
+        self.sweep(&mut x, &mut scratch.lambdas, self.iterations, &contacts);
         x
     }
 
@@ -84,17 +85,29 @@ impl Model {
         x
     }
 
-    /// Zero multipliers `λ`, one tensor per colour set in sweep order.
+    /// Zero multipliers `λ`, one tensor per colour set of the model in sweep order.
     pub fn zero_lambdas(&self) -> Vec<Tensor> {
-        self.sets()
+        self.step_lambdas(&[])
+    }
+
+    /// Zero multipliers for a step's sets: the model's, then the step's `contacts`.
+    pub fn step_lambdas(&self, contacts: &[ProjectionSet]) -> Vec<Tensor> {
+        self.step_sets(contacts)
             .map(|s| Tensor::zeros(s.index.rows(), 1))
             .collect()
     }
 
-    /// `iterations` Gauss–Seidel sweeps over every colour set, in place.
-    pub fn sweep(&self, x: &mut Tensor, lambdas: &mut [Tensor], iterations: usize) {
+    /// `iterations` Gauss–Seidel sweeps over every colour set of a step (the model's, then the
+    /// step's `contacts` from [`Model::contact_sets`]), in place.
+    pub fn sweep(
+        &self,
+        x: &mut Tensor,
+        lambdas: &mut [Tensor],
+        iterations: usize,
+        contacts: &[ProjectionSet],
+    ) {
         for _ in 0..iterations {
-            for (set, lambda) in self.sets().zip(lambdas.iter_mut()) {
+            for (set, lambda) in self.step_sets(contacts).zip(lambdas.iter_mut()) {
                 update_rows(set.projection.as_ref(), &set.index, x, lambda, None);
             }
         }
@@ -105,11 +118,20 @@ impl Model {
         self.groups.iter().flat_map(|g| &g.sets)
     }
 
+    /// A step's colour sets in sweep order: the model's, then the step's `contacts`.
+    pub fn step_sets<'a>(
+        &'a self,
+        contacts: &'a [ProjectionSet],
+    ) -> impl Iterator<Item = &'a ProjectionSet> + Clone {
+        self.sets().chain(contacts)
+    }
+
     /// Records one time step on `tape` from the state `x_prev` and controls `u` (`n_controls × 3`).
     pub fn record_step(&self, tape: &mut Tape, x_prev: Var, u: Var) -> Var {
+        let contacts = self.contact_sets(tape.value(x_prev), tape.value(u));
         let x = self.record_begin_step(tape, x_prev, u);
-        let mut lambdas = self.record_zero_lambdas(tape);
-        self.record_sweeps(tape, x, &mut lambdas, self.iterations)
+        let mut lambdas = self.record_zero_lambdas(tape, &contacts);
+        self.record_sweeps(tape, x, &mut lambdas, self.iterations, &contacts)
     }
 
     /// Records [`Model::begin_step`].
@@ -129,9 +151,9 @@ impl Model {
         x
     }
 
-    /// Zero multipliers as leaves of `tape`.
-    pub fn record_zero_lambdas(&self, tape: &mut Tape) -> Vec<Var> {
-        self.zero_lambdas()
+    /// Zero multipliers of a step's sets as leaves of `tape`.
+    pub fn record_zero_lambdas(&self, tape: &mut Tape, contacts: &[ProjectionSet]) -> Vec<Var> {
+        self.step_lambdas(contacts)
             .into_iter()
             .map(|l| tape.leaf(l))
             .collect()
@@ -144,9 +166,10 @@ impl Model {
         mut x: Var,
         lambdas: &mut [Var],
         iterations: usize,
+        contacts: &[ProjectionSet],
     ) -> Var {
         for _ in 0..iterations {
-            for (set, lambda) in self.sets().zip(lambdas.iter_mut()) {
+            for (set, lambda) in self.step_sets(contacts).zip(lambdas.iter_mut()) {
                 let (nx, nl) = tape.update_rows(&set.projection, &set.index, x, *lambda);
                 x = nx;
                 *lambda = nl;

@@ -10,7 +10,7 @@ use clothopt::output::write_json_atomic;
 use clothopt::plan::{self, ensure_iterations, SolverKind};
 use clothopt::problem::SafetyForm;
 use clothopt::request::OptimizeRequest;
-use clothopt::search::{plan_with_search, SearchMode};
+use clothopt::search::{plan_with_search, Progress, SearchMode};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -160,9 +160,17 @@ pub fn run(args: OptimizeArgs) -> Result<i32> {
             Err(e) => eprintln!("warning: best-so-far file: {e:#}"),
         }
     };
-    let result = plan_with_search(&model, &scene, &start, &options, &search, |info| {
-        reporter.iteration(info, &mut save)
-    });
+    let result = plan_with_search(
+        &model,
+        &scene,
+        &start,
+        &options,
+        &search,
+        |event| match event {
+            Progress::Iteration(info) => reporter.iteration(info, &mut save),
+            Progress::Stage { stage, route } => reporter.stage(stage, route),
+        },
+    );
     reporter.finish();
     let mut result = result?;
     if no_timing {

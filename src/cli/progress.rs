@@ -115,6 +115,21 @@ impl Reporter {
         }
     }
 
+    /// Announces a search stage after the first plan: a line on stderr (also on a terminal, above
+    /// the bar, which restarts for the stage's iterations).
+    pub fn stage(&mut self, stage: &str, route: &str) {
+        let elapsed = self.start.elapsed().as_secs_f64();
+        let what = match stage {
+            "goal" => format!("goal stage (targets as constraints), route: {route}"),
+            "cheap" => format!("cheap stage, {route} in parallel"),
+            "polished" => format!("polishing, route: {route}"),
+            other => format!("{other} stage, route: {route}"),
+        };
+        self.bar
+            .suspend(|| eprintln!("[{elapsed:>6.1} s] search: {what}"));
+        self.bar.set_position(0);
+    }
+
     /// Clears the bar.
     pub fn finish(&self) {
         self.bar.finish_and_clear();

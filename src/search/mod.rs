@@ -43,6 +43,21 @@ pub enum SearchMode {
     Off,
 }
 
+/// What [`plan_with_search`] reports while it runs.
+#[derive(Clone, Copy, Debug)]
+pub enum Progress<'a> {
+    /// A stage after the first plan begins.
+    Stage {
+        /// `"goal"`, `"cheap"` or `"polished"`, as in [`CandidateReport::stage`].
+        stage: &'a str,
+        /// The route it starts from; for the cheap stage, which runs every candidate in
+        /// parallel and reports no iterations, how many candidates.
+        route: &'a str,
+    },
+    /// One iteration of the sequential stage under way.
+    Iteration(&'a IterationInfo),
+}
+
 /// Settings of the route search.
 #[derive(Clone, Debug)]
 pub struct SearchOptions {
@@ -208,7 +223,7 @@ fn goal_stage(
     scene: &Scene,
     options: &PlanOptions,
     route: &str,
-    progress: &mut impl FnMut(&IterationInfo),
+    progress: &mut impl FnMut(Progress<'_>),
     (best, best_report, reports): Tally<'_>,
 ) -> crate::Result<()> {
     if !is_safe(best) || best.task.achieved || model.task.targets.rows() == 0 {
@@ -218,7 +233,13 @@ fn goal_stage(
     goal.task.goal_radius = Some(GOAL_FRACTION * model.task.tolerance);
     goal.kappa_warmup = None;
     let start = crate::plan::controls_from_nested(model, &best.controls)?;
-    let result = plan(model, scene, &start, &goal, &mut *progress)?;
+    progress(Progress::Stage {
+        stage: "goal",
+        route,
+    });
+    let result = plan(model, scene, &start, &goal, |i| {
+        progress(Progress::Iteration(i))
+    })?;
     tally(route, "goal", result, (best, best_report, reports));
     Ok(())
 }
@@ -231,7 +252,7 @@ fn route_stages(
     options: &PlanOptions,
     search: &SearchOptions,
     candidates: &[routes::Candidate],
-    progress: &mut impl FnMut(&IterationInfo),
+    progress: &mut impl FnMut(Progress<'_>),
     (best, best_report, reports): Tally<'_>,
 ) -> crate::Result<Option<String>> {
     // Cheap stage: warm-up sharpness only, a small budget, looser tolerance.
@@ -242,6 +263,13 @@ fn route_stages(
     }
     cheap_options.kappa_warmup = None;
     cheap_options.tol_optimality = 10.0 * options.tol_optimality;
+    if !candidates.is_empty() {
+        let count = format!("{} candidates", candidates.len());
+        progress(Progress::Stage {
+            stage: "cheap",
+            route: &count,
+        });
+    }
     let cheap: Vec<PlanResult> = candidates
         .par_iter()
         .map(|c| plan(model, scene, &c.controls, &cheap_options, |_| {}))
@@ -268,7 +296,13 @@ fn route_stages(
             break;
         }
         let start = crate::plan::controls_from_nested(model, &cheap[i].controls)?;
-        let polished = plan(model, scene, &start, options, &mut *progress)?;
+        progress(Progress::Stage {
+            stage: "polished",
+            route: &candidates[i].route,
+        });
+        let polished = plan(model, scene, &start, options, |i| {
+            progress(Progress::Iteration(i))
+        })?;
         let before = *best_report;
         tally(
             &candidates[i].route,
@@ -284,18 +318,21 @@ fn route_stages(
 }
 
 /// Plans `model`'s task from `start`, searching other routes as `search` says (module docs).
-/// `progress` sees the iterations of the sequential stages (the first plan and the polish).
+/// `progress` sees the iterations of the sequential stages (the first plan, the goal stages and
+/// the polish) and the start of every stage after the first plan.
 pub fn plan_with_search(
     model: &Model,
     scene: &Scene,
     start: &Controls,
     options: &PlanOptions,
     search: &SearchOptions,
-    mut progress: impl FnMut(&IterationInfo),
+    mut progress: impl FnMut(Progress<'_>),
 ) -> crate::Result<PlanResult> {
     search.validate()?;
     let clock = Instant::now();
-    let first = plan(model, scene, start, options, &mut progress)?;
+    let first = plan(model, scene, start, options, |i| {
+        progress(Progress::Iteration(i))
+    })?;
     let stopped = matches!(first.status.as_str(), "time_limit" | "interrupted");
     let run = !stopped
         && match search.mode {

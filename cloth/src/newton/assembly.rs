@@ -5,6 +5,7 @@
 //! contributes only while `C < 0`. The Hessian is stored as its lower triangle in compressed
 //! columns, one degree of freedom per free coordinate.
 
+use super::contact::is_contact;
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::model::Model;
 use nalgebra::{DMatrix, SymmetricEigen};
@@ -47,12 +48,16 @@ pub struct Pattern {
     pub row_idx: Vec<usize>,
     /// Index of each degree of freedom's diagonal entry.
     diag: Vec<usize>,
+    /// Every stored 3 × 3 particle block: (row block, column block, value index of each entry,
+    /// row-major; a diagonal block's upper entries point at their lower mirror).
+    blocks: Vec<(u32, u32, [u32; 9])>,
     groups: Vec<GroupPattern>,
 }
 
 impl Pattern {
-    /// The pattern of `model`'s Newton system. Rigid constraints (compliance 0) have no finite
-    /// energy: the caller rejects them first ([`super::check_supported`]).
+    /// The pattern of `model`'s Newton system. Contact rows ([`super::contact::is_contact`]) are
+    /// not terms of `Φ` (they act through the active set); other rigid constraints (compliance 0)
+    /// have no finite energy: the caller rejects them first ([`super::check_supported`]).
     pub fn new(model: &Model) -> Pattern {
         let n = model.n_particles();
         let mut dof_of = vec![NONE; n];
@@ -74,8 +79,12 @@ impl Pattern {
         for &d in dof_of.iter().filter(|&&d| d != NONE) {
             blocks[d as usize / 3].push(d / 3);
         }
-        let groups: Vec<Arc<dyn ConstraintTerms>> =
-            model.groups.iter().map(|g| g.terms.clone()).collect();
+        let groups: Vec<Arc<dyn ConstraintTerms>> = model
+            .groups
+            .iter()
+            .map(|g| g.terms.clone())
+            .filter(|t| !is_contact(t.as_ref()))
+            .collect();
         for terms in &groups {
             for k in 0..terms.count() {
                 let ps = terms.particles(k);
@@ -108,6 +117,17 @@ impl Pattern {
             col_ptr[c] + rows.binary_search(&r).expect("entry in the pattern")
         };
         let diag = (0..n_dof).map(|d| index(d, d)).collect();
+        let mut block_list = Vec::new();
+        for (bc, rows) in blocks.iter().enumerate() {
+            for &br in rows {
+                let (r0, c0) = (3 * br as usize, 3 * bc);
+                let idx = std::array::from_fn(|k| {
+                    let (i, j) = (r0 + k / 3, c0 + k % 3);
+                    index(i.max(j), i.min(j)) as u32
+                });
+                block_list.push((br, bc as u32, idx));
+            }
+        }
         let groups = groups
             .into_iter()
             .map(|terms| {
@@ -142,8 +162,17 @@ impl Pattern {
             col_ptr,
             row_idx,
             diag,
+            blocks: block_list,
             groups,
         }
+    }
+
+    /// Every stored 3 × 3 particle block as (row block, column block, value indices row-major);
+    /// a diagonal block's upper entries point at their lower mirror.
+    pub fn blocks(&self) -> impl Iterator<Item = (usize, usize, &[u32; 9])> {
+        self.blocks
+            .iter()
+            .map(|(r, c, idx)| (*r as usize, *c as usize, idx))
     }
 
     /// Number of stored (lower-triangle) entries.

@@ -14,6 +14,9 @@ pub struct Factor {
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
     factored: bool,
+    /// Scratch of the numeric factorization, kept between iterations (its contents do not
+    /// matter; allocating it per iteration was 4% of a 40 × 40 rollout).
+    scratch: MemBuffer,
 }
 
 impl Factor {
@@ -26,10 +29,14 @@ impl Factor {
             factorize_symbolic_cholesky(sym, Side::Lower, Default::default(), Default::default())
                 .expect("symbolic Cholesky analysis of a valid pattern");
         let l_values = vec![0.0; symbolic.len_val()];
+        let scratch = MemBuffer::new(
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+        );
         Factor {
             symbolic,
             l_values,
             factored: false,
+            scratch,
         }
     }
 
@@ -39,10 +46,6 @@ impl Factor {
         let sym =
             SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
         let a = SparseColMatRef::new(sym, values);
-        let mut buf = MemBuffer::new(
-            self.symbolic
-                .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
-        );
         let ok = self
             .symbolic
             .factorize_numeric_llt::<f64>(
@@ -51,7 +54,7 @@ impl Factor {
                 Side::Lower,
                 LltRegularization::default(),
                 Par::Seq,
-                MemStack::new(&mut buf),
+                MemStack::new(&mut self.scratch),
                 Default::default(),
             )
             .is_ok();

@@ -5,6 +5,10 @@
 //! adjoint `ā` of the step's state pulls back with `z = H_ff⁻¹ ā_f` to
 //! `x̄_prev,f = M z` and `x̄_prev,c = ū = ā_c − H_cf z`. One factorization of the exact Hessian per
 //! step serves every cost (the right-hand sides are solved together).
+//!
+//! With contact rows, the active ones are equalities at the minimizer (they do not depend on
+//! `x_prev` or `u`): `z = P y` with `K y = P ā_f`, `K` the reduced Hessian of the Lagrangian
+//! ([`super::contact`]), so `dx_f` stays in the contact surfaces' tangent planes.
 
 use super::solve::NewtonSystem;
 use crate::grad::StepCost;
@@ -58,11 +62,14 @@ impl Model {
                  definite (a saddle, not a minimizer): its gradient is not defined"
             );
             for (j, adj) in adjoints.iter().enumerate() {
-                system
-                    .pattern
-                    .gather(adj.data(), &mut rhs[j * n_dof..(j + 1) * n_dof]);
+                let col = &mut rhs[j * n_dof..(j + 1) * n_dof];
+                system.pattern.gather(adj.data(), col);
+                system.contacts.project_tangent(col);
             }
             system.factor.solve_in_place(&mut rhs, k);
+            for col in rhs.chunks_exact_mut(n_dof.max(1)) {
+                system.contacts.project_tangent(col);
+            }
             for j in 0..k {
                 let z = &rhs[j * n_dof..(j + 1) * n_dof];
                 let mut prev = std::mem::replace(&mut prev_adjoints[j], Tensor::zeros(0, 0));

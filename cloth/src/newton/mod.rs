@@ -14,10 +14,14 @@
 //! - [`implicit`]: adjoints through `∂x_t/∂(x_{t−1}, u_t)`, one factorization per step for every
 //!   cost.
 //!
-//! Rigid constraints (infinite stiffness, compliance 0: colliders, `"inf"` materials) have no
-//! finite energy and are rejected with [`ClothError::NewtonUnsupported`].
+//! - [`contact`]: rigid one-sided rows on one particle (colliders) by an active-set projected
+//!   Newton, whose converged state is XPBD's rigid (compliance 0) answer.
+//!
+//! Other rigid constraints (infinite stiffness, compliance 0: `"inf"` materials) have no finite
+//! energy and are rejected with [`ClothError::NewtonUnsupported`].
 
 pub mod assembly;
+pub mod contact;
 pub mod factor;
 pub mod implicit;
 pub mod solve;
@@ -72,18 +76,43 @@ pub enum Solver {
     Newton(NewtonSettings),
 }
 
-/// Rejects models Newton's method cannot solve: a rigid constraint group (compliance 0).
+/// Rejects models Newton's method cannot solve: a rigid constraint group (compliance 0) other
+/// than contact rows ([`contact::is_contact`]), or a particle with two contact rows.
 ///
 /// # Errors
-/// [`ClothError::NewtonUnsupported`] naming the first rigid group.
+/// [`ClothError::NewtonUnsupported`] naming the first such group.
 pub fn check_supported(model: &Model) -> Result<(), ClothError> {
-    match model.groups.iter().find(|g| g.terms.compliance() == 0.0) {
-        None => Ok(()),
-        Some(g) => Err(ClothError::NewtonUnsupported {
+    let rigid = model
+        .groups
+        .iter()
+        .find(|g| g.terms.compliance() == 0.0 && !contact::is_contact(g.terms.as_ref()));
+    if let Some(g) = rigid {
+        return Err(ClothError::NewtonUnsupported {
             group: g.name.clone(),
             reason: "it is rigid (infinite stiffness, compliance 0), so it has no finite \
-                     energy; give it a finite stiffness or use physics.solver \"xpbd\""
+                     energy; give it a finite stiffness or use physics.solver \"xpbd\" (rigid \
+                     one-sided constraints on one particle, like colliders, are supported)"
                 .into(),
-        }),
+        });
     }
+    let mut seen = vec![false; model.n_particles()];
+    for g in model
+        .groups
+        .iter()
+        .filter(|g| contact::is_contact(g.terms.as_ref()))
+    {
+        for k in 0..g.terms.count() {
+            let p = g.terms.particles(k)[0];
+            if std::mem::replace(&mut seen[p], true) {
+                return Err(ClothError::NewtonUnsupported {
+                    group: g.name.clone(),
+                    reason: format!(
+                        "particle {p} has a second rigid contact row; give each particle at most \
+                         one (a union of obstacles is one row) or use physics.solver \"xpbd\""
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
 }

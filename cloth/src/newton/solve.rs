@@ -11,6 +11,7 @@
 //! `Φ` (measured: `physics.tolerance` 1e-4 on `u_obstacle`), and the solve then goes on.
 
 use super::assembly::{HessianKind, Pattern};
+use super::contact::Contacts;
 use super::factor::Factor;
 use super::{check_supported, NewtonSettings};
 use crate::error::ClothError;
@@ -50,6 +51,8 @@ pub struct NewtonSystem {
     pub pattern: Pattern,
     /// The Cholesky factorization.
     pub factor: Factor,
+    /// The contact rows and their active set at the last state assembled.
+    pub contacts: Contacts,
     values: Vec<f64>,
     grad: Vec<f64>,
     dir: Vec<f64>,
@@ -59,26 +62,51 @@ impl NewtonSystem {
     /// The system of `model`.
     ///
     /// # Errors
-    /// [`ClothError::NewtonUnsupported`] for a rigid constraint group.
+    /// [`ClothError::NewtonUnsupported`] for a rigid constraint group that is not a contact row.
     pub fn new(model: &Model) -> Result<NewtonSystem, ClothError> {
         check_supported(model)?;
         let pattern = Pattern::new(model);
         let factor = Factor::new(&pattern);
+        let contacts = Contacts::new(model, &pattern);
         let (nnz, n) = (pattern.nnz(), pattern.n_dof);
         Ok(NewtonSystem {
             pattern,
             factor,
+            contacts,
             values: vec![0.0; nnz],
             grad: vec![0.0; n],
             dir: vec![0.0; n],
         })
     }
 
-    /// Factorizes the exact Hessian of `Φ` at `x` for the predicted state `xt`; false when it
-    /// is not positive definite.
-    pub fn factorize_exact(&mut self, x: &[f64], xt: &[f64]) -> bool {
-        let values = Some((&mut self.values[..], HessianKind::Exact));
+    /// Assembles `∇Φ` and the Hessian of `kind` at `x`; with contact rows, the active set at `x`
+    /// and the reduced matrix `K` ([`Contacts::reduce`]; `curvature` for the exact Lagrangian).
+    fn assemble_at(&mut self, x: &[f64], xt: &[f64], kind: HessianKind) {
+        let values = Some((&mut self.values[..], kind));
         self.pattern.assemble(x, xt, &mut self.grad, values);
+        if self.contacts.any() {
+            self.contacts.activate(x, &self.grad);
+            let curvature = kind == HessianKind::Exact;
+            self.contacts
+                .reduce(&self.pattern, &mut self.values, curvature);
+        }
+    }
+
+    /// The KKT residual `‖∇Φ‖` (normal components of active contacts removed) of the last
+    /// [`NewtonSystem::assemble_at`].
+    fn residual(&self) -> f64 {
+        if self.contacts.any() {
+            self.contacts.residual_norm(&self.grad)
+        } else {
+            norm(&self.grad)
+        }
+    }
+
+    /// Factorizes the exact Hessian of `Φ` at `x` for the predicted state `xt` (with contact
+    /// rows: the reduced exact Hessian of the Lagrangian on the active set at `x`); false when
+    /// it is not positive definite.
+    pub fn factorize_exact(&mut self, x: &[f64], xt: &[f64]) -> bool {
+        self.assemble_at(x, xt, HessianKind::Exact);
         self.factor.factorize(&self.pattern, &self.values)
     }
 
@@ -96,8 +124,10 @@ impl NewtonSystem {
     }
 
     /// Minimizes `Φ` for the predicted state `xt`, starting from `start`'s free particles (the
-    /// control particles are held at `xt`'s positions). The tolerance stays relative to
-    /// `‖∇Φ(xt)‖`.
+    /// control particles are held at `xt`'s positions), subject to the contact rows (the start
+    /// and every trial state are projected onto them). The tolerance stays relative to
+    /// `‖∇Φ(xt)‖` (with contact rows: to the larger of that and `‖∇Φ‖` at the projected `xt`,
+    /// whose mass term is the contact forces' scale).
     ///
     /// # Errors
     /// [`ClothError::NewtonNotConverged`] when the tolerance is not reached.
@@ -115,7 +145,18 @@ impl NewtonSystem {
             residual: stats.residual,
         };
         self.pattern.assemble(xt_d, xt_d, &mut self.grad, None);
-        if norm(&self.grad) == 0.0 {
+        let mut r0 = norm(&self.grad);
+        let mut x = start.clone();
+        self.pattern.hold_fixed(xt_d, x.data_mut());
+        if self.contacts.any() {
+            let mut projected = xt.clone();
+            self.contacts.project(projected.data_mut());
+            self.pattern
+                .assemble(projected.data(), xt_d, &mut self.grad, None);
+            r0 = r0.max(norm(&self.grad));
+            self.contacts.project(x.data_mut());
+        }
+        if r0 == 0.0 {
             // x̃ is already stationary; it must still be a minimizer for the implicit gradient.
             return if self.factorize_exact(xt_d, xt_d) {
                 Ok((xt.clone(), stats))
@@ -123,23 +164,18 @@ impl NewtonSystem {
                 Err(saddle(&stats))
             };
         }
-        let r0 = norm(&self.grad);
-        let p = &self.pattern;
-        let mut x = start.clone();
-        p.hold_fixed(xt_d, x.data_mut());
-        let mut phi = p.energy(x.data(), xt_d);
+        let mut phi = self.pattern.energy(x.data(), xt_d);
         let mut trial = x.clone();
         loop {
-            let values = Some((&mut self.values[..], HessianKind::Exact));
-            p.assemble(x.data(), xt_d, &mut self.grad, values);
-            let res = norm(&self.grad);
+            self.assemble_at(x.data(), xt_d, HessianKind::Exact);
+            let res = self.residual();
             stats.residual = res / r0;
             if !stats.residual.is_finite() {
                 check_finite(&x, step)?;
             }
             // The exact Hessian's factorization: the Newton matrix below, and the test that x is
             // a minimizer (the implicit gradient needs it positive definite at the returned state).
-            let exact_pd = self.factor.factorize(p, &self.values);
+            let exact_pd = self.factor.factorize(&self.pattern, &self.values);
             if stats.residual <= settings.tolerance {
                 if exact_pd {
                     return Ok((x, stats));
@@ -159,16 +195,18 @@ impl NewtonSystem {
             stats.iterations += 1;
             if !exact_pd {
                 stats.projected += 1;
-                let values = Some((&mut self.values[..], HessianKind::Projected));
-                p.assemble(x.data(), xt_d, &mut self.grad, values);
-                if !self.factor.factorize(p, &self.values) {
+                self.assemble_at(x.data(), xt_d, HessianKind::Projected);
+                if !self.factor.factorize(&self.pattern, &self.values) {
                     return Err(not_converged(&stats));
                 }
             }
             for (d, g) in self.dir.iter_mut().zip(&self.grad) {
                 *d = -g;
             }
+            self.contacts.project_tangent(&mut self.dir);
             self.factor.solve_in_place(&mut self.dir, 1);
+            self.contacts.project_tangent(&mut self.dir);
+            let p = &self.pattern;
             // A step at the coordinates' round-off cannot improve x: converged as far as f64 goes.
             let x_max = x.data().iter().fold(1.0f64, |m, v| m.max(v.abs()));
             let d_max = self.dir.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -186,12 +224,22 @@ impl NewtonSystem {
             let mut accepted = None;
             if -slope <= PHI_ROUNDOFF * f64::EPSILON * phi.abs() {
                 // Φ's predicted decrease is below its round-off, so Φ cannot rank the step:
-                // take the full step if ‖∇Φ‖ drops; if it does not, x is as converged as f64 allows.
+                // take the full step if the residual drops; if it does not, x is as converged as
+                // f64 allows.
                 trial.data_mut().copy_from_slice(x.data());
                 p.add_scaled(trial.data_mut(), 1.0, &self.dir);
                 let mut g = vec![0.0; self.grad.len()];
-                p.assemble(trial.data(), xt_d, &mut g, None);
-                if norm(&g) >= res {
+                let trial_res = if self.contacts.any() {
+                    self.contacts.project(trial.data_mut());
+                    p.assemble(trial.data(), xt_d, &mut g, None);
+                    let mut at_trial = self.contacts.clone();
+                    at_trial.activate(trial.data(), &g);
+                    at_trial.residual_norm(&g)
+                } else {
+                    p.assemble(trial.data(), xt_d, &mut g, None);
+                    norm(&g)
+                };
+                if trial_res >= res {
                     stats.at_roundoff = true;
                     return if exact_pd {
                         Ok((x, stats))
@@ -204,6 +252,7 @@ impl NewtonSystem {
                 for _ in 0..MAX_HALVINGS {
                     trial.data_mut().copy_from_slice(x.data());
                     p.add_scaled(trial.data_mut(), alpha, &self.dir);
+                    self.contacts.project(trial.data_mut());
                     let phi_t = p.energy(trial.data(), xt_d);
                     if phi_t <= phi + ARMIJO * alpha * slope {
                         accepted = Some(phi_t);

@@ -334,6 +334,17 @@ pub struct Physics {
     /// [`crate::newton::NewtonSettings::load_steps`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub load_steps: Option<usize>,
+    /// Self-collision of the cloth (absent: none), see [`crate::contact::self_collision`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub self_collision: Option<SelfCollisionSpec>,
+}
+
+/// `physics.self_collision`: vertex–triangle contacts between parts of the cloth.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelfCollisionSpec {
+    /// The distance `h ≥ 0` every vertex keeps from the plane of a nearby triangle it faces.
+    pub thickness: f64,
 }
 
 /// The step solver named by `physics.solver`.

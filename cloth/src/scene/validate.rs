@@ -222,6 +222,9 @@ impl Scene {
                 "must be at least 1, got 0",
             ));
         }
+        if let Some(sc) = &p.self_collision {
+            check_non_negative("physics.self_collision.thickness", sc.thickness)?;
+        }
         if p.solver == SolverKind::Newton {
             self.validate_newton()?;
         }
@@ -246,10 +249,18 @@ impl Scene {
         Ok(())
     }
 
-    /// Newton's method needs a finite energy: no rigid material or collider obstacle.
+    /// Newton's method needs a finite energy: no rigid material (colliders are contact rows,
+    /// solved by its active set).
     fn validate_newton(&self) -> Result<(), SceneError> {
         let rigid = "is rigid (infinite stiffness), which physics.solver \"newton\" does not \
                      support; give it a finite stiffness or use \"xpbd\"";
+        if self.physics.self_collision.is_some() {
+            return Err(invalid(
+                "physics.self_collision",
+                "self-collision is a rigid contact, which physics.solver \"newton\" does not \
+                 support; remove it or use physics.solver \"xpbd\"",
+            ));
+        }
         if self.material.stretch == Stiffness::Infinite {
             return Err(invalid("material.stretch", rigid));
         }
@@ -257,13 +268,6 @@ impl Scene {
             if b.stiffness == Stiffness::Infinite {
                 return Err(invalid("material.bending.stiffness", rigid));
             }
-        }
-        if let Some(i) = self.obstacles.iter().position(|o| o.role().is_collider()) {
-            return Err(invalid(
-                format!("obstacles[{i}].role"),
-                "a collider is a rigid contact, which physics.solver \"newton\" does not \
-                 support; use role \"safety\" or physics.solver \"xpbd\"",
-            ));
         }
         Ok(())
     }
