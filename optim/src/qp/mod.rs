@@ -32,7 +32,7 @@
 //!   linearized violation is accounted for by the caller, who evaluates it from `c` and `J` directly.
 //! * A solve that ends in `MaxIterations`, `InsufficientProgress`, `NumericalError` or (for the
 //!   subproblems that are feasible by construction, i.e. not a second-order correction) an
-//!   infeasibility verdict is retried from scratch with fallback settings ([`FALLBACKS`]). Clarabel
+//!   infeasibility verdict is retried from scratch with fallback settings ([`FALLBACKS`](solve::FALLBACKS)). Clarabel
 //!   0.11's Ruiz equilibration can send its interior-point iteration into a limit cycle (the duality
 //!   gap stalls at ~1e-2 while μ → 0, until `MaxIterations`) on small, well-conditioned QPs; the same
 //!   problem without equilibration solves in ~10 iterations (oxfordcontrol/Clarabel.rs#217 reports
@@ -44,13 +44,16 @@
 //!   1e-4) is `DualInfeasible` with every setting until it is scaled. Scaling only after a failure
 //!   leaves every QP Clarabel solves as given bit for bit as it was.
 
+mod csc;
+mod solve;
+
+use csc::TripletBuilder;
+use solve::clarabel_settings;
+
 use crate::linalg::Jacobian;
 use crate::problem::NormData;
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettings, DefaultSettingsBuilder, DefaultSolution, DefaultSolver, IPSolver,
-    SolverStatus, SupportedConeT,
-};
+use clarabel::solver::{DefaultSolver, SolverStatus, SupportedConeT};
 
 /// The data of one subproblem, borrowed from the SQP state.
 pub(crate) struct QpData<'a> {
@@ -137,11 +140,6 @@ struct Layout {
     row_soc: usize,
 }
 
-/// Fallback settings tried, in order, when Clarabel fails with its defaults (see the module docs):
-/// `(equilibrate, max_step_fraction, static_regularization_constant)`.
-const FALLBACKS: [(bool, f64, f64); 3] =
-    [(false, 0.99, 1e-8), (true, 0.9, 1e-8), (false, 0.9, 1e-7)];
-
 /// The conic data, kept so that a failed solve can be repeated with fallback settings.
 struct ConicData {
     p: CscMatrix<f64>,
@@ -168,96 +166,6 @@ pub(crate) struct QpSubproblem {
     /// `d = 0` with the elastic slacks is feasible: false after a second-order correction changed `b`,
     /// whose infeasibility verdicts are then genuine and not worth a retry.
     feasible_by_construction: bool,
-}
-
-/// Clarabel settings: the defaults used for every first attempt, or a fallback.
-fn clarabel_settings(
-    tolerance: f64,
-    max_iterations: u32,
-    fallback: Option<(bool, f64, f64)>,
-) -> Result<DefaultSettings<f64>, QpBuildError> {
-    let mut b = DefaultSettingsBuilder::<f64>::default();
-    b.verbose(false)
-        .presolve_enable(false)
-        .max_iter(max_iterations)
-        .tol_gap_abs(tolerance)
-        .tol_gap_rel(tolerance)
-        .tol_feas(tolerance);
-    if let Some((equilibrate, step, reg)) = fallback {
-        b.equilibrate_enable(equilibrate)
-            .max_step_fraction(step)
-            .static_regularization_constant(reg);
-    }
-    b.build()
-        .map_err(|e| QpBuildError(format!("Clarabel settings: {e}")))
-}
-
-/// Triplets pushed in increasing row order, compressed to CSC by a stable counting sort on columns
-/// (so rows stay sorted within a column); duplicates are merged.
-struct TripletBuilder {
-    rows: Vec<usize>,
-    cols: Vec<usize>,
-    vals: Vec<f64>,
-}
-
-impl TripletBuilder {
-    fn with_capacity(cap: usize) -> Self {
-        Self {
-            rows: Vec::with_capacity(cap),
-            cols: Vec::with_capacity(cap),
-            vals: Vec::with_capacity(cap),
-        }
-    }
-
-    fn push(&mut self, r: usize, c: usize, v: f64) {
-        self.rows.push(r);
-        self.cols.push(c);
-        self.vals.push(v);
-    }
-
-    fn into_csc(self, m: usize, n: usize) -> CscMatrix<f64> {
-        let nnz = self.vals.len();
-        let mut colptr = vec![0usize; n + 1];
-        for &c in &self.cols {
-            colptr[c + 1] += 1;
-        }
-        for j in 0..n {
-            colptr[j + 1] += colptr[j];
-        }
-        let mut next = colptr.clone();
-        let mut rowval = vec![0usize; nnz];
-        let mut nzval = vec![0.0; nnz];
-        for idx in 0..nnz {
-            let c = self.cols[idx];
-            let dst = next[c];
-            rowval[dst] = self.rows[idx];
-            nzval[dst] = self.vals[idx];
-            next[c] += 1;
-        }
-        // Sort within columns if needed (sparse user input may be out of order) and merge duplicates.
-        let mut out_colptr = vec![0usize; n + 1];
-        let mut out_rows = Vec::with_capacity(nnz);
-        let mut out_vals = Vec::with_capacity(nnz);
-        for j in 0..n {
-            let (a, b) = (colptr[j], colptr[j + 1]);
-            let mut seg: Vec<(usize, f64)> = (a..b).map(|i| (rowval[i], nzval[i])).collect();
-            if !seg.windows(2).all(|w| w[0].0 < w[1].0) {
-                seg.sort_by_key(|e| e.0);
-            }
-            for (r, v) in seg {
-                if out_rows.len() > out_colptr[j] && out_rows.last() == Some(&r) {
-                    if let Some(last) = out_vals.last_mut() {
-                        *last += v;
-                    }
-                } else {
-                    out_rows.push(r);
-                    out_vals.push(v);
-                }
-            }
-            out_colptr[j + 1] = out_rows.len();
-        }
-        CscMatrix::new(m, n, out_colptr, out_rows, out_vals)
-    }
 }
 
 impl QpSubproblem {
@@ -464,245 +372,7 @@ impl QpSubproblem {
         self.feasible_by_construction = false;
         Ok(())
     }
-
-    /// Runs Clarabel and extracts the solution. If Clarabel fails numerically, the same data is
-    /// solved again from scratch with each of the [`FALLBACKS`] settings, then (when the gradient
-    /// has entries above 1) with the objective scaled, until one succeeds (see the module docs);
-    /// if none does, the outcome is the failure status of the first attempt.
-    pub(crate) fn solve(&mut self) -> QpSolution {
-        self.solver.solve();
-        let first = self.extract(&self.solver.solution);
-        let retry = match first.outcome {
-            QpOutcome::Solved | QpOutcome::AlmostSolved => false,
-            QpOutcome::Failed(
-                SolverStatus::MaxIterations
-                | SolverStatus::InsufficientProgress
-                | SolverStatus::NumericalError,
-            ) => true,
-            QpOutcome::Failed(
-                SolverStatus::PrimalInfeasible
-                | SolverStatus::AlmostPrimalInfeasible
-                | SolverStatus::DualInfeasible
-                | SolverStatus::AlmostDualInfeasible,
-            ) => self.feasible_by_construction,
-            // MaxTime (no limit is set), CallbackTerminated, Unsolved.
-            QpOutcome::Failed(_) => false,
-        };
-        if !retry {
-            return first;
-        }
-        for fallback in FALLBACKS {
-            if let Some(sol) = self.solve_usable(None, Some(fallback)) {
-                return sol;
-            }
-        }
-        // A gradient of 1e10 defeats every setting: divided by its largest entry, the objective
-        // has the same minimizer, and the duals are scaled by the same factor.
-        let largest = self.conic.q[..self.layout.n]
-            .iter()
-            .fold(0.0_f64, |m, v| m.max(v.abs()));
-        if largest > 1.0 {
-            for fallback in std::iter::once(None).chain(FALLBACKS.map(Some)) {
-                if let Some(sol) = self.solve_usable(Some(1.0 / largest), fallback) {
-                    return sol;
-                }
-            }
-        }
-        first
-    }
-
-    /// Solves the data from scratch with Clarabel's `fallback` settings (defaults if `None`)
-    /// and the objective (`P`, `q`) multiplied by `scale` if given (the duals returned are
-    /// those of the data as built); `None` unless the solution is usable.
-    fn solve_usable(
-        &self,
-        scale: Option<f64>,
-        fallback: Option<(bool, f64, f64)>,
-    ) -> Option<QpSolution> {
-        let settings = clarabel_settings(self.tolerance, self.max_iterations, fallback).ok()?;
-        let c = &self.conic;
-        let scaled;
-        let (p, q) = match scale {
-            None => (&c.p, &c.q),
-            Some(s) => {
-                let mut p = c.p.clone();
-                p.nzval.iter_mut().for_each(|v| *v *= s);
-                scaled = (p, c.q.iter().map(|v| v * s).collect::<Vec<f64>>());
-                (&scaled.0, &scaled.1)
-            }
-        };
-        let mut solver = DefaultSolver::new(p, q, &c.a, &c.b, &c.cones, settings).ok()?;
-        solver.solve();
-        if let Some(s) = scale {
-            solver.solution.z.iter_mut().for_each(|v| *v /= s);
-        }
-        Some(self.extract(&solver.solution)).filter(|sol| sol.outcome.is_usable())
-    }
-
-    /// A Clarabel solution in the SQP's conventions.
-    fn extract(&self, sol: &DefaultSolution<f64>) -> QpSolution {
-        let l = self.layout;
-        let outcome = match sol.status {
-            SolverStatus::Solved => QpOutcome::Solved,
-            SolverStatus::AlmostSolved => QpOutcome::AlmostSolved,
-            other => QpOutcome::Failed(other),
-        };
-        let x = &sol.x;
-        let z = &sol.z;
-        let d = x[..l.n].to_vec();
-        // Rows left out of the conic problem (all-zero Jacobian row) get multiplier 0.
-        let mut lambda = vec![0.0; self.m_total];
-        for (r, &i) in self.kept.iter().enumerate() {
-            lambda[i] = z[l.row_ineq + r];
-        }
-        let mu = z[..l.q].iter().map(|v| -v).collect();
-        let box_upper = z[l.row_box_up..l.row_box_up + l.n].to_vec();
-        let box_lower = z[l.row_box_lo..l.row_box_lo + l.n].to_vec();
-        let mut norm_duals = Vec::with_capacity(l.k);
-        let mut row = l.row_soc;
-        for &p in &self.norm_dims {
-            norm_duals.push(z[row + 1..row + 1 + p].iter().map(|v| -v).collect());
-            row += p + 1;
-        }
-        QpSolution {
-            outcome,
-            d,
-            lambda,
-            mu,
-            box_lower,
-            box_upper,
-            norm_duals,
-        }
-    }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::linalg::{DenseMatrix, SparseMatrix};
-    use crate::problem::NormTerm;
-
-    #[test]
-    fn triplets_compress_sorted_and_merged() {
-        let mut t = TripletBuilder::with_capacity(4);
-        t.push(2, 0, 1.0);
-        t.push(0, 0, 2.0);
-        t.push(0, 0, 3.0);
-        t.push(1, 1, 4.0);
-        let c = t.into_csc(3, 2);
-        assert_eq!(c.colptr, vec![0, 2, 3]);
-        assert_eq!(c.rowval, vec![0, 2, 1]);
-        assert_eq!(c.nzval, vec![5.0, 1.0, 4.0]);
-        assert!(c.check_format().is_ok());
-    }
-
-    #[test]
-    fn huge_gradient_gives_the_clipped_step_and_unscaled_duals() {
-        // The first QP of `swing` simulated with 1000 iterations per step, in miniature: 10 steps of
-        // 6 controls from rest, identity Hessian, the step box ±0.5, one norm term per step
-        // difference, and the rollout's gradient, whose entries fall from 1e10 (a nearly unstable
-        // rollout) to 1e-4 over the steps. Clarabel reports `DualInfeasible` on this data with its defaults and
-        // with every fallback setting; divided by its largest entry, it solves.
-        let (steps, width) = (10, 6);
-        let n = steps * width;
-        // ∂L/∂U of `swing` at rest with 1000 iterations per step, rounded to 4 digits.
-        #[rustfmt::skip]
-        let g: [f64; 60] = [
-            1.0608e-01, 1.0317e+10, -3.4232e-01, -1.4497e-01, 1.0532e+07, -3.3580e-01,
-            1.0787e-01, 2.2234e+09, -3.4387e-01, -1.4346e-01, 7.0376e+06, -3.3259e-01,
-            1.1037e-01, 9.2754e+07, -3.4610e-01, -1.4131e-01, 3.0972e+05, -3.2830e-01,
-            1.1375e-01, 1.7099e+06, -3.4897e-01, -1.3826e-01, 5.3813e+03, -3.2231e-01,
-            1.1813e-01, 2.0921e+04, -3.5232e-01, -1.3387e-01, 6.0166e+01, -3.1374e-01,
-            1.2349e-01, 2.0704e+02, -3.5540e-01, -1.2746e-01, 3.9819e-01, -3.0116e-01,
-            1.2921e-01, 1.8185e+00, -3.5595e-01, -1.1787e-01, -6.4515e-02, -2.8216e-01,
-            1.3302e-01, -1.1337e-02, -3.4787e-01, -1.0314e-01, -3.3442e-02, -2.5236e-01,
-            1.2818e-01, -7.1756e-03, -3.1571e-01, -8.0007e-02, -1.0328e-02, -2.0352e-01,
-            9.6148e-02, -3.6904e-04, -2.2175e-01, -4.4340e-02, -8.2904e-04, -1.2139e-01,
-        ];
-        let mut h = vec![0.0; n * n];
-        for j in 0..n {
-            h[j * n + j] = 1.0;
-        }
-        let terms: Vec<NormTerm> = (1..steps)
-            .map(|t| {
-                let mut a = SparseMatrix::new(width, n);
-                for k in 0..width {
-                    a.push(k, width * (t - 1) + k, -1.0);
-                    a.push(k, width * t + k, 1.0);
-                }
-                NormTerm::new(1.0, a, vec![0.0; width])
-            })
-            .collect();
-        let norms = NormData::from_terms(&terms, n).expect("norm terms");
-        let residuals = vec![vec![0.0; width]; steps - 1];
-        let (jc, je) = (Jacobian::dense(0, n), Jacobian::dense(0, n));
-        let (lo, up) = (vec![-0.5; n], vec![0.5; n]);
-        let data = QpData {
-            n,
-            hessian: &h,
-            gradient: &g,
-            ineq: &[],
-            ineq_jac: &jc,
-            eq: &[],
-            eq_jac: &je,
-            norms: &norms,
-            norm_residuals: &residuals,
-            step_lower: &lo,
-            step_upper: &up,
-        };
-        let mut qp = QpSubproblem::new(&data, QpMode::Optimality, &[], 1e-9, 200).expect("build");
-        // The premise: the data as built defeats the defaults and every fallback.
-        qp.solver.solve();
-        assert!(!qp.extract(&qp.solver.solution).outcome.is_usable());
-        for fallback in FALLBACKS {
-            assert!(qp.solve_usable(None, Some(fallback)).is_none());
-        }
-        let s = qp.solve();
-        assert!(s.outcome.is_usable(), "{:?}", s.outcome);
-        // The steep coordinates (within 1e6 of the steepest: the solve's accuracy is relative to
-        // the largest entry) sit on the box, against their gradient, and their box duals
-        // (unscaled) balance the gradient: d + g + z_up − z_lo − (norm terms) = 0, the norm
-        // terms' part at most 2 (two unit-weight terms per coordinate).
-        let largest = g.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-        for j in (0..n).filter(|&j| g[j].abs() >= 1e-6 * largest) {
-            let want = -0.5 * g[j].signum();
-            assert!((s.d[j] - want).abs() < 1e-6, "d[{j}] = {} ≠ {want}", s.d[j]);
-            let dual = s.box_upper[j] - s.box_lower[j];
-            let residual = s.d[j] + g[j] + dual;
-            assert!(residual.abs() <= 2.0 + 1e-9, "stationarity {j}: {residual}");
-        }
-        assert!(s.d.iter().all(|d| d.abs() <= 0.5 + 1e-9), "{:?}", s.d);
-    }
-
-    #[test]
-    fn box_constrained_qp_matches_closed_form() {
-        // min ½‖d‖² + gᵀd, d ∈ [-1, 1]², c: d0 + d1 ≥ 0.5 − 0 (c = −0.5, J = [1, 1])
-        let g = [1.0, -3.0];
-        let h = [1.0, 0.0, 0.0, 1.0];
-        let jc = Jacobian::Dense(DenseMatrix::from_rows(&[vec![1.0, 1.0]]).unwrap());
-        let je = Jacobian::dense(0, 2);
-        let data = QpData {
-            n: 2,
-            hessian: &h,
-            gradient: &g,
-            ineq: &[-0.5],
-            ineq_jac: &jc,
-            eq: &[],
-            eq_jac: &je,
-            norms: &[],
-            norm_residuals: &[],
-            step_lower: &[-1.0, -1.0],
-            step_upper: &[1.0, 1.0],
-        };
-        let mut qp =
-            QpSubproblem::new(&data, QpMode::Optimality, &[100.0], 1e-9, 100).expect("build");
-        let s = qp.solve();
-        assert!(s.outcome.is_usable());
-        // Unconstrained minimizer (-1, 3) clipped: d1 = 1 (upper bound), d0 = -1, d0 + d1 = 0 ≥ 0.5? No:
-        // the linear constraint is active: d0 + d1 = 0.5 with d1 = 1 → d0 = -0.5.
-        assert!((s.d[0] + 0.5).abs() < 1e-6, "{:?}", s.d);
-        assert!((s.d[1] - 1.0).abs() < 1e-6, "{:?}", s.d);
-        // Stationarity in d0: d0 + g0 = λ → λ = 0.5
-        assert!((s.lambda[0] - 0.5).abs() < 1e-6);
-    }
-}
+mod tests;

@@ -1,0 +1,203 @@
+//! The ℓ1 merit line search: backtracking with the Armijo test on the QP's predicted reduction,
+//! one second-order correction, and accepting a trial point.
+
+use crate::bfgs::DampedBfgs;
+use crate::error::EvalError;
+use crate::eval::{Evaluator, PointDerivatives, PointValues, Reuse};
+use crate::linalg::{dot, norm2, symv};
+use crate::problem::{NormData, Problem};
+use crate::qp::QpSubproblem;
+
+use super::kkt::linearized_violations;
+use super::SqpSolver;
+
+/// Outcome of the merit line search.
+pub(super) enum Search {
+    Accepted {
+        values: Box<PointValues>,
+        derivatives: Box<PointDerivatives>,
+        alpha: f64,
+    },
+    Failed {
+        all_evaluations_failed: bool,
+        last_error: Option<String>,
+    },
+    Budget,
+}
+
+impl SqpSolver {
+    /// Backtracking on the ℓ1 merit with one second-order correction.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn line_search<P: Problem + ?Sized>(
+        &self,
+        ev: &mut Evaluator<'_, P>,
+        pt: &PointValues,
+        dv: &PointDerivatives,
+        d: &[f64],
+        pred: f64,
+        penalty: &[f64],
+        qp: &mut QpSubproblem,
+    ) -> Search {
+        let s = &self.settings;
+        let phi0 = pt.merit(penalty);
+        let noise = 10.0 * f64::EPSILON * phi0.abs().max(1.0);
+        // Armijo: the largest merit accepted at step length `alpha` (with a rounding allowance).
+        let threshold = |alpha: f64| phi0 - s.armijo * alpha * pred + noise;
+        let mut alpha = 1.0_f64;
+        let mut trials = 0usize;
+        let mut failures = 0usize;
+        let mut last_error = None;
+        let mut tried_soc = false;
+        while alpha >= s.min_step_length {
+            if ev.function_evaluations >= s.max_function_evaluations {
+                return Search::Budget;
+            }
+            trials += 1;
+            let mut xt: Vec<f64> = pt.x.iter().zip(d).map(|(x, di)| x + alpha * di).collect();
+            ev.project(&mut xt);
+            let vt = match ev.values(&xt) {
+                Ok(v) => v,
+                Err(e) => {
+                    failures += 1;
+                    last_error = Some(e.to_string());
+                    alpha *= 0.5;
+                    continue;
+                }
+            };
+            let phit = vt.merit(penalty);
+            if phit <= threshold(alpha) {
+                match accept(ev, pt, dv, &xt, vt, alpha) {
+                    Ok(accepted) => return accepted,
+                    Err(e) => {
+                        failures += 1;
+                        last_error = Some(e.to_string());
+                        alpha *= 0.5;
+                        continue;
+                    }
+                }
+            }
+            // Second-order correction after a rejected full step, held to the full step's test.
+            if alpha == 1.0
+                && !tried_soc
+                && s.second_order_correction
+                && (ev.m + ev.q) > 0
+                && ev.function_evaluations < s.max_function_evaluations
+            {
+                tried_soc = true;
+                if let Some((xs, vs)) = second_order_correction(ev, pt, dv, d, &vt, qp) {
+                    if vs.merit(penalty) <= threshold(1.0) {
+                        if let Ok(accepted) = accept(ev, pt, dv, &xs, vs, 1.0) {
+                            return accepted;
+                        }
+                    }
+                }
+            }
+            // Quadratic interpolation of the merit along the step, safeguarded to [0.1α, 0.5α].
+            let denom = 2.0 * (phit - phi0 + alpha * pred);
+            let interp = if denom > 0.0 {
+                pred * alpha * alpha / denom
+            } else {
+                0.5 * alpha
+            };
+            alpha = interp.clamp(0.1 * alpha, 0.5 * alpha);
+        }
+        Search::Failed {
+            all_evaluations_failed: trials > 0 && failures == trials,
+            last_error,
+        }
+    }
+}
+
+/// Accepts the trial point `x` of step length `alpha`, whose values are known, once its derivatives
+/// are evaluated (far-from-active rows may keep their values in `previous`, those at the iterate
+/// `from`).
+fn accept<P: Problem + ?Sized>(
+    ev: &mut Evaluator<'_, P>,
+    from: &PointValues,
+    previous: &PointDerivatives,
+    x: &[f64],
+    values: PointValues,
+    alpha: f64,
+) -> Result<Search, EvalError> {
+    let reuse = Reuse {
+        from,
+        previous,
+        values: &values,
+    };
+    let derivatives = ev.derivatives_reusing(x, Some(reuse))?;
+    Ok(Search::Accepted {
+        values: Box::new(values),
+        derivatives: Box::new(derivatives),
+        alpha,
+    })
+}
+
+/// The second-order-corrected point and its values: re-solves the QP with the constraint values at
+/// the rejected full step `x + d` (`trial`), i.e. `c(x+d) + J(x)(d̂ − d) ≥ 0`, and evaluates `x + d̂`.
+/// `None` if the corrected QP or the evaluation fails.
+fn second_order_correction<P: Problem + ?Sized>(
+    ev: &mut Evaluator<'_, P>,
+    pt: &PointValues,
+    dv: &PointDerivatives,
+    d: &[f64],
+    trial: &PointValues,
+    qp: &mut QpSubproblem,
+) -> Option<(Vec<f64>, PointValues)> {
+    let mut jd = vec![0.0; ev.m];
+    dv.jc.mul_vec(d, &mut jd);
+    let c_hat: Vec<f64> = trial.c.iter().zip(&jd).map(|(c, a)| c - a).collect();
+    let mut hd = vec![0.0; ev.q];
+    dv.jh.mul_vec(d, &mut hd);
+    let h_hat: Vec<f64> = trial.h.iter().zip(&hd).map(|(h, a)| h - a).collect();
+    qp.update_constraint_values(&c_hat, &h_hat).ok()?;
+    let sol = qp.solve();
+    if !sol.outcome.is_usable() || sol.d.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let mut xs: Vec<f64> = pt.x.iter().zip(&sol.d).map(|(x, di)| x + di).collect();
+    ev.project(&mut xs);
+    let vs = ev.values(&xs).ok()?;
+    Some((xs, vs))
+}
+
+/// True when the QP step `d` brings the linearization of a kept (not evaluated here) Jacobian row
+/// below half of the reuse margin: that row may be about to matter, so it must be evaluated.
+pub(super) fn kept_row_nears_activity<P: Problem + ?Sized>(
+    ev: &Evaluator<'_, P>,
+    pt: &PointValues,
+    dv: &PointDerivatives,
+    d: &[f64],
+) -> bool {
+    let Some(margin) = ev.reuse_margin else {
+        return false;
+    };
+    if !dv.has_kept_rows() {
+        return false;
+    }
+    let mut jd = vec![0.0; ev.m];
+    dv.jc.mul_vec(d, &mut jd);
+    (0..ev.m).any(|i| dv.kept[i] && (pt.c[i] + jd[i]) / ev.c_scale[i] < 0.5 * margin)
+}
+
+/// `m(0) − m(d)` for the ℓ1 model `f + gᵀd + ½dᵀBd + Σw‖r + Ad‖ + ν·linviol(d)`.
+pub(super) fn predicted_reduction(
+    pt: &PointValues,
+    dv: &PointDerivatives,
+    bfgs: &DampedBfgs,
+    norms: &[NormData],
+    d: &[f64],
+    weights: &[f64],
+) -> f64 {
+    let n = d.len();
+    let mut bd = vec![0.0; n];
+    symv(bfgs.matrix(), n, d, &mut bd);
+    let quad = dot(&dv.g, d) + 0.5 * dot(d, &bd);
+    let xd: Vec<f64> = pt.x.iter().zip(d).map(|(a, b)| a + b).collect();
+    let norms_new: f64 = norms
+        .iter()
+        .map(|nd| nd.weight * norm2(&nd.residual(&xd)))
+        .sum();
+    let lin = linearized_violations(pt, dv, d);
+    let lin_weighted: f64 = lin.iter().zip(weights).map(|(v, w)| v * w).sum();
+    -quad + (pt.f_norms - norms_new) + (pt.weighted_violation(weights) - lin_weighted)
+}
