@@ -579,7 +579,7 @@ impl Recorder<'_> {
         let u_t = m.step_controls(self.controls, t - 1);
         if self.starts.len() > 1 && self.checkpoints.as_ref().map(|c| c.0) != Some(t) {
             let mut x = m.begin_step(x_prev, &u_t);
-            let mut lambdas = m.zero_lambdas();
+            let mut lambdas = m.initial_carries(x_prev);
             let mut checkpoints = Vec::with_capacity(self.starts.len() - 1);
             for w in self.starts.windows(2) {
                 m.sweep(&mut x, &mut lambdas, w[1] - w[0]);
@@ -592,7 +592,7 @@ impl Recorder<'_> {
         let u = tape.leaf(u_t);
         let (x_in, lambdas_in) = if seg.block == 0 {
             let x = m.record_begin_step(&mut tape, x_prev, u);
-            (x, m.record_zero_lambdas(&mut tape))
+            (x, m.record_initial_carries(&mut tape, x_prev))
         } else {
             let (_, checkpoints) = self.checkpoints.as_ref().expect("checkpoints of this step");
             let (x, l) = &checkpoints[seg.block - 1];

@@ -11,6 +11,7 @@
 //! - [`coloring`]: greedy colouring into independent sets;
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles
 //!   (spheres, planes, capsules, boxes, closed meshes);
+//! - [`contact`]: contact effects beyond the collider constraint (friction);
 //! - [`controls`]: the controls tensor viewed by (step, gripper);
 //! - [`model`]: a scene compiled to its effects; [`registry`]: constraint types scene files name; [`sim`]: time stepping; [`cost`], [`grad`]: costs
 //!   and gradients;
@@ -19,6 +20,7 @@
 
 pub mod coloring;
 pub mod constraint;
+pub mod contact;
 pub mod controls;
 pub mod cost;
 pub mod error;

@@ -6,6 +6,7 @@
 
 use crate::coloring::{greedy_coloring, independent_sets};
 use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_ARITY};
+use crate::contact::friction::FrictionalContact;
 use crate::error::ClothError;
 use crate::newton::terms::{ConstraintTerms, Terms};
 use crate::newton::Solver;
@@ -24,6 +25,22 @@ pub struct ProjectionSet {
     pub projection: Arc<dyn DynRowFn>,
     /// Particles of each row.
     pub index: Arc<RowIndex>,
+    /// What each row carries through a step's iterations besides its particles.
+    pub carry: Carry,
+}
+
+/// The per-row values a colour set carries through a step's Gauss–Seidel iterations (the
+/// `carry` of [`autodiff::update::update_rows`]), and how each step starts them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Carry {
+    /// One XPBD multiplier `λ`, zero at each step's start.
+    Multiplier,
+    /// The row's (single) particle's position at the step's start, copied from the previous
+    /// state, then `width − 3` values starting at zero ([`crate::contact::friction`]).
+    StartPosition {
+        /// Carried values per row (≥ 3).
+        width: usize,
+    },
 }
 
 /// All constraints of one type: their colour sets (in sweep order) and their energy.
@@ -273,9 +290,13 @@ impl Model {
             model.add_constraints(
                 "collider",
                 Collision { sdf: colliders },
-                free,
+                free.clone(),
                 f64::INFINITY,
             )?;
+            if let Some(friction) = FrictionalContact::from_obstacles(&scene.obstacles) {
+                let group = model.groups.last_mut().expect("the collider group");
+                group.sets = vec![friction.projection_set(free)];
+            }
         }
         if !safety.is_empty() {
             model.safety = Some(Arc::new(ParticleSdf {
@@ -375,6 +396,7 @@ impl Model {
                 ProjectionSet {
                     projection: Arc::new(projection),
                     index: Arc::new(RowIndex::new(C::ARITY, idx)),
+                    carry: Carry::Multiplier,
                 }
             })
             .collect();
@@ -424,6 +446,9 @@ impl Model {
                 )
             })
             .collect();
+        if self.sets().any(|s| s.carry != Carry::Multiplier) {
+            parts.push("friction".into());
+        }
         if self.gravity_step.is_some() {
             parts.push("gravity".into());
         }

@@ -6,7 +6,7 @@
 //! kernel on the same inputs, so their states agree bit for bit.
 
 use crate::error::ClothError;
-use crate::model::{Model, ProjectionSet};
+use crate::model::{Carry, Model, ProjectionSet};
 use autodiff::update::update_rows;
 use autodiff::{in_pool, Tape, Tensor, Var};
 
@@ -52,15 +52,15 @@ impl Model {
     /// One time step on plain `f64` data.
     pub fn step(&self, x_prev: &Tensor, u: &Tensor, scratch: &mut StepScratch) -> Tensor {
         let mut x = self.begin_step(x_prev, u);
-        // λ ← 0, reusing the previous step's tensors.
-        let fits =
-            (scratch.lambdas.iter().map(Tensor::rows)).eq(self.sets().map(|s| s.index.rows()));
+        // λ ← 0 (and every other carry to its start), reusing the previous step's tensors.
+        let fits = (scratch.lambdas.iter().map(Tensor::shape))
+            .eq(self.sets().map(|s| (s.index.rows(), s.carry_width())));
         if fits {
-            for l in &mut scratch.lambdas {
-                l.data_mut().fill(0.0);
+            for (set, l) in self.sets().zip(&mut scratch.lambdas) {
+                set.start_carry(x_prev, l);
             }
         } else {
-            scratch.lambdas = self.zero_lambdas();
+            scratch.lambdas = self.initial_carries(x_prev);
         }
         self.sweep(&mut x, &mut scratch.lambdas, self.iterations);
         x
@@ -84,10 +84,15 @@ impl Model {
         x
     }
 
-    /// Zero multipliers `λ`, one tensor per colour set in sweep order.
-    pub fn zero_lambdas(&self) -> Vec<Tensor> {
+    /// The carries of a step that starts from `x_prev`, one tensor per colour set in sweep order:
+    /// zero multipliers `λ`, and the start positions of [`Carry::StartPosition`] sets.
+    pub fn initial_carries(&self, x_prev: &Tensor) -> Vec<Tensor> {
         self.sets()
-            .map(|s| Tensor::zeros(s.index.rows(), 1))
+            .map(|s| {
+                let mut carry = Tensor::zeros(s.index.rows(), s.carry_width());
+                s.start_carry(x_prev, &mut carry);
+                carry
+            })
             .collect()
     }
 
@@ -108,7 +113,7 @@ impl Model {
     /// Records one time step on `tape` from the state `x_prev` and controls `u` (`n_controls × 3`).
     pub fn record_step(&self, tape: &mut Tape, x_prev: Var, u: Var) -> Var {
         let x = self.record_begin_step(tape, x_prev, u);
-        let mut lambdas = self.record_zero_lambdas(tape);
+        let mut lambdas = self.record_initial_carries(tape, x_prev);
         self.record_sweeps(tape, x, &mut lambdas, self.iterations)
     }
 
@@ -129,11 +134,18 @@ impl Model {
         x
     }
 
-    /// Zero multipliers as leaves of `tape`.
-    pub fn record_zero_lambdas(&self, tape: &mut Tape) -> Vec<Var> {
-        self.zero_lambdas()
-            .into_iter()
-            .map(|l| tape.leaf(l))
+    /// Records [`Model::initial_carries`] from `x_prev` on `tape`: zero multipliers are leaves,
+    /// start positions are gathered from `x_prev` (so the step's gradient reaches it through them).
+    pub fn record_initial_carries(&self, tape: &mut Tape, x_prev: Var) -> Vec<Var> {
+        self.sets()
+            .map(|s| match s.carry {
+                Carry::Multiplier => tape.leaf(Tensor::zeros(s.index.rows(), 1)),
+                Carry::StartPosition { width } => {
+                    let start = tape.gather(x_prev, &s.index);
+                    let rest = tape.leaf(Tensor::zeros(s.index.rows(), width - 3));
+                    tape.concat_cols(&[start, rest])
+                }
+            })
             .collect()
     }
 
@@ -176,6 +188,26 @@ impl Model {
             }
             Ok(states)
         })
+    }
+}
+
+impl ProjectionSet {
+    /// Values carried per row (1 for a multiplier).
+    pub fn carry_width(&self) -> usize {
+        match self.carry {
+            Carry::Multiplier => 1,
+            Carry::StartPosition { width } => width,
+        }
+    }
+
+    /// Sets `carry` (`rows × carry_width`) to its value at the start of a step from `x_prev`.
+    pub fn start_carry(&self, x_prev: &Tensor, carry: &mut Tensor) {
+        carry.data_mut().fill(0.0);
+        if let Carry::StartPosition { .. } = self.carry {
+            for (k, &p) in self.index.as_slice().iter().enumerate() {
+                carry.row_mut(k)[..3].copy_from_slice(x_prev.row(p));
+            }
+        }
     }
 }
 

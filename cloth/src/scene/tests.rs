@@ -283,6 +283,7 @@ rejects_struct!(plane_point_nan, "obstacles[1].point[2]", "finite", |s| {
         point: [0.0, 0.0, f64::NAN],
         normal: [0.0, 0.0, 1.0],
         role: ObstacleRole::Both,
+        friction: None,
     }))
 });
 
@@ -811,7 +812,8 @@ fn builtin_drop_matches_spec() {
         vec![Obstacle::Plane(PlaneSpec {
             point: [0.0, 0.0, 0.0],
             normal: [0.0, 0.0, 1.0],
-            role: ObstacleRole::Collider
+            role: ObstacleRole::Collider,
+            friction: None,
         })]
     );
     assert_eq!(s.target_indices(), vec![0, 9, 90, 99]);

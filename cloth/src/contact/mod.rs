@@ -1,0 +1,3 @@
+//! Contact effects beyond the plain one-sided collider constraint.
+
+pub mod friction;
