@@ -49,7 +49,7 @@ fn main() -> Result<()> {
     println!("task: {}", result.task.explanation);
 
     if let Some(out) = std::env::args_os().nth(1) {
-        plan::write_json_atomic(out.as_ref(), &result)?;
+        clothopt::output::write_json_atomic(out.as_ref(), &result)?;
         println!("wrote {}", out.to_string_lossy());
     }
     Ok(())

@@ -251,10 +251,13 @@ fn obstacle_spheres(model: &Model) -> Vec<Sphere> {
 
 /// The surfaces of the obstacles that are neither spheres nor planes (capsules, boxes, meshes),
 /// of `union`.
-fn surfaces(union: &Union) -> impl Iterator<Item = Surface> + '_ {
-    let capsules = union.capsules.iter().map(|c| c.surface_triangles());
-    let boxes = union.boxes.iter().map(|b| b.surface_triangles());
-    let meshes = union.meshes.iter().map(|m| m.surface_triangles());
+fn surfaces(union: &Union) -> impl Iterator<Item = (Surface, &'static str)> + '_ {
+    let capsules = union
+        .capsules
+        .iter()
+        .map(|c| (c.surface_triangles(), "capsule"));
+    let boxes = union.boxes.iter().map(|b| (b.surface_triangles(), "box"));
+    let meshes = union.meshes.iter().map(|m| (m.surface_triangles(), "mesh"));
     capsules.chain(boxes).chain(meshes)
 }
 
@@ -262,14 +265,15 @@ fn surfaces(union: &Union) -> impl Iterator<Item = Surface> + '_ {
 /// obstacle with role `both` is in both of the model's lists: it becomes one solid).
 fn obstacle_solids(model: &Model) -> Vec<Solid> {
     let mut solids: Vec<Solid> = surfaces(&model.safety_obstacles)
-        .map(|(vertices, triangles)| Solid {
+        .map(|((vertices, triangles), kind)| Solid {
             vertices,
             triangles,
             role: SolidRole::Safety,
+            kind: kind.to_string(),
         })
         .collect();
     let safety = solids.len();
-    for (vertices, triangles) in surfaces(&model.colliders) {
+    for ((vertices, triangles), kind) in surfaces(&model.colliders) {
         let same = |s: &Solid| s.vertices == vertices && s.triangles == triangles;
         match solids[..safety].iter_mut().find(|s| same(s)) {
             Some(solid) => solid.role = SolidRole::Both,
@@ -277,6 +281,7 @@ fn obstacle_solids(model: &Model) -> Vec<Solid> {
                 vertices,
                 triangles,
                 role: SolidRole::Collider,
+                kind: kind.to_string(),
             }),
         }
     }

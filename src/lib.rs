@@ -3,8 +3,8 @@
 //! Glue between the `cloth` simulator and the `optim` solvers: [`problem::TrajectoryProblem`]
 //! casts a cloth task as an optimization problem (its rows on the controls alone, robot limits
 //! and collider planes, in `control_rows`); [`plan`] runs it and packages the result;
-//! `plot` (the `viz` crate, feature `figures`) draws figures and `figures` builds them from rollouts; [`export`] writes way-points
-//! and meshes for robots and viewers.
+//! `plot` (the `viz` crate, feature `figures`) draws figures and `figures` builds them from rollouts; [`export`] formats way-points
+//! and meshes for robots and viewers; [`output`] writes result files atomically.
 
 pub mod anytime;
 mod control_rows;
@@ -13,6 +13,7 @@ pub mod export;
 #[cfg(feature = "figures")]
 pub mod figures;
 pub mod outcome;
+pub mod output;
 pub mod plan;
 pub mod problem;
 pub mod request;

@@ -9,8 +9,6 @@ use autodiff::Tensor;
 use cloth::{Controls, Metrics, Model, Scene};
 use optim::{IterationInfo, LbfgsSettings, LbfgsSolver, Problem, SqpSettings, SqpSolver, Status};
 use serde::Serialize;
-use std::io::Write;
-use std::path::Path;
 use std::time::Instant;
 
 /// Which solver runs the problem.
@@ -685,40 +683,6 @@ pub fn states_of(result: &PlanResult) -> Result<Vec<Tensor>> {
         .iter()
         .map(|s| Tensor::new(s.len(), 3, s.iter().flatten().copied().collect()))
         .collect())
-}
-
-/// Writes `value` as pretty JSON to `path` atomically: a temporary file beside it, then a rename,
-/// so a failed run never leaves a partial file.
-pub fn write_json_atomic<T: Serialize>(path: &Path, value: &T) -> Result<()> {
-    let text = serde_json::to_string_pretty(value)?;
-    write_atomic(path, text.as_bytes())
-}
-
-/// Writes `bytes` to `path` through a temporary file and a rename.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(source) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::Write {
-            path: path.to_path_buf(),
-            source,
-        });
-    }
-    Ok(())
 }
 
 /// A mesh cloth's triangles for the result JSON; `None` for a grid.

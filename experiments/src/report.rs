@@ -38,7 +38,7 @@ pub fn fmt_opt(v: Option<f64>, prec: usize) -> String {
 
 /// Writes `value` as JSON to `path` atomically (temp file + rename) and says so on stdout.
 pub fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
-    clothopt::plan::write_json_atomic(path, value)?;
+    clothopt::output::write_json_atomic(path, value)?;
     println!("wrote {}", path.display());
     Ok(())
 }

@@ -177,7 +177,7 @@ impl Plan {
     /// save(path) -> None: writes the result JSON to `path` atomically (temporary file and
     /// rename), as `clothopt optimize --out` does.
     fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
-        clothopt::plan::write_json_atomic(&path, &self.result)
+        clothopt::output::write_json_atomic(&path, &self.result)
             .map_err(|e| pyo3::exceptions::PyOSError::new_err(clothopt::error_chain(&e)))
     }
 

@@ -100,6 +100,8 @@ pub struct Solid {
     pub triangles: Vec<[usize; 3]>,
     /// What the obstacle is for (its colour).
     pub role: SolidRole,
+    /// The obstacle's kind for the legend, e.g. `"capsule"`, `"box"`, `"mesh"`.
+    pub kind: String,
 }
 
 /// The viewing direction of [`draw_trajectory_3d`] (an orthographic, axonometric view with equal scale

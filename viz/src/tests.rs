@@ -399,6 +399,7 @@ fn cube(lo: [f64; 3], hi: [f64; 3], role: SolidRole) -> Solid {
         vertices,
         triangles,
         role,
+        kind: "box".into(),
     }
 }
 
@@ -462,6 +463,7 @@ fn solids_are_drawn_depth_sorted_and_hide_the_cloth_behind_them() {
         vertices: vec![[0.0; 3]; 3],
         triangles: vec![[0, 1, 3]],
         role: SolidRole::Safety,
+        kind: "mesh".into(),
     }];
     let fig = TrajectoryFigure {
         solids: &bad,
@@ -523,4 +525,41 @@ fn a_solid_triangle_nearer_the_viewer_is_painted_later() {
         .collect();
     // Flat's depth is −z: the lowest first.
     assert_eq!(order, [0.0, 1.0, 2.0]);
+}
+
+/// A legend whose labels are longer than the default column is widened to fit: its box
+/// (grey border) ends inside the image in both views.
+#[test]
+fn a_long_legend_label_stays_inside_the_figure() {
+    let dir = scratch("legend");
+    let (a, b) = (sheet(-1.0), sheet(1.0));
+    let long = "cloth: step 12 of a long plan, max strain 1234%".to_string();
+    let fig = TrajectoryFigure {
+        title: "long legend".into(),
+        grid: (3, 3),
+        frames: vec![(&a[..], "initial".into()), (&b[..], long)],
+        ..Default::default()
+    };
+    let border = [150, 150, 150];
+    for name in ["3d.png", "top.png"] {
+        let path = dir.join(name);
+        if name == "3d.png" {
+            draw_trajectory_3d(&fig, &path).expect("3-D view");
+        } else {
+            draw_trajectory_top(&fig, &path).expect("top view");
+        }
+        let (w, h, px) = decode(&path);
+        assert!(
+            count(&px, RGBColor(150, 150, 150)) > 100,
+            "{name}: legend box"
+        );
+        let last_columns = (0..h as usize)
+            .flat_map(|y| (w as usize - 3..w as usize).map(move |x| y * w as usize + x));
+        let clipped = last_columns.filter(|&i| px[i] == border).count();
+        assert_eq!(
+            clipped, 0,
+            "{name}: the legend box reaches the image's right edge"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

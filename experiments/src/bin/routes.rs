@@ -195,7 +195,7 @@ fn plan_one(file: &Path, search: SearchMode, result_path: &Path) -> Result<()> {
         ..SearchOptions::default()
     };
     let result = plan_with_search(&model, &scene, &start, &options, &search, |_| {})?;
-    plan::write_json_atomic(result_path, &result)?;
+    clothopt::output::write_json_atomic(result_path, &result)?;
     if let Some(kb) = proc_status_kb("VmHWM") {
         println!("{:.1}", kb / 1024.0);
     }

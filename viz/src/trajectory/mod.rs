@@ -231,7 +231,7 @@ pub(crate) fn trajectory_legend(
     for (k, solid) in fig.solids.iter().enumerate() {
         e.push((
             Swatch::Patch(prims::solid_color(solid.role).to_rgba()),
-            format!("obstacle {} ({:?}, mesh)", k + 1, solid.role).to_lowercase(),
+            format!("{} {} ({:?})", solid.kind, k + 1, solid.role).to_lowercase(),
         ));
     }
     if let (false, Some(d)) = (fig.spheres.is_empty(), fig.safety_margin) {

@@ -10,7 +10,7 @@ use super::{
     render_margin, render_targets, trajectory_bounds, trajectory_legend, validate_trajectory,
 };
 use crate::format::fmt_tick;
-use crate::legend::draw_legend;
+use crate::legend::{draw_legend, legend_size};
 use crate::render::{de, render};
 use crate::style::*;
 use crate::{PlotError, TrajectoryFigure};
@@ -26,7 +26,9 @@ pub fn draw_trajectory_top(fig: &TrajectoryFigure, path: &Path) -> Result<(), Pl
                 text(22.0).pos(Pos::new(HPos::Center, VPos::Top)),
             )
             .map_err(de)?;
-        let legend_w = 240;
+        let entries = trajectory_legend(fig, false);
+        // The legend column is as wide as the widest label needs (at least 240 px).
+        let legend_w = 240.max(legend_size(root, "Top view", &entries)?.0 + 10);
         let (plot_area, legend_area) = titled.split_horizontally(SIZE_2D.0 as i32 - legend_w);
         let b = trajectory_bounds(fig);
 
@@ -69,12 +71,7 @@ pub fn draw_trajectory_top(fig: &TrajectoryFigure, path: &Path) -> Result<(), Pl
         render_targets(root, &proj, fig)?;
 
         let (lx, ly) = legend_area.get_base_pixel();
-        let bottom = draw_legend(
-            root,
-            (lx, ly + 20),
-            "Top view",
-            &trajectory_legend(fig, false),
-        )?;
+        let bottom = draw_legend(root, (lx, ly + 20), "Top view", &entries)?;
         root.draw(&Text::new(
             "seen from above (+z);".to_string(),
             (lx + 4, bottom + 12),

@@ -12,7 +12,7 @@ use super::{
     validate_trajectory,
 };
 use crate::format::fmt_tick;
-use crate::legend::draw_legend;
+use crate::legend::{draw_legend, legend_size};
 use crate::render::{de, render, Area};
 use crate::style::*;
 use crate::text::Canvas;
@@ -42,14 +42,16 @@ pub(crate) fn view_3d(
             text(24.0).pos(Pos::new(HPos::Center, VPos::Top)),
         )
         .map_err(de)?;
-    let legend_w = 250;
+    let entries = trajectory_legend(fig, true);
+    // The legend column is as wide as the widest label needs (at least 250 px).
+    let legend_w = 250.max(legend_size(root, "Legend", &entries)?.0 + 10);
     let (plot_area, legend_area) = titled.split_horizontally(SIZE_3D.0 as i32 - legend_w);
 
     scene_3d(root, &plot_area, fig, b, 17.0)?;
     let view = fig.view;
 
     let (lx, ly) = legend_area.get_base_pixel();
-    let bottom = draw_legend(root, (lx, ly + 20), "Legend", &trajectory_legend(fig, true))?;
+    let bottom = draw_legend(root, (lx, ly + 20), "Legend", &entries)?;
     let note = format!(
         "view: yaw {:.0}°, pitch {:.0}°",
         view.yaw * 180.0 / PI,

@@ -147,7 +147,7 @@ pub fn write_output(
             .chain(mesh.iter().map(Row::Mesh))
             .chain(jax.iter().map(Row::Jax))
             .collect();
-        clothopt::plan::write_json_atomic(
+        clothopt::output::write_json_atomic(
             path,
             &Output {
                 rows: &rows,

@@ -1,0 +1,146 @@
+//! What several subcommands share: the physics and watch flag groups, loading a scene and its
+//! controls, `--sweeps`, flag checks, and drawing a rollout.
+
+use anyhow::{bail, Context, Result};
+use cloth::{Controls, Model, Scene};
+use clothopt::figures::{self, top_view_path, RolloutFigure};
+use clothopt::plan::{controls_from_nested, ensure_iterations, initial_controls};
+use std::path::{Path, PathBuf};
+
+/// The animated outputs shared by `simulate` and `optimize`.
+#[derive(clap::Args, Debug)]
+pub struct WatchArgs {
+    /// Write the rollout as one self-contained HTML page to watch (orbit with the mouse, time
+    /// slider, play; the particle nearest the obstacles marked at every step).
+    #[arg(long)]
+    pub html: Option<PathBuf>,
+    /// Write the rollout as an animated GIF, one 3-D view per step.
+    #[arg(long)]
+    pub gif: Option<PathBuf>,
+}
+
+impl WatchArgs {
+    /// Writes the HTML page and/or the GIF of a rollout.
+    pub fn write(
+        &self,
+        model: &Model,
+        scene: &Scene,
+        states: &[autodiff::Tensor],
+        title: &str,
+        delta: f64,
+    ) -> Result<()> {
+        let grid = (scene.cloth.rows, scene.cloth.cols);
+        if let Some(path) = &self.html {
+            figures::write_rollout_html(model, states, title, Some(delta), path)?;
+            println!("wrote {}", path.display());
+        }
+        if let Some(path) = &self.gif {
+            figures::draw_rollout_gif(model, grid, states, title, Some(delta), path)?;
+            println!("wrote {}", path.display());
+        }
+        Ok(())
+    }
+}
+
+/// The physics solver flags shared by `simulate`, `grad` and `optimize`.
+#[derive(clap::Args, Debug)]
+pub struct PhysicsArgs {
+    /// Step solver: `xpbd` (the scene's iterations of Gauss–Seidel) or `newton` (converged;
+    /// default: the scene's `physics.solver`).
+    #[arg(long, value_enum)]
+    physics: Option<PhysicsSolver>,
+    /// Newton's relative ‖∇Φ‖ tolerance, in (0, 1) (default: the scene's, else 1e-10).
+    #[arg(long)]
+    physics_tolerance: Option<f64>,
+    /// Newton's load steps per time step, ≥ 1 (default: the scene's, else 1).
+    #[arg(long)]
+    physics_load_steps: Option<usize>,
+}
+
+/// `--physics` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum PhysicsSolver {
+    Xpbd,
+    Newton,
+}
+
+impl PhysicsArgs {
+    /// Writes the flags into the scene's `physics` (validated with the scene).
+    pub fn apply(&self, scene: &mut Scene) -> Result<()> {
+        use cloth::scene::SolverKind as Kind;
+        if let Some(p) = self.physics {
+            scene.physics.solver = match p {
+                PhysicsSolver::Xpbd => Kind::Xpbd,
+                PhysicsSolver::Newton => Kind::Newton,
+            };
+        }
+        if let Some(tol) = self.physics_tolerance {
+            if !(tol > 0.0 && tol < 1.0) {
+                bail!("--physics-tolerance must be in (0, 1), got {tol}");
+            }
+            scene.physics.tolerance = Some(tol);
+        }
+        if let Some(k) = self.physics_load_steps {
+            if k == 0 {
+                bail!("--physics-load-steps must be at least 1, got 0");
+            }
+            scene.physics.load_steps = Some(k);
+        }
+        Ok(())
+    }
+}
+
+/// Loads a scene by built-in name or file path, applies `--sweeps` and the physics flags.
+pub fn load_scene(name: &str, sweeps: Option<usize>, physics: &PhysicsArgs) -> Result<Scene> {
+    let mut scene = clothopt::request::load_scene(name)?;
+    if let Some(n) = sweeps {
+        ensure_iterations("--sweeps", n)?;
+        scene.physics.iterations = n;
+    }
+    physics.apply(&mut scene)?;
+    Ok(scene)
+}
+
+/// A controls file, or any JSON object with a `controls` key (such as a result).
+#[derive(serde::Deserialize)]
+struct ControlsFile {
+    controls: Vec<Vec<[f64; 3]>>,
+}
+
+/// The controls in `file` (a controls file or a result), or the scene's initial guess.
+pub fn load_controls(scene: &Scene, model: &Model, file: Option<&Path>) -> Result<Controls> {
+    match file {
+        None => Ok(initial_controls(scene, model)?),
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            let parsed: ControlsFile = serde_json::from_str(&text)
+                .with_context(|| format!("{}: not a controls file", path.display()))?;
+            controls_from_nested(model, &parsed.controls)
+                .with_context(|| path.display().to_string())
+        }
+    }
+}
+
+/// Draws a rollout's 3-D view to `png` and its top view beside it.
+pub fn draw(
+    model: &Model,
+    scene: &Scene,
+    states: &[autodiff::Tensor],
+    title: &str,
+    delta: f64,
+    png: &Path,
+) -> Result<()> {
+    let figure = RolloutFigure::new(
+        model,
+        (scene.cloth.rows, scene.cloth.cols),
+        states,
+        title,
+        Some(delta),
+    );
+    figure.draw_3d(png)?;
+    let top = top_view_path(png);
+    figure.draw_top(&top)?;
+    println!("wrote {} and {}", png.display(), top.display());
+    Ok(())
+}

@@ -1,0 +1,191 @@
+//! `clothopt optimize`: plan a scene's task, write the result and the figures, and turn the
+//! verdict into the exit code.
+
+use super::common::{draw, load_controls, load_scene, PhysicsArgs, WatchArgs};
+use super::progress::Reporter;
+use super::summary;
+use anyhow::{Context, Result};
+use cloth::Model;
+use clothopt::output::write_json_atomic;
+use clothopt::plan::{self, ensure_iterations, SolverKind};
+use clothopt::problem::SafetyForm;
+use clothopt::request::OptimizeRequest;
+use clothopt::search::{plan_with_search, SearchMode};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// Optimize the control sequence of a scene's task.
+#[derive(clap::Args)]
+pub struct OptimizeArgs {
+    /// A built-in scene name or a scene JSON file.
+    scene: String,
+    /// Safety margin δ (default: the scene's).
+    #[arg(long, allow_negative_numbers = true)]
+    delta: Option<f64>,
+    /// Weight α of the trajectory irregularity (default: the scene's).
+    #[arg(long, allow_negative_numbers = true)]
+    alpha: Option<f64>,
+    /// Weight β of the elastic energy (default: the scene's).
+    #[arg(long, allow_negative_numbers = true)]
+    beta: Option<f64>,
+    /// Optimizer iteration limit, per κ stage (the soft safety forms first solve at κ = 200)
+    #[arg(long, default_value_t = 200)]
+    iterations: usize,
+    /// Solver sweeps per time step of the simulation (default: the scene's
+    /// `physics.iterations`).
+    #[arg(long)]
+    sweeps: Option<usize>,
+    /// Form of the safety constraint.
+    #[arg(long, value_enum, default_value_t = SafetyForm::PerStep)]
+    safety: SafetyForm,
+    /// Also keep the straight paths between steps at least δ away.
+    #[arg(long)]
+    swept: bool,
+    /// Sharpness κ (1/length) of the soft minimum in the per-step and aggregate forms (default
+    /// 3000); above 200 the planner first solves at κ = 200 and refines from that plan.
+    #[arg(long, allow_negative_numbers = true)]
+    kappa: Option<f64>,
+    /// Safety rows farther than this above their margin keep their last gradient instead of
+    /// a backward pass per iterate while it predicts their change (length units; default off).
+    #[arg(long, allow_negative_numbers = true)]
+    reuse_band: Option<f64>,
+    /// The solver.
+    #[arg(long, value_enum, default_value_t = SolverKind::Sqp)]
+    solver: SolverKind,
+    /// Route search: `auto` plans other routes (detours over, beside or under the obstacles
+    /// the first plan runs into, and seeded perturbations) only when the plan from the start
+    /// does not achieve the task; `always` also when it does; `off` never.
+    #[arg(long, value_enum, default_value_t = SearchMode::Auto)]
+    search: SearchMode,
+    /// Most candidate routes the search plans (from 4 on, 2 of them seeded random
+    /// perturbations).
+    #[arg(long, default_value_t = 6)]
+    starts: usize,
+    /// Write the result JSON here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Start from these controls: a controls file or a previous result (default: the scene's
+    /// initial guess).
+    #[arg(long)]
+    start: Option<PathBuf>,
+    /// Scaled KKT tolerance for `converged`.
+    #[arg(long, default_value_t = 1e-4, allow_negative_numbers = true)]
+    tol: f64,
+    /// Largest violation (length units) of the optimizer's rows (safety rows, collider rows)
+    /// at which a plan still counts as feasible; a plan violating them by more ends `no safe
+    /// plan` (exit 4) and says by how much.
+    #[arg(long, default_value_t = clothopt::plan::FEASIBILITY_TOLERANCE, allow_negative_numbers = true)]
+    feasibility_tol: f64,
+    /// Plan even when the cloth starts inside an obstacle (an error otherwise): step 0 is
+    /// fixed by the scene, so no plan can make it safe.
+    #[arg(long)]
+    allow_unsafe_start: bool,
+    /// Draw the result: a 3-D view here and a top view beside it (`*_top.png`).
+    #[arg(long)]
+    png: Option<PathBuf>,
+    #[command(flatten)]
+    watch: WatchArgs,
+    /// Print one line per optimizer iteration to stderr.
+    #[arg(long)]
+    verbose: bool,
+    /// Stop after this many seconds and return the best safe plan found so far (status
+    /// `time_limit`); the route search stops too.
+    #[arg(long, allow_negative_numbers = true)]
+    time_limit: Option<f64>,
+    /// Leave the wall-clock time out of the result JSON and the summary, so that the same
+    /// command writes byte-identical results (any thread count).
+    #[arg(long)]
+    no_timing: bool,
+    #[command(flatten)]
+    physics: PhysicsArgs,
+}
+
+/// The command-line spelling of a setting: `reuse_band` → `--reuse-band`.
+fn flag_name(field: &str) -> String {
+    format!("--{}", field.replace('_', "-"))
+}
+
+/// Runs `optimize`: plans (with the route search), prints the summary, writes the result and
+/// figures; the exit code is the verdict's ([`summary::report_verdict`]).
+pub fn run(args: OptimizeArgs) -> Result<i32> {
+    let request = OptimizeRequest {
+        delta: args.delta,
+        alpha: args.alpha,
+        beta: args.beta,
+        iterations: args.iterations,
+        safety: args.safety,
+        swept: args.swept,
+        kappa: args.kappa,
+        reuse_band: args.reuse_band,
+        solver: args.solver,
+        search: args.search,
+        starts: args.starts,
+        tol: args.tol,
+        feasibility_tol: args.feasibility_tol,
+        allow_unsafe_start: args.allow_unsafe_start,
+        time_limit: args.time_limit,
+    };
+    request.check(&flag_name)?;
+    if let Some(n) = args.sweeps {
+        ensure_iterations("--sweeps", n)?;
+    }
+    let scene = load_scene(&args.scene, args.sweeps, &args.physics)?;
+    let model = Model::from_scene(&scene)?;
+    let start = load_controls(&scene, &model, args.start.as_deref())?;
+    let (mut options, search) = request.options(&model, &flag_name)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    options.stop = Some(stop.clone());
+    // First Ctrl-C: stop the optimizer and write the best plan so far; a second one quits.
+    ctrlc::set_handler(move || {
+        if stop.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    })
+    .context("cannot install the Ctrl-C handler")?;
+    let (out, no_timing) = (args.out, args.no_timing);
+    let budget = args.iterations * (1 + usize::from(options.kappa_warmup.is_some()));
+    let mut reporter = Reporter::new(budget, args.verbose, options.tol_feasibility);
+    let mut save = |x: &[f64], violation: f64, seen: usize| {
+        let Some(path) = &out else { return };
+        match plan::snapshot(&model, &scene, x, violation, seen, &options) {
+            Ok(mut r) => {
+                if no_timing {
+                    r.drop_timing();
+                }
+                if let Err(e) = write_json_atomic(path, &r) {
+                    eprintln!("warning: best-so-far file: {e:#}");
+                }
+            }
+            Err(e) => eprintln!("warning: best-so-far file: {e:#}"),
+        }
+    };
+    let result = plan_with_search(&model, &scene, &start, &options, &search, |info| {
+        reporter.iteration(info, &mut save)
+    });
+    reporter.finish();
+    let mut result = result?;
+    if no_timing {
+        result.drop_timing();
+    }
+    if let Some(warning) = plan::strain_warning(&model, &result) {
+        result.warnings.push(warning);
+    }
+    summary::print_summary(&result, no_timing);
+    if let Some(out) = &out {
+        write_json_atomic(out, &result)?;
+    }
+    let watch = &args.watch;
+    if args.png.is_some() || watch.html.is_some() || watch.gif.is_some() {
+        let states = plan::states_of(&result)?;
+        let title = format!(
+            "{}  δ = {}  ({})",
+            result.scene, result.delta, result.status
+        );
+        if let Some(png) = &args.png {
+            draw(&model, &scene, &states, &title, result.delta, png)?;
+        }
+        watch.write(&model, &scene, &states, &title, result.delta)?;
+    }
+    Ok(summary::report_verdict(&result, out.as_deref()))
+}
