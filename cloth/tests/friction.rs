@@ -55,7 +55,11 @@ fn downhill_displacements(scene: &Scene, theta: f64) -> Vec<f64> {
     let (first, last) = (&states[0], states.last().unwrap());
     let downhill = [theta.cos(), 0.0, -theta.sin()];
     (0..first.rows())
-        .map(|p| (0..3).map(|k| (last.get(p, k) - first.get(p, k)) * downhill[k]).sum())
+        .map(|p| {
+            (0..3)
+                .map(|k| (last.get(p, k) - first.get(p, k)) * downhill[k])
+                .sum()
+        })
         .collect()
 }
 
@@ -172,7 +176,10 @@ fn a_cloth_on_a_tilted_plane_slides_when_mu_is_below_tan_theta() {
                 "μ = {m}: particle {p} slid {d} m, expected {expected} m"
             );
         }
-        assert!(expected > 0.01, "μ = {m}: the cloth must slide ({expected} m)");
+        assert!(
+            expected > 0.01,
+            "μ = {m}: the cloth must slide ({expected} m)"
+        );
     }
 }
 
@@ -260,11 +267,8 @@ fn check_fd(
 
 fn drag_controls() -> impl Strategy<Value = Vec<f64>> {
     // Three steps × two grippers: in-plane drags of up to 5 cm, small lifts.
-    prop::collection::vec(
-        (-0.05..0.05f64, -0.05..0.05f64, 0.0..0.01f64),
-        6,
-    )
-    .prop_map(|v| v.into_iter().flat_map(|(a, b, c)| [a, b, c]).collect())
+    prop::collection::vec((-0.05..0.05f64, -0.05..0.05f64, 0.0..0.01f64), 6)
+        .prop_map(|v| v.into_iter().flat_map(|(a, b, c)| [a, b, c]).collect())
 }
 
 fn count(regimes: &[(Regime, bool)], which: Regime) -> usize {

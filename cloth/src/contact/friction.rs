@@ -33,9 +33,9 @@
 //! touching (`d = 0`, `D = 0`) or where `|Λ*| = μD` exactly (the stick/slip switch); elsewhere it
 //! is smooth.
 
+use crate::model::{Carry, ProjectionSet};
 use crate::scene::Obstacle;
 use crate::sdf::{SignedDistance, Union};
-use crate::model::{Carry, ProjectionSet};
 use autodiff::{Real, RowFn, RowIndex};
 use nalgebra::Vector3;
 use std::sync::Arc;
@@ -86,9 +86,7 @@ impl FrictionalContact {
         ProjectionSet {
             projection: Arc::new(self),
             index: Arc::new(RowIndex::single(particles)),
-            carry: Carry::StartPosition {
-                width: CARRY_WIDTH,
-            },
+            carry: Carry::StartPosition { width: CARRY_WIDTH },
         }
     }
 }
