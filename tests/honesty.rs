@@ -36,11 +36,13 @@ fn infeasible_scene() -> Scene {
             point: [0.0, 0.0, 1.0],
             normal: [0.0, 0.0, -1.0],
             role: ObstacleRole::Safety,
+            friction: None,
         }),
         Obstacle::Plane(PlaneSpec {
             point: [0.0, 0.0, 0.0],
             normal: [0.0, 0.0, 1.0],
             role: ObstacleRole::Collider,
+            friction: None,
         }),
     ];
     s.task.delta = 2.0;
@@ -253,6 +255,7 @@ fn an_absurd_margin_around_the_target_is_never_a_false_success() {
         centers: vec![[-0.5, 1.0, 1.5], [0.5, 1.0, 1.5]],
         radii: vec![0.5, 0.5],
         role: ObstacleRole::Safety,
+        friction: None,
     })];
     scene.task.delta = 50.0;
     let (model, result) = run_plan(&scene, 40);

@@ -131,6 +131,7 @@ fn unreachable_scene() -> Scene {
         centers: vec![[0.3, 1.0, 0.4]],
         radii: vec![0.2],
         role: ObstacleRole::Safety,
+        friction: None,
     })];
     scene.task.targets = vec![
         Target {

@@ -37,6 +37,7 @@ fn spheres(centers: Vec<[f64; 3]>, radii: Vec<f64>, role: ObstacleRole) -> Obsta
         centers,
         radii,
         role,
+        friction: None,
     })
 }
 
@@ -678,6 +679,7 @@ fn ground_plane_exactly_at_a_particles_height() {
             point: [0.0, 0.0, 1.0],
             normal: [0.0, 0.0, 1.0],
             role: ObstacleRole::Both,
+            friction: None,
         })];
         let model = Model::from_scene(&scene).unwrap();
         assert_eq!(model.rest.get(12, 2), 1.0, "bottom row at the plane");

@@ -17,6 +17,7 @@ fn start_inside() -> Scene {
         centers: vec![[5.0, 5.0, 5.0], [-0.5, -1.5, 0.85]],
         radii: vec![0.1, 0.2],
         role: ObstacleRole::Safety,
+        friction: None,
     })];
     s.task.delta = 0.1;
     s.validate().unwrap();

@@ -147,6 +147,7 @@ fn contacts(c: &mut Criterion) {
         s.obstacles.push(Obstacle::Mesh(MeshSpec {
             file: "icosphere.obj".into(),
             role,
+            friction: None,
             surface: Some(sphere.clone()),
         }));
         s.validate().expect("valid scene");

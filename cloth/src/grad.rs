@@ -582,7 +582,7 @@ impl Recorder<'_> {
         let contacts = m.contact_sets(x_prev, &u_t);
         if self.starts.len() > 1 && self.checkpoints.as_ref().map(|c| c.0) != Some(t) {
             let mut x = m.begin_step(x_prev, &u_t);
-            let mut lambdas = m.step_lambdas(&contacts);
+            let mut lambdas = m.step_carries(x_prev, &contacts);
             let mut checkpoints = Vec::with_capacity(self.starts.len() - 1);
             for w in self.starts.windows(2) {
                 m.sweep(&mut x, &mut lambdas, w[1] - w[0], &contacts);
@@ -595,7 +595,7 @@ impl Recorder<'_> {
         let u = tape.leaf(u_t);
         let (x_in, lambdas_in) = if seg.block == 0 {
             let x = m.record_begin_step(&mut tape, x_prev, u);
-            (x, m.record_zero_lambdas(&mut tape, &contacts))
+            (x, m.record_initial_carries(&mut tape, x_prev, &contacts))
         } else {
             let (_, checkpoints) = self.checkpoints.as_ref().expect("checkpoints of this step");
             let (x, l) = &checkpoints[seg.block - 1];

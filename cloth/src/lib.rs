@@ -12,6 +12,7 @@
 //! - [`contact`]: contacts found during the simulation (self-collision);
 //! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles
 //!   (spheres, planes, capsules, boxes, closed meshes);
+//! - [`contact`]: contact effects beyond the collider constraint (friction);
 //! - [`controls`]: the controls tensor viewed by (step, gripper);
 //! - [`model`]: a scene compiled to its effects; [`registry`]: constraint types scene files name; [`sim`]: time stepping; [`cost`], [`grad`]: costs
 //!   and gradients;

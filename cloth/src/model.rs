@@ -6,6 +6,7 @@
 
 use crate::coloring::{greedy_coloring, independent_sets};
 use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_ARITY};
+use crate::contact::friction::FrictionalContact;
 use crate::contact::self_collision::SelfCollision;
 use crate::error::ClothError;
 use crate::newton::terms::{ConstraintTerms, Terms};
@@ -25,6 +26,22 @@ pub struct ProjectionSet {
     pub projection: Arc<dyn DynRowFn>,
     /// Particles of each row.
     pub index: Arc<RowIndex>,
+    /// What each row carries through a step's iterations besides its particles.
+    pub carry: Carry,
+}
+
+/// The per-row values a colour set carries through a step's Gauss–Seidel iterations (the
+/// `carry` of [`autodiff::update::update_rows`]), and how each step starts them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Carry {
+    /// One XPBD multiplier `λ`, zero at each step's start.
+    Multiplier,
+    /// The row's (single) particle's position at the step's start, copied from the previous
+    /// state, then `width − 3` values starting at zero ([`crate::contact::friction`]).
+    StartPosition {
+        /// Carried values per row (≥ 3).
+        width: usize,
+    },
 }
 
 /// All constraints of one type: their colour sets (in sweep order) and their energy.
@@ -278,9 +295,13 @@ impl Model {
             model.add_constraints(
                 "collider",
                 Collision { sdf: colliders },
-                free,
+                free.clone(),
                 f64::INFINITY,
             )?;
+            if let Some(friction) = FrictionalContact::from_obstacles(&scene.obstacles) {
+                let group = model.groups.last_mut().expect("the collider group");
+                group.sets = vec![friction.projection_set(free)];
+            }
         }
         if let Some(sc) = &scene.physics.self_collision {
             let triangles = model.triangles.clone();
@@ -384,6 +405,7 @@ impl Model {
                 ProjectionSet {
                     projection: Arc::new(projection),
                     index: Arc::new(RowIndex::new(C::ARITY, idx)),
+                    carry: Carry::Multiplier,
                 }
             })
             .collect();
@@ -433,6 +455,9 @@ impl Model {
                 )
             })
             .collect();
+        if self.sets().any(|s| s.carry != Carry::Multiplier) {
+            parts.push("friction".into());
+        }
         if let Some(sc) = &self.self_collision {
             parts.push(format!("self-collision (thickness {})", sc.thickness));
         }

@@ -6,7 +6,7 @@
 //! kernel on the same inputs, so their states agree bit for bit.
 
 use crate::error::ClothError;
-use crate::model::{Model, ProjectionSet};
+use crate::model::{Carry, Model, ProjectionSet};
 use autodiff::update::update_rows;
 use autodiff::{in_pool, Tape, Tensor, Var};
 
@@ -53,15 +53,16 @@ impl Model {
     pub fn step(&self, x_prev: &Tensor, u: &Tensor, scratch: &mut StepScratch) -> Tensor {
         let contacts = self.contact_sets(x_prev, u);
         let mut x = self.begin_step(x_prev, u);
-        // λ ← 0, reusing the previous step's tensors.
-        let fits = (scratch.lambdas.iter().map(Tensor::rows))
-            .eq(self.step_sets(&contacts).map(|s| s.index.rows()));
+        // λ ← 0 (and every other carry to its start), reusing the previous step's tensors.
+        let fits = (scratch.lambdas.iter().map(Tensor::shape)).eq(self
+            .step_sets(&contacts)
+            .map(|s| (s.index.rows(), s.carry_width())));
         if fits {
-            for l in &mut scratch.lambdas {
-                l.data_mut().fill(0.0);
+            for (set, l) in self.step_sets(&contacts).zip(&mut scratch.lambdas) {
+                set.start_carry(x_prev, l);
             }
         } else {
-            scratch.lambdas = self.step_lambdas(&contacts);
+            scratch.lambdas = self.step_carries(x_prev, &contacts);
         }
         self.sweep(&mut x, &mut scratch.lambdas, self.iterations, &contacts);
         x
@@ -85,15 +86,21 @@ impl Model {
         x
     }
 
-    /// Zero multipliers `λ`, one tensor per colour set of the model in sweep order.
-    pub fn zero_lambdas(&self) -> Vec<Tensor> {
-        self.step_lambdas(&[])
+    /// The carries of a step of the model's own sets that starts from `x_prev`, one tensor per
+    /// colour set in sweep order: zero multipliers `λ`, and the start positions of
+    /// [`Carry::StartPosition`] sets.
+    pub fn initial_carries(&self, x_prev: &Tensor) -> Vec<Tensor> {
+        self.step_carries(x_prev, &[])
     }
 
-    /// Zero multipliers for a step's sets: the model's, then the step's `contacts`.
-    pub fn step_lambdas(&self, contacts: &[ProjectionSet]) -> Vec<Tensor> {
+    /// [`Model::initial_carries`] for a step's sets: the model's, then the step's `contacts`.
+    pub fn step_carries(&self, x_prev: &Tensor, contacts: &[ProjectionSet]) -> Vec<Tensor> {
         self.step_sets(contacts)
-            .map(|s| Tensor::zeros(s.index.rows(), 1))
+            .map(|s| {
+                let mut carry = Tensor::zeros(s.index.rows(), s.carry_width());
+                s.start_carry(x_prev, &mut carry);
+                carry
+            })
             .collect()
     }
 
@@ -130,7 +137,7 @@ impl Model {
     pub fn record_step(&self, tape: &mut Tape, x_prev: Var, u: Var) -> Var {
         let contacts = self.contact_sets(tape.value(x_prev), tape.value(u));
         let x = self.record_begin_step(tape, x_prev, u);
-        let mut lambdas = self.record_zero_lambdas(tape, &contacts);
+        let mut lambdas = self.record_initial_carries(tape, x_prev, &contacts);
         self.record_sweeps(tape, x, &mut lambdas, self.iterations, &contacts)
     }
 
@@ -151,11 +158,23 @@ impl Model {
         x
     }
 
-    /// Zero multipliers of a step's sets as leaves of `tape`.
-    pub fn record_zero_lambdas(&self, tape: &mut Tape, contacts: &[ProjectionSet]) -> Vec<Var> {
-        self.step_lambdas(contacts)
-            .into_iter()
-            .map(|l| tape.leaf(l))
+    /// Records [`Model::step_carries`] from `x_prev` on `tape`: zero multipliers are leaves,
+    /// start positions are gathered from `x_prev` (so the step's gradient reaches it through them).
+    pub fn record_initial_carries(
+        &self,
+        tape: &mut Tape,
+        x_prev: Var,
+        contacts: &[ProjectionSet],
+    ) -> Vec<Var> {
+        self.step_sets(contacts)
+            .map(|s| match s.carry {
+                Carry::Multiplier => tape.leaf(Tensor::zeros(s.index.rows(), 1)),
+                Carry::StartPosition { width } => {
+                    let start = tape.gather(x_prev, &s.index);
+                    let rest = tape.leaf(Tensor::zeros(s.index.rows(), width - 3));
+                    tape.concat_cols(&[start, rest])
+                }
+            })
             .collect()
     }
 
@@ -199,6 +218,26 @@ impl Model {
             }
             Ok(states)
         })
+    }
+}
+
+impl ProjectionSet {
+    /// Values carried per row (1 for a multiplier).
+    pub fn carry_width(&self) -> usize {
+        match self.carry {
+            Carry::Multiplier => 1,
+            Carry::StartPosition { width } => width,
+        }
+    }
+
+    /// Sets `carry` (`rows × carry_width`) to its value at the start of a step from `x_prev`.
+    pub fn start_carry(&self, x_prev: &Tensor, carry: &mut Tensor) {
+        carry.data_mut().fill(0.0);
+        if let Carry::StartPosition { .. } = self.carry {
+            for (k, &p) in self.index.as_slice().iter().enumerate() {
+                carry.row_mut(k)[..3].copy_from_slice(x_prev.row(p));
+            }
+        }
     }
 }
 

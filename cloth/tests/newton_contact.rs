@@ -88,18 +88,21 @@ fn behind(kind: &str, role: ObstacleRole) -> Obstacle {
             b: [0.7, y, z - 0.1],
             radius: 0.3,
             role,
+            friction: None,
         }),
         "box" => Obstacle::Box(BoxSpec {
             center: [0.0, y, 1.3],
             half_extents: [0.6, 0.3, 0.3],
             rotation: None,
             role,
+            friction: None,
         }),
         _ => {
             let (v, t) = Cuboid::new([0.0, y, 1.3], [0.6, 0.3, 0.3], None).surface_triangles();
             Obstacle::Mesh(MeshSpec {
                 file: "cube.obj".into(),
                 role,
+                friction: None,
                 surface: Some(MeshSdf::new(v, t)),
             })
         }

@@ -1,3 +1,5 @@
-//! Contacts whose constraints are found during the simulation rather than fixed at model build.
+//! Contact effects beyond the fixed one-sided collider rows: friction on colliders, and
+//! contacts found during the simulation rather than at model build (self-collision).
 
+pub mod friction;
 pub mod self_collision;

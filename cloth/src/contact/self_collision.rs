@@ -45,7 +45,7 @@
 use crate::coloring::{greedy_coloring, independent_sets};
 use crate::constraint::Constraint;
 use crate::geometry::norm;
-use crate::model::{Model, ProjectionSet};
+use crate::model::{Carry, Model, ProjectionSet};
 use crate::projection::Projection;
 use autodiff::{Real, RowIndex, Tensor};
 use nalgebra::Vector3;
@@ -310,6 +310,7 @@ impl SelfCollision {
                 ProjectionSet {
                     projection: Arc::new(projection),
                     index: Arc::new(RowIndex::new(4, idx)),
+                    carry: Carry::Multiplier,
                 }
             })
             .collect()

@@ -1,11 +1,52 @@
 //! Reading the files a scene names (a mesh cloth, its target mesh, mesh obstacles: OBJ files),
 //! relative to a base folder.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
+use super::builtin::BUILTIN_FILES;
 use super::{invalid, Obstacle, Scene, SceneError};
-use crate::obj::ObjMesh;
+use crate::obj::{ObjError, ObjMesh};
 use crate::sdf::MeshSdf;
+
+/// Where the files a scene names are read from.
+pub(super) enum Source<'a> {
+    /// A folder (the scene file's, or the working directory).
+    Folder(&'a Path),
+    /// The files embedded with the built-in scenes.
+    Builtin,
+}
+
+impl Source<'_> {
+    /// The path `file` stands for (in messages) and the mesh read from it.
+    fn read(&self, file: &str) -> (PathBuf, Result<ObjMesh, ObjError>) {
+        match self {
+            Source::Folder(base) => {
+                let path = base.join(file);
+                let mesh = ObjMesh::read(&path);
+                (path, mesh)
+            }
+            Source::Builtin => match BUILTIN_FILES.iter().find(|(name, _, _)| *name == file) {
+                Some((name, folder, text)) => {
+                    let path = Path::new(folder).join(name);
+                    let mesh = ObjMesh::parse(text, &path);
+                    (path, mesh)
+                }
+                None => {
+                    let path = PathBuf::from(file);
+                    let source = std::io::Error::new(
+                        std::io::ErrorKind::NotFound,
+                        "not among the built-in scenes' files",
+                    );
+                    let err = ObjError::Io {
+                        path: path.clone(),
+                        source,
+                    };
+                    (path, Err(err))
+                }
+            },
+        }
+    }
+}
 
 impl Scene {
     /// Reads every mesh obstacle's `file` relative to `base` (a path that is already absolute is
@@ -17,18 +58,22 @@ impl Scene {
     /// non-degenerate triangles using every vertex; `task.target_mesh` must have as many vertices
     /// as the cloth and the same number of triangles.
     pub fn load_files(&mut self, base: &Path) -> Result<(), SceneError> {
+        self.load_files_from(&Source::Folder(base))
+    }
+
+    /// [`Scene::load_files`] from `source`.
+    pub(super) fn load_files_from(&mut self, source: &Source<'_>) -> Result<(), SceneError> {
         if let Some(file) = &self.cloth.mesh {
-            let path = base.join(file);
-            let mesh = ObjMesh::read(&path)
+            let (path, mesh) = source.read(file);
+            let mesh = mesh
                 .and_then(|m| m.check_degenerate(&path).map(|()| m))
                 .and_then(|m| m.check_cloth(&path).map(|()| m))
                 .map_err(|e| invalid("cloth.mesh", e.to_string()))?;
             self.cloth.mesh_data = Some(mesh);
         }
         if let Some(file) = &self.task.target_mesh {
-            let path = base.join(file);
-            let target =
-                ObjMesh::read(&path).map_err(|e| invalid("task.target_mesh", e.to_string()))?;
+            let (path, target) = source.read(file);
+            let target = target.map_err(|e| invalid("task.target_mesh", e.to_string()))?;
             if let Some(cloth) = &self.cloth.mesh_data {
                 let (n, m) = (target.vertices.len(), cloth.vertices.len());
                 if n != m {
@@ -49,9 +94,9 @@ impl Scene {
         }
         for (i, obstacle) in self.obstacles.iter_mut().enumerate() {
             if let Obstacle::Mesh(spec) = obstacle {
-                let path = base.join(&spec.file);
+                let (path, mesh) = source.read(&spec.file);
                 let field = format!("obstacles[{i}].file");
-                let mesh = ObjMesh::read(&path).map_err(|e| invalid(&field, e.to_string()))?;
+                let mesh = mesh.map_err(|e| invalid(&field, e.to_string()))?;
                 mesh.check_degenerate(&path)
                     .and_then(|()| mesh.check_closed(&path))
                     .map_err(|e| invalid(&field, e.to_string()))?;

@@ -410,6 +410,17 @@ impl Obstacle {
             Obstacle::Mesh(m) => m.role,
         }
     }
+
+    /// The friction coefficient `"friction"` as written (`None` when absent).
+    pub fn friction(&self) -> Option<f64> {
+        match self {
+            Obstacle::Spheres(s) => s.friction,
+            Obstacle::Plane(p) => p.friction,
+            Obstacle::Capsule(c) => c.friction,
+            Obstacle::Box(b) => b.friction,
+            Obstacle::Mesh(m) => m.friction,
+        }
+    }
 }
 
 /// The points within `radius` of the segment `a–b`.
@@ -424,6 +435,10 @@ pub struct CapsuleSpec {
     pub radius: f64,
     /// How the obstacle is used.
     pub role: ObstacleRole,
+    /// Coulomb friction coefficient `μ ≥ 0` of a collider (absent: frictionless); see
+    /// [`crate::contact::friction`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
 }
 
 /// A box: centre, half extents along its axes, and an optional rotation.
@@ -440,6 +455,10 @@ pub struct BoxSpec {
     pub rotation: Option<[f64; 4]>,
     /// How the obstacle is used.
     pub role: ObstacleRole,
+    /// Coulomb friction coefficient `μ ≥ 0` of a collider (absent: frictionless); see
+    /// [`crate::contact::friction`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
 }
 
 /// A closed triangle mesh from a Wavefront OBJ file.
@@ -451,6 +470,10 @@ pub struct MeshSpec {
     pub file: String,
     /// How the obstacle is used.
     pub role: ObstacleRole,
+    /// Coulomb friction coefficient `μ ≥ 0` of a collider (absent: frictionless); see
+    /// [`crate::contact::friction`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
     /// The field read from `file` when the scene was loaded ([`crate::Scene::load`]); `None` until then.
     #[serde(skip)]
     pub surface: Option<crate::sdf::MeshSdf>,
@@ -466,6 +489,10 @@ pub struct SphereSetSpec {
     pub radii: Vec<f64>,
     /// How the obstacle is used.
     pub role: ObstacleRole,
+    /// Coulomb friction coefficient `μ ≥ 0` of a collider (absent: frictionless); see
+    /// [`crate::contact::friction`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
 }
 
 /// A plane through `point`; the free side is the one `normal` points to.
@@ -479,6 +506,10 @@ pub struct PlaneSpec {
     pub normal: [f64; 3],
     /// How the obstacle is used.
     pub role: ObstacleRole,
+    /// Coulomb friction coefficient `μ ≥ 0` of a collider (absent: frictionless); see
+    /// [`crate::contact::friction`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
 }
 
 impl PlaneSpec {

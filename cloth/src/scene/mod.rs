@@ -118,7 +118,14 @@ impl Scene {
         BUILTIN_NAMES
             .iter()
             .position(|(n, _)| *n == name)
-            .map(|i| Scene::from_json_str(BUILTIN_SOURCES[i]))
+            .map(|i| {
+                let text = BUILTIN_SOURCES[i];
+                let mut scene: Scene =
+                    serde_json::from_str(text).map_err(|e| parse_error(text, &e))?;
+                scene.load_files_from(&files::Source::Builtin)?;
+                scene.validate()?;
+                Ok(scene)
+            })
             .unwrap_or_else(|| {
                 Err(SceneError::UnknownBuiltin {
                     name: name.to_string(),
@@ -126,7 +133,8 @@ impl Scene {
             })
     }
 
-    /// Names and one-line descriptions of the built-in scenes: `u_obstacle`, `swing`, `drop`.
+    /// Names and one-line descriptions of the built-in scenes: `u_obstacle`, `swing`, `drop`,
+    /// `fold`.
     pub fn builtin_names() -> &'static [(&'static str, &'static str)] {
         BUILTIN_NAMES
     }

@@ -54,6 +54,23 @@ fn check_non_negative(field: &str, x: f64) -> Result<(), SceneError> {
     }
 }
 
+/// `friction`: finite and ≥ 0, and only on an obstacle the simulator collides with.
+fn validate_friction(base: &str, obstacle: &Obstacle) -> Result<(), SceneError> {
+    let Some(mu) = obstacle.friction() else {
+        return Ok(());
+    };
+    let field = format!("{base}.friction");
+    check_non_negative(&field, mu)?;
+    if !obstacle.role().is_collider() {
+        return Err(invalid(
+            field,
+            "friction acts only on a physical collider; use role \"collider\" or \"both\", \
+             or remove it",
+        ));
+    }
+    Ok(())
+}
+
 fn check_stiffness(field: &str, k: &Stiffness) -> Result<(), SceneError> {
     match *k {
         Stiffness::Infinite => Ok(()),
@@ -269,6 +286,13 @@ impl Scene {
                 return Err(invalid("material.bending.stiffness", rigid));
             }
         }
+        if let Some(i) = self.obstacles.iter().position(|o| o.friction().is_some()) {
+            return Err(invalid(
+                format!("obstacles[{i}].friction"),
+                "friction is a position-based XPBD contact effect, which physics.solver \
+                 \"newton\" does not support; remove it or use physics.solver \"xpbd\"",
+            ));
+        }
         Ok(())
     }
 
@@ -403,6 +427,7 @@ impl Scene {
                     }
                 }
             }
+            validate_friction(&base, obstacle)?;
         }
         Ok(())
     }

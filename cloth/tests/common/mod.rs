@@ -92,6 +92,7 @@ pub fn spheres(centers: Vec<[f64; 3]>, radii: Vec<f64>, role: ObstacleRole) -> O
         centers,
         radii,
         role,
+        friction: None,
     })
 }
 
@@ -101,6 +102,7 @@ pub fn plane(point: [f64; 3], normal: [f64; 3], role: ObstacleRole) -> Obstacle 
         point,
         normal,
         role,
+        friction: None,
     })
 }
 
@@ -174,7 +176,7 @@ pub fn replay_watching(
         .collect();
     for t in 0..model.task.horizon {
         let mut x = model.begin_step(&states[t], &model.step_controls(controls, t));
-        let mut lambdas = model.zero_lambdas();
+        let mut lambdas = model.initial_carries(&states[t]);
         for _ in 0..model.iterations {
             for ((name, set), lambda) in sets.iter().zip(lambdas.iter_mut()) {
                 if *name == watch {
