@@ -23,14 +23,14 @@ fn small_obstacle_scene(dir: &Path) -> PathBuf {
 }
 
 #[test]
-fn scenes_lists_the_three_built_ins() {
+fn scenes_lists_the_built_ins() {
     let o = run(bin().arg("scenes"));
     assert!(o.status.success());
     let text = stdout(&o);
-    for name in ["u_obstacle", "swing", "drop"] {
+    for name in ["u_obstacle", "swing", "drop", "fold"] {
         assert!(text.contains(name), "{name} missing from:\n{text}");
     }
-    assert_eq!(text.lines().count(), 3);
+    assert_eq!(text.lines().count(), 4);
 }
 
 #[test]
