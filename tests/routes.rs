@@ -63,12 +63,10 @@ fn assert_stages_announced(announced: &[(String, String)], result: &PlanResult) 
         .map_or(&[][..], |s| &s.candidates[..]);
     let cheap = reports.iter().filter(|c| c.stage == "cheap").count();
     for c in reports.iter().skip(1) {
-        let route = match c.stage.as_str() {
-            "cheap" => format!("{cheap} candidates"),
-            _ => c.route.clone(),
-        };
-        if expected.last() != Some(&(c.stage.clone(), route.clone())) || c.stage != "cheap" {
-            expected.push((c.stage.clone(), route));
+        if c.stage != "cheap" {
+            expected.push((c.stage.clone(), c.route.clone()));
+        } else if expected.last().is_none_or(|(stage, _)| stage != "cheap") {
+            expected.push((c.stage.clone(), format!("{cheap} candidates")));
         }
     }
     assert_eq!(announced, &expected[..]);

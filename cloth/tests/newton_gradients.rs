@@ -10,7 +10,7 @@ use cloth::nalgebra::Vector3;
 use cloth::newton::{NewtonSettings, Solver};
 use cloth::scene::ObstacleRole;
 use cloth::{Model, Scene};
-use common::{central, dot, small_scene, spheres, BendKind, XorShift};
+use common::{small_scene, spheres, BendKind};
 use proptest::prelude::*;
 
 /// Triangle-area preservation, as in `examples/custom_constraint.rs`.
@@ -62,31 +62,9 @@ fn newton_model(scene: &Scene, user_constraint: bool) -> Model {
     m
 }
 
-/// Checks `dL/dU` and `dC/dU` along a random direction against central differences.
+/// `dL/dU` and `dC/dU` along a random direction against central differences (step 1e-5).
 fn check(model: &Model, u: &Tensor, seed: u64, delta: f64) -> Result<(), TestCaseError> {
-    let e = model.evaluate(u, delta, true).unwrap();
-    let mut rng = XorShift::new(seed);
-    let d = rng.direction(u.data().len());
-    let h = 1e-5;
-    let l = |v: &Tensor| model.evaluate(v, delta, false).unwrap().metrics.l;
-    let c = |v: &Tensor| model.evaluate(v, delta, false).unwrap().metrics.c;
-    for (name, f, g) in [
-        ("dL/dU", &l as &dyn Fn(&Tensor) -> f64, e.grad_l.unwrap()),
-        ("dC/dU", &c as &dyn Fn(&Tensor) -> f64, e.grad_c.unwrap()),
-    ] {
-        let fd = central(f, u, &d, h);
-        let an = dot(g.data(), &d);
-        let scale = norm2(g.data()) * norm2(&d);
-        prop_assert!(
-            (fd - an).abs() <= 1e-5 * scale + 1e-9,
-            "{name}: analytic {an:e}, central difference {fd:e} (scale {scale:e})"
-        );
-    }
-    Ok(())
-}
-
-fn norm2(v: &[f64]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+    common::check_gradients_along_a_direction(model, u, seed, delta, 1e-5)
 }
 
 fn scene(bending: u8) -> Scene {

@@ -36,6 +36,15 @@ fn decode(path: &Path) -> (u32, u32, Vec<[u8; 3]>) {
     (info.width, info.height, px)
 }
 
+/// Draws `fig`'s 3-D view to `path` if it is named `3d.png`, else its top view.
+fn draw_view(fig: &TrajectoryFigure, path: &Path) {
+    if path.ends_with("3d.png") {
+        draw_trajectory_3d(fig, path).expect("3-D view");
+    } else {
+        draw_trajectory_top(fig, path).expect("top view");
+    }
+}
+
 fn count(px: &[[u8; 3]], c: RGBColor) -> usize {
     px.iter().filter(|p| **p == [c.0, c.1, c.2]).count()
 }
@@ -69,11 +78,7 @@ fn trajectory_views_draw_every_element() {
     };
     for (name, size) in [("3d.png", SIZE_3D), ("top.png", SIZE_2D)] {
         let path = dir.join(name);
-        if name == "3d.png" {
-            draw_trajectory_3d(&fig, &path).expect("3-D view");
-        } else {
-            draw_trajectory_top(&fig, &path).expect("top view");
-        }
+        draw_view(&fig, &path);
         let (w, h, px) = decode(&path);
         assert_eq!((w, h), size, "{name}");
         // Markers and solid fills are drawn without anti-aliasing, so exact colours are found.
@@ -540,22 +545,17 @@ fn a_long_legend_label_stays_inside_the_figure() {
         frames: vec![(&a[..], "initial".into()), (&b[..], long)],
         ..Default::default()
     };
-    let border = [150, 150, 150];
+    let border = RGBColor(150, 150, 150);
     for name in ["3d.png", "top.png"] {
         let path = dir.join(name);
-        if name == "3d.png" {
-            draw_trajectory_3d(&fig, &path).expect("3-D view");
-        } else {
-            draw_trajectory_top(&fig, &path).expect("top view");
-        }
+        draw_view(&fig, &path);
         let (w, h, px) = decode(&path);
-        assert!(
-            count(&px, RGBColor(150, 150, 150)) > 100,
-            "{name}: legend box"
-        );
+        assert!(count(&px, border) > 100, "{name}: legend box");
         let last_columns = (0..h as usize)
             .flat_map(|y| (w as usize - 3..w as usize).map(move |x| y * w as usize + x));
-        let clipped = last_columns.filter(|&i| px[i] == border).count();
+        let clipped = last_columns
+            .filter(|&i| px[i] == [border.0, border.1, border.2])
+            .count();
         assert_eq!(
             clipped, 0,
             "{name}: the legend box reaches the image's right edge"

@@ -193,3 +193,33 @@ pub fn replay_watching(
     }
     (states, pattern, margin)
 }
+
+/// `dL/dU` and `dC/dU` of `model` at `u` (safety margin `delta`) against central differences with
+/// step `h` along a random direction drawn from `seed`: within `1e-5·|g|·|d| + 1e-9`.
+pub fn check_gradients_along_a_direction(
+    model: &Model,
+    u: &Tensor,
+    seed: u64,
+    delta: f64,
+    h: f64,
+) -> Result<(), proptest::test_runner::TestCaseError> {
+    let e = model.evaluate(u, delta, true).unwrap();
+    let mut rng = XorShift::new(seed);
+    let d = rng.direction(u.data().len());
+    let l = |v: &Tensor| model.evaluate(v, delta, false).unwrap().metrics.l;
+    let c = |v: &Tensor| model.evaluate(v, delta, false).unwrap().metrics.c;
+    let norm2 = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    for (name, f, g) in [
+        ("dL/dU", &l as &dyn Fn(&Tensor) -> f64, e.grad_l.unwrap()),
+        ("dC/dU", &c as &dyn Fn(&Tensor) -> f64, e.grad_c.unwrap()),
+    ] {
+        let fd = central(f, u, &d, h);
+        let an = dot(g.data(), &d);
+        let scale = norm2(g.data()) * norm2(&d);
+        proptest::prop_assert!(
+            (fd - an).abs() <= 1e-5 * scale + 1e-9,
+            "{name}: analytic {an:e}, central difference {fd:e} (scale {scale:e})"
+        );
+    }
+    Ok(())
+}
