@@ -293,10 +293,15 @@ impl<S: crate::sdf::SignedDistance> Constraint for Collision<S> {
         self.sdf.distance(&p[0])
     }
 
-    /// `∇C` from the field's [`crate::sdf::SignedDistance::distance_gradient`].
+    /// `∇C` from the field's bounded query
+    /// [`crate::sdf::SignedDistance::distance_gradient_within`] at bound 0: exact (the generic
+    /// derivative) wherever `C ≤ 0`; where the particle is outside (`C > 0`, the row inactive:
+    /// no projection, no derivative through it) it may be a positive lower bound of `C` with
+    /// gradient 0, so a mesh's search stops early. The projection and its derivative are the
+    /// exact field's, bitwise (`tests/mesh_query.rs`); [`Constraint::c`] stays exact.
     #[inline(always)]
     fn gradient<R: Real>(&self, _instance: usize, x: &[R], g: &mut [R]) -> R {
-        let (d, n) = self.sdf.distance_gradient(&point(x, 0));
+        let (d, n) = self.sdf.distance_gradient_within(&point(x, 0), 0.0);
         g[..3].copy_from_slice(n.as_slice());
         d
     }

@@ -224,12 +224,14 @@ impl Model {
             return f64::INFINITY;
         }
         let point = |x: &Tensor, p: usize| Vector3::new(x.get(p, 0), x.get(p, 1), x.get(p, 2));
-        (0..a.rows())
-            .map(|p| {
-                self.safety_obstacles
-                    .min_along_segment(&point(a, p), &point(b, p))
-            })
-            .fold(f64::INFINITY, f64::min)
+        // Bounded by the smallest so far: a particle that cannot come nearer is not searched.
+        (0..a.rows()).fold(f64::INFINITY, |best, p| {
+            best.min(self.safety_obstacles.min_along_segment_within(
+                &point(a, p),
+                &point(b, p),
+                best,
+            ))
+        })
     }
 
     /// Gradients of several per-step costs with respect to the controls, by reverse mode over the
