@@ -298,3 +298,40 @@ fn the_swept_safety_metric_is_bitwise_the_unbounded_minimum() {
         assert!(unbounded.is_finite());
     }
 }
+
+#[test]
+fn the_safety_metrics_are_bitwise_the_exact_ones() {
+    let scene = mesh_scene(ObstacleRole::Safety);
+    let model = Model::from_scene(&scene).expect("model");
+    let u = drag(&model);
+    let states = model.simulate(&u).expect("finite");
+    let delta = 0.05;
+    let metrics = model.metrics(&states, &u, delta);
+    let (mut min_sdf, mut c) = (f64::INFINITY, 0.0);
+    let mut beyond = 0;
+    for x in &states[1..] {
+        // The exact path: every particle's full query, recorded on a tape.
+        let mut tape = autodiff::Tape::new();
+        let xv = tape.leaf(x.clone());
+        let sdf = model.record_sdf(&mut tape, xv).expect("safety");
+        let exact = tape.value(sdf).data().to_vec();
+        min_sdf = exact.iter().copied().fold(min_sdf, f64::min);
+        let term = model.record_safety(&mut tape, xv, delta).expect("safety");
+        c += tape.value(term).item();
+        // The bounded values: exact below δ and at the minimum, lower bounds above δ elsewhere.
+        let bounded = cloth::sdf::batch::distances_within(&model.safety_obstacles, x, delta);
+        let smallest = exact.iter().copied().fold(f64::INFINITY, f64::min);
+        for (&e, &v) in exact.iter().zip(&bounded) {
+            if e <= delta || e == smallest {
+                assert_eq!(v.to_bits(), e.to_bits());
+            } else {
+                assert!(v > delta && v <= e, "exact {e}, bounded {v}");
+                beyond += usize::from(v < e);
+            }
+        }
+    }
+    assert!(c < 0.0, "some particle comes within δ: C = {c}");
+    assert!(beyond > 0, "some far particle is answered by a bound");
+    assert_eq!(metrics.min_sdf.to_bits(), min_sdf.to_bits());
+    assert_eq!(metrics.c.to_bits(), c.to_bits());
+}

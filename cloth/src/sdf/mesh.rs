@@ -202,14 +202,16 @@ impl SignedDistance for MeshSdf {
 
     /// The search stops at `max(bound, 0)`: a point with no triangle that near and outside the
     /// mesh's bounding box is outside, and gets the search's lower bound of its distance (a
-    /// constant); inside the box, where such a point may be deep inside the mesh, the search
+    /// constant, less `10⁻¹²` relative for rounding); inside the box, where such a point may be deep inside the mesh, the search
     /// runs again unbounded (the exact value).
     fn distance_within<R: Real>(&self, p: &Vector3<R>, bound: f64) -> R {
         let pv = Vector3::new(p[0].value(), p[1].value(), p[2].value());
         match self.nearest_feature_within(&pv, bound.max(0.0)) {
             Ok((t, feature)) => self.signed_distance_to(p, t, feature),
             Err(beyond) if !self.inner.bvh.contains(&pv) => {
-                R::cst(beyond.sqrt().max(bound.next_up()))
+                // Less a relative slack far above rounding, so it stays below the exact value.
+                let lower = beyond.sqrt();
+                R::cst((lower - 1e-12 * lower).max(bound.next_up()))
             }
             Err(_) => self.distance(p),
         }

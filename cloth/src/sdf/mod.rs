@@ -5,6 +5,7 @@
 //! safety constraint and their derivatives. Conventions: at a sphere's centre the distance is
 //! `−r` with gradient 0 (the norm's convention); on a tie between spheres, the first sphere wins.
 
+pub mod batch;
 pub mod bvh;
 pub mod mesh;
 pub mod shapes;
