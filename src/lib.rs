@@ -22,5 +22,6 @@ pub mod search;
 #[cfg(feature = "figures")]
 pub use viz as plot;
 pub mod start_check;
+pub mod validate;
 
 pub use error::{error_chain, Error, Result};
