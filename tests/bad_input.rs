@@ -523,7 +523,10 @@ fn bad_optimize_flags() {
             &["--physics-tolerance", "1"],
             "--physics-tolerance must be in (0, 1), got 1",
         ),
-        (&["--physics-tolerance", "nan"], "--physics-tolerance must be"),
+        (
+            &["--physics-tolerance", "nan"],
+            "--physics-tolerance must be",
+        ),
         (
             &["--physics-load-steps", "0"],
             "--physics-load-steps must be at least 1, got 0",
