@@ -2,7 +2,7 @@
 
 use crate::anytime::Watch;
 use crate::error::{Error, Result};
-use crate::outcome::{active_groups, task_outcome, PlanFacts, TaskOutcome};
+use crate::outcome::{row_facts, task_outcome, PlanFacts, TaskOutcome};
 use crate::problem::{TaskOptions, TrajectoryProblem};
 use crate::start_check::judge_start;
 use crate::validate::{
@@ -440,7 +440,7 @@ pub fn plan(
     };
     let controls = problem.controls(&solution.x);
     let evaluation = rescore(model, &controls, options)?;
-    let (active_safety, active_other) = active_groups(&mut problem, &solution)?;
+    let rows = row_facts(&mut problem, &solution)?;
     let safe = !matches!(solution.status, Status::Infeasible { .. })
         && solution.constraint_violation <= options.tol_feasibility
         && is_safe(&evaluation.metrics);
@@ -460,8 +460,12 @@ pub fn plan(
     if solution.constraint_violation > options.tol_feasibility
         && solution.constraint_violation.is_finite()
     {
+        let worst = match &rows.worst_violation {
+            Some((label, by)) => format!(" (most: {label}, by {by:.3e})"),
+            None => String::new(),
+        };
         warnings.push(format!(
-            "the returned plan violates the optimizer's rows by {:.3e}, above the feasibility tolerance {:.1e} (--feasibility-tol)",
+            "the returned plan violates the optimizer's rows by {:.3e}{worst}, above the feasibility tolerance {:.1e} (--feasibility-tol)",
             solution.constraint_violation, options.tol_feasibility
         ));
     }
@@ -472,8 +476,8 @@ pub fn plan(
         &PlanFacts {
             safe,
             status: &status,
-            active_safety,
-            active_other,
+            active_safety: rows.active_safety,
+            active_other: rows.active_other,
         },
     );
     Ok(PlanResult {
