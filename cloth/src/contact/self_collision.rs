@@ -28,8 +28,10 @@
 //!   cannot slip off the border of the other, where no neighbouring triangle takes over);
 //! - at least one of the four particles can move (not all are controls).
 //!
-//! The search is a spatial hash of the vertices (cells of edge `max(r, mean triangle extent)`)
-//! queried with each triangle's box grown by `r`. Pairs are listed by vertex, then triangle.
+//! The search is a uniform grid of the vertices (cells of the mean triangle extent, fewer when
+//! that would make more than eight cells per vertex) queried with the bounding box of each
+//! triangle's candidate region: the triangle, grown by `h` across its border edges, swept `±r`
+//! along its normal. Pairs are listed by vertex, then triangle.
 //!
 //! # Within a step
 //! The contact set is fixed within a step: the pairs are coloured greedily in pair order into
@@ -193,7 +195,7 @@ impl SelfCollision {
             let r = x.row(p);
             Vector3::new(r[0], r[1], r[2])
         };
-        // Non-degenerate triangles with their unit normals and bounding boxes.
+        // Non-degenerate triangles with their unit normals.
         let mut tris = Vec::with_capacity(self.triangles.len());
         let mut extent_sum = 0.0;
         for (k, t) in self.triangles.iter().enumerate() {
@@ -203,47 +205,20 @@ impl SelfCollision {
             if !(len > 0.0 && len.is_finite()) {
                 continue;
             }
-            let lo = a.inf(&b).inf(&c);
-            let hi = a.sup(&b).sup(&c);
-            extent_sum += (hi - lo).max();
-            tris.push((k, n / len, lo, hi));
+            extent_sum += (a.sup(&b).sup(&c) - a.inf(&b).inf(&c)).max();
+            tris.push((k, n / len));
         }
-        if tris.is_empty() {
+        if tris.is_empty() || !(radius >= 0.0 && radius.is_finite()) {
             return Vec::new();
         }
-        let cell = radius.max(extent_sum / tris.len() as f64);
-        if !(cell > 0.0 && cell.is_finite()) {
-            return Vec::new();
-        }
-        let key = |v: &Vector3<f64>| v.map(|c| (c / cell).floor() as i64);
-        let mut grid: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-        for p in 0..x.rows() {
-            let k = key(&point(p));
-            grid.entry([k.x, k.y, k.z]).or_default().push(p);
-        }
-        let grow = Vector3::repeat(radius);
+        let grid = VertexGrid::new(x, extent_sum / tris.len() as f64);
         let mut pairs = Vec::new();
         let mut candidates = Vec::new();
-        for &(k, n, lo, hi) in &tris {
+        for &(k, n) in &tris {
             let tri = self.triangles[k];
-            let (klo, khi) = (key(&(lo - grow)), key(&(hi + grow)));
-            let span = khi.zip_map(&klo, |h, l| {
-                h.saturating_sub(l).saturating_add(1).max(0) as u128
-            });
+            let (lo, hi) = self.query_box(tri.map(point), &n, k, radius);
             candidates.clear();
-            if span.x * span.y * span.z > x.rows() as u128 {
-                candidates.extend(0..x.rows());
-            } else {
-                for i in klo.x..=khi.x {
-                    for j in klo.y..=khi.y {
-                        for l in klo.z..=khi.z {
-                            if let Some(ps) = grid.get(&[i, j, l]) {
-                                candidates.extend_from_slice(ps);
-                            }
-                        }
-                    }
-                }
-            }
+            grid.candidates(&lo, &hi, &mut candidates);
             let [a, b, c] = tri.map(point);
             let movable = tri.iter().any(|&q| inv_mass[q] > 0.0);
             for &p in &candidates {
@@ -282,6 +257,51 @@ impl SelfCollision {
         pairs
     }
 
+    /// The bounding box of the points the rules above can pair with triangle `k` (corners
+    /// `corners`, unit normal `n`): the triangle with each border edge moved out by `h` in its
+    /// plane, swept `±radius` along `n`; grown by a rounding slack.
+    fn query_box(
+        &self,
+        corners: [Vector3<f64>; 3],
+        n: &Vector3<f64>,
+        k: usize,
+        radius: f64,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let margin = self.border[k].map(|b| if b { self.thickness } else { 0.0 });
+        // Inward in-plane unit normals of the edges ab, bc, ca.
+        let inward: [Vector3<f64>; 3] = std::array::from_fn(|e| {
+            let d = corners[(e + 1) % 3] - corners[e];
+            n.cross(&d).normalize()
+        });
+        let (mut lo, mut hi) = (
+            Vector3::repeat(f64::INFINITY),
+            Vector3::repeat(f64::NEG_INFINITY),
+        );
+        for v in 0..3 {
+            // Corner v lies on edges v (v → v+1) and v+2 (v+2 → v): move it to where both lines,
+            // shifted outwards by their margins, meet.
+            let (e, f) = (v, (v + 2) % 3);
+            let c = inward[e].dot(&inward[f]);
+            let det = 1.0 - c * c;
+            let (x, y) = if margin[e] == 0.0 && margin[f] == 0.0 {
+                (0.0, 0.0)
+            } else {
+                (
+                    (-margin[e] + margin[f] * c) / det,
+                    (-margin[f] + margin[e] * c) / det,
+                )
+            };
+            let corner = corners[v] + inward[e] * x + inward[f] * y;
+            for s in [-radius, radius] {
+                let q = corner + n * s;
+                lo = lo.inf(&q);
+                hi = hi.sup(&q);
+            }
+        }
+        let slack = 1e-9 * (1.0 + radius + lo.abs().max().max(hi.abs().max()));
+        (lo.add_scalar(-slack), hi.add_scalar(slack))
+    }
+
     /// The colour sets projecting `pairs` (greedy in pair order), each row `[vertex, triangle…]`.
     pub fn projection_sets(&self, pairs: &[ContactPair], inv_mass: &[f64]) -> Vec<ProjectionSet> {
         if pairs.is_empty() {
@@ -315,6 +335,104 @@ impl SelfCollision {
                 }
             })
             .collect()
+    }
+}
+
+/// The vertices of a state bucketed in a uniform grid over their bounding box (counting sort:
+/// each cell's vertices in increasing order).
+struct VertexGrid {
+    origin: Vector3<f64>,
+    cell: f64,
+    dims: [usize; 3],
+    /// Cell `c`'s vertices: `order[start[c]..start[c + 1]]`; empty when the grid could not be
+    /// built (non-finite coordinates), then every query returns every vertex.
+    start: Vec<usize>,
+    order: Vec<usize>,
+    n: usize,
+}
+
+impl VertexGrid {
+    /// The grid of `x`'s vertices with cells of edge `cell` (larger when that would make more
+    /// than eight cells per vertex).
+    fn new(x: &Tensor, cell: f64) -> VertexGrid {
+        let n = x.rows();
+        let point = |p: usize| Vector3::new(x.get(p, 0), x.get(p, 1), x.get(p, 2));
+        let (mut lo, mut hi) = (
+            Vector3::repeat(f64::INFINITY),
+            Vector3::repeat(f64::NEG_INFINITY),
+        );
+        for p in 0..n {
+            lo = lo.inf(&point(p));
+            hi = hi.sup(&point(p));
+        }
+        let mut grid = VertexGrid {
+            origin: lo,
+            cell,
+            dims: [1; 3],
+            start: Vec::new(),
+            order: Vec::new(),
+            n,
+        };
+        let span = hi - lo;
+        if !(span.iter().all(|s| s.is_finite()) && cell > 0.0 && cell.is_finite()) {
+            return grid;
+        }
+        let dims = |c: f64| span.map(|s| (s / c).floor() + 1.0);
+        while dims(grid.cell).product() > 8.0 * n as f64 + 8.0 {
+            grid.cell *= 2.0;
+        }
+        let d = dims(grid.cell);
+        grid.dims = [d.x as usize, d.y as usize, d.z as usize];
+        let cells: Vec<usize> = (0..n).map(|p| grid.index(&grid.key(&point(p)))).collect();
+        let mut start = vec![0usize; grid.dims.iter().product::<usize>() + 1];
+        for &c in &cells {
+            start[c + 1] += 1;
+        }
+        for c in 1..start.len() {
+            start[c] += start[c - 1];
+        }
+        let mut next = start.clone();
+        let mut order = vec![0; n];
+        for (p, &c) in cells.iter().enumerate() {
+            order[next[c]] = p;
+            next[c] += 1;
+        }
+        grid.start = start;
+        grid.order = order;
+        grid
+    }
+
+    /// The cell coordinates of `v`, clamped to the grid.
+    fn key(&self, v: &Vector3<f64>) -> [usize; 3] {
+        std::array::from_fn(|k| {
+            let c = ((v[k] - self.origin[k]) / self.cell).floor();
+            // `as` saturates (NaN to 0); the clamp keeps the key in the grid.
+            (c.max(0.0) as usize).min(self.dims[k] - 1)
+        })
+    }
+
+    fn index(&self, key: &[usize; 3]) -> usize {
+        (key[2] * self.dims[1] + key[1]) * self.dims[0] + key[0]
+    }
+
+    /// Appends every vertex in the cells the box `lo..hi` touches (all vertices when the grid
+    /// is empty or the box covers more cells than there are vertices).
+    fn candidates(&self, lo: &Vector3<f64>, hi: &Vector3<f64>, out: &mut Vec<usize>) {
+        if self.start.is_empty() || !(lo.iter().chain(hi.iter()).all(|c| c.is_finite())) {
+            return out.extend(0..self.n);
+        }
+        let (a, b) = (self.key(lo), self.key(hi));
+        let cells: usize = (0..3).map(|k| b[k] - a[k] + 1).product();
+        if cells > self.n {
+            return out.extend(0..self.n);
+        }
+        for l in a[2]..=b[2] {
+            for j in a[1]..=b[1] {
+                let row = self.index(&[a[0], j, l]);
+                let (first, last) = (row, row + b[0] - a[0]);
+                out.extend_from_slice(&self.order[self.start[first]..self.start[last + 1]]);
+            }
+        }
     }
 }
 
