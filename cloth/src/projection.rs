@@ -15,7 +15,6 @@
 use crate::constraint::{value_and_gradient, Constraint, RowVector, MAX_ARITY};
 use autodiff::rowfn::{ROW_BLOCK, SEED_CHUNK};
 use autodiff::{Real, RowFn};
-use std::marker::PhantomData;
 use std::sync::Arc;
 
 const MAX_D: usize = 3 * MAX_ARITY;
@@ -93,6 +92,23 @@ impl<C: Constraint> RowFn for Projection<C> {
         self.vjp_seeds(row, input, out_adj, in_adj);
     }
 
+    /// Two passes over the block: every row's `C` and `∇C` first (into the row's outputs, as
+    /// in [`Projection::eval`]), then every row's update, so the rows' long dependency chains
+    /// (square root, then divisions) overlap.
+    #[inline(always)]
+    fn eval_rows(&self, first: usize, inputs: &[f64], outputs: &mut [f64]) {
+        let (w, d) = (3 * C::ARITY + 1, 3 * C::ARITY);
+        let rows = inputs.len() / w;
+        for b in 0..rows {
+            let (x, y) = (&inputs[w * b..w * b + w], &mut outputs[w * b..w * b + w]);
+            y[d] = self.gradient(first + b, x, &mut y[..d]);
+        }
+        for b in 0..rows {
+            let (x, y) = (&inputs[w * b..w * b + w], &mut outputs[w * b..w * b + w]);
+            self.finish_eval(first + b, x, y);
+        }
+    }
+
     /// Passes over the block as in [`Projection::eval_rows`]: every row's `C` and `∇C`, then
     /// every row's shared quantities and adjoint up to the direction of its `∇²C·v`, then the
     /// (independent, so overlapping) Hessian–vector products, then the position adjoints.
@@ -104,25 +120,26 @@ impl<C: Constraint> RowFn for Projection<C> {
         for b in 0..rows {
             c[b] = self.gradient(first + b, &inputs[w * b..w * b + w], &mut g[b]);
         }
-        let mut shared = [None; ROW_BLOCK];
+        let mut steps = [None; ROW_BLOCK];
         let (mut a_num, mut a_g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
         for b in 0..rows {
             let (row, r) = (first + b, w * b..w * b + w);
-            shared[b] = self.row_adjoint(row, &inputs[r.clone()], c[b], &g[b]);
+            steps[b] = self.row_step(row, &inputs[r.clone()], c[b], &g[b]);
             add_identity::<C>(&out_adj[r.clone()], &mut in_adj[r.clone()]);
-            if let Some(sh) = &shared[b] {
-                a_num[b] = sh.head(&out_adj[r.clone()], &mut in_adj[r], &mut a_g[b]);
+            if let Some(step) = &steps[b] {
+                let (oa, ia) = (&out_adj[r.clone()], &mut in_adj[r]);
+                a_num[b] = self.seed_head(row, &g[b], step, oa, ia, &mut a_g[b]);
             }
         }
         for b in 0..rows {
-            if shared[b].is_some() {
+            if steps[b].is_some() {
                 let x = &inputs[w * b..w * b + w];
                 self.hessian_vectors(first + b, x, std::slice::from_mut(&mut a_g[b]));
             }
         }
         for b in 0..rows {
-            if let Some(sh) = &shared[b] {
-                sh.tail(a_num[b], &a_g[b], &mut in_adj[w * b..w * b + w]);
+            if steps[b].is_some() {
+                seed_tail::<C>(&g[b], a_num[b], &a_g[b], &mut in_adj[w * b..w * b + w]);
             }
         }
     }
@@ -143,17 +160,18 @@ impl<C: Constraint> RowFn for Projection<C> {
         }
         let mut g = [0.0; MAX_D];
         let c = self.gradient(row, input, &mut g);
-        let Some(sh) = self.row_adjoint(row, input, c, &g) else {
+        let Some(step) = self.row_step(row, input, c, &g) else {
             return;
         };
         let (mut a_num, mut a_g) = ([0.0; SEED_CHUNK], [[0.0; MAX_D]; SEED_CHUNK]);
         for s in 0..seeds {
             let r = w * s..w * s + w;
-            a_num[s] = sh.head(&out_adj[r.clone()], &mut in_adj[r], &mut a_g[s]);
+            let (oa, ia) = (&out_adj[r.clone()], &mut in_adj[r]);
+            a_num[s] = self.seed_head(row, &g, &step, oa, ia, &mut a_g[s]);
         }
         self.hessian_vectors(row, input, &mut a_g[..seeds]);
         for s in 0..seeds {
-            sh.tail(a_num[s], &a_g[s], &mut in_adj[w * s..w * s + w]);
+            seed_tail::<C>(&g, a_num[s], &a_g[s], &mut in_adj[w * s..w * s + w]);
         }
     }
 }
@@ -167,61 +185,24 @@ fn add_identity<C: Constraint>(out_adj: &[f64], in_adj: &mut [f64]) {
     }
 }
 
-/// What every seed's adjoint through one moving row shares: `∇C`, the inverse masses folded in,
-/// and the reciprocal of the denominator, so a seed costs only products and sums.
-struct RowAdjoint<C> {
-    /// `∇C`.
-    g: [f64; MAX_D],
-    /// `wᵢ ∇ᵢC`.
-    wg: [f64; MAX_D],
-    /// `wᵢ Δλ` per coordinate.
-    w_dlambda: [f64; MAX_D],
+/// What every seed's adjoint through one moving row shares besides `∇C`: `Δλ` and the
+/// reciprocal of the denominator, so a seed costs only products and sums.
+#[derive(Clone, Copy)]
+struct RowStep {
+    /// `Δλ`.
+    dlambda: f64,
     /// `1 / (Σᵢ wᵢ|∇ᵢC|² + α̃)`.
     inv_denom: f64,
     /// `Δλ / (Σᵢ wᵢ|∇ᵢC|² + α̃)`.
     dlambda_inv_denom: f64,
-    /// `α̃`.
-    compliance: f64,
-    constraint: PhantomData<C>,
 }
 
-// Not derived: that would require `C: Copy`.
-impl<C> Clone for RowAdjoint<C> {
-    fn clone(&self) -> Self {
-        *self
-    }
-}
-impl<C> Copy for RowAdjoint<C> {}
-
-impl<C: Constraint> RowAdjoint<C> {
-    /// The first part of one seed's adjoint through the row (after the identity part): `λ`'s
-    /// adjoint into `in_adj` and the adjoint `a_g` of `∇C`. Returns the adjoint of `Δλ`'s
-    /// numerator.
-    #[inline(always)]
-    fn head(&self, out_adj: &[f64], in_adj: &mut [f64], a_g: &mut [f64; MAX_D]) -> f64 {
-        let d = 3 * C::ARITY;
-        // Adjoint of Δλ, then of its numerator and denominator.
-        let mut a_dl = out_adj[d];
-        for j in 0..d {
-            a_dl += self.wg[j] * out_adj[j];
-        }
-        let a_num = a_dl * self.inv_denom;
-        let a_den2 = -2.0 * (a_dl * self.dlambda_inv_denom);
-        in_adj[d] -= self.compliance * a_num;
-        // Adjoint of ∇C: from pᵢ += wᵢ∇ᵢC Δλ and from the denominator Σ wᵢ|∇ᵢC|².
-        for j in 0..d {
-            a_g[j] = self.w_dlambda[j] * out_adj[j] + a_den2 * self.wg[j];
-        }
-        a_num
-    }
-
-    /// The position adjoints of one seed: `−a_num·∇C` (through `C`) `+ ∇²C·a_g` (through `∇C`),
-    /// given `hv = ∇²C·a_g`.
-    #[inline(always)]
-    fn tail(&self, a_num: f64, hv: &[f64; MAX_D], in_adj: &mut [f64]) {
-        for j in 0..3 * C::ARITY {
-            in_adj[j] += hv[j] - a_num * self.g[j];
-        }
+/// The position adjoints of one seed: `−a_num·∇C` (through `C`) `+ ∇²C·a_g` (through `∇C`),
+/// given `hv = ∇²C·a_g`.
+#[inline(always)]
+fn seed_tail<C: Constraint>(g: &[f64; MAX_D], a_num: f64, hv: &[f64; MAX_D], in_adj: &mut [f64]) {
+    for j in 0..3 * C::ARITY {
+        in_adj[j] += hv[j] - a_num * g[j];
     }
 }
 
@@ -268,33 +249,47 @@ impl<C: Constraint> Projection<C> {
         Some((denom, dlambda))
     }
 
-    /// The quantities every seed's adjoint through row `row` shares (see [`RowAdjoint`]), or
-    /// `None` when the row does not move (then the identity part is the whole adjoint).
+    /// What every seed's adjoint through row `row` shares (see [`RowStep`]), or `None` when the
+    /// row does not move (then the identity part is the whole adjoint).
     #[inline(always)]
-    fn row_adjoint(
-        &self,
-        row: usize,
-        input: &[f64],
-        c: f64,
-        g: &[f64; MAX_D],
-    ) -> Option<RowAdjoint<C>> {
+    fn row_step(&self, row: usize, input: &[f64], c: f64, g: &[f64; MAX_D]) -> Option<RowStep> {
         let (denom, dlambda) = self.step_of(row, input, c, g)?;
-        let w = &self.inv_mass[row * C::ARITY..(row + 1) * C::ARITY];
         let inv_denom = 1.0 / denom;
-        let (mut wg, mut w_dlambda) = ([0.0; MAX_D], [0.0; MAX_D]);
-        for j in 0..3 * C::ARITY {
-            wg[j] = w[j / 3] * g[j];
-            w_dlambda[j] = w[j / 3] * dlambda;
-        }
-        Some(RowAdjoint {
-            g: *g,
-            wg,
-            w_dlambda,
+        Some(RowStep {
+            dlambda,
             inv_denom,
             dlambda_inv_denom: dlambda * inv_denom,
-            compliance: self.compliance,
-            constraint: PhantomData,
         })
+    }
+
+    /// The first part of one seed's adjoint through a moving row (after the identity part):
+    /// `λ`'s adjoint into `in_adj` and the adjoint `a_g` of `∇C`. Returns the adjoint of `Δλ`'s
+    /// numerator.
+    #[inline(always)]
+    fn seed_head(
+        &self,
+        row: usize,
+        g: &[f64; MAX_D],
+        step: &RowStep,
+        out_adj: &[f64],
+        in_adj: &mut [f64],
+        a_g: &mut [f64; MAX_D],
+    ) -> f64 {
+        let d = 3 * C::ARITY;
+        let w = &self.inv_mass[row * C::ARITY..(row + 1) * C::ARITY];
+        // Adjoint of Δλ, then of its numerator and denominator.
+        let mut a_dl = out_adj[d];
+        for j in 0..d {
+            a_dl += w[j / 3] * g[j] * out_adj[j];
+        }
+        let a_num = a_dl * step.inv_denom;
+        let a_den2 = -2.0 * (a_dl * step.dlambda_inv_denom);
+        in_adj[d] -= self.compliance * a_num;
+        // Adjoint of ∇C: from pᵢ += wᵢ∇ᵢC Δλ and from the denominator Σ wᵢ|∇ᵢC|².
+        for j in 0..d {
+            a_g[j] = w[j / 3] * (step.dlambda * out_adj[j] + a_den2 * g[j]);
+        }
+        a_num
     }
 
     /// `∇²C·v` of row `row` at its input positions for every vector of `vs`, in place.
