@@ -166,17 +166,33 @@ impl NewtonSystem {
         }
         let mut phi = self.pattern.energy(x.data(), xt_d);
         let mut trial = x.clone();
+        // After a projected iteration whose line search shortened the step, x is still far from
+        // the region where the exact Hessian is positive definite: the next iteration goes
+        // straight to the projected Hessian (one factorization instead of a failed exact one and
+        // the projected one). A full projected step, or the tolerance, tries the exact one again.
+        let mut stay_projected = false;
         loop {
-            self.assemble_at(x.data(), xt_d, HessianKind::Exact);
+            let kind = if stay_projected {
+                HessianKind::Projected
+            } else {
+                HessianKind::Exact
+            };
+            self.assemble_at(x.data(), xt_d, kind);
             let res = self.residual();
             stats.residual = res / r0;
             if !stats.residual.is_finite() {
                 check_finite(&x, step)?;
             }
+            let within_tolerance = stats.residual <= settings.tolerance;
+            if kind == HessianKind::Projected && within_tolerance {
+                // The convergence test needs the exact Hessian.
+                self.assemble_at(x.data(), xt_d, HessianKind::Exact);
+            }
             // The exact Hessian's factorization: the Newton matrix below, and the test that x is
             // a minimizer (the implicit gradient needs it positive definite at the returned state).
-            let exact_pd = self.factor.factorize(&self.pattern, &self.values);
-            if stats.residual <= settings.tolerance {
+            let exact_tried = kind == HessianKind::Exact || within_tolerance;
+            let exact_pd = exact_tried && self.factor.factorize(&self.pattern, &self.values);
+            if within_tolerance {
                 if exact_pd {
                     return Ok((x, stats));
                 }
@@ -195,7 +211,9 @@ impl NewtonSystem {
             stats.iterations += 1;
             if !exact_pd {
                 stats.projected += 1;
-                self.assemble_at(x.data(), xt_d, HessianKind::Projected);
+                if exact_tried {
+                    self.assemble_at(x.data(), xt_d, HessianKind::Projected);
+                }
                 if !self.factor.factorize(&self.pattern, &self.values) {
                     return Err(not_converged(&stats));
                 }
@@ -213,6 +231,7 @@ impl NewtonSystem {
             if d_max <= ROUNDOFF_STEP * f64::EPSILON * x_max {
                 stats.at_roundoff = true;
                 // As converged as f64 allows, but only a minimizer has an implicit gradient.
+                let exact_pd = exact_pd || (!exact_tried && self.factorize_exact(x.data(), xt_d));
                 return if exact_pd {
                     Ok((x, stats))
                 } else {
@@ -241,6 +260,8 @@ impl NewtonSystem {
                 };
                 if trial_res >= res {
                     stats.at_roundoff = true;
+                    let exact_pd =
+                        exact_pd || (!exact_tried && self.factorize_exact(x.data(), xt_d));
                     return if exact_pd {
                         Ok((x, stats))
                     } else {
@@ -264,6 +285,7 @@ impl NewtonSystem {
             let Some(phi_t) = accepted else {
                 return Err(not_converged(&stats));
             };
+            stay_projected = !exact_pd && alpha < 1.0;
             phi = phi_t;
             std::mem::swap(&mut x, &mut trial);
         }

@@ -13,6 +13,7 @@
 //! `cargo run --release -p experiments --bin accuracy_vs_time [-- --out FILE --png-dir DIR --quick --jax PYTHON]`
 
 mod jax;
+mod newton;
 mod plots;
 mod rows;
 mod sweep;
@@ -60,6 +61,13 @@ struct Args {
     /// Also time the JAX reference with this Python (e.g. /tmp/jaxenv/bin/python).
     #[arg(long)]
     jax: Option<PathBuf>,
+    /// Only the Newton rows: Newton's tolerance sweep beside XPBD iteration counts at these
+    /// mesh sizes (e.g. `10,20,40`), against the converged Newton gradient; no other rows.
+    #[arg(long, value_delimiter = ',')]
+    newton_sizes: Vec<usize>,
+    /// XPBD iteration counts of the Newton rows.
+    #[arg(long, value_delimiter = ',', default_value = "100,1000")]
+    newton_xpbd_iterations: Vec<usize>,
     /// The JAX benchmark script run by --jax.
     #[arg(long, default_value = "/work/shared/anchors/jax_ref/bench_jax.py")]
     jax_script: PathBuf,
@@ -77,6 +85,9 @@ enum Child {
         threads: usize,
         #[arg(long)]
         iterations: usize,
+        /// Newton's method to this tolerance instead of XPBD.
+        #[arg(long)]
+        tolerance: Option<f64>,
         #[arg(long)]
         reps: usize,
         /// Stop timing after this many seconds (at least one run).
@@ -109,11 +120,12 @@ fn main() -> Result<()> {
         n,
         threads,
         iterations,
+        tolerance,
         reps,
         budget_s,
     }) = args.child
     {
-        return sweep::measure_mesh(n, threads, iterations, reps, budget_s);
+        return sweep::measure_mesh(n, threads, iterations, tolerance, reps, budget_s);
     }
     let clock = Instant::now();
     let q = args.quick;
@@ -155,6 +167,19 @@ fn main() -> Result<()> {
             "--out: the directory {} does not exist",
             dir.display()
         );
+    }
+
+    if !args.newton_sizes.is_empty() {
+        let rows = newton::sweep(&args.newton_sizes, &args.newton_xpbd_iterations, cfg.reps)?;
+        newton::print_table(&rows);
+        if let Some(out) = &args.out {
+            newton::write(out, &rows)?;
+            println!("wrote {}", out.display());
+        }
+        if let Some(dir) = &args.png_dir {
+            println!("wrote {}", newton::draw(dir, &rows)?.display());
+        }
+        return Ok(());
     }
 
     let mut acc = Vec::new();

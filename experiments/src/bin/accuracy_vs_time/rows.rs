@@ -87,6 +87,9 @@ pub struct MeshRow {
     pub peak_rss_mb: Option<f64>,
     /// VmHWM growth over the forward+∇L runs (model already built), MB.
     pub rss_growth_mb: Option<f64>,
+    /// Newton's tolerance when the row is Newton's (`n_iter` then unused).
+    #[serde(default)]
+    pub tolerance: Option<f64>,
 }
 
 /// The JAX reference at one setting, beside ours.

@@ -108,13 +108,18 @@ pub fn measure_mesh(
     n: usize,
     threads: usize,
     iterations: usize,
+    tolerance: Option<f64>,
     reps: usize,
     budget_s: f64,
 ) -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let scene = with_iterations(&Scene::builtin("u_obstacle")?.refined(n, n)?, iterations);
+    let mut scene = with_iterations(&Scene::builtin("u_obstacle")?.refined(n, n)?, iterations);
+    if let Some(tol) = tolerance {
+        scene.physics.solver = cloth::scene::SolverKind::Newton;
+        scene.physics.tolerance = Some(tol);
+    }
     let model = Model::from_scene(&scene)?;
     let start = plan::initial_controls(&scene, &model)?;
     let delta = scene.task.delta;
@@ -139,24 +144,38 @@ pub fn measure_mesh(
             l,
             peak_rss_mb: hwm1.map(|k| k / 1024.0),
             rss_growth_mb: hwm0.zip(hwm1).map(|(a, b)| (b - a) / 1024.0),
+            tolerance,
         })
     })?;
     println!("{}", serde_json::to_string(&row)?);
     Ok(())
 }
 
-/// Runs the mesh measurement in a fresh copy of this program.
+/// Runs the mesh measurement ([`MESH_N_ITER`] XPBD iterations) in a fresh copy of this program.
 pub fn spawn_mesh(n: usize, threads: usize, reps: usize) -> Result<MeshRow> {
+    spawn_mesh_with(n, threads, reps, MESH_N_ITER, None)
+}
+
+/// Runs the mesh measurement in a fresh copy of this program: XPBD at `iterations`, or with a
+/// `tolerance` Newton to it.
+pub fn spawn_mesh_with(
+    n: usize,
+    threads: usize,
+    reps: usize,
+    iterations: usize,
+    tolerance: Option<f64>,
+) -> Result<MeshRow> {
     let what = format!("mesh measurement n = {n}, {threads} thread(s)");
-    let stdout = child::run(
-        child::this_program()?
-            .args(["measure-mesh", "--n", &n.to_string()])
-            .args(["--threads", &threads.to_string()])
-            .args(["--iterations", &MESH_N_ITER.to_string()])
-            .args(["--reps", &reps.to_string()])
-            .args(["--budget-s", &MESH_BUDGET_S.to_string()]),
-        &what,
-    )?;
+    let mut cmd = child::this_program()?;
+    cmd.args(["measure-mesh", "--n", &n.to_string()])
+        .args(["--threads", &threads.to_string()])
+        .args(["--iterations", &iterations.max(1).to_string()])
+        .args(["--reps", &reps.to_string()])
+        .args(["--budget-s", &MESH_BUDGET_S.to_string()]);
+    if let Some(tol) = tolerance {
+        cmd.args(["--tolerance", &tol.to_string()]);
+    }
+    let stdout = child::run(&mut cmd, &what)?;
     child::last_json_line(&stdout, &what)
 }
 
