@@ -22,5 +22,7 @@ pub mod search;
 #[cfg(feature = "figures")]
 pub use viz as plot;
 pub mod start_check;
+mod summary;
+pub mod validate;
 
 pub use error::{error_chain, Error, Result};

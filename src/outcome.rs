@@ -180,16 +180,28 @@ const ACTIVE_FRACTION: f64 = 1e-2;
 /// Smallest multiplier of an active row: below it the row does not hold the objective back.
 const ACTIVE_MULTIPLIER: f64 = 1e-8;
 
+/// What the inequality rows say at a returned plan ([`row_facts`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RowFacts {
+    /// Active safety groups (`safety at steps 3–5`).
+    pub active_safety: Vec<String>,
+    /// Other active groups (collider planes, robot limits).
+    pub active_other: Vec<String>,
+    /// The most violated row and by how much (length units), when a row is violated.
+    pub worst_violation: Option<(String, f64)>,
+}
+
 /// The constraint groups active at the solution: rows within [`ACTIVE_FRACTION`] of the task
 /// tolerance of their bound with a positive multiplier (rows alone where the solver returned
-/// no multipliers), as labels — safety groups first, then the others.
-pub fn active_groups(
+/// no multipliers), as labels — safety groups first, then the others; and the most violated
+/// row, so a plan that misses its rows says which.
+pub fn row_facts(
     problem: &mut TrajectoryProblem<'_>,
     solution: &optim::Solution,
-) -> crate::Result<(Vec<String>, Vec<String>)> {
+) -> crate::Result<RowFacts> {
     let rows = problem.num_inequalities();
     if rows == 0 || solution.x.is_empty() {
-        return Ok((Vec::new(), Vec::new()));
+        return Ok(RowFacts::default());
     }
     let mut values = vec![0.0; rows];
     problem
@@ -204,6 +216,18 @@ pub fn active_groups(
         values[r] <= threshold && (multipliers.len() != rows || multipliers[r] > ACTIVE_MULTIPLIER)
     };
     let labels = problem.row_labels();
+    let worst_violation = values
+        .iter()
+        .zip(&labels)
+        .filter(|(v, _)| **v < 0.0)
+        .fold(
+            None,
+            |worst: Option<(f64, &RowLabel)>, (&v, label)| match worst {
+                Some((w, _)) if w <= v => worst,
+                _ => Some((v, label)),
+            },
+        )
+        .map(|(v, label)| (label.to_string(), -v));
     let mut safety_steps = Vec::new();
     let mut safety_whole = false;
     // Per collider plane: active steps, control points.
@@ -255,7 +279,11 @@ pub fn active_groups(
         steps.dedup();
         format!("limit {limit} at steps {}", step_ranges(&steps))
     }));
-    Ok((safety, other))
+    Ok(RowFacts {
+        active_safety: safety,
+        active_other: other,
+        worst_violation,
+    })
 }
 
 /// Compresses sorted step numbers into ranges: `[1, 2, 3, 7]` → `"1–3, 7"`.

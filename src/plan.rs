@@ -2,9 +2,12 @@
 
 use crate::anytime::Watch;
 use crate::error::{Error, Result};
-use crate::outcome::{active_groups, task_outcome, PlanFacts, TaskOutcome};
+use crate::outcome::{row_facts, task_outcome, PlanFacts, TaskOutcome};
 use crate::problem::{TaskOptions, TrajectoryProblem};
 use crate::start_check::judge_start;
+use crate::validate::{
+    ensure_iterations, ensure_non_negative, ensure_positive, ensure_positive_or_infinite,
+};
 use autodiff::Tensor;
 use cloth::{Controls, Metrics, Model, Scene};
 use optim::{IterationInfo, LbfgsSettings, LbfgsSolver, Problem, SqpSettings, SqpSolver, Status};
@@ -64,49 +67,6 @@ pub struct PlanOptions {
     /// Stop when this flag is raised (e.g. by SIGINT) and return the best feasible iterate so
     /// far (status `interrupted`). Default none.
     pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
-}
-
-/// `value` is a finite number ≥ 0, or an error naming it (`name`: a field or a `--flag`).
-pub fn ensure_non_negative(name: &str, value: f64) -> Result<()> {
-    require(
-        value.is_finite() && value >= 0.0,
-        name,
-        format!("must be a finite number ≥ 0, got {value}"),
-    )
-}
-
-/// `value` is a finite number > 0, or an error naming it.
-pub fn ensure_positive(name: &str, value: f64) -> Result<()> {
-    require(
-        value.is_finite() && value > 0.0,
-        name,
-        format!("must be a finite number > 0, got {value}"),
-    )
-}
-
-/// An iteration count is at least 1, or an error naming it.
-pub fn ensure_iterations(name: &str, iterations: usize) -> Result<()> {
-    require(iterations > 0, name, "must be at least 1, got 0".into())
-}
-
-/// `value` is > 0, where ∞ is allowed (it switches a feature off), or an error naming it.
-pub fn ensure_positive_or_infinite(name: &str, value: f64) -> Result<()> {
-    require(
-        value > 0.0,
-        name,
-        format!("must be a number > 0, got {value}"),
-    )
-}
-
-/// `Ok` when `ok`, else [`Error::InvalidSetting`] for `name`.
-fn require(ok: bool, name: &str, requirement: String) -> Result<()> {
-    match ok {
-        true => Ok(()),
-        false => Err(Error::InvalidSetting {
-            name: name.to_string(),
-            requirement,
-        }),
-    }
 }
 
 impl PlanOptions {
@@ -480,7 +440,7 @@ pub fn plan(
     };
     let controls = problem.controls(&solution.x);
     let evaluation = rescore(model, &controls, options)?;
-    let (active_safety, active_other) = active_groups(&mut problem, &solution)?;
+    let rows = row_facts(&mut problem, &solution)?;
     let safe = !matches!(solution.status, Status::Infeasible { .. })
         && solution.constraint_violation <= options.tol_feasibility
         && is_safe(&evaluation.metrics);
@@ -500,8 +460,12 @@ pub fn plan(
     if solution.constraint_violation > options.tol_feasibility
         && solution.constraint_violation.is_finite()
     {
+        let worst = match &rows.worst_violation {
+            Some((label, by)) => format!(" (most: {label}, by {by:.3e})"),
+            None => String::new(),
+        };
         warnings.push(format!(
-            "the returned plan violates the optimizer's rows by {:.3e}, above the feasibility tolerance {:.1e} (--feasibility-tol)",
+            "the returned plan violates the optimizer's rows by {:.3e}{worst}, above the feasibility tolerance {:.1e} (--feasibility-tol)",
             solution.constraint_violation, options.tol_feasibility
         ));
     }
@@ -512,8 +476,8 @@ pub fn plan(
         &PlanFacts {
             safe,
             status: &status,
-            active_safety,
-            active_other,
+            active_safety: rows.active_safety,
+            active_other: rows.active_other,
         },
     );
     Ok(PlanResult {

@@ -133,6 +133,26 @@ pub enum RowLabel {
     },
 }
 
+impl std::fmt::Display for RowLabel {
+    /// The row as a reader would name it: `safety at step 3`, `limit max_strain at step 4`, …
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            RowLabel::Safety { step: Some(t) } => write!(f, "safety at step {t}"),
+            RowLabel::Safety { step: None } => write!(f, "safety (whole rollout)"),
+            RowLabel::Goal => write!(f, "goal (every target within the goal radius)"),
+            RowLabel::ColliderPlane {
+                plane,
+                control,
+                step,
+            } => write!(
+                f,
+                "collider plane {plane} under control point {control} at step {step}"
+            ),
+            RowLabel::Limit { limit, step } => write!(f, "limit {limit} at step {step}"),
+        }
+    }
+}
+
 /// An owned per-step cost (see [`StepCost`]).
 type BoxedStepCost<'a> = Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + 'a>;
 

@@ -3,12 +3,12 @@
 //! [`PlanOptions`] and [`SearchOptions`]. Error messages name the setting the way the caller
 //! spells it (`--delta` on the command line, `delta` from Python).
 
-use crate::plan::{
-    ensure_iterations, ensure_non_negative, ensure_positive, ensure_positive_or_infinite,
-    PlanOptions, SolverKind, FEASIBILITY_TOLERANCE,
-};
+use crate::plan::{PlanOptions, SolverKind, FEASIBILITY_TOLERANCE};
 use crate::problem::SafetyForm;
 use crate::search::{SearchMode, SearchOptions};
+use crate::validate::{
+    ensure_iterations, ensure_non_negative, ensure_positive, ensure_positive_or_infinite,
+};
 use crate::{Error, Result};
 use cloth::{Model, Scene};
 use std::path::Path;

@@ -490,7 +490,7 @@ fn bad_optimize_flags() {
     let out = dir.join("out.json");
     // (`--alpha=-1`: with a space clap reads `-1` as a flag.) `--kappa 0` and `--kappa nan` used
     // to panic in the soft minimum; `--beta nan` was accepted silently.
-    let cases: [(&[&str], &str); 10] = [
+    let cases: [(&[&str], &str); 13] = [
         (
             &["--delta", "nan"],
             "--delta must be a finite number ≥ 0, got NaN",
@@ -519,6 +519,18 @@ fn bad_optimize_flags() {
             "--reuse-band must be a number > 0, got 0",
         ),
         (&["--solver", "newton"], "invalid value 'newton'"),
+        (
+            &["--physics-tolerance", "1"],
+            "--physics-tolerance must be in (0, 1), got 1",
+        ),
+        (
+            &["--physics-tolerance", "nan"],
+            "--physics-tolerance must be",
+        ),
+        (
+            &["--physics-load-steps", "0"],
+            "--physics-load-steps must be at least 1, got 0",
+        ),
     ];
     for (args, expected) in cases {
         let o = run(bin()

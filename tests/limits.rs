@@ -216,3 +216,60 @@ proptest! {
         prop_assert!((0..4).any(|r| jac.row(r).iter().any(|&v| v != 0.0)));
     }
 }
+
+/// A limit no plan can meet (the hanging cloth stretches more than 1e-6 under gravity at every
+/// step): the result is not safe, and its warning names the most violated row.
+#[test]
+fn an_unmeetable_limit_is_named_in_the_warning() {
+    let scene = stretching_scene(Limits {
+        max_strain: Some(1e-6),
+        ..Limits::default()
+    });
+    let model = Model::from_scene(&scene).unwrap();
+    let start = clothopt::plan::initial_controls(&scene, &model).unwrap();
+    let mut options = PlanOptions::for_model(&model);
+    options.iterations = 10;
+    let result = plan(&model, &scene, &start, &options, |_| {}).unwrap();
+    assert!(!result.task.achieved);
+    assert!(
+        result.constraint_violation > 1e-4,
+        "{}",
+        result.constraint_violation
+    );
+    let warning = result
+        .warnings
+        .iter()
+        .find(|w| w.contains("violates the optimizer's rows"))
+        .expect("a violation warning");
+    assert!(
+        warning.contains("(most: limit max_strain at step "),
+        "{warning}"
+    );
+}
+
+#[test]
+fn row_labels_read_as_names() {
+    use clothopt::problem::RowLabel;
+    let cases = [
+        (RowLabel::Safety { step: Some(3) }, "safety at step 3"),
+        (RowLabel::Safety { step: None }, "safety (whole rollout)"),
+        (
+            RowLabel::ColliderPlane {
+                plane: 0,
+                control: 1,
+                step: 2,
+            },
+            "collider plane 0 under control point 1 at step 2",
+        ),
+        (
+            RowLabel::Limit {
+                limit: "max_strain",
+                step: 4,
+            },
+            "limit max_strain at step 4",
+        ),
+    ];
+    for (label, text) in cases {
+        assert_eq!(label.to_string(), text);
+    }
+}

@@ -7,10 +7,12 @@
 //!   on the bottom layer, so contacts exist; the bench prints how many pairs per step);
 //! - `mesh_collider`, `mesh_safety`: `plain` plus a closed mesh obstacle of 5120 triangles (an
 //!   icosphere of radius 0.1 generated here, four subdivisions of an icosahedron) in the crease,
-//!   so the cloth folds over it, as a collider and as a safety obstacle (`δ = 0.02`).
+//!   so the cloth folds over it, as a collider and as a safety obstacle (`δ = 0.02`);
+//! - `friction`: `plain` with Coulomb friction `μ = 0.5` on the ground (the cloth lies on it, so
+//!   every free particle's frictional row acts).
 //!
 //! The targets (issue 18): self-collision ≤ +50%, a 5k-triangle mesh obstacle ≤ +30% over
-//! `plain`. Single thread, as the targets are stated:
+//! `plain` (friction has none). Single thread, as the targets are stated:
 //! `RAYON_NUM_THREADS=1 cargo bench -p cloth --bench contact`.
 
 use autodiff::Tensor;
@@ -25,8 +27,10 @@ const N: usize = 40;
 const FOLD: usize = 10;
 const DELTA: f64 = 0.02;
 
-/// The fold scene: `N × N`, lying at z = 0 on a ground collider, gripped at the row-0 corners.
-fn fold_scene() -> Scene {
+/// The fold scene: `N × N`, lying at z = 0 on a ground collider (`friction` as its JSON
+/// `"friction"` member, or frictionless when `None`), gripped at the row-0 corners.
+fn fold_scene(friction: Option<f64>) -> Scene {
+    let friction = friction.map_or(String::new(), |mu| format!(r#", "friction": {mu}"#));
     let json = format!(
         r#"{{
         "name": "fold_bench",
@@ -35,7 +39,7 @@ fn fold_scene() -> Scene {
         "material": {{"stretch": 10000.0, "bending": {{"model": "distance", "stiffness": 100.0}}}},
         "physics": {{"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 50}},
         "controls": [[0, 0], [0, {last}]],
-        "obstacles": [{{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "role": "collider"}}],
+        "obstacles": [{{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "role": "collider"{friction}}}],
         "task": {{"horizon": {FOLD}, "targets": [
                     {{"particle": [0, 0], "position": [0, 1, 0.05]}},
                     {{"particle": [0, {last}], "position": [1, 1, 0.05]}}],
@@ -137,7 +141,7 @@ fn icosphere(center: [f64; 3], radius: f64, levels: usize) -> MeshSdf {
 }
 
 fn contacts(c: &mut Criterion) {
-    let plain = fold_scene();
+    let plain = fold_scene(None);
     let mut with_sc = plain.clone();
     with_sc.physics.self_collision = Some(SelfCollisionSpec { thickness: 0.01 });
     let sphere = icosphere([0.5, 0.5, 0.12], 0.1, 4);
@@ -158,6 +162,7 @@ fn contacts(c: &mut Criterion) {
         ("self_collision", with_sc),
         ("mesh_collider", with_mesh(ObstacleRole::Collider)),
         ("mesh_safety", with_mesh(ObstacleRole::Safety)),
+        ("friction", fold_scene(Some(0.5))),
     ];
     let mut group = c.benchmark_group("fold_n40");
     group.sample_size(10);

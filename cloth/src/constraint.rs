@@ -6,8 +6,8 @@
 //! evaluating `c` on forward duals, and the backward pass `∇²C·v` from nested duals.
 //!
 //! A type may also override [`Constraint::gradient`] (a closed-form `∇C`, still generic over
-//! [`Real`], so forward duals through it give `∇²C·v`) and [`Constraint::hessian_vector`] (a
-//! closed-form `∇²C·v`), like a `custom_vjp`. The built-ins do; `tests/overrides.rs` checks each
+//! [`Real`], so forward duals through it give `∇²C·v`) and [`Constraint::hessian_vectors`] (a
+//! closed-form `∇²C·v` for several vectors at once), like a `custom_vjp`. The built-ins do; `tests/overrides.rs` checks each
 //! override against the generic dual derivative, which [`Generic`] exposes for any constraint.
 //!
 //! # Conventions where `C` is not differentiable
@@ -48,21 +48,42 @@ pub trait Constraint: Send + Sync + 'static {
         value_and_gradient_by_duals(self, instance, x, grad)
     }
 
-    /// `∇²C(x)·v` of `instance`, in place: `v` (`3·ARITY` entries) in, the product out.
+    /// `∇²C(x)·v` for several vectors `v` at once, in place: each `vs[s][..3·ARITY]` in, its
+    /// product out. The XPBD backward pass calls it with every seed's vector of a row, so what
+    /// the vectors share (the point's own quantities, reciprocals) is computed once.
     ///
-    /// The default is the forward-mode derivative of [`Constraint::gradient`] along `v` (nested
-    /// duals when `gradient` is not overridden).
+    /// The default is the forward-mode derivative of [`Constraint::gradient`] along every
+    /// vector at once: one evaluation on duals as wide as the vectors (nested duals when
+    /// `gradient` is not overridden), each vector's product bitwise that of a width-1 dual.
+    /// This is the method to override for a closed-form `∇²C·v`.
+    #[inline(always)]
+    fn hessian_vectors(&self, instance: usize, x: &[f64], vs: &mut [RowVector])
+    where
+        Self: Sized,
+    {
+        hessian_vectors_by_duals(self, instance, x, vs)
+    }
+
+    /// `∇²C(x)·v` of `instance`, in place: `v` (`3·ARITY` entries) in, the product out.
+    /// [`Constraint::hessian_vectors`] of one vector (override that one, not this).
     #[inline(always)]
     fn hessian_vector(&self, instance: usize, x: &[f64], v: &mut [f64])
     where
         Self: Sized,
     {
-        hessian_vector_by_duals(self, instance, x, v)
+        let d = 3 * Self::ARITY;
+        let mut vs = [[0.0; MAX_D]];
+        vs[0][..d].copy_from_slice(&v[..d]);
+        self.hessian_vectors(instance, x, &mut vs);
+        v[..d].copy_from_slice(&vs[0][..d]);
     }
 }
 
+/// One instance's coordinates (or a vector over them), padded to the largest arity.
+pub type RowVector = [f64; MAX_D];
+
 /// Any constraint with its derivative overrides hidden: [`Constraint::gradient`] and
-/// [`Constraint::hessian_vector`] take their generic dual defaults. The reference the overrides
+/// [`Constraint::hessian_vectors`] take their generic dual defaults. The reference the overrides
 /// are tested against, and the generic side of the `generality` bench.
 #[derive(Clone, Debug)]
 pub struct Generic<C>(pub C);
@@ -127,22 +148,59 @@ fn value_and_gradient_n<C: Constraint, R: Real, const D: usize, const A: usize>(
 }
 
 /// `∇²C(x)·v` of one instance, in place in `v`, as the derivative of [`Constraint::gradient`]
-/// along `v` by a forward dual (the default of [`Constraint::hessian_vector`]).
+/// along `v` by a forward dual.
 #[inline(always)]
 pub fn hessian_vector_by_duals<C: Constraint>(c: &C, instance: usize, x: &[f64], v: &mut [f64]) {
-    type T = Dual<f64, 1>;
     let d = 3 * C::ARITY;
-    let mut xt = [T::constant(0.0); MAX_D];
-    for j in 0..d {
-        xt[j] = T {
-            re: x[j],
-            eps: [v[j]],
-        };
+    let mut vs = [[0.0; MAX_D]];
+    vs[0][..d].copy_from_slice(&v[..d]);
+    hessian_vectors_n::<C, 1>(c, instance, x, &mut vs);
+    v[..d].copy_from_slice(&vs[0][..d]);
+}
+
+/// `∇²C(x)·v` of one instance for every vector of `vs`, in place, as the derivative of
+/// [`Constraint::gradient`] along all of them by one forward dual (the default of
+/// [`Constraint::hessian_vectors`]); its width is the next of 1, 4 or 8 at or above `vs.len()`,
+/// and more vectors go in groups of 8.
+#[inline(always)]
+pub fn hessian_vectors_by_duals<C: Constraint>(
+    c: &C,
+    instance: usize,
+    x: &[f64],
+    vs: &mut [RowVector],
+) {
+    for group in vs.chunks_mut(8) {
+        match group.len() {
+            1 => hessian_vectors_n::<C, 1>(c, instance, x, group),
+            2..=4 => hessian_vectors_n::<C, 4>(c, instance, x, group),
+            _ => hessian_vectors_n::<C, 8>(c, instance, x, group),
+        }
     }
-    let mut g = [T::constant(0.0); MAX_D];
+}
+
+/// [`hessian_vectors_by_duals`] with a dual of width `N ≥ vs.len()` (unused lanes carry 0).
+#[inline(always)]
+fn hessian_vectors_n<C: Constraint, const N: usize>(
+    c: &C,
+    instance: usize,
+    x: &[f64],
+    vs: &mut [RowVector],
+) {
+    type T<const N: usize> = Dual<f64, N>;
+    let d = 3 * C::ARITY;
+    let mut xt = [T::<N>::constant(0.0); MAX_D];
+    for (j, xj) in xt[..d].iter_mut().enumerate() {
+        xj.re = x[j];
+        for (e, v) in xj.eps.iter_mut().zip(vs.iter()) {
+            *e = v[j];
+        }
+    }
+    let mut g = [T::<N>::constant(0.0); MAX_D];
     c.gradient(instance, &xt[..d], &mut g[..d]);
-    for (h, e) in v[..d].iter_mut().zip(&g) {
-        *h = e.eps[0];
+    for (s, v) in vs.iter_mut().enumerate() {
+        for (h, e) in v[..d].iter_mut().zip(&g) {
+            *h = e.eps[s];
+        }
     }
 }
 
@@ -184,21 +242,24 @@ impl Constraint for Distance {
         n - self.rest[instance]
     }
 
-    /// `∇²C·v`: `±(δ − u(u·δ))/|d|` with `d = p₀ − p₁`, `u = d/|d|`, `δ = v₀ − v₁`.
+    /// `∇²C·v`: `±(δ − u(u·δ))/|d|` with `d = p₀ − p₁`, `u = d/|d|`, `δ = v₀ − v₁`; `1/|d|`
+    /// and `u` once for all the vectors, then only products and sums per vector.
     #[inline(always)]
-    fn hessian_vector(&self, _instance: usize, x: &[f64], v: &mut [f64]) {
+    fn hessian_vectors(&self, _instance: usize, x: &[f64], vs: &mut [RowVector]) {
         let d = point(x, 0) - point(x, 1);
         let s = d.dot(&d);
         if s == 0.0 {
-            return v[..6].fill(0.0);
+            return vs.iter_mut().for_each(|v| v[..6].fill(0.0));
         }
-        let n = s.sqrt();
-        let u = d / n;
-        let delta = point(v, 0) - point(v, 1);
-        let h = (delta - u * u.dot(&delta)) / n;
-        for k in 0..3 {
-            v[k] = h[k];
-            v[k + 3] = -h[k];
+        let inv = s.sqrt().recip();
+        let u = d * inv;
+        for v in vs {
+            let delta = point(v, 0) - point(v, 1);
+            let h = (delta - u * u.dot(&delta)) * inv;
+            for k in 0..3 {
+                v[k] = h[k];
+                v[k + 3] = -h[k];
+            }
         }
     }
 }
@@ -293,10 +354,15 @@ impl<S: crate::sdf::SignedDistance> Constraint for Collision<S> {
         self.sdf.distance(&p[0])
     }
 
-    /// `∇C` from the field's [`crate::sdf::SignedDistance::distance_gradient`].
+    /// `∇C` from the field's bounded query
+    /// [`crate::sdf::SignedDistance::distance_gradient_within`] at bound 0: exact (the generic
+    /// derivative) wherever `C ≤ 0`; where the particle is outside (`C > 0`, the row inactive:
+    /// no projection, no derivative through it) it may be a positive lower bound of `C` with
+    /// gradient 0, so a mesh's search stops early. The projection and its derivative are the
+    /// exact field's, bitwise (`tests/mesh_query.rs`); [`Constraint::c`] stays exact.
     #[inline(always)]
     fn gradient<R: Real>(&self, _instance: usize, x: &[R], g: &mut [R]) -> R {
-        let (d, n) = self.sdf.distance_gradient(&point(x, 0));
+        let (d, n) = self.sdf.distance_gradient_within(&point(x, 0), 0.0);
         g[..3].copy_from_slice(n.as_slice());
         d
     }

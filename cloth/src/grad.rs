@@ -94,7 +94,10 @@ impl Model {
             if let Some(e) = self.record_energy(&mut tape, xv) {
                 m.e += tape.value(e).item();
             }
-            if let Some(sdf) = self.record_sdf(&mut tape, xv) {
+            if self.safety.is_some() {
+                // Exact below δ and at the minimum, which is all `C` and `min_sdf` read.
+                let d = crate::sdf::batch::distances_within(&self.safety_obstacles, x, delta);
+                let sdf = tape.leaf(Tensor::new(d.len(), 1, d));
                 m.min_sdf = m.min_sdf.min(
                     tape.value(sdf)
                         .data()
@@ -218,18 +221,10 @@ impl Model {
     /// The smallest signed distance to the safety obstacles along every particle's straight path
     /// from `a` to `b` (∞ without safety obstacles).
     pub fn min_sdf_between(&self, a: &Tensor, b: &Tensor) -> f64 {
-        use crate::sdf::SignedDistance;
-        use nalgebra::Vector3;
         if self.safety_obstacles.is_empty() {
             return f64::INFINITY;
         }
-        let point = |x: &Tensor, p: usize| Vector3::new(x.get(p, 0), x.get(p, 1), x.get(p, 2));
-        (0..a.rows())
-            .map(|p| {
-                self.safety_obstacles
-                    .min_along_segment(&point(a, p), &point(b, p))
-            })
-            .fold(f64::INFINITY, f64::min)
+        crate::sdf::batch::min_along_segments(&self.safety_obstacles, a, b)
     }
 
     /// Gradients of several per-step costs with respect to the controls, by reverse mode over the

@@ -6,11 +6,13 @@
 //!
 //! The forward pass takes `∇C` from [`Constraint::gradient`] (closed form for the built-ins,
 //! forward duals on the generic `C` otherwise). The vector–Jacobian product is the adjoint of the
-//! update formula above, with `∇C` and the Hessian–vector product [`Constraint::hessian_vector`]
-//! (again closed form or from duals), so it serves every [`Constraint`] unchanged; a test checks
-//! it against the engine's generic dual-derived VJP.
+//! update formula above, with `∇C` and the Hessian–vector products
+//! [`Constraint::hessian_vectors`] (again closed form or from duals), so it serves every
+//! [`Constraint`] unchanged; a test checks it against the engine's generic dual-derived VJP.
+//! What the seeds of a multi-seed pull-back share (`∇C`, `Δλ`, the reciprocal of the
+//! denominator) is computed once per row; per seed there are only products and sums.
 
-use crate::constraint::{value_and_gradient, Constraint, MAX_ARITY};
+use crate::constraint::{value_and_gradient, Constraint, RowVector, MAX_ARITY};
 use autodiff::rowfn::{ROW_BLOCK, SEED_CHUNK};
 use autodiff::{Real, RowFn};
 use std::sync::Arc;
@@ -87,14 +89,7 @@ impl<C: Constraint> RowFn for Projection<C> {
 
     #[inline(always)]
     fn vjp(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
-        let mut g = [0.0; MAX_D];
-        let c = self.gradient(row, input, &mut g);
-        let step = self.step_of(row, input, c, &g);
-        let mut a_g = [0.0; MAX_D];
-        if let Some(a_num) = self.seed_head(row, &g, step, out_adj, in_adj, &mut a_g) {
-            self.hessian_vector(row, input, &mut a_g);
-            Self::seed_tail(&g, a_num, &a_g, in_adj);
-        }
+        self.vjp_seeds(row, input, out_adj, in_adj);
     }
 
     /// Two passes over the block: every row's `C` and `∇C` first (into the row's outputs, as
@@ -115,8 +110,8 @@ impl<C: Constraint> RowFn for Projection<C> {
     }
 
     /// Passes over the block as in [`Projection::eval_rows`]: every row's `C` and `∇C`, then
-    /// every row's adjoint up to the direction of its `∇²C·v`, then the (independent, so
-    /// overlapping) Hessian–vector products, then the position adjoints.
+    /// every row's shared quantities and adjoint up to the direction of its `∇²C·v`, then the
+    /// (independent, so overlapping) Hessian–vector products, then the position adjoints.
     #[inline(always)]
     fn vjp_rows(&self, first: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
         let w = 3 * C::ARITY + 1;
@@ -125,67 +120,89 @@ impl<C: Constraint> RowFn for Projection<C> {
         for b in 0..rows {
             c[b] = self.gradient(first + b, &inputs[w * b..w * b + w], &mut g[b]);
         }
-        let (mut a_num, mut a_g) = ([None; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
+        let mut steps = [None; ROW_BLOCK];
+        let (mut a_num, mut a_g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
         for b in 0..rows {
             let (row, r) = (first + b, w * b..w * b + w);
-            let step = self.step_of(row, &inputs[r.clone()], c[b], &g[b]);
-            a_num[b] = self.seed_head(
-                row,
-                &g[b],
-                step,
-                &out_adj[r.clone()],
-                &mut in_adj[r],
-                &mut a_g[b],
-            );
-        }
-        for b in 0..rows {
-            if a_num[b].is_some() {
-                self.hessian_vector(first + b, &inputs[w * b..w * b + w], &mut a_g[b]);
+            steps[b] = self.row_step(row, &inputs[r.clone()], c[b], &g[b]);
+            add_identity::<C>(&out_adj[r.clone()], &mut in_adj[r.clone()]);
+            if let Some(step) = &steps[b] {
+                let (oa, ia) = (&out_adj[r.clone()], &mut in_adj[r]);
+                a_num[b] = self.seed_head(row, &g[b], step, oa, ia, &mut a_g[b]);
             }
         }
         for b in 0..rows {
-            if let Some(a_num) = a_num[b] {
-                Self::seed_tail(&g[b], a_num, &a_g[b], &mut in_adj[w * b..w * b + w]);
+            if steps[b].is_some() {
+                let x = &inputs[w * b..w * b + w];
+                self.hessian_vectors(first + b, x, std::slice::from_mut(&mut a_g[b]));
+            }
+        }
+        for b in 0..rows {
+            if steps[b].is_some() {
+                seed_tail::<C>(&g[b], a_num[b], &a_g[b], &mut in_adj[w * b..w * b + w]);
             }
         }
     }
 
-    /// `C`, `∇C` and `Δλ` once for all the seeds, whose Hessian–vector products then overlap
-    /// as the rows' do in [`Projection::vjp_rows`].
+    /// `C`, `∇C`, `Δλ` and the reciprocals once for all the seeds; per seed only products and
+    /// sums, and one call of [`Constraint::hessian_vectors`] for every seed's vector.
     #[inline(always)]
     fn vjp_seeds(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
         let w = 3 * C::ARITY + 1;
-        let mut g = [0.0; MAX_D];
-        let c = self.gradient(row, input, &mut g);
-        let step = self.step_of(row, input, c, &g);
         let seeds = out_adj.len() / w;
         assert!(
             seeds <= SEED_CHUNK,
             "Projection::vjp_seeds: at most SEED_CHUNK seeds"
         );
-        let (mut a_num, mut a_g) = ([None; SEED_CHUNK], [[0.0; MAX_D]; SEED_CHUNK]);
         for s in 0..seeds {
             let r = w * s..w * s + w;
-            a_num[s] = self.seed_head(
-                row,
-                &g,
-                step,
-                &out_adj[r.clone()],
-                &mut in_adj[r],
-                &mut a_g[s],
-            );
+            add_identity::<C>(&out_adj[r.clone()], &mut in_adj[r]);
         }
-        if step.is_none() {
+        let mut g = [0.0; MAX_D];
+        let c = self.gradient(row, input, &mut g);
+        let Some(step) = self.row_step(row, input, c, &g) else {
             return;
-        }
-        for a_g in &mut a_g[..seeds] {
-            self.hessian_vector(row, input, a_g);
-        }
+        };
+        let (mut a_num, mut a_g) = ([0.0; SEED_CHUNK], [[0.0; MAX_D]; SEED_CHUNK]);
         for s in 0..seeds {
-            if let Some(a_num) = a_num[s] {
-                Self::seed_tail(&g, a_num, &a_g[s], &mut in_adj[w * s..w * s + w]);
-            }
+            let r = w * s..w * s + w;
+            let (oa, ia) = (&out_adj[r.clone()], &mut in_adj[r]);
+            a_num[s] = self.seed_head(row, &g, &step, oa, ia, &mut a_g[s]);
         }
+        self.hessian_vectors(row, input, &mut a_g[..seeds]);
+        for s in 0..seeds {
+            seed_tail::<C>(&g, a_num[s], &a_g[s], &mut in_adj[w * s..w * s + w]);
+        }
+    }
+}
+
+/// The identity part of a row's update adjoint: `in_adj += out_adj` (positions and `λ`).
+#[inline(always)]
+fn add_identity<C: Constraint>(out_adj: &[f64], in_adj: &mut [f64]) {
+    let d = 3 * C::ARITY;
+    for (a, o) in in_adj[..=d].iter_mut().zip(&out_adj[..=d]) {
+        *a += o;
+    }
+}
+
+/// What every seed's adjoint through one moving row shares besides `∇C`: `Δλ` and the
+/// reciprocal of the denominator, so a seed costs only products and sums.
+#[derive(Clone, Copy)]
+struct RowStep {
+    /// `Δλ`.
+    dlambda: f64,
+    /// `1 / (Σᵢ wᵢ|∇ᵢC|² + α̃)`.
+    inv_denom: f64,
+    /// `Δλ / (Σᵢ wᵢ|∇ᵢC|² + α̃)`.
+    dlambda_inv_denom: f64,
+}
+
+/// The position adjoints of one seed: `−a_num·∇C` (through `C`) `+ ∇²C·a_g` (through `∇C`),
+/// given `hv = ∇²C·a_g`.
+#[inline(always)]
+fn seed_tail<C: Constraint>(g: &[f64; MAX_D], a_num: f64, hv: &[f64; MAX_D], in_adj: &mut [f64]) {
+    for j in 0..3 * C::ARITY {
+        in_adj[j] += hv[j] - a_num * g[j];
     }
 }
 
@@ -232,55 +249,54 @@ impl<C: Constraint> Projection<C> {
         Some((denom, dlambda))
     }
 
-    /// The first part of one seed's adjoint through row `row`: the identity part and `λ`'s
-    /// adjoint into `in_adj`, and the adjoint `a_g` of `∇C`. Returns the adjoint of `Δλ`'s
-    /// numerator, or `None` when the row does not move (then the identity part is all).
+    /// What every seed's adjoint through row `row` shares (see [`RowStep`]), or `None` when the
+    /// row does not move (then the identity part is the whole adjoint).
+    #[inline(always)]
+    fn row_step(&self, row: usize, input: &[f64], c: f64, g: &[f64; MAX_D]) -> Option<RowStep> {
+        let (denom, dlambda) = self.step_of(row, input, c, g)?;
+        let inv_denom = 1.0 / denom;
+        Some(RowStep {
+            dlambda,
+            inv_denom,
+            dlambda_inv_denom: dlambda * inv_denom,
+        })
+    }
+
+    /// The first part of one seed's adjoint through a moving row (after the identity part):
+    /// `λ`'s adjoint into `in_adj` and the adjoint `a_g` of `∇C`. Returns the adjoint of `Δλ`'s
+    /// numerator.
     #[inline(always)]
     fn seed_head(
         &self,
         row: usize,
         g: &[f64; MAX_D],
-        step: Option<(f64, f64)>,
+        step: &RowStep,
         out_adj: &[f64],
         in_adj: &mut [f64],
         a_g: &mut [f64; MAX_D],
-    ) -> Option<f64> {
+    ) -> f64 {
         let d = 3 * C::ARITY;
-        // The identity part of the update.
-        for (a, o) in in_adj[..=d].iter_mut().zip(&out_adj[..=d]) {
-            *a += o;
-        }
-        let (denom, dlambda) = step?;
         let w = &self.inv_mass[row * C::ARITY..(row + 1) * C::ARITY];
         // Adjoint of Δλ, then of its numerator and denominator.
         let mut a_dl = out_adj[d];
         for j in 0..d {
             a_dl += w[j / 3] * g[j] * out_adj[j];
         }
-        let a_num = a_dl / denom;
-        let a_den = -a_dl * dlambda / denom;
+        let a_num = a_dl * step.inv_denom;
+        let a_den2 = -2.0 * (a_dl * step.dlambda_inv_denom);
         in_adj[d] -= self.compliance * a_num;
         // Adjoint of ∇C: from pᵢ += wᵢ∇ᵢC Δλ and from the denominator Σ wᵢ|∇ᵢC|².
         for j in 0..d {
-            a_g[j] = w[j / 3] * (dlambda * out_adj[j] + 2.0 * a_den * g[j]);
+            a_g[j] = w[j / 3] * (step.dlambda * out_adj[j] + a_den2 * g[j]);
         }
-        Some(a_num)
+        a_num
     }
 
-    /// The position adjoints of one seed: `−a_num·∇C` (through `C`) `+ ∇²C·a_g` (through `∇C`),
-    /// given `hv = ∇²C·a_g`.
+    /// `∇²C·v` of row `row` at its input positions for every vector of `vs`, in place.
     #[inline(always)]
-    fn seed_tail(g: &[f64; MAX_D], a_num: f64, hv: &[f64; MAX_D], in_adj: &mut [f64]) {
-        for j in 0..3 * C::ARITY {
-            in_adj[j] += -a_num * g[j] + hv[j];
-        }
-    }
-
-    /// `∇²C·v` of row `row` at its input positions, in place: `v` in, the product out.
-    #[inline(always)]
-    fn hessian_vector(&self, row: usize, input: &[f64], v: &mut [f64; MAX_D]) {
+    fn hessian_vectors(&self, row: usize, input: &[f64], vs: &mut [RowVector]) {
         let d = 3 * C::ARITY;
         self.constraint
-            .hessian_vector(self.instances[row], &input[..d], &mut v[..d]);
+            .hessian_vectors(self.instances[row], &input[..d], vs);
     }
 }

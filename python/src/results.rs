@@ -98,6 +98,13 @@ impl Plan {
 
 #[pymethods]
 impl Plan {
+    /// The summary `clothopt optimize` prints: verdict, counts, route-search candidates, metrics
+    /// (`timing=False` leaves out the wall time).
+    #[pyo3(signature = (timing = true))]
+    fn summary(&self, timing: bool) -> String {
+        self.result.summary(timing)
+    }
+
     /// The solver's final status: "converged", "stalled", "iteration_limit", "time_limit", ….
     #[getter]
     fn status(&self) -> &str {

@@ -90,9 +90,11 @@ def test_small_optimize_equals_cli(cli, quick_scene_file, tmp_path):
     scene = clothopt.Scene.load(str(quick_scene_file))
     plan = scene.optimize(iterations=3, search="off", timing=False)
     out = tmp_path / "plan.json"
-    run_cli(cli, "optimize", str(quick_scene_file), "--iterations", "3", "--search", "off",
-            "--no-timing", "--out", str(out), ok=(0, 3, 4))
+    done = run_cli(cli, "optimize", str(quick_scene_file), "--iterations", "3", "--search", "off",
+                   "--no-timing", "--out", str(out), ok=(0, 3, 4))
     assert plan.to_json() == out.read_text()  # the same record, byte for byte
+    assert plan.summary(timing=False) == done.stdout  # the same summary the CLI prints
+    assert "wall" in plan.summary() and "wall" not in plan.summary(timing=False)
     assert plan.controls.shape == scene.controls_shape
     assert plan.states.shape == (scene.horizon + 1, scene.n_particles, 3)
     assert plan.metrics["L"] == plan.to_dict()["metrics"]["L"]

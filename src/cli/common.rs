@@ -1,10 +1,11 @@
 //! What several subcommands share: the physics and watch flag groups, loading a scene and its
 //! controls, `--sweeps`, flag checks, and drawing a rollout.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{self, top_view_path, RolloutFigure};
-use clothopt::plan::{controls_from_nested, ensure_iterations, initial_controls};
+use clothopt::plan::{controls_from_nested, initial_controls};
+use clothopt::validate::{ensure_iterations, ensure_open_unit};
 use std::path::{Path, PathBuf};
 
 /// The animated outputs shared by `simulate` and `optimize`.
@@ -75,15 +76,11 @@ impl PhysicsArgs {
             };
         }
         if let Some(tol) = self.physics_tolerance {
-            if !(tol > 0.0 && tol < 1.0) {
-                bail!("--physics-tolerance must be in (0, 1), got {tol}");
-            }
+            ensure_open_unit("--physics-tolerance", tol)?;
             scene.physics.tolerance = Some(tol);
         }
         if let Some(k) = self.physics_load_steps {
-            if k == 0 {
-                bail!("--physics-load-steps must be at least 1, got 0");
-            }
+            ensure_iterations("--physics-load-steps", k)?;
             scene.physics.load_steps = Some(k);
         }
         Ok(())

@@ -3,7 +3,8 @@
 use super::common::{load_controls, load_scene, PhysicsArgs};
 use anyhow::Result;
 use cloth::Model;
-use clothopt::plan::{self, ensure_iterations, ensure_non_negative};
+use clothopt::plan;
+use clothopt::validate::{ensure_iterations, ensure_non_negative};
 use std::io::Write;
 use std::path::PathBuf;
 

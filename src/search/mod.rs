@@ -91,9 +91,9 @@ impl Default for SearchOptions {
 impl SearchOptions {
     /// Checks the counts, naming the first bad one.
     pub fn validate(&self) -> crate::Result<()> {
-        crate::plan::ensure_iterations("cheap_iterations", self.cheap_iterations)?;
-        crate::plan::ensure_iterations("max_candidates", self.max_candidates)?;
-        crate::plan::ensure_iterations("polish", self.polish)
+        crate::validate::ensure_iterations("cheap_iterations", self.cheap_iterations)?;
+        crate::validate::ensure_iterations("max_candidates", self.max_candidates)?;
+        crate::validate::ensure_iterations("polish", self.polish)
     }
 }
 

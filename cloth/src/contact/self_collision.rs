@@ -247,9 +247,6 @@ impl SelfCollision {
             let [a, b, c] = tri.map(point);
             let movable = tri.iter().any(|&q| inv_mass[q] > 0.0);
             for &p in &candidates {
-                if !(movable || inv_mass[p] > 0.0) || self.excludes(p, k) {
-                    continue;
-                }
                 let q = point(p);
                 let d = (q - a).dot(&n);
                 // The in-plane distance of the projection inside each edge's line (negative
@@ -264,10 +261,14 @@ impl SelfCollision {
                     e.cross(&(q - e0)).dot(&n) >= -margin
                 };
                 let [ab, bc, ca] = self.border[k];
+                // The geometric tests first: they reject most candidates, and cost less than
+                // the 1-ring's search.
                 if d.abs() <= radius
                     && inside(&a, &b, ab)
                     && inside(&b, &c, bc)
                     && inside(&c, &a, ca)
+                    && (movable || inv_mass[p] > 0.0)
+                    && !self.excludes(p, k)
                 {
                     pairs.push(ContactPair {
                         vertex: p,

@@ -1,8 +1,8 @@
 //! A bounding-volume hierarchy over triangles for closest-triangle queries (`f64`).
 //!
 //! Built top-down by median split of the triangle centroids along the longest axis; queried
-//! best-first with pruning by the box distance. Deterministic: a tie between triangles goes to
-//! the smaller index.
+//! depth first, nearer child first, with pruning by the box distance, optionally bounded
+//! ([`Bvh::nearest_within`]). Deterministic: a tie between triangles goes to the smaller index.
 
 use nalgebra::Vector3;
 
@@ -82,18 +82,23 @@ impl Bvh {
             nodes: Vec::new(),
             order: (0..triangles.len()).collect(),
         };
-        bvh.build(vertices, triangles, &centroids, 0, triangles.len());
+        let (_, depth) = bvh.build_node(vertices, triangles, &centroids, 0, triangles.len());
+        assert!(
+            depth < STACK,
+            "Bvh::new: a tree of depth {depth} does not fit the query stack"
+        );
         bvh
     }
 
-    fn build(
+    /// Builds the subtree over `order[start..end]`: its node id and depth (a leaf has depth 1).
+    fn build_node(
         &mut self,
         vertices: &[[f64; 3]],
         triangles: &[[usize; 3]],
         centroids: &[[f64; 3]],
         start: usize,
         end: usize,
-    ) -> usize {
+    ) -> (usize, usize) {
         let mut bounds = Aabb::empty();
         let mut spread = Aabb::empty();
         for &t in &self.order[start..end] {
@@ -105,7 +110,7 @@ impl Bvh {
         let id = self.nodes.len();
         if end - start <= LEAF {
             self.nodes.push(Node::Leaf { bounds, start, end });
-            return id;
+            return (id, 1);
         }
         self.nodes.push(Node::Leaf { bounds, start, end });
         let axis = (0..3)
@@ -119,13 +124,18 @@ impl Bvh {
                 .total_cmp(&centroids[b][axis])
                 .then(a.cmp(&b))
         });
-        let left = self.build(vertices, triangles, centroids, start, mid);
-        let right = self.build(vertices, triangles, centroids, mid, end);
+        let (left, left_depth) = self.build_node(vertices, triangles, centroids, start, mid);
+        let (right, right_depth) = self.build_node(vertices, triangles, centroids, mid, end);
         self.nodes[id] = Node::Inner {
             bounds,
             children: [left, right],
         };
-        id
+        (id, 1 + left_depth.max(right_depth))
+    }
+
+    /// True when `p` is in the root's bounding box (its boundary included).
+    pub fn contains(&self, p: &Vector3<f64>) -> bool {
+        self.nodes[0].bounds().distance_squared(p) == 0.0
     }
 
     /// The triangle nearest to `p` by `distance_squared(triangle, p)` and that squared distance;
@@ -135,10 +145,38 @@ impl Bvh {
         p: &Vector3<f64>,
         distance_squared: impl Fn(usize) -> f64,
     ) -> (usize, f64) {
-        let mut best = (usize::MAX, f64::INFINITY);
-        let mut stack = vec![(self.nodes[0].bounds().distance_squared(p), 0usize)];
+        self.nearest_within(p, f64::INFINITY, distance_squared)
+            .expect("an unbounded query finds a triangle")
+    }
+
+    /// [`Bvh::nearest`] bounded by `bound_squared`: `Ok` with the nearest triangle and its
+    /// squared distance when that is at most `bound_squared` (then the same answer as
+    /// [`Bvh::nearest`]); otherwise `Err` with a lower bound, above `bound_squared`, of every
+    /// triangle's squared distance (the smallest box distance of the subtrees it skipped and
+    /// triangle distance of the leaves it read).
+    ///
+    /// Depth first, nearer child first; a subtree is skipped as soon as its box is farther than
+    /// the best triangle so far (or the bound). No allocation: the stack is an array, as deep
+    /// as the tree.
+    pub fn nearest_within(
+        &self,
+        p: &Vector3<f64>,
+        bound_squared: f64,
+        distance_squared: impl Fn(usize) -> f64,
+    ) -> Result<(usize, f64), f64> {
+        // `best.0 == usize::MAX` until a triangle within the bound is found; `best.1` is the
+        // pruning radius (squared).
+        let mut best = (usize::MAX, bound_squared);
+        let mut beyond = f64::INFINITY;
+        let mut stack = Stack::default();
+        stack.push_within(
+            (self.nodes[0].bounds().distance_squared(p), 0),
+            best.1,
+            &mut beyond,
+        );
         while let Some((lower, id)) = stack.pop() {
             if lower > best.1 {
+                beyond = beyond.min(lower);
                 continue;
             }
             match &self.nodes[id] {
@@ -147,6 +185,8 @@ impl Bvh {
                         let d = distance_squared(t);
                         if d < best.1 || (d == best.1 && t < best.0) {
                             best = (t, d);
+                        } else {
+                            beyond = beyond.min(d);
                         }
                     }
                 }
@@ -154,11 +194,53 @@ impl Bvh {
                     let [a, b] = children.map(|c| (self.nodes[c].bounds().distance_squared(p), c));
                     // Push the farther child first, so the nearer one is visited first.
                     let (near, far) = if b.0 < a.0 { (b, a) } else { (a, b) };
-                    stack.push(far);
-                    stack.push(near);
+                    stack.push_within(far, best.1, &mut beyond);
+                    stack.push_within(near, best.1, &mut beyond);
                 }
             }
         }
-        best
+        if best.0 == usize::MAX {
+            Err(beyond)
+        } else {
+            Ok(best)
+        }
+    }
+}
+
+/// Entries a query's stack holds at most: one more than the tree's depth, which a median split
+/// keeps at `log₂(triangles / LEAF) + 1` (checked in [`Bvh::new`]).
+const STACK: usize = 64;
+
+/// A query's stack of `(squared box distance, node)`, on the call stack.
+struct Stack {
+    entries: [(f64, usize); STACK],
+    len: usize,
+}
+
+impl Default for Stack {
+    fn default() -> Stack {
+        Stack {
+            entries: [(0.0, 0); STACK],
+            len: 0,
+        }
+    }
+}
+
+impl Stack {
+    /// Pushes `entry` when its box is within `radius`; otherwise lowers `beyond` to its distance.
+    #[inline(always)]
+    fn push_within(&mut self, entry: (f64, usize), radius: f64, beyond: &mut f64) {
+        if entry.0 > radius {
+            *beyond = beyond.min(entry.0);
+        } else {
+            self.entries[self.len] = entry;
+            self.len += 1;
+        }
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(f64, usize)> {
+        self.len = self.len.checked_sub(1)?;
+        Some(self.entries[self.len])
     }
 }

@@ -151,20 +151,21 @@ impl MeshSdf {
         (a + ab * (vb * denom) + ac * (vc * denom), Feature::Face)
     }
 
-    /// The nearest triangle and its nearest feature to `p`.
-    fn nearest_feature(&self, p: &Vector3<f64>) -> (usize, Feature) {
-        let (t, _) = self
-            .inner
-            .bvh
-            .nearest(p, |t| (self.closest(t, p).0 - p).norm_squared());
-        (t, self.closest(t, p).1)
+    /// The nearest triangle to `p` and its nearest feature, when that triangle is within
+    /// `radius`; otherwise a lower bound (above `radius²`) of the squared distance.
+    fn nearest_feature_within(
+        &self,
+        p: &Vector3<f64>,
+        radius: f64,
+    ) -> Result<(usize, Feature), f64> {
+        let (t, _) = self.inner.bvh.nearest_within(p, radius * radius, |t| {
+            (self.closest(t, p).0 - p).norm_squared()
+        })?;
+        Ok((t, self.closest(t, p).1))
     }
-}
 
-impl SignedDistance for MeshSdf {
-    fn distance<R: Real>(&self, p: &Vector3<R>) -> R {
-        let pv = Vector3::new(p[0].value(), p[1].value(), p[2].value());
-        let (t, feature) = self.nearest_feature(&pv);
+    /// The signed distance of `p` to `feature` of triangle `t` (module docs).
+    fn signed_distance_to<R: Real>(&self, p: &Vector3<R>, t: usize, feature: Feature) -> R {
         let m = &*self.inner;
         let at = |k: usize| constant::<R>(&m.vertices[m.triangles[t][k]]);
         let signed = |closest: Vector3<R>, pseudo: &Vector3<f64>| {
@@ -191,6 +192,38 @@ impl SignedDistance for MeshSdf {
             }
             Feature::Vertex(k) => signed(at(k), &m.vertex_normals[m.triangles[t][k]]),
         }
+    }
+}
+
+impl SignedDistance for MeshSdf {
+    fn distance<R: Real>(&self, p: &Vector3<R>) -> R {
+        self.distance_within(p, f64::INFINITY)
+    }
+
+    /// The search stops at `max(bound, 0)`: a point with no triangle that near and outside the
+    /// mesh's bounding box is outside, and gets the search's lower bound of its distance (a
+    /// constant, less `10⁻¹²` relative for rounding); inside the box, where such a point may be deep inside the mesh, the search
+    /// runs again unbounded (the exact value).
+    fn distance_within<R: Real>(&self, p: &Vector3<R>, bound: f64) -> R {
+        let pv = Vector3::new(p[0].value(), p[1].value(), p[2].value());
+        match self.nearest_feature_within(&pv, bound.max(0.0)) {
+            Ok((t, feature)) => self.signed_distance_to(p, t, feature),
+            Err(beyond) if !self.inner.bvh.contains(&pv) => {
+                // Less a relative slack far above rounding, so it stays below the exact value.
+                let lower = beyond.sqrt();
+                R::cst((lower - 1e-12 * lower).max(bound.next_up()))
+            }
+            Err(_) => self.distance(p),
+        }
+    }
+
+    /// Forward duals on [`MeshSdf::distance_within`] (as the default
+    /// [`SignedDistance::distance_gradient`]).
+    #[inline(always)]
+    fn distance_gradient_within<R: Real>(&self, p: &Vector3<R>, bound: f64) -> (R, Vector3<R>) {
+        let q = Vector3::from_fn(|k, _| autodiff::Dual::<R, 3>::variable(p[k], k));
+        let d = self.distance_within(&q, bound);
+        (d.re, Vector3::new(d.eps[0], d.eps[1], d.eps[2]))
     }
 }
 

@@ -5,6 +5,7 @@
 //! safety constraint and their derivatives. Conventions: at a sphere's centre the distance is
 //! `−r` with gradient 0 (the norm's convention); on a tie between spheres, the first sphere wins.
 
+pub mod batch;
 pub mod bvh;
 pub mod mesh;
 pub mod shapes;
@@ -17,6 +18,9 @@ use autodiff::{Dual, Real};
 use nalgebra::Vector3;
 
 /// A signed distance field, generic over the scalar type.
+///
+/// A signed distance is 1-Lipschitz (`|d(p) − d(q)| ≤ |p − q|`); the bounded segment query's
+/// default relies on it.
 pub trait SignedDistance: Send + Sync + 'static {
     /// Signed distance of `p` (negative inside).
     fn distance<R: Real>(&self, p: &Vector3<R>) -> R;
@@ -34,12 +38,54 @@ pub trait SignedDistance: Send + Sync + 'static {
         (d.re, Vector3::new(d.eps[0], d.eps[1], d.eps[2]))
     }
 
+    /// A bounded query: [`SignedDistance::distance`] (bitwise) wherever that is at most `bound`;
+    /// elsewhere a value `v` with `bound < v ≤ distance(p)` (a lower bound, to rounding),
+    /// possibly a constant (derivative 0). What a caller needs that only cares whether a point
+    /// is beyond `bound` (an inactive contact row, a safety margin). Meshes stop their search at
+    /// the bound; the other primitives answer exactly (the default).
+    #[inline(always)]
+    fn distance_within<R: Real>(&self, p: &Vector3<R>, bound: f64) -> R {
+        let _ = bound;
+        self.distance(p)
+    }
+
+    /// [`SignedDistance::distance_gradient`] (bitwise) wherever the distance is at most `bound`;
+    /// elsewhere [`SignedDistance::distance_within`]'s value with its derivative.
+    #[inline(always)]
+    fn distance_gradient_within<R: Real>(&self, p: &Vector3<R>, bound: f64) -> (R, Vector3<R>)
+    where
+        Self: Sized,
+    {
+        let _ = bound;
+        self.distance_gradient(p)
+    }
+
     /// The smallest signed distance along the straight segment `a → b` (`f64` only).
     ///
-    /// The default samples 65 points; sphere sets and planes answer exactly.
+    /// The default samples 65 points ([`SignedDistance::min_along_segment_within`] without a
+    /// bound); sphere sets and planes answer exactly.
     fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+        self.min_along_segment_within(a, b, f64::INFINITY)
+    }
+
+    /// [`SignedDistance::min_along_segment`] (bitwise) wherever that is at most `bound`;
+    /// elsewhere a value above `bound` and at most it (a lower bound, to rounding).
+    ///
+    /// The default first bounds the whole segment from its midpoint `m` (half-length `h`):
+    /// `min ≥ d(m) − h` (1-Lipschitz), less a rounding slack of `1e-12·(1 + |d(m)| + h)`; when
+    /// that exceeds `bound`, it is the answer. Otherwise it samples 65 points with
+    /// [`SignedDistance::distance_within`].
+    fn min_along_segment_within(&self, a: &Vector3<f64>, b: &Vector3<f64>, bound: f64) -> f64 {
+        if bound < f64::INFINITY {
+            let half = 0.5 * (b - a).norm();
+            let centre = self.distance_within(&(a + (b - a) * 0.5), bound + half);
+            let lower = centre - half - 1e-12 * (1.0 + centre.abs() + half);
+            if lower > bound {
+                return lower;
+            }
+        }
         (0..=64)
-            .map(|k| self.distance(&(a + (b - a) * (k as f64 / 64.0))))
+            .map(|k| self.distance_within(&(a + (b - a) * (k as f64 / 64.0)), bound))
             .fold(f64::INFINITY, f64::min)
     }
 }
@@ -106,6 +152,11 @@ impl SignedDistance for SphereSet {
             })
             .fold(f64::INFINITY, f64::min)
     }
+
+    /// Exact: [`SignedDistance::min_along_segment`].
+    fn min_along_segment_within(&self, a: &Vector3<f64>, b: &Vector3<f64>, _: f64) -> f64 {
+        self.min_along_segment(a, b)
+    }
 }
 
 /// A half-space boundary `n·(p − q) = 0` with unit normal `n` pointing to the free side.
@@ -137,6 +188,11 @@ impl SignedDistance for Plane {
 
     fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
         self.distance(a).min(self.distance(b))
+    }
+
+    /// Exact: [`SignedDistance::min_along_segment`].
+    fn min_along_segment_within(&self, a: &Vector3<f64>, b: &Vector3<f64>, _: f64) -> f64 {
+        self.min_along_segment(a, b)
     }
 }
 
@@ -197,23 +253,35 @@ impl Union {
             out[k] = plane.distance(p);
             k += 1;
         }
-        for d in self.others(p) {
+        for d in self.others(p, f64::INFINITY) {
             out[k] = d;
             k += 1;
         }
     }
 
-    /// The distances to the capsules, boxes and meshes, in that order.
-    fn others<'a, R: Real>(&'a self, p: &'a Vector3<R>) -> impl Iterator<Item = R> + 'a {
+    /// The distances to the capsules, boxes and meshes, in that order, each bounded by `bound`
+    /// ([`SignedDistance::distance_within`]).
+    fn others<'a, R: Real>(
+        &'a self,
+        p: &'a Vector3<R>,
+        bound: f64,
+    ) -> impl Iterator<Item = R> + 'a {
         let capsules = self.capsules.iter().map(move |c| c.distance(p));
         let boxes = self.boxes.iter().map(move |b| b.distance(p));
-        let meshes = self.meshes.iter().map(move |m| m.distance(p));
+        let meshes = self.meshes.iter().map(move |m| m.distance_within(p, bound));
         capsules.chain(boxes).chain(meshes)
     }
 }
 
 impl SignedDistance for Union {
     fn distance<R: Real>(&self, p: &Vector3<R>) -> R {
+        self.distance_within(p, f64::INFINITY)
+    }
+
+    /// The minimum of the primitives' bounded distances: where the union's distance is at most
+    /// `bound`, the primitive attaining it answers exactly and every other one either exactly
+    /// or above `bound`, so the minimum (and which primitive wins a tie) is the exact one's.
+    fn distance_within<R: Real>(&self, p: &Vector3<R>, bound: f64) -> R {
         let mut best: Option<R> = None;
         let mut take = |s: R| {
             best = Some(match best {
@@ -227,7 +295,7 @@ impl SignedDistance for Union {
         for pl in &self.planes {
             take(pl.distance(p));
         }
-        for d in self.others(p) {
+        for d in self.others(p, bound) {
             take(d);
         }
         best.unwrap_or_else(|| R::cst(f64::INFINITY))
@@ -236,6 +304,13 @@ impl SignedDistance for Union {
     /// The nearest obstacle's distance and gradient (the first one on a tie, as `Real::min`).
     #[inline(always)]
     fn distance_gradient<R: Real>(&self, p: &Vector3<R>) -> (R, Vector3<R>) {
+        self.distance_gradient_within(p, f64::INFINITY)
+    }
+
+    /// The nearest obstacle's bounded distance and gradient (as
+    /// [`Union::distance_within`]'s minimum).
+    #[inline(always)]
+    fn distance_gradient_within<R: Real>(&self, p: &Vector3<R>, bound: f64) -> (R, Vector3<R>) {
         let mut best: Option<(R, Vector3<R>)> = None;
         let mut take = |c: (R, Vector3<R>)| {
             if best.as_ref().is_none_or(|b| c.0.value() < b.0.value()) {
@@ -255,22 +330,33 @@ impl SignedDistance for Union {
             take(b.distance_gradient(p));
         }
         for m in &self.meshes {
-            take(m.distance_gradient(p));
+            take(m.distance_gradient_within(p, bound));
         }
         best.unwrap_or_else(|| (R::cst(f64::INFINITY), Vector3::zeros()))
     }
 
     fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
-        let spheres = self.spheres.iter().map(|s| s.min_along_segment(a, b));
-        let planes = self.planes.iter().map(|p| p.min_along_segment(a, b));
-        let capsules = self.capsules.iter().map(|c| c.min_along_segment(a, b));
-        let boxes = self.boxes.iter().map(|c| c.min_along_segment(a, b));
-        let meshes = self.meshes.iter().map(|m| m.min_along_segment(a, b));
-        spheres
-            .chain(planes)
-            .chain(capsules)
-            .chain(boxes)
-            .chain(meshes)
-            .fold(f64::INFINITY, f64::min)
+        self.min_along_segment_within(a, b, f64::INFINITY)
+    }
+
+    /// Each primitive's bounded segment minimum, the bound lowered to the smallest one so far.
+    fn min_along_segment_within(&self, a: &Vector3<f64>, b: &Vector3<f64>, bound: f64) -> f64 {
+        let mut best = f64::INFINITY;
+        for s in &self.spheres {
+            best = best.min(s.min_along_segment(a, b));
+        }
+        for p in &self.planes {
+            best = best.min(p.min_along_segment(a, b));
+        }
+        for c in &self.capsules {
+            best = best.min(c.min_along_segment_within(a, b, bound.min(best)));
+        }
+        for c in &self.boxes {
+            best = best.min(c.min_along_segment_within(a, b, bound.min(best)));
+        }
+        for m in &self.meshes {
+            best = best.min(m.min_along_segment_within(a, b, bound.min(best)));
+        }
+        best
     }
 }

@@ -257,13 +257,13 @@ fn main() {
 /// Runs the study; every failure comes back as one error.
 fn run(args: Args) -> Result<()> {
     if let Some(n) = args.iterations {
-        plan::ensure_iterations("--iterations", n)?;
+        clothopt::validate::ensure_iterations("--iterations", n)?;
     }
     if let Some(s) = args.step_bound {
-        plan::ensure_positive("--step-bound", s)?;
+        clothopt::validate::ensure_positive("--step-bound", s)?;
     }
     if let Some(t) = args.tol_optimality {
-        plan::ensure_positive("--tol-optimality", t)?;
+        clothopt::validate::ensure_positive("--tol-optimality", t)?;
     }
     if args.jobs == 0 {
         bail!("--jobs must be at least 1");

@@ -21,7 +21,6 @@ mod tables;
 use anyhow::{ensure, Context, Result};
 use clap::{Parser, Subcommand};
 use cloth::Scene;
-use clothopt::plan;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -137,9 +136,10 @@ fn main() -> Result<()> {
         },
         delta: Scene::builtin("u_obstacle")?.task.delta,
     };
-    plan::ensure_iterations("--reps", cfg.reps)?;
-    plan::ensure_iterations("--plan-iterations", cfg.plan_iterations)?;
-    plan::ensure_iterations("--reference-iterations", cfg.reference_iterations)?;
+    use clothopt::validate::ensure_iterations;
+    ensure_iterations("--reps", cfg.reps)?;
+    ensure_iterations("--plan-iterations", cfg.plan_iterations)?;
+    ensure_iterations("--reference-iterations", cfg.reference_iterations)?;
     if let Some(dir) = &args.png_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }

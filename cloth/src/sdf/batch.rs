@@ -1,0 +1,64 @@
+//! Queries over every particle of a state that need an exact value only where it matters: the
+//! safety term needs each distance exactly only below the margin `δ`, and the metrics need the
+//! smallest one exactly. Branch and bound over the particles with the bounded queries
+//! ([`SignedDistance::distance_within`], [`SignedDistance::min_along_segment_within`]): a cheap
+//! lower bound for every particle first, then exact values in increasing order of the bounds
+//! until no bound can beat the smallest value found.
+
+use super::{SignedDistance, Union};
+use autodiff::Tensor;
+use nalgebra::Vector3;
+
+/// Particle `p` of a state (`N × 3`).
+fn point(x: &Tensor, p: usize) -> Vector3<f64> {
+    Vector3::new(x.get(p, 0), x.get(p, 1), x.get(p, 2))
+}
+
+/// Each particle's signed distance to `field`, exact (bitwise [`SignedDistance::distance`])
+/// wherever it is at most `delta` and at the smallest one; elsewhere a lower bound above
+/// `delta`. So `relu(δ − d)` of every particle and the minimum are exact.
+pub fn distances_within(field: &Union, x: &Tensor, delta: f64) -> Vec<f64> {
+    let mut values: Vec<f64> = (0..x.rows())
+        .map(|p| field.distance_within(&point(x, p), delta))
+        .collect();
+    refine_smallest(&mut values, delta, |p, bound| {
+        field.distance_within(&point(x, p), bound)
+    });
+    values
+}
+
+/// The smallest signed distance to `field` along every particle's straight path from `a` to
+/// `b`: bitwise the minimum of [`SignedDistance::min_along_segment`] over the particles.
+pub fn min_along_segments(field: &Union, a: &Tensor, b: &Tensor) -> f64 {
+    let mut values: Vec<f64> = (0..a.rows())
+        .map(|p| field.min_along_segment_within(&point(a, p), &point(b, p), f64::NEG_INFINITY))
+        .collect();
+    refine_smallest(&mut values, f64::NEG_INFINITY, |p, bound| {
+        field.min_along_segment_within(&point(a, p), &point(b, p), bound)
+    });
+    values.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+/// Makes the smallest of `values` exact, given that each is exact where at most `exact_up_to`
+/// and a lower bound elsewhere, and that `query(p, bound)` returns particle `p`'s value exactly
+/// where it is at most `bound` (a lower bound above `bound` elsewhere). Particles are refined in
+/// increasing order of their bounds (index order on a tie) until a bound reaches the smallest
+/// value so far: no later particle can be smaller.
+fn refine_smallest(values: &mut [f64], exact_up_to: f64, query: impl Fn(usize, f64) -> f64) {
+    let mut best = values
+        .iter()
+        .copied()
+        .filter(|&v| v <= exact_up_to)
+        .fold(f64::INFINITY, f64::min);
+    let mut order: Vec<usize> = (0..values.len())
+        .filter(|&p| !(values[p] <= exact_up_to))
+        .collect();
+    order.sort_by(|&p, &q| values[p].total_cmp(&values[q]).then(p.cmp(&q)));
+    for p in order {
+        if values[p] >= best {
+            break;
+        }
+        values[p] = query(p, best);
+        best = best.min(values[p]);
+    }
+}

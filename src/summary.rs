@@ -1,0 +1,86 @@
+//! The human-readable summary of a plan — the verdict line, the run's counts, the route search's
+//! candidates and the metrics table — shared by `clothopt optimize` and Python's `Plan.summary()`.
+
+use crate::plan::PlanResult;
+use std::fmt::Write;
+
+impl PlanResult {
+    /// The summary as lines of text (ending in a newline); `timing` adds the wall time, which
+    /// `--no-timing` leaves out so the text is reproducible.
+    pub fn summary(&self, timing: bool) -> String {
+        let mut s = String::new();
+        // Writing into a `String` cannot fail.
+        let _ = self.write_summary(&mut s, timing);
+        s
+    }
+
+    fn write_summary(&self, s: &mut String, timing: bool) -> std::fmt::Result {
+        let m = &self.metrics;
+        let verdict = if self.task.achieved {
+            "task achieved".to_string()
+        } else {
+            format!("task NOT achieved ({:?})", self.task.reason)
+        };
+        writeln!(s, "{verdict}: {}", self.task.explanation)?;
+        writeln!(
+            s,
+            "scene {}  δ = {}  status {}  ({})",
+            self.scene, self.delta, self.status, self.message
+        )?;
+        let wall = if timing {
+            format!("  wall {:.2} s", self.wall_s)
+        } else {
+            String::new()
+        };
+        let per_stage = self
+            .stages
+            .iter()
+            .map(|st| match st.kappa {
+                Some(k) => format!("κ = {k}: {} {}", st.iterations, st.status),
+                None => format!("{} {}", st.iterations, st.status),
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        writeln!(
+            s,
+            "iterations {} ({per_stage})  simulations {}  gradients {}{wall}",
+            self.iterations, self.evaluations, self.gradient_evaluations
+        )?;
+        if let Some(search) = &self.search {
+            writeln!(
+                s,
+                "route search ({} stages after the first plan, {} simulations in all):",
+                search.candidates.len() - 1,
+                search.simulations
+            )?;
+            for c in &search.candidates {
+                writeln!(
+                    s,
+                    "  {} {:<9} {:<16} safe {:<5} achieved {:<5} L {:>10.5} G {:>9.5}  {}",
+                    if c.kept { "*" } else { " " },
+                    c.stage,
+                    c.status,
+                    c.safe,
+                    c.achieved,
+                    c.l,
+                    c.g,
+                    c.route
+                )?;
+            }
+        }
+        writeln!(s, "{:>10} {:>12}", "metric", "value")?;
+        for (k, v) in [
+            ("G", m.g),
+            ("αT", m.alpha_t),
+            ("βE", m.beta_e),
+            ("L", m.l),
+            ("C", m.c),
+            ("min SDF", m.min_sdf),
+            ("swept SDF", m.min_sdf_swept),
+            ("max strain", self.strain.max),
+        ] {
+            writeln!(s, "{k:>10} {v:>12.6}")?;
+        }
+        Ok(())
+    }
+}
