@@ -136,3 +136,86 @@ fn the_fold_scene_is_what_the_issue_asks() {
         assert!((t[2] - THICKNESS).abs() < 1e-6 && t[1] < 0.0);
     }
 }
+
+/// The rollout of the scene's initial guess, from `scene`: the final state as rows.
+fn final_state(scene: &Scene) -> Vec<[f64; 3]> {
+    let model = Model::from_scene(scene).unwrap();
+    let states = model.simulate(&scene.initial_controls()).unwrap();
+    let x = states.last().unwrap();
+    (0..model.n_particles())
+        .map(|p| [0, 1, 2].map(|k| x.get(p, k)))
+        .collect()
+}
+
+/// Per vertex of the folded half away from the crease (rows ≥ 14, four rows from the fold line,
+/// beyond the loop the crease forms), its height above the highest vertex of the bottom half
+/// within `radius` of it horizontally (vertices with none such skipped), sorted.
+fn layer_gaps(x: &[[f64; 3]], radius: f64) -> Vec<f64> {
+    let bottom: Vec<[f64; 3]> = (0..N / 2)
+        .flat_map(|r| (0..N).map(move |c| r * N + c))
+        .map(|p| x[p])
+        .collect();
+    let mut gaps: Vec<f64> = (14 * N..N * N)
+        .filter_map(|p| {
+            let top = x[p];
+            bottom
+                .iter()
+                .filter(|b| (b[0] - top[0]).hypot(b[1] - top[1]) < radius)
+                .map(|b| b[2])
+                .reduce(f64::max)
+                .map(|below| top[2] - below)
+        })
+        .collect();
+    gaps.sort_by(f64::total_cmp);
+    gaps
+}
+
+/// The scene's initial guess (an arc over the fold line, then four steps holding still while the
+/// cloth settles) folds the towel with self-collision on: every vertex within the task tolerance
+/// of its folded position, and the folded half resting on the bottom half about one thickness
+/// above it. The same plan without self-collision lets the top layer sink into the bottom one,
+/// so the layer check measures the contacts.
+#[test]
+fn the_initial_guess_folds_the_towel_with_the_layers_a_thickness_apart() {
+    let scene = Scene::builtin("fold").unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    let h = scene.physics.self_collision.as_ref().unwrap().thickness;
+    assert!(h > 0.0 && h <= SIDE / (N - 1) as f64, "thickness {h}");
+    let x = final_state(&scene);
+    let worst = (0..N * N)
+        .map(|p| {
+            let t = model.task.target_positions.row(p);
+            (0..3).map(|k| (x[p][k] - t[k]).powi(2)).sum::<f64>().sqrt()
+        })
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= model.task.tolerance,
+        "largest target error {worst} above the tolerance {}",
+        model.task.tolerance
+    );
+    // Horizontal radius: half an edge, so each top vertex is compared with the bottom vertices
+    // under it.
+    let radius = 0.5 * SIDE / (N - 1) as f64;
+    let gaps = layer_gaps(&x, radius);
+    assert!(
+        gaps.len() > 100,
+        "{} vertices over the bottom half",
+        gaps.len()
+    );
+    // Measured: every gap at least 0.0100 (h = 0.01), median 0.0117.
+    assert!(
+        gaps[0] >= 0.9 * h,
+        "the folded half comes within {} of the bottom half (thickness {h})",
+        gaps[0]
+    );
+
+    let mut without = scene.clone();
+    without.physics.self_collision = None;
+    let gaps = layer_gaps(&final_state(&without), radius);
+    // Measured: median 0.0027.
+    let median = gaps[gaps.len() / 2];
+    assert!(
+        median < 0.5 * h,
+        "without self-collision the layers still lie {median} apart"
+    );
+}
