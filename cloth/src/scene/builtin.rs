@@ -23,7 +23,7 @@ pub(super) const BUILTIN_NAMES: &[(&str, &str)] = &[
     ),
     (
         "fold",
-        "Fold a towel (441-vertex mesh) in half on a table with friction, beside a mug (safety)",
+        "Fold a towel (441-vertex mesh) in half on a table with friction and self-collision, beside a mug (safety)",
     ),
 ];
 
