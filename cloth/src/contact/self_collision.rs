@@ -277,7 +277,7 @@ impl SelfCollision {
             Vector3::repeat(f64::INFINITY),
             Vector3::repeat(f64::NEG_INFINITY),
         );
-        for v in 0..3 {
+        for (v, at) in corners.iter().enumerate() {
             // Corner v lies on edges v (v → v+1) and v+2 (v+2 → v): move it to where both lines,
             // shifted outwards by their margins, meet.
             let (e, f) = (v, (v + 2) % 3);
@@ -291,7 +291,7 @@ impl SelfCollision {
                     (-margin[f] + margin[e] * c) / det,
                 )
             };
-            let corner = corners[v] + inward[e] * x + inward[f] * y;
+            let corner = at + inward[e] * x + inward[f] * y;
             for s in [-radius, radius] {
                 let q = corner + n * s;
                 lo = lo.inf(&q);

@@ -51,7 +51,7 @@ fn refine_smallest(values: &mut [f64], exact_up_to: f64, query: impl Fn(usize, f
         .filter(|&v| v <= exact_up_to)
         .fold(f64::INFINITY, f64::min);
     let mut order: Vec<usize> = (0..values.len())
-        .filter(|&p| !(values[p] <= exact_up_to))
+        .filter(|&p| values[p] > exact_up_to || values[p].is_nan())
         .collect();
     order.sort_by(|&p, &q| values[p].total_cmp(&values[q]).then(p.cmp(&q)));
     for p in order {

@@ -211,7 +211,7 @@ impl SignedDistance for MeshSdf {
             Err(beyond) if !self.inner.bvh.contains(&pv) => {
                 // Less a relative slack far above rounding, so it stays below the exact value.
                 let lower = beyond.sqrt();
-                R::cst((lower - 1e-12 * lower).max(bound.next_up()))
+                R::cst((lower - 1e-12 * lower).max(next_above(bound)))
             }
             Err(_) => self.distance(p),
         }
@@ -224,6 +224,19 @@ impl SignedDistance for MeshSdf {
         let q = Vector3::from_fn(|k, _| autodiff::Dual::<R, 3>::variable(p[k], k));
         let d = self.distance_within(&q, bound);
         (d.re, Vector3::new(d.eps[0], d.eps[1], d.eps[2]))
+    }
+}
+
+/// The smallest `f64` above `x` (`x` itself for NaN and +∞; `f64::next_up` needs Rust 1.86).
+fn next_above(x: f64) -> f64 {
+    if x.is_nan() || x == f64::INFINITY {
+        x
+    } else if x == 0.0 {
+        f64::from_bits(1)
+    } else if x > 0.0 {
+        f64::from_bits(x.to_bits() + 1)
+    } else {
+        f64::from_bits(x.to_bits() - 1)
     }
 }
 
