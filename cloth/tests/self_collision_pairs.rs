@@ -106,14 +106,14 @@ fn the_grid_search_finds_exactly_the_brute_force_pairs() {
         let u = fold_controls(&model, fold);
         let states = model.simulate(&u).unwrap();
         let mut found = 0;
-        for t in 0..fold {
+        for (t, state) in states.iter().enumerate().take(fold) {
             let ut = model.step_controls(&u, t);
             let sc = model.self_collision.as_ref().unwrap();
             for radius in [model.contact_radius(sc.thickness, &ut), h + 0.03] {
-                let pairs = sc.find_pairs(&states[t], radius, &model.inv_mass);
+                let pairs = sc.find_pairs(state, radius, &model.inv_mass);
                 assert_eq!(
                     pairs,
-                    brute_force(&model, &states[t], radius),
+                    brute_force(&model, state, radius),
                     "h {h}, step {t}, radius {radius}"
                 );
                 found += pairs.len();
