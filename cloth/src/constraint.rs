@@ -63,20 +63,6 @@ pub trait Constraint: Send + Sync + 'static {
     {
         hessian_vectors_by_duals(self, instance, x, vs)
     }
-
-    /// `∇²C(x)·v` of `instance`, in place: `v` (`3·ARITY` entries) in, the product out.
-    /// [`Constraint::hessian_vectors`] of one vector (override that one, not this).
-    #[inline(always)]
-    fn hessian_vector(&self, instance: usize, x: &[f64], v: &mut [f64])
-    where
-        Self: Sized,
-    {
-        let d = 3 * Self::ARITY;
-        let mut vs = [[0.0; MAX_D]];
-        vs[0][..d].copy_from_slice(&v[..d]);
-        self.hessian_vectors(instance, x, &mut vs);
-        v[..d].copy_from_slice(&vs[0][..d]);
-    }
 }
 
 /// One instance's coordinates (or a vector over them), padded to the largest arity.
@@ -145,6 +131,19 @@ fn value_and_gradient_n<C: Constraint, R: Real, const D: usize, const A: usize>(
     let v = c.c(instance, &p);
     grad[..D].copy_from_slice(&v.eps);
     v.re
+}
+
+/// `∇²C(x)·v` of `instance` for one vector, in place: `v` (`3·ARITY` entries) in, the product
+/// out; [`Constraint::hessian_vectors`] of one vector. A free function, not a trait method, so a
+/// type cannot override it by mistake (the projection calls `hessian_vectors`, which is the one
+/// to override).
+#[inline(always)]
+pub fn hessian_vector<C: Constraint>(c: &C, instance: usize, x: &[f64], v: &mut [f64]) {
+    let d = 3 * C::ARITY;
+    let mut vs = [[0.0; MAX_D]];
+    vs[0][..d].copy_from_slice(&v[..d]);
+    c.hessian_vectors(instance, x, &mut vs);
+    v[..d].copy_from_slice(&vs[0][..d]);
 }
 
 /// `∇²C(x)·v` of one instance, in place in `v`, as the derivative of [`Constraint::gradient`]

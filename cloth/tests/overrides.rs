@@ -1,5 +1,5 @@
 //! The built-in constraints' closed-form derivatives ([`Constraint::gradient`],
-//! [`Constraint::hessian_vector`]) against the generic dual path ([`Generic`]), which stays the
+//! [`Constraint::hessian_vectors`]) against the generic dual path ([`Generic`]), which stays the
 //! reference.
 //!
 //! Every built-in: [`Distance`], [`DihedralBending`], [`Collision`] with a [`SphereSet`], a
@@ -16,7 +16,9 @@
 
 mod common;
 
-use cloth::constraint::{Collision, Constraint, DihedralBending, Distance, Generic};
+use cloth::constraint::{
+    hessian_vector, Collision, Constraint, DihedralBending, Distance, Generic,
+};
 use cloth::sdf::{Plane, SphereSet, Union};
 use common::XorShift;
 use proptest::prelude::*;
@@ -35,7 +37,7 @@ fn derivatives<C: Constraint>(c: &C, x: &[f64], v: &[f64]) -> (f64, Vec<f64>, Ve
     let mut g = vec![0.0; d];
     let value = c.gradient(0, x, &mut g);
     let mut hv = v.to_vec();
-    c.hessian_vector(0, x, &mut hv);
+    hessian_vector(c, 0, x, &mut hv);
     (value, g, hv)
 }
 
