@@ -3,9 +3,11 @@
 //! `Φ(x) = ½ (x − x̃)ᵀ M (x − x̃) + Σⱼ ½ C_j(x)² / α̃_j` over the free particles (inverse mass > 0),
 //! the control particles held where [`Model::begin_step`] put them. An inequality constraint
 //! contributes only while `C < 0`. The Hessian is stored as its lower triangle in compressed
-//! columns, one degree of freedom per free coordinate.
+//! columns, one degree of freedom per free coordinate, numbered in the fill-reducing elimination
+//! order of [`super::ordering`].
 
 use super::contact::is_contact;
+use super::ordering::elimination_positions;
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::model::Model;
 use nalgebra::allocator::Allocator;
@@ -60,15 +62,46 @@ impl Pattern {
     /// not terms of `Φ` (they act through the active set); other rigid constraints (compliance 0)
     /// have no finite energy: the caller rejects them first ([`super::check_supported`]).
     pub fn new(model: &Model) -> Pattern {
-        let n = model.n_particles();
-        let mut dof_of = vec![NONE; n];
+        let groups: Vec<Arc<dyn ConstraintTerms>> = model
+            .groups
+            .iter()
+            .map(|g| g.terms.clone())
+            .filter(|t| !is_contact(t.as_ref()))
+            .collect();
+        // The free particles, numbered in the elimination order of the graph the constraints
+        // make of them ([`super::ordering`]): the assembled matrix is already permuted.
+        let mut free = vec![NONE; model.n_particles()];
         let mut n_free = 0u32;
         for (p, &w) in model.inv_mass.iter().enumerate() {
             if w > 0.0 {
-                dof_of[p] = 3 * n_free;
+                free[p] = n_free;
                 n_free += 1;
             }
         }
+        let mut edges = Vec::new();
+        for terms in &groups {
+            for k in 0..terms.count() {
+                let ps = terms.particles(k);
+                for (i, &a) in ps.iter().enumerate() {
+                    for &b in &ps[i + 1..] {
+                        if free[a] != NONE && free[b] != NONE {
+                            edges.push((free[a], free[b]));
+                        }
+                    }
+                }
+            }
+        }
+        let position = elimination_positions(n_free as usize, &edges);
+        let dof_of: Vec<u32> = free
+            .iter()
+            .map(|&f| {
+                if f == NONE {
+                    NONE
+                } else {
+                    3 * position[f as usize]
+                }
+            })
+            .collect();
         let mass = model
             .inv_mass
             .iter()
@@ -80,12 +113,6 @@ impl Pattern {
         for &d in dof_of.iter().filter(|&&d| d != NONE) {
             blocks[d as usize / 3].push(d / 3);
         }
-        let groups: Vec<Arc<dyn ConstraintTerms>> = model
-            .groups
-            .iter()
-            .map(|g| g.terms.clone())
-            .filter(|t| !is_contact(t.as_ref()))
-            .collect();
         for terms in &groups {
             for k in 0..terms.count() {
                 let ps = terms.particles(k);
@@ -393,7 +420,8 @@ where
         return;
     }
     let q = &eig.eigenvectors;
-    let p = q * SMatrix::<f64, D, D>::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0)))
+    let p = q
+        * SMatrix::<f64, D, D>::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0)))
         * q.transpose();
     for a in 0..D {
         for b in 0..D {
