@@ -8,10 +8,9 @@
 
 use super::contact::is_contact;
 use super::ordering::elimination_positions;
+use super::psd::projected_local_hessian;
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::model::Model;
-use nalgebra::allocator::Allocator;
-use nalgebra::{ArrayStorage, Const, DefaultAllocator, DimDiff, DimSub, SMatrix, U1};
 use std::sync::Arc;
 
 /// Marks a coordinate without a degree of freedom (a control particle's, or an upper-triangle
@@ -313,9 +312,9 @@ impl Pattern {
                 let Some((v, kind)) = values.as_mut() else {
                     continue;
                 };
-                local_hessian(s, c, g, h);
-                if *kind == HessianKind::Projected {
-                    project_psd(h, d);
+                match kind {
+                    HessianKind::Exact => local_hessian(s, c, g, h),
+                    HessianKind::Projected => projected_local_hessian(s, c, g, h),
                 }
                 let scatter = &gp.scatter[k * d * d..(k + 1) * d * d];
                 for (&i, &hv) in scatter.iter().zip(h.iter()) {
@@ -380,172 +379,11 @@ fn gather_local(particles: &[usize], x: &[f64], local: &mut [f64; MAX_DOF]) -> u
 }
 
 /// Overwrites `h` (holding `∇²C`) with `s (∇C∇Cᵀ + C∇²C)`.
-fn local_hessian(s: f64, c: f64, g: &[f64], h: &mut [f64]) {
+pub(super) fn local_hessian(s: f64, c: f64, g: &[f64], h: &mut [f64]) {
     let d = g.len();
     for a in 0..d {
         for b in 0..d {
             h[a * d + b] = s * (g[a] * g[b] + c * h[a * d + b]);
-        }
-    }
-}
-
-/// Sets the negative eigenvalues of the symmetric `d × d` matrix `h` to 0 (a block that
-/// [`is_semidefinite`] passes is left as it is, without the eigendecomposition). The
-/// eigendecomposition is nalgebra's on a fixed-size matrix of the block's size (`d = 3 · arity`,
-/// arity 1 to [`crate::constraint::MAX_ARITY`]), so it allocates nothing: with heap-allocated
-/// dynamic matrices it was 14% of a 40 × 40 Newton rollout with ∇L.
-fn project_psd(h: &mut [f64], d: usize) {
-    if is_semidefinite(h, d) {
-        return;
-    }
-    match d {
-        3 => clamp_eigenvalues::<3>(h),
-        6 => clamp_eigenvalues::<6>(h),
-        9 => clamp_eigenvalues::<9>(h),
-        12 => clamp_eigenvalues::<12>(h),
-        _ => panic!("a constraint block has 3 to {MAX_DOF} coordinates, not {d}"),
-    }
-}
-
-/// `Q max(Λ, 0) Qᵀ` of the symmetric `D × D` row-major `h` (symmetrized against round-off).
-fn clamp_eigenvalues<const D: usize>(h: &mut [f64])
-where
-    Const<D>: DimSub<U1>,
-    DefaultAllocator: Allocator<DimDiff<Const<D>, U1>>,
-{
-    // Column-major storage of a symmetric matrix: its rows.
-    let cols: [[f64; D]; D] = std::array::from_fn(|a| std::array::from_fn(|b| h[a * D + b]));
-    let eig = SMatrix::from_array_storage(ArrayStorage(cols)).symmetric_eigen();
-    if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
-        return;
-    }
-    let q = &eig.eigenvectors;
-    let p = q
-        * SMatrix::<f64, D, D>::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0)))
-        * q.transpose();
-    for a in 0..D {
-        for b in 0..D {
-            h[a * D + b] = 0.5 * (p[(a, b)] + p[(b, a)]);
-        }
-    }
-}
-
-/// Whether the symmetric `d × d` matrix `h` is positive semidefinite up to round-off, by Cholesky
-/// with diagonal pivoting: the largest remaining diagonal is eliminated first; once it is at
-/// round-off (`d²ε` of the largest entry), the rest must be round-off too. Eigenvalues down to
-/// about minus that round-off pass (they are noise of a semidefinite block).
-fn is_semidefinite(h: &[f64], d: usize) -> bool {
-    let mut a = [0.0; MAX_DOF * MAX_DOF];
-    a[..d * d].copy_from_slice(&h[..d * d]);
-    let scale = a[..d * d].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let tol = (d * d) as f64 * f64::EPSILON * scale;
-    let mut left = [true; MAX_DOF];
-    for _ in 0..d {
-        let (k, pivot) = (0..d).filter(|&i| left[i]).map(|i| (i, a[i * d + i])).fold(
-            (usize::MAX, f64::NEG_INFINITY),
-            |b, c| if c.1 > b.1 { c } else { b },
-        );
-        if pivot <= tol {
-            // The remainder must vanish: a semidefinite matrix with round-off diagonals has
-            // round-off off-diagonals too (|a_ij| ≤ √(a_ii a_jj)).
-            return (0..d).filter(|&i| left[i]).all(|i| {
-                (0..d)
-                    .filter(|&j| left[j])
-                    .all(|j| a[i * d + j].abs() <= tol)
-            });
-        }
-        left[k] = false;
-        for i in (0..d).filter(|&i| left[i]) {
-            let f = a[i * d + k] / pivot;
-            for j in (0..d).filter(|&j| left[j]) {
-                a[i * d + j] -= f * a[k * d + j];
-            }
-        }
-    }
-    true
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{is_semidefinite, project_psd};
-    use nalgebra::{DMatrix, SymmetricEigen};
-    use proptest::prelude::*;
-
-    /// The reference: `Q max(Λ, 0) Qᵀ` from nalgebra's dynamic eigendecomposition.
-    fn clamped_reference(h: &[f64], d: usize) -> DMatrix<f64> {
-        let eig = SymmetricEigen::new(DMatrix::from_row_slice(d, d, h));
-        let l = eig.eigenvalues.map(|l| l.max(0.0));
-        &eig.eigenvectors * DMatrix::from_diagonal(&l) * eig.eigenvectors.transpose()
-    }
-
-    proptest! {
-        /// Every block size a constraint can have (arity 1 to 4), random symmetric blocks with
-        /// some negative eigenvalues: the fixed-size projection equals the dynamic
-        /// eigendecomposition's, and its result is semidefinite.
-        #[test]
-        fn projection_matches_the_eigendecomposition(
-            arity in 1usize..=4,
-            entries in proptest::collection::vec(-1.0f64..1.0, 144),
-            shift in -0.5f64..0.5,
-        ) {
-            let d = 3 * arity;
-            let mut h = vec![0.0; d * d];
-            for a in 0..d {
-                for b in 0..d {
-                    h[a * d + b] = entries[a.max(b) * 12 + a.min(b)] + if a == b { shift } else { 0.0 };
-                }
-            }
-            let expected = clamped_reference(&h, d);
-            project_psd(&mut h, d);
-            for a in 0..d {
-                for b in 0..d {
-                    prop_assert!((h[a * d + b] - expected[(a, b)]).abs() < 1e-12,
-                        "d = {d}: entry ({a}, {b}) {} vs {}", h[a * d + b], expected[(a, b)]);
-                }
-            }
-            let min = SymmetricEigen::new(DMatrix::from_row_slice(d, d, &h)).eigenvalues.min();
-            prop_assert!(min > -1e-12, "d = {d}: smallest eigenvalue {min}");
-        }
-    }
-
-    /// `Q diag(λ) Qᵀ` for a fixed rotation-like orthogonal `Q` (3 × 3 Householder).
-    fn with_eigenvalues(l: [f64; 3]) -> Vec<f64> {
-        let v = [1.0, 2.0, -2.0];
-        let q = |i: usize, j: usize| f64::from(u8::from(i == j)) - 2.0 * v[i] * v[j] / 9.0;
-        let mut h = vec![0.0; 9];
-        for i in 0..3 {
-            for j in 0..3 {
-                h[i * 3 + j] = (0..3).map(|k| q(i, k) * l[k] * q(j, k)).sum();
-            }
-        }
-        h
-    }
-
-    #[test]
-    fn semidefinite_test_matches_the_eigenvalues() {
-        assert!(is_semidefinite(&with_eigenvalues([3.0, 1.0, 0.5]), 3));
-        assert!(is_semidefinite(&with_eigenvalues([3.0, 0.0, 0.0]), 3));
-        assert!(is_semidefinite(&[0.0; 9], 3));
-        assert!(!is_semidefinite(&with_eigenvalues([3.0, 1.0, -1e-6]), 3));
-        assert!(!is_semidefinite(&with_eigenvalues([3.0, 0.0, -0.5]), 3));
-        // Zero diagonal, non-zero coupling: indefinite.
-        assert!(!is_semidefinite(
-            &[0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-            3
-        ));
-    }
-
-    #[test]
-    fn projection_clamps_negative_eigenvalues_and_keeps_semidefinite_blocks() {
-        let psd = with_eigenvalues([2.0, 1.0, 0.0]);
-        let mut h = psd.clone();
-        project_psd(&mut h, 3);
-        assert_eq!(h, psd);
-        let mut h = with_eigenvalues([2.0, 1.0, -4.0]);
-        project_psd(&mut h, 3);
-        let expected = with_eigenvalues([2.0, 1.0, 0.0]);
-        for (a, b) in h.iter().zip(&expected) {
-            assert!((a - b).abs() < 1e-12, "{h:?} vs {expected:?}");
         }
     }
 }
