@@ -143,3 +143,23 @@ fn factorization_in_the_pattern_order_solves_the_system_with_amd_fill() {
         );
     }
 }
+
+/// A cloth whose every particle is held has no unknowns: the pattern and the factorization are
+/// empty and a rollout is the controls' motion.
+#[test]
+fn a_cloth_with_every_particle_held_has_an_empty_system() {
+    let mut scene = small_scene(2, 2, 2, 10, 1e3, BendKind::None);
+    scene.controls = vec![[0, 0].into(), [0, 1].into(), [1, 0].into(), [1, 1].into()];
+    scene.task.initial_controls = cloth::scene::InitialControls::Zeros;
+    scene.physics.solver = SolverKind::Newton;
+    let model = Model::from_scene(&scene).unwrap();
+    let p = Pattern::new(&model);
+    assert_eq!((p.n_dof, p.nnz()), (0, 0));
+    let mut factor = Factor::new(&p);
+    assert!(factor.factorize(&p, &[]));
+    factor.solve_in_place(&mut [], 1);
+    let u = scene.initial_controls();
+    let eval = model.evaluate_loss_gradient(&u, scene.task.delta).unwrap();
+    assert_eq!(eval.states.len(), 3);
+    assert!(eval.grad_l.unwrap().data().iter().all(|v| v.is_finite()));
+}
