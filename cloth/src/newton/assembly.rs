@@ -3,12 +3,14 @@
 //! `Φ(x) = ½ (x − x̃)ᵀ M (x − x̃) + Σⱼ ½ C_j(x)² / α̃_j` over the free particles (inverse mass > 0),
 //! the control particles held where [`Model::begin_step`] put them. An inequality constraint
 //! contributes only while `C < 0`. The Hessian is stored as its lower triangle in compressed
-//! columns, one degree of freedom per free coordinate.
+//! columns, one degree of freedom per free coordinate, numbered in the fill-reducing elimination
+//! order of [`super::ordering`].
 
 use super::contact::is_contact;
+use super::ordering::elimination_positions;
+use super::psd::projected_local_hessian;
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::model::Model;
-use nalgebra::{DMatrix, SymmetricEigen};
 use std::sync::Arc;
 
 /// Marks a coordinate without a degree of freedom (a control particle's, or an upper-triangle
@@ -59,15 +61,46 @@ impl Pattern {
     /// not terms of `Φ` (they act through the active set); other rigid constraints (compliance 0)
     /// have no finite energy: the caller rejects them first ([`super::check_supported`]).
     pub fn new(model: &Model) -> Pattern {
-        let n = model.n_particles();
-        let mut dof_of = vec![NONE; n];
+        let groups: Vec<Arc<dyn ConstraintTerms>> = model
+            .groups
+            .iter()
+            .map(|g| g.terms.clone())
+            .filter(|t| !is_contact(t.as_ref()))
+            .collect();
+        // The free particles, numbered in the elimination order of the graph the constraints
+        // make of them ([`super::ordering`]): the assembled matrix is already permuted.
+        let mut free = vec![NONE; model.n_particles()];
         let mut n_free = 0u32;
         for (p, &w) in model.inv_mass.iter().enumerate() {
             if w > 0.0 {
-                dof_of[p] = 3 * n_free;
+                free[p] = n_free;
                 n_free += 1;
             }
         }
+        let mut edges = Vec::new();
+        for terms in &groups {
+            for k in 0..terms.count() {
+                let ps = terms.particles(k);
+                for (i, &a) in ps.iter().enumerate() {
+                    for &b in &ps[i + 1..] {
+                        if free[a] != NONE && free[b] != NONE {
+                            edges.push((free[a], free[b]));
+                        }
+                    }
+                }
+            }
+        }
+        let position = elimination_positions(n_free as usize, &edges);
+        let dof_of: Vec<u32> = free
+            .iter()
+            .map(|&f| {
+                if f == NONE {
+                    NONE
+                } else {
+                    3 * position[f as usize]
+                }
+            })
+            .collect();
         let mass = model
             .inv_mass
             .iter()
@@ -79,12 +112,6 @@ impl Pattern {
         for &d in dof_of.iter().filter(|&&d| d != NONE) {
             blocks[d as usize / 3].push(d / 3);
         }
-        let groups: Vec<Arc<dyn ConstraintTerms>> = model
-            .groups
-            .iter()
-            .map(|g| g.terms.clone())
-            .filter(|t| !is_contact(t.as_ref()))
-            .collect();
         for terms in &groups {
             for k in 0..terms.count() {
                 let ps = terms.particles(k);
@@ -285,9 +312,9 @@ impl Pattern {
                 let Some((v, kind)) = values.as_mut() else {
                     continue;
                 };
-                local_hessian(s, c, g, h);
-                if *kind == HessianKind::Projected {
-                    project_psd(h, d);
+                match kind {
+                    HessianKind::Exact => local_hessian(s, c, g, h),
+                    HessianKind::Projected => projected_local_hessian(s, c, g, h),
                 }
                 let scatter = &gp.scatter[k * d * d..(k + 1) * d * d];
                 for (&i, &hv) in scatter.iter().zip(h.iter()) {
@@ -352,114 +379,11 @@ fn gather_local(particles: &[usize], x: &[f64], local: &mut [f64; MAX_DOF]) -> u
 }
 
 /// Overwrites `h` (holding `∇²C`) with `s (∇C∇Cᵀ + C∇²C)`.
-fn local_hessian(s: f64, c: f64, g: &[f64], h: &mut [f64]) {
+pub(super) fn local_hessian(s: f64, c: f64, g: &[f64], h: &mut [f64]) {
     let d = g.len();
     for a in 0..d {
         for b in 0..d {
             h[a * d + b] = s * (g[a] * g[b] + c * h[a * d + b]);
-        }
-    }
-}
-
-/// Sets the negative eigenvalues of the symmetric `d × d` matrix `h` to 0 (a block that
-/// [`is_semidefinite`] passes is left as it is, without the eigendecomposition, which was 13% of
-/// a 40 × 40 Newton rollout with ∇L).
-fn project_psd(h: &mut [f64], d: usize) {
-    if is_semidefinite(h, d) {
-        return;
-    }
-    let m = DMatrix::from_row_slice(d, d, h);
-    let eig = SymmetricEigen::new(m);
-    if eig.eigenvalues.iter().all(|&l| l >= 0.0) {
-        return;
-    }
-    let clamped = eig.eigenvalues.map(|l| l.max(0.0));
-    let q = &eig.eigenvectors;
-    let p = q * DMatrix::from_diagonal(&clamped) * q.transpose();
-    for a in 0..d {
-        for b in 0..d {
-            h[a * d + b] = 0.5 * (p[(a, b)] + p[(b, a)]);
-        }
-    }
-}
-
-/// Whether the symmetric `d × d` matrix `h` is positive semidefinite up to round-off, by Cholesky
-/// with diagonal pivoting: the largest remaining diagonal is eliminated first; once it is at
-/// round-off (`d²ε` of the largest entry), the rest must be round-off too. Eigenvalues down to
-/// about minus that round-off pass (they are noise of a semidefinite block).
-fn is_semidefinite(h: &[f64], d: usize) -> bool {
-    let mut a = [0.0; MAX_DOF * MAX_DOF];
-    a[..d * d].copy_from_slice(&h[..d * d]);
-    let scale = a[..d * d].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let tol = (d * d) as f64 * f64::EPSILON * scale;
-    let mut left = [true; MAX_DOF];
-    for _ in 0..d {
-        let (k, pivot) = (0..d).filter(|&i| left[i]).map(|i| (i, a[i * d + i])).fold(
-            (usize::MAX, f64::NEG_INFINITY),
-            |b, c| if c.1 > b.1 { c } else { b },
-        );
-        if pivot <= tol {
-            // The remainder must vanish: a semidefinite matrix with round-off diagonals has
-            // round-off off-diagonals too (|a_ij| ≤ √(a_ii a_jj)).
-            return (0..d).filter(|&i| left[i]).all(|i| {
-                (0..d)
-                    .filter(|&j| left[j])
-                    .all(|j| a[i * d + j].abs() <= tol)
-            });
-        }
-        left[k] = false;
-        for i in (0..d).filter(|&i| left[i]) {
-            let f = a[i * d + k] / pivot;
-            for j in (0..d).filter(|&j| left[j]) {
-                a[i * d + j] -= f * a[k * d + j];
-            }
-        }
-    }
-    true
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{is_semidefinite, project_psd};
-
-    /// `Q diag(λ) Qᵀ` for a fixed rotation-like orthogonal `Q` (3 × 3 Householder).
-    fn with_eigenvalues(l: [f64; 3]) -> Vec<f64> {
-        let v = [1.0, 2.0, -2.0];
-        let q = |i: usize, j: usize| f64::from(u8::from(i == j)) - 2.0 * v[i] * v[j] / 9.0;
-        let mut h = vec![0.0; 9];
-        for i in 0..3 {
-            for j in 0..3 {
-                h[i * 3 + j] = (0..3).map(|k| q(i, k) * l[k] * q(j, k)).sum();
-            }
-        }
-        h
-    }
-
-    #[test]
-    fn semidefinite_test_matches_the_eigenvalues() {
-        assert!(is_semidefinite(&with_eigenvalues([3.0, 1.0, 0.5]), 3));
-        assert!(is_semidefinite(&with_eigenvalues([3.0, 0.0, 0.0]), 3));
-        assert!(is_semidefinite(&[0.0; 9], 3));
-        assert!(!is_semidefinite(&with_eigenvalues([3.0, 1.0, -1e-6]), 3));
-        assert!(!is_semidefinite(&with_eigenvalues([3.0, 0.0, -0.5]), 3));
-        // Zero diagonal, non-zero coupling: indefinite.
-        assert!(!is_semidefinite(
-            &[0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-            3
-        ));
-    }
-
-    #[test]
-    fn projection_clamps_negative_eigenvalues_and_keeps_semidefinite_blocks() {
-        let psd = with_eigenvalues([2.0, 1.0, 0.0]);
-        let mut h = psd.clone();
-        project_psd(&mut h, 3);
-        assert_eq!(h, psd);
-        let mut h = with_eigenvalues([2.0, 1.0, -4.0]);
-        project_psd(&mut h, 3);
-        let expected = with_eigenvalues([2.0, 1.0, 0.0]);
-        for (a, b) in h.iter().zip(&expected) {
-            assert!((a - b).abs() < 1e-12, "{h:?} vs {expected:?}");
         }
     }
 }

@@ -9,6 +9,8 @@
 //!
 //! - [`terms`]: `C`, `∇C`, `∇²C` of any constraint type from nested duals;
 //! - [`assembly`]: the sparse pattern (fixed per model), `Φ`, `∇Φ` and the Hessian;
+//! - [`psd`]: the per-constraint semidefinite projection of the Hessian's blocks;
+//! - [`ordering`]: the fill-reducing elimination order, on the particle graph;
 //! - [`factor`]: faer's sparse Cholesky (symbolic once, numeric per iteration);
 //! - [`solve`]: the Newton iteration with backtracking line search on `Φ`;
 //! - [`implicit`]: adjoints through `∂x_t/∂(x_{t−1}, u_t)`, one factorization per step for every
@@ -24,6 +26,8 @@ pub mod assembly;
 pub mod contact;
 pub mod factor;
 pub mod implicit;
+pub mod ordering;
+pub mod psd;
 pub mod solve;
 pub mod terms;
 
