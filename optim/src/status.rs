@@ -17,8 +17,11 @@ pub enum Status {
     },
     /// The iteration or function-evaluation limit was reached first.
     IterationLimit,
-    /// No further progress was possible (line search failed even after a Hessian reset, or the step
-    /// became negligible) before the tolerances were met.
+    /// No further progress was possible before the tolerances were met: the line search failed
+    /// even after a Hessian reset, the step became negligible, or (SQP's progress test,
+    /// [`SqpSettings::progress_window`](crate::SqpSettings::progress_window)) the last
+    /// iterations, all feasible and all with steps cut by the line search, lowered the objective
+    /// by less than its tolerance.
     Stalled,
     /// The problem could not be evaluated at the starting point, or no evaluable point was found along
     /// the search direction.
