@@ -106,7 +106,7 @@ pub struct SqpSettings {
     /// changes the iterates, so it pays only where rows are costly; `None` (the default) evaluates
     /// every row at every iterate.
     pub jacobian_reuse_margin: Option<f64>,
-    /// Progress test: the run ends [`Stalled`](crate::Status::Stalled) when the last
+    /// Progress test: the run ends [`NoProgress`](crate::Status::NoProgress) when the last
     /// `progress_window` iterations ran between feasible iterates (violation ≤
     /// `tol_feasibility`), the line search cut every one of their steps (`α < 1`), and together
     /// they lowered the objective by less than `tol_progress · max(1, |f|)`: the QP keeps

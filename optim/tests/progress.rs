@@ -110,7 +110,7 @@ fn stops_a_run_on_a_rough_objective_once_its_steps_stop_paying() {
     // Without the test the run creeps on: 200 iterations, 1456 evaluations.
     let (on, off) = rough_runs(false);
     assert_eq!(off.status, Status::IterationLimit, "{}", off.message);
-    assert_eq!(on.status, Status::Stalled, "{}", on.message);
+    assert_eq!(on.status, Status::NoProgress, "{}", on.message);
     assert!(
         on.message.starts_with("no progress: the objective fell by"),
         "{}",
@@ -137,7 +137,7 @@ fn stops_a_run_on_a_rough_objective_once_its_steps_stop_paying() {
 fn stops_a_constrained_rough_run_at_a_feasible_point() {
     // Without the test: 80 iterations, 605 evaluations, then the line search fails.
     let (on, off) = rough_runs(true);
-    assert_eq!(on.status, Status::Stalled, "{}", on.message);
+    assert_eq!(on.status, Status::NoProgress, "{}", on.message);
     assert!(on.message.starts_with("no progress"), "{}", on.message);
     assert!(
         on.constraint_violation <= 1e-8,

@@ -20,7 +20,7 @@
 //!
 //! A run whose feasible iterates stop lowering the objective (by less than `tol_progress`,
 //! relative, over `progress_window` iterations whose steps the line search all cut) ends
-//! `Stalled` with the measured decrease ([`progress`]).
+//! `NoProgress` with the measured decrease ([`progress`]).
 //!
 //! Constraints whose gradient at `x₀` exceeds `max_constraint_gradient` are scaled down once (IPOPT's
 //! rule); violations, tolerances and multipliers in the results refer to the unscaled constraints.
@@ -317,7 +317,10 @@ impl SqpSolver {
             }
             if let Some(stall) = progress.stalled() {
                 refresh_kept_rows!();
-                break (Status::Stalled, format!("{stall}; KKT residual {kkt:.2e}"));
+                break (
+                    Status::NoProgress,
+                    format!("{stall}; KKT residual {kkt:.2e}"),
+                );
             }
             if iterations >= s.max_iterations {
                 break (Status::IterationLimit, format!("{iterations} iterations"));

@@ -1,6 +1,6 @@
 //! The progress test ([`SqpSettings::progress_window`](crate::SqpSettings::progress_window)): a
 //! run whose feasible iterates have stopped lowering the objective, while the line search keeps
-//! cutting the QP's steps, ends `Stalled`, saying by how much the objective fell.
+//! cutting the QP's steps, ends `NoProgress`, saying by how much the objective fell.
 //!
 //! Both conditions are needed. Near a minimizer of a smooth problem the objective also stops
 //! changing, but there the SQP takes unit steps (the second-order correction prevents the
