@@ -945,6 +945,41 @@ proptest! {
     }
 }
 
+/// `vjp_many` of one seed set per pick (`(mask, value seed)`: the `live` outputs the mask
+/// selects, with pseudo-random values) gives each set's `vjp` bit for bit at every leaf of `vars`.
+fn vjp_many_matches_vjp(
+    t: &Tape,
+    live: &[Var],
+    picks: &[(u64, u64)],
+    vars: &[Var],
+) -> Result<(), TestCaseError> {
+    let seeds: Vec<Vec<(Var, Tensor)>> = picks
+        .iter()
+        .map(|&(mask, value_seed)| {
+            live.iter()
+                .enumerate()
+                .filter(|(i, _)| mask >> i & 1 == 1)
+                .map(|(i, &v)| {
+                    let (r, c) = t.value(v).shape();
+                    let data = (0..r * c)
+                        .map(|k| ((value_seed + 7 * k as u64 + i as u64) % 97) as f64 / 48.0 - 1.0)
+                        .collect();
+                    (v, Tensor::new(r, c, data))
+                })
+                .collect()
+        })
+        .collect();
+    let together = t.vjp_many(&seeds);
+    prop_assert_eq!(together.len(), seeds.len());
+    for (g, s) in together.iter().zip(&seeds) {
+        let alone = t.vjp(s);
+        for &v in vars {
+            prop_assert_eq!(g.wrt(v), alone.wrt(v));
+        }
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(128))]
 
@@ -973,31 +1008,8 @@ proptest! {
             outputs.push(x);
         }
         // The intermediate states were moved by the next update: seed only the live ones.
-        let live: Vec<Var> = [*outputs.last().unwrap(), la, lb].to_vec();
-        let seeds: Vec<Vec<(Var, Tensor)>> = picks
-            .iter()
-            .map(|&(mask, value_seed)| {
-                live.iter()
-                    .enumerate()
-                    .filter(|(i, _)| mask >> i & 1 == 1)
-                    .map(|(i, &v)| {
-                        let (r, c) = t.value(v).shape();
-                        let data = (0..r * c)
-                            .map(|k| ((value_seed + 7 * k as u64 + i as u64) % 97) as f64 / 48.0 - 1.0)
-                            .collect();
-                        (v, Tensor::new(r, c, data))
-                    })
-                    .collect()
-            })
-            .collect();
-        let together = t.vjp_many(&seeds);
-        prop_assert_eq!(together.len(), seeds.len());
-        for (g, s) in together.iter().zip(&seeds) {
-            let alone = t.vjp(s);
-            for &v in &vars {
-                prop_assert_eq!(g.wrt(v), alone.wrt(v));
-            }
-        }
+        let live = [*outputs.last().unwrap(), la, lb];
+        vjp_many_matches_vjp(&t, &live, &picks, &vars)?;
     }
 }
 
@@ -1046,30 +1058,7 @@ proptest! {
             (x, la) = t.update_rows(&f_a, &set_a, x, la);
             (x, lb) = t.update_rows(&f_b, &set_b, x, lb);
         }
-        let live = [x, la, lb];
-        let seeds: Vec<Vec<(Var, Tensor)>> = picks
-            .iter()
-            .map(|&(mask, value_seed)| {
-                live.iter()
-                    .enumerate()
-                    .filter(|(i, _)| mask >> i & 1 == 1)
-                    .map(|(i, &v)| {
-                        let (r, c) = t.value(v).shape();
-                        let data = (0..r * c)
-                            .map(|k| ((value_seed + 7 * k as u64 + i as u64) % 97) as f64 / 48.0 - 1.0)
-                            .collect();
-                        (v, Tensor::new(r, c, data))
-                    })
-                    .collect()
-            })
-            .collect();
-        let together = t.vjp_many(&seeds);
-        for (g, s) in together.iter().zip(&seeds) {
-            let alone = t.vjp(s);
-            for &v in &vars {
-                prop_assert_eq!(g.wrt(v), alone.wrt(v));
-            }
-        }
+        vjp_many_matches_vjp(&t, &[x, la, lb], &picks, &vars)?;
     }
 }
 

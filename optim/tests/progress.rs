@@ -93,6 +93,16 @@ impl Problem for RoughRosenbrock {
     }
 }
 
+/// `on` took less than `1/factor` of `off`'s evaluations.
+fn assert_fewer_evaluations(on: &Solution, off: &Solution, factor: usize) {
+    assert!(
+        factor * on.function_evaluations < off.function_evaluations,
+        "{} vs {} evaluations",
+        on.function_evaluations,
+        off.function_evaluations
+    );
+}
+
 /// The rough Rosenbrock problem with the test on and off: (on, off).
 fn rough_runs(constrained: bool) -> (Solution, Solution) {
     let mut p = RoughRosenbrock {
@@ -125,12 +135,7 @@ fn stops_a_run_on_a_rough_objective_once_its_steps_stop_paying() {
     assert!(on.objective.abs() <= 2e-4, "{}", on.objective);
     assert!(on.objective <= off.objective + 2e-4);
     // …for a small part of its evaluations (114 against 1456).
-    assert!(
-        5 * on.function_evaluations < off.function_evaluations,
-        "{} vs {}",
-        on.function_evaluations,
-        off.function_evaluations
-    );
+    assert_fewer_evaluations(&on, &off, 5);
 }
 
 #[test]
@@ -151,12 +156,7 @@ fn stops_a_constrained_rough_run_at_a_feasible_point() {
         "{:?}",
         on.x
     );
-    assert!(
-        3 * on.function_evaluations < off.function_evaluations,
-        "{} vs {}",
-        on.function_evaluations,
-        off.function_evaluations
-    );
+    assert_fewer_evaluations(&on, &off, 3);
 }
 
 #[test]
