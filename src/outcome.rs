@@ -30,7 +30,8 @@ pub enum Reason {
     LocalMinimum,
     /// The solver stopped at its iteration limit before converging.
     IterationLimit,
-    /// The solver stopped without converging (negligible step, line-search failure, QP failure).
+    /// The solver stopped without converging (negligible step, line-search failure, QP failure,
+    /// no progress).
     Stalled,
     /// The run was stopped (time limit, interrupt) before the solver converged, or is still
     /// under way (a best-so-far file).

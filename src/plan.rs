@@ -58,6 +58,14 @@ pub struct PlanOptions {
     /// Largest max-norm violation (length units) of the optimizer's rows at which a plan still
     /// counts as feasible. Default [`FEASIBILITY_TOLERANCE`] (1e-8).
     pub tol_feasibility: f64,
+    /// The SQP's progress test, per stage ([`optim::SqpSettings::progress_window`]): a stage
+    /// whose last `progress_window` iterations, all feasible and all with steps cut by the line
+    /// search, lower the objective by less than `tol_progress · max(1, |f|)` ends `no_progress`;
+    /// a warm-up ending so with no safety row active is the plan (the sharp stage is not run,
+    /// see [`sharp_stage_needed`]). `None` turns it off. Default the SQP's, `Some(10)`.
+    pub progress_window: Option<usize>,
+    /// The relative decrease of the progress test (see `progress_window`). Default the SQP's, 1e-6.
+    pub tol_progress: f64,
     /// Plan even when the cloth starts inside an obstacle (step 0 cannot be made safe); the
     /// result then carries a warning instead of the run failing. Default false.
     pub allow_unsafe_start: bool,
@@ -72,6 +80,7 @@ pub struct PlanOptions {
 impl PlanOptions {
     /// Defaults for `model`: its own task, SQP, 200 iterations, step bound 0.5, KKT tolerance 1e-4.
     pub fn for_model(model: &Model) -> Self {
+        let sqp = SqpSettings::default();
         PlanOptions {
             task: TaskOptions::for_model(model),
             iterations: 200,
@@ -81,6 +90,8 @@ impl PlanOptions {
             kappa_warmup: Some(200.0),
             reuse_band: f64::INFINITY,
             tol_feasibility: FEASIBILITY_TOLERANCE,
+            progress_window: sqp.progress_window,
+            tol_progress: sqp.tol_progress,
             allow_unsafe_start: false,
             deadline: None,
             stop: None,
@@ -89,7 +100,8 @@ impl PlanOptions {
 
     /// Checks every option, naming the first bad one: `δ`, `α`, `β` finite and ≥ 0; `κ` finite
     /// and positive (the soft minimum divides by it); the reuse band > 0 (∞ allowed); at least
-    /// one iteration; a finite positive step bound and tolerance. [`plan`] calls it, so a bad
+    /// one iteration (and a progress window of at least one); a finite positive step bound and
+    /// tolerance; `tol_progress` finite and ≥ 0. [`plan`] calls it, so a bad
     /// option is an error instead of a panic or a silently NaN objective.
     pub fn validate(&self) -> Result<()> {
         let t = &self.task;
@@ -109,6 +121,10 @@ impl PlanOptions {
             ensure_positive("kappa_warmup", kappa)?;
         }
         ensure_positive_or_infinite("reuse_band", self.reuse_band)?;
+        ensure_non_negative("tol_progress", self.tol_progress)?;
+        if let Some(window) = self.progress_window {
+            ensure_iterations("progress_window", window)?;
+        }
         ensure_iterations("iterations", self.iterations)
     }
 }
@@ -341,6 +357,8 @@ pub fn plan(
     // changes with κ, and rebuilding the rest from the identity took about 30 more iterations.
     let mut warm_hessian = None;
     let mut stages = Vec::new();
+    // Set when the warm-up leaves the sharp stage nothing to do (see `sharp_stage_needed`).
+    let mut settled = None;
     if let (SolverKind::Sqp, Some(kappa), true) =
         (options.solver, options.kappa_warmup, soft_safety)
     {
@@ -351,6 +369,12 @@ pub fn plan(
             let settings = sqp_settings(options, 10.0 * options.tol_optimality)?;
             let solution =
                 SqpSolver::new(settings)?.solve_with_callback(&mut warm, &x0, &mut callback)?;
+            if !sharp_stage_needed(&mut warm, &solution)? {
+                settled = Some(format!(
+                    "{}; the κ = {} stage was not run: no safety row is active at this plan, so it would start where the progress test stopped (its rows are looser there)",
+                    solution.message, options.task.kappa
+                ));
+            }
             x0 = solution.x;
             warm_hessian = solution.hessian;
             warm_iterations = solution.iterations;
@@ -366,28 +390,21 @@ pub fn plan(
     let mut problem =
         TrajectoryProblem::new(model, options.task.clone()).with_initial_hessian(warm_hessian);
     let stopped_early = watch.borrow().stopped.is_some();
-    let solution = match options.solver {
+    let sharp_skipped = settled.is_some() && !stopped_early;
+    let solution = match (options.solver, settled) {
         // Stopped in the warm-up: no sharp stage (its first iteration would cost a gradient and a
         // QP past the deadline); the stopped-run branch below scores the best iterate.
-        _ if stopped_early => optim::Solution {
-            status: Status::Interrupted,
-            message: String::new(),
-            x: x0.clone(),
-            objective: f64::NAN,
-            constraint_violation: f64::NAN,
-            kkt_residual: f64::NAN,
-            iterations: 0,
-            function_evaluations: 0,
-            gradient_evaluations: 0,
-            multipliers: Default::default(),
-            solve_time: 0.0,
-            hessian: None,
-        },
-        SolverKind::Sqp => {
+        _ if stopped_early => not_run(&x0, Status::Interrupted, String::new()),
+        (_, Some(message)) => {
+            let mut solution = not_run(&x0, Status::NoProgress, message);
+            solution.constraint_violation = max_violation(&mut problem, &x0)?;
+            solution
+        }
+        (SolverKind::Sqp, None) => {
             let settings = sqp_settings(options, options.tol_optimality)?;
             SqpSolver::new(settings)?.solve_with_callback(&mut problem, &x0, callback)?
         }
-        SolverKind::Lbfgs => {
+        (SolverKind::Lbfgs, None) => {
             if problem.num_inequalities() > 0 {
                 return Err(Error::LbfgsWithConstraints {
                     rows: problem.num_inequalities(),
@@ -400,25 +417,20 @@ pub fn plan(
         }
     };
     let wall_s = clock.elapsed().as_secs_f64();
-    stages.push(Stage {
-        kappa: soft_safety.then_some(options.task.kappa),
-        iterations: solution.iterations,
-        status: solution.status.name().to_string(),
-    });
+    if !sharp_skipped {
+        stages.push(Stage {
+            kappa: soft_safety.then_some(options.task.kappa),
+            iterations: solution.iterations,
+            status: solution.status.name().to_string(),
+        });
+    }
     // A stopped run returns its best feasible iterate (the last one when none was feasible).
     let mut solution = solution;
     let mut watch = watch.into_inner();
     let status = match watch.stopped {
         Some(reason) => {
             let found = watch.best.take().map(|b| solution.x = b.x).is_some();
-            let mut c = vec![0.0; problem.num_inequalities()];
-            problem
-                .inequalities(&solution.x, &mut c)
-                .map_err(|source| Error::Evaluation {
-                    what: "re-evaluating the best iterate",
-                    source,
-                })?;
-            solution.constraint_violation = c.iter().fold(0.0, |v: f64, &ci| v.max(-ci));
+            solution.constraint_violation = max_violation(&mut problem, &solution.x)?;
             solution.kkt_residual = f64::NAN;
             solution.multipliers = Default::default();
             solution.message = format!(
@@ -506,6 +518,49 @@ pub fn plan(
         states: Some(evaluation.states.iter().map(state_points).collect()),
         solver_status: Some(solution.status),
     })
+}
+
+/// Whether the sharp κ stage has anything to do after the warm-up ended with `warm`. Not after a
+/// warm-up the progress test stopped ([`Status::NoProgress`]) with no safety row active: the
+/// stages differ only in their safety rows, the sharp soft minimum is never below the smooth one
+/// (so those rows stay inactive), and the objective is the same, so the sharp stage would start
+/// where the progress test had just found no progress. Any other ending runs it.
+pub fn sharp_stage_needed(
+    warm: &mut TrajectoryProblem<'_>,
+    solution: &optim::Solution,
+) -> Result<bool> {
+    Ok(solution.status != Status::NoProgress
+        || !row_facts(warm, solution)?.active_safety.is_empty())
+}
+
+/// A stage that did not run: `x` with `status`, no iterations, no multipliers.
+fn not_run(x: &[f64], status: Status, message: String) -> optim::Solution {
+    optim::Solution {
+        status,
+        message,
+        x: x.to_vec(),
+        objective: f64::NAN,
+        constraint_violation: f64::NAN,
+        kkt_residual: f64::NAN,
+        iterations: 0,
+        function_evaluations: 0,
+        gradient_evaluations: 0,
+        multipliers: Default::default(),
+        solve_time: 0.0,
+        hessian: None,
+    }
+}
+
+/// The largest violation of `problem`'s rows at `x` (0 when they all hold).
+fn max_violation(problem: &mut TrajectoryProblem<'_>, x: &[f64]) -> Result<f64> {
+    let mut c = vec![0.0; problem.num_inequalities()];
+    problem
+        .inequalities(x, &mut c)
+        .map_err(|source| Error::Evaluation {
+            what: "re-evaluating the returned plan",
+            source,
+        })?;
+    Ok(c.iter().fold(0.0, |v: f64, &ci| v.max(-ci)))
 }
 
 /// The rollout of `controls` with the run's weights and margin (not the scene's): what a result
@@ -637,6 +692,8 @@ fn sqp_settings(options: &PlanOptions, tol: f64) -> Result<SqpSettings> {
         .tol_optimality(tol)
         .tol_feasibility(options.tol_feasibility)
         .jacobian_reuse_margin(options.reuse_band.is_finite().then_some(options.reuse_band))
+        .progress_window(options.progress_window)
+        .tol_progress(options.tol_progress)
         .build()?)
 }
 

@@ -1,22 +1,41 @@
-//! The `fold` built-in through the planner: one SQP iteration from the scene's initial guess
-//! (self-collision and friction on) returns a plan whose verdict is achieved and safe, and whose
-//! rollout, simulated again, gives the same errors. (The full `optimize fold` run and its
-//! numbers are in the README; this is the cheap check that the planner keeps the fold.)
+//! The `fold` built-in through the planner, cheaply: a κ warm-up stopped by the progress test after
+//! its first iteration (a window of one iteration, any decrease below 100%) with no safety row
+//! active is the plan — the sharp stage is not run — and that plan is achieved and safe, and its
+//! rollout, simulated again, gives the same errors. (The full `optimize fold` run and its numbers
+//! are in the README.) Also: when the planner skips the sharp stage, and that the progress
+//! options are checked.
 
 use cloth::{Model, Scene};
 use clothopt::outcome::target_errors;
-use clothopt::plan::{controls_from_nested, initial_controls, plan, PlanOptions};
+use clothopt::plan::{
+    controls_from_nested, initial_controls, plan, sharp_stage_needed, PlanOptions,
+};
+use clothopt::problem::{TaskOptions, TrajectoryProblem};
+use optim::{Solution, Status};
 
 #[test]
-fn one_iteration_from_the_fold_scenes_guess_keeps_the_fold_achieved_and_safe() {
+fn a_warm_up_without_progress_and_far_from_the_mug_is_the_fold_plan() {
     let scene = Scene::builtin("fold").unwrap();
     assert!(scene.physics.self_collision.is_some());
     let model = Model::from_scene(&scene).unwrap();
     let start = initial_controls(&scene, &model).unwrap();
     let mut options = PlanOptions::for_model(&model);
-    options.iterations = 1;
-    options.kappa_warmup = None;
+    options.progress_window = Some(1);
+    options.tol_progress = 1.0;
     let result = plan(&model, &scene, &start, &options, |_| {}).unwrap();
+    assert_eq!(result.status, "no_progress", "{}", result.message);
+    assert!(
+        result
+            .message
+            .starts_with("no progress: the objective fell by")
+            && result.message.contains("the κ = 3000 stage was not run"),
+        "{}",
+        result.message
+    );
+    assert_eq!(result.iterations, 1);
+    assert_eq!(result.stages.len(), 1, "the sharp stage did not run");
+    assert_eq!(result.stages[0].kappa, Some(200.0));
+    assert_eq!(result.stages[0].status, "no_progress");
     assert!(result.task.achieved, "{}", result.task.explanation);
     assert!(
         result.task.max_target_error <= model.task.tolerance,
@@ -29,8 +48,70 @@ fn one_iteration_from_the_fold_scenes_guess_keeps_the_fold_achieved_and_safe() {
         result.metrics.min_sdf,
         scene.task.delta
     );
+    assert!(result.constraint_violation <= options.tol_feasibility);
     let controls = controls_from_nested(&model, &result.controls).unwrap();
     let states = model.simulate(&controls).unwrap();
     let again = target_errors(&model, states.last().unwrap());
     assert_eq!(again, result.task.target_errors);
+}
+
+/// A solution at `x` that ended with `status` (no multipliers: a row is active when its value is).
+fn ended(x: Vec<f64>, status: Status) -> Solution {
+    Solution {
+        status,
+        message: String::new(),
+        x,
+        objective: f64::NAN,
+        constraint_violation: 0.0,
+        kkt_residual: f64::NAN,
+        iterations: 1,
+        function_evaluations: 1,
+        gradient_evaluations: 1,
+        multipliers: Default::default(),
+        solve_time: 0.0,
+        hessian: None,
+    }
+}
+
+#[test]
+fn the_sharp_stage_is_skipped_only_after_no_progress_with_every_safety_row_inactive() {
+    for (name, rows_active) in [("fold", false), ("u_obstacle", true)] {
+        let scene = Scene::builtin(name).unwrap();
+        let model = Model::from_scene(&scene).unwrap();
+        let x = initial_controls(&scene, &model).unwrap().data().to_vec();
+        let mut task = TaskOptions::for_model(&model);
+        task.kappa = 200.0;
+        let mut warm = TrajectoryProblem::new(&model, task);
+        let no_progress = ended(x.clone(), Status::NoProgress);
+        assert_eq!(
+            sharp_stage_needed(&mut warm, &no_progress).unwrap(),
+            rows_active,
+            "{name}"
+        );
+        for other in [Status::Converged, Status::Stalled, Status::IterationLimit] {
+            let solution = ended(x.clone(), other);
+            assert!(sharp_stage_needed(&mut warm, &solution).unwrap(), "{name}");
+        }
+    }
+}
+
+#[test]
+fn bad_progress_options_are_named() {
+    let scene = Scene::builtin("fold").unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    let start = initial_controls(&scene, &model).unwrap();
+    let mut cases = Vec::new();
+    for (window, tol) in [(Some(0), 1e-6), (Some(10), -1.0), (None, f64::NAN)] {
+        let mut options = PlanOptions::for_model(&model);
+        options.progress_window = window;
+        options.tol_progress = tol;
+        cases.push(options);
+    }
+    let names = ["progress_window", "tol_progress", "tol_progress"];
+    for (options, name) in cases.iter().zip(names) {
+        let err = plan(&model, &scene, &start, options, |_| {})
+            .unwrap_err()
+            .to_string();
+        assert!(err.starts_with(name), "{err}");
+    }
 }

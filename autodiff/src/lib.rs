@@ -25,6 +25,6 @@ pub mod update;
 pub use dual::Dual;
 pub use index::RowIndex;
 pub use real::Real;
-pub use rowfn::{in_pool, vjp_by_duals, DynRowFn, RowFn};
+pub use rowfn::{in_pool, vjp_by_duals, vjp_seeds_by_duals, DynRowFn, RowFn};
 pub use tape::{soft_min_value, soft_min_weights, Gradients, Tape, Var};
 pub use tensor::Tensor;

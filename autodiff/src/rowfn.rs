@@ -79,20 +79,15 @@ pub trait RowFn: Send + Sync {
 
     /// [`RowFn::vjp`] of one row for several seeds at once: `out_adj` holds `seeds` output
     /// adjoints one after another (`seeds × n_out`), `in_adj` the matching `seeds × n_in`. The
-    /// default pulls them back one by one; a function may override it to share the work the
-    /// seeds have in common.
+    /// default derives the row's Jacobian with duals once and applies it to every seed
+    /// ([`vjp_seeds_by_duals`]; each seed's result is bitwise [`vjp_by_duals`]'s). A type that
+    /// overrides [`RowFn::vjp`] overrides this too, so every seed takes its formulation.
     #[inline(always)]
     fn vjp_seeds(&self, row: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64])
     where
         Self: Sized,
     {
-        let (n_in, n_out) = (self.n_in(), self.n_out());
-        for (oa, ia) in out_adj
-            .chunks_exact(n_out)
-            .zip(in_adj.chunks_exact_mut(n_in))
-        {
-            self.vjp(row, inputs, oa, ia);
-        }
+        vjp_seeds_by_duals(self, row, inputs, out_adj, in_adj);
     }
 }
 
@@ -111,10 +106,34 @@ pub fn vjp_by_duals<F: RowFn>(
     out_adj: &[f64],
     in_adj: &mut [f64],
 ) {
+    vjp_seeds_by_duals(f, row, inputs, out_adj, in_adj);
+}
+
+/// Row widths up to which [`vjp_seeds_by_duals`] keeps its duals on the stack.
+const STACK_ROW: usize = 16;
+
+/// [`vjp_by_duals`] for several seeds (`out_adj`: `seeds × n_out`, `in_adj`: `seeds × n_in`,
+/// accumulated): each chunk of [`VJP_CHUNK`] input directions is evaluated once and its
+/// derivatives applied to every seed, so the cost of the duals does not grow with the seeds.
+/// Every seed's adjoint is accumulated in [`vjp_by_duals`]'s order, so bitwise equal to it.
+pub fn vjp_seeds_by_duals<F: RowFn>(
+    f: &F,
+    row: usize,
+    inputs: &[f64],
+    out_adj: &[f64],
+    in_adj: &mut [f64],
+) {
     type D = Dual<f64, VJP_CHUNK>;
-    let n_in = f.n_in();
-    let mut x: Vec<D> = inputs.iter().map(|&v| D::constant(v)).collect();
-    let mut y = vec![D::constant(0.0); f.n_out()];
+    let (n_in, n_out) = (f.n_in(), f.n_out());
+    let (mut x_stack, mut y_stack) = ([D::constant(0.0); STACK_ROW], [D::constant(0.0); STACK_ROW]);
+    let (mut x_heap, mut y_heap) = (Vec::new(), Vec::new());
+    let (x, y): (&mut [D], &mut [D]) = if n_in <= STACK_ROW && n_out <= STACK_ROW {
+        (&mut x_stack[..n_in], &mut y_stack[..n_out])
+    } else {
+        x_heap.resize(n_in, D::constant(0.0));
+        y_heap.resize(n_out, D::constant(0.0));
+        (&mut x_heap, &mut y_heap)
+    };
     for start in (0..n_in).step_by(VJP_CHUNK) {
         let end = (start + VJP_CHUNK).min(n_in);
         for (k, xi) in x.iter_mut().enumerate() {
@@ -124,11 +143,16 @@ pub fn vjp_by_duals<F: RowFn>(
                 D::constant(inputs[k])
             };
         }
-        f.eval(row, &x, &mut y);
-        for (yo, &a) in y.iter().zip(out_adj) {
-            if a != 0.0 {
-                for k in start..end {
-                    in_adj[k] += a * yo.eps[k - start];
+        f.eval(row, x, y);
+        for (oa, ia) in out_adj
+            .chunks_exact(n_out)
+            .zip(in_adj.chunks_exact_mut(n_in))
+        {
+            for (yo, &a) in y.iter().zip(oa) {
+                if a != 0.0 {
+                    for k in start..end {
+                        ia[k] += a * yo.eps[k - start];
+                    }
                 }
             }
         }

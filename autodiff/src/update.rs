@@ -193,9 +193,64 @@ impl<F: RowFn> DynRowFn for F {
             }
             return;
         }
+        if state_adj.len() > 1 {
+            for (s, c) in state_adj
+                .chunks_mut(SEED_CHUNK)
+                .zip(carry_adj.chunks_mut(SEED_CHUNK))
+            {
+                vjp_update_gathered_seeds(self, index, inputs, s, c);
+            }
+            return;
+        }
         for (s, c) in state_adj.iter_mut().zip(carry_adj.iter_mut()) {
             self.vjp_update_batch(index, inputs, s, c);
         }
+    }
+}
+
+/// [`DynRowFn::vjp_update_batch_seeds`] for any layout (gather, pull back, scatter), up to
+/// [`SEED_CHUNK`] seeds: each row's output adjoints of every seed are gathered side by side and
+/// handed to [`RowFn::vjp_seeds`] at once, so work the seeds share (a dual Jacobian) is done once
+/// per row. Each seed's result is bitwise that of [`DynRowFn::vjp_update_batch`].
+fn vjp_update_gathered_seeds<F: RowFn>(
+    f: &F,
+    index: &RowIndex,
+    inputs: &[f64],
+    state_adj: &mut [Tensor],
+    carry_adj: &mut [Tensor],
+) {
+    let seeds = state_adj.len();
+    assert!(seeds <= SEED_CHUNK, "at most SEED_CHUNK seeds at once");
+    let (n, rows) = (RowFn::n_in(f), index.rows());
+    assert_eq!(inputs.len(), rows * n, "vjp_update_batch: saved inputs");
+    // Per row: every seed's `n` adjoint values one after another.
+    let width = seeds * n;
+    let mut out_adj = vec![0.0; rows * width];
+    let mut one = Vec::new();
+    for (s, (state, carry)) in state_adj.iter().zip(carry_adj.iter()).enumerate() {
+        gather_update_inputs(index, state, carry, &mut one);
+        for (k, row) in one.chunks_exact(n).enumerate() {
+            out_adj[k * width + s * n..k * width + (s + 1) * n].copy_from_slice(row);
+        }
+    }
+    let mut in_adj = vec![0.0; rows * width];
+    for_each_row_chunk(&mut in_adj, width, |first, ia| {
+        for (k, a) in ia.chunks_exact_mut(width).enumerate() {
+            let r = first + k;
+            f.vjp_seeds(
+                r,
+                &inputs[r * n..(r + 1) * n],
+                &out_adj[r * width..(r + 1) * width],
+                a,
+            );
+        }
+    });
+    for (s, (state, carry)) in state_adj.iter_mut().zip(carry_adj.iter_mut()).enumerate() {
+        one.clear();
+        for row in in_adj.chunks_exact(width) {
+            one.extend_from_slice(&row[s * n..(s + 1) * n]);
+        }
+        scatter_update_outputs(index, &one, state, carry);
     }
 }
 

@@ -5,7 +5,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use autodiff::rowfn::VJP_CHUNK;
-use autodiff::{vjp_by_duals, Dual, Real, RowFn};
+use autodiff::{vjp_by_duals, vjp_seeds_by_duals, Dual, Real, RowFn};
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 
@@ -333,6 +333,38 @@ proptest! {
             xm[i] -= h;
             let fd = (phi(&xp) - phi(&xm)) / (xp[i] - xm[i]);
             close(in_adj[i] - acc[i], fd, &format!("input {i} of {n}"))?;
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    /// Several seeds at once (the default `vjp_seeds`, one dual Jacobian for all of them) give
+    /// each seed's `vjp_by_duals` bit for bit, across widths that take the stack and the heap
+    /// buffers and every chunk boundary.
+    #[test]
+    fn vjp_seeds_by_duals_matches_each_seed_alone(
+        (n, m, x, w, row) in (1usize..20, 1usize..5, 1usize..12).prop_flat_map(|(n, m, seeds)| (
+            Just(n),
+            Just(m),
+            prop::collection::vec(-1.0f64..1.0, n),
+            prop::collection::vec(-1.0f64..1.0, m * seeds),
+            0usize..4,
+        ))
+    ) {
+        let f = Dense { n, m };
+        let seeds = w.len() / m;
+        let acc: Vec<f64> = (0..n * seeds).map(|k| (k % 7) as f64 * 0.25 - 0.5).collect();
+        let mut together = acc.clone();
+        f.vjp_seeds(row, &x, &w, &mut together);
+        let mut direct = acc.clone();
+        vjp_seeds_by_duals(&f, row, &x, &w, &mut direct);
+        prop_assert_eq!(&together, &direct);
+        for s in 0..seeds {
+            let mut alone = acc[s * n..(s + 1) * n].to_vec();
+            vjp_by_duals(&f, row, &x, &w[s * m..(s + 1) * m], &mut alone);
+            prop_assert_eq!(&together[s * n..(s + 1) * n], &alone[..], "seed {} of {}", s, seeds);
         }
     }
 }

@@ -945,6 +945,41 @@ proptest! {
     }
 }
 
+/// `vjp_many` of one seed set per pick (`(mask, value seed)`: the `live` outputs the mask
+/// selects, with pseudo-random values) gives each set's `vjp` bit for bit at every leaf of `vars`.
+fn vjp_many_matches_vjp(
+    t: &Tape,
+    live: &[Var],
+    picks: &[(u64, u64)],
+    vars: &[Var],
+) -> Result<(), TestCaseError> {
+    let seeds: Vec<Vec<(Var, Tensor)>> = picks
+        .iter()
+        .map(|&(mask, value_seed)| {
+            live.iter()
+                .enumerate()
+                .filter(|(i, _)| mask >> i & 1 == 1)
+                .map(|(i, &v)| {
+                    let (r, c) = t.value(v).shape();
+                    let data = (0..r * c)
+                        .map(|k| ((value_seed + 7 * k as u64 + i as u64) % 97) as f64 / 48.0 - 1.0)
+                        .collect();
+                    (v, Tensor::new(r, c, data))
+                })
+                .collect()
+        })
+        .collect();
+    let together = t.vjp_many(&seeds);
+    prop_assert_eq!(together.len(), seeds.len());
+    for (g, s) in together.iter().zip(&seeds) {
+        let alone = t.vjp(s);
+        for &v in vars {
+            prop_assert_eq!(g.wrt(v), alone.wrt(v));
+        }
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(128))]
 
@@ -973,31 +1008,57 @@ proptest! {
             outputs.push(x);
         }
         // The intermediate states were moved by the next update: seed only the live ones.
-        let live: Vec<Var> = [*outputs.last().unwrap(), la, lb].to_vec();
-        let seeds: Vec<Vec<(Var, Tensor)>> = picks
-            .iter()
-            .map(|&(mask, value_seed)| {
-                live.iter()
-                    .enumerate()
-                    .filter(|(i, _)| mask >> i & 1 == 1)
-                    .map(|(i, &v)| {
-                        let (r, c) = t.value(v).shape();
-                        let data = (0..r * c)
-                            .map(|k| ((value_seed + 7 * k as u64 + i as u64) % 97) as f64 / 48.0 - 1.0)
-                            .collect();
-                        (v, Tensor::new(r, c, data))
-                    })
-                    .collect()
-            })
-            .collect();
-        let together = t.vjp_many(&seeds);
-        prop_assert_eq!(together.len(), seeds.len());
-        for (g, s) in together.iter().zip(&seeds) {
-            let alone = t.vjp(s);
-            for &v in &vars {
-                prop_assert_eq!(g.wrt(v), alone.wrt(v));
-            }
+        let live = [*outputs.last().unwrap(), la, lb];
+        vjp_many_matches_vjp(&t, &live, &picks, &vars)?;
+    }
+}
+
+/// [`XpbdDistance`] with a second carried value (`[xᵢ, xⱼ, λ, κ]`, `κ ← 0.5κ + λ'`): a carry of
+/// width 2, so its updates take the general (gather, pull back, scatter) kernels.
+struct XpbdDistanceCarry2(XpbdDistance);
+
+impl RowFn for XpbdDistanceCarry2 {
+    fn n_in(&self) -> usize {
+        8
+    }
+    fn n_out(&self) -> usize {
+        8
+    }
+    fn eval<R: Real>(&self, row: usize, x: &[R], out: &mut [R]) {
+        self.0.eval(row, &x[..7], &mut out[..7]);
+        out[7] = x[7] * 0.5 + out[6] * out[6];
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    /// `vjp_many` through updates whose rows are not points with one carried value (a carry of
+    /// width 2: the gathered multi-seed kernel, one dual Jacobian per row for up to `SEED_CHUNK`
+    /// seeds) gives each seed's `vjp` bit for bit, with up to 11 seeds.
+    #[test]
+    fn vjp_many_matches_separate_vjps_for_wide_carries(
+        case in chain_case(),
+        picks in prop::collection::vec((any::<u64>(), 0u64..1 << 20), 1..12),
+    ) {
+        let n = case.x.rows();
+        let (set_a, set_b) = chain_sets(n);
+        let wide = |f: XpbdDistance| arc(XpbdDistanceCarry2(f));
+        let f_a = wide(XpbdDistance { rest: case.rest[..set_a.rows()].to_vec(), alpha: case.alpha, w: [1.0, 0.7] });
+        let f_b = wide(XpbdDistance { rest: case.rest[set_a.rows()..].to_vec(), alpha: case.alpha, w: [0.8, 1.0] });
+        let widen = |l: &Tensor| {
+            let data = l.data().iter().flat_map(|&v| [v, 0.5 * v + 0.1]).collect();
+            Tensor::new(l.rows(), 2, data)
+        };
+        let mut t = Tape::new();
+        let leaves = [case.x.clone(), widen(&case.lam_a), widen(&case.lam_b)];
+        let vars: Vec<Var> = leaves.iter().map(|l| t.leaf(l.clone())).collect();
+        let (mut x, mut la, mut lb) = (t.scale(vars[0], 1.0), vars[1], vars[2]);
+        for _ in 0..case.sweeps {
+            (x, la) = t.update_rows(&f_a, &set_a, x, la);
+            (x, lb) = t.update_rows(&f_b, &set_b, x, lb);
         }
+        vjp_many_matches_vjp(&t, &[x, la, lb], &picks, &vars)?;
     }
 }
 

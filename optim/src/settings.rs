@@ -106,6 +106,19 @@ pub struct SqpSettings {
     /// changes the iterates, so it pays only where rows are costly; `None` (the default) evaluates
     /// every row at every iterate.
     pub jacobian_reuse_margin: Option<f64>,
+    /// Progress test: the run ends [`NoProgress`](crate::Status::NoProgress) when the last
+    /// `progress_window` iterations ran between feasible iterates (violation ≤
+    /// `tol_feasibility`), the line search cut every one of their steps (`α < 1`), and together
+    /// they lowered the objective by less than `tol_progress · max(1, |f|)`: the QP keeps
+    /// promising decreases the function does not deliver (noise, roughness, an inexact
+    /// gradient), so the run stops instead of spending its iteration budget (cf. Knitro's
+    /// `ftol`/`ftol_iters`, SLSQP's `acc`). A run converging on a smooth problem is not stopped by
+    /// it: there the objective stops changing too, but SQP takes unit steps. `None` turns the
+    /// test off. Default `Some(10)`.
+    pub progress_window: Option<usize>,
+    /// Relative objective decrease over `progress_window` feasible iterations below which a run
+    /// counts as making no progress (see `progress_window`). Default 1e-6.
+    pub tol_progress: f64,
 }
 
 /// Default [`SqpSettings::tol_feasibility`]: the largest max-norm violation of the (unscaled)
@@ -132,6 +145,8 @@ impl Default for SqpSettings {
             qp_max_iterations: 200,
             max_constraint_gradient: 100.0,
             jacobian_reuse_margin: None,
+            progress_window: Some(10),
+            tol_progress: 1e-6,
         }
     }
 }
@@ -191,6 +206,16 @@ impl SqpSettings {
                 .is_none_or(|m| m.is_finite() && m > 0.0),
             "jacobian_reuse_margin",
             "must be finite and > 0 (None disables reuse)",
+        )?;
+        check(
+            self.progress_window.is_none_or(|w| w > 0),
+            "progress_window",
+            "must be > 0 (None disables the progress test)",
+        )?;
+        check(
+            self.tol_progress.is_finite() && self.tol_progress >= 0.0,
+            "tol_progress",
+            "must be finite and ≥ 0",
         )
     }
 }
@@ -213,6 +238,8 @@ settings_builder!(SqpSettings, SqpSettingsBuilder, {
     qp_max_iterations: u32,
     max_constraint_gradient: f64,
     jacobian_reuse_margin: Option<f64>,
+    progress_window: Option<usize>,
+    tol_progress: f64,
 });
 
 /// Settings of the L-BFGS solver ([`LbfgsSolver`](crate::LbfgsSolver)).
@@ -311,6 +338,20 @@ mod tests {
                 ..
             })
         ));
+        for bad in [
+            SqpSettings::builder().progress_window(Some(0)).build(),
+            SqpSettings::builder().tol_progress(-1e-6).build(),
+            SqpSettings::builder().tol_progress(f64::NAN).build(),
+        ] {
+            assert!(matches!(
+                bad,
+                Err(OptimError::InvalidSettings {
+                    name: "progress_window" | "tol_progress",
+                    ..
+                })
+            ));
+        }
+        assert!(SqpSettings::builder().progress_window(None).build().is_ok());
         assert!(LbfgsSettings::builder().wolfe_c2(1e-5).build().is_err());
         assert!(LbfgsSettings::builder().memory(0).build().is_err());
     }

@@ -20,6 +20,11 @@ pub enum Status {
     /// No further progress was possible (line search failed even after a Hessian reset, or the step
     /// became negligible) before the tolerances were met.
     Stalled,
+    /// SQP's progress test ([`SqpSettings::progress_window`](crate::SqpSettings::progress_window)):
+    /// the last iterations, all between feasible iterates and all with steps cut by the line
+    /// search, lowered the objective by less than `tol_progress` before the tolerances were met.
+    /// The returned point is feasible; the message gives the measured decrease.
+    NoProgress,
     /// The problem could not be evaluated at the starting point, or no evaluable point was found along
     /// the search direction.
     EvaluationFailed,
@@ -40,6 +45,7 @@ impl Status {
             Status::Infeasible { .. } => "infeasible",
             Status::IterationLimit => "iteration_limit",
             Status::Stalled => "stalled",
+            Status::NoProgress => "no_progress",
             Status::EvaluationFailed => "evaluation_failed",
             Status::Interrupted => "interrupted",
         }

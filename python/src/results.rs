@@ -105,7 +105,7 @@ impl Plan {
         self.result.summary(timing)
     }
 
-    /// The solver's final status: "converged", "stalled", "iteration_limit", "time_limit", ….
+    /// The solver's final status: "converged", "stalled", "no_progress", "iteration_limit", "time_limit", ….
     #[getter]
     fn status(&self) -> &str {
         &self.result.status

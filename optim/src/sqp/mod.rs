@@ -18,6 +18,10 @@
 //!    evaluation counts as a rejected trial and halves the step.
 //! 5. Damped BFGS update with `y = ∇ₓL(x⁺, λ) − ∇ₓL(x, λ)` of the smooth part.
 //!
+//! A run whose feasible iterates stop lowering the objective (by less than `tol_progress`,
+//! relative, over `progress_window` iterations whose steps the line search all cut) ends
+//! `NoProgress` with the measured decrease ([`progress`]).
+//!
 //! Constraints whose gradient at `x₀` exceeds `max_constraint_gradient` are scaled down once (IPOPT's
 //! rule); violations, tolerances and multipliers in the results refer to the unscaled constraints.
 
@@ -34,10 +38,12 @@ use std::time::Instant;
 
 mod kkt;
 mod merit;
+mod progress;
 mod step;
 
 use kkt::{extract_multipliers, kkt_residual, lagrangian_gradient};
 use merit::{kept_row_nears_activity, predicted_reduction, Search};
+use progress::Progress;
 
 /// The SQP solver. Create it with settings, then [`solve`](SqpSolver::solve) any number of problems.
 ///
@@ -197,6 +203,8 @@ impl SqpSolver {
         if s.max_constraint_gradient.is_finite() {
             ev.set_scaling(s.max_constraint_gradient, &mut pt, &mut dv);
         }
+        let mut progress = Progress::new(s.progress_window, s.tol_progress);
+        progress.record(pt.objective(), pt.violation_inf() <= s.tol_feasibility, 1.0);
         let mut penalty = vec![s.elastic_weight; ev.m + ev.q];
         let mut iterations = 0usize;
         let mut last_step_norm = 0.0;
@@ -307,6 +315,13 @@ impl SqpSolver {
                     ),
                 );
             }
+            if let Some(stall) = progress.stalled() {
+                refresh_kept_rows!();
+                break (
+                    Status::NoProgress,
+                    format!("{stall}; KKT residual {kkt:.2e}"),
+                );
+            }
             if iterations >= s.max_iterations {
                 break (Status::IterationLimit, format!("{iterations} iterations"));
             }
@@ -363,6 +378,11 @@ impl SqpSolver {
                     pt = *values;
                     dv = *derivatives;
                     iterations += 1;
+                    progress.record(
+                        pt.objective(),
+                        pt.violation_inf() <= s.tol_feasibility,
+                        alpha,
+                    );
                     // Multipliers/KKT of the new point come from its own QP next iteration.
                     kkt = f64::INFINITY;
                 }

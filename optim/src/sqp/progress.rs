@@ -1,0 +1,206 @@
+//! The progress test ([`SqpSettings::progress_window`](crate::SqpSettings::progress_window)): a
+//! run whose feasible iterates have stopped lowering the objective, while the line search keeps
+//! cutting the QP's steps, ends `NoProgress`, saying by how much the objective fell.
+//!
+//! Both conditions are needed. Near a minimizer of a smooth problem the objective also stops
+//! changing, but there the SQP takes unit steps (the second-order correction prevents the
+//! Maratos effect) and converges within a few iterations, so the test must not stop it (the
+//! `towel` scene's last 10 iterations change its objective by less than 1e-8 at α = 1). A
+//! window of shortened steps without progress means the quadratic model promises decreases the
+//! function does not deliver at any step length tried: noise, roughness, or a gradient that does
+//! not match the function.
+
+use std::collections::VecDeque;
+use std::fmt;
+
+/// One iterate as the test sees it.
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    objective: f64,
+    feasible: bool,
+    /// Line-search step length of the step that led here (1 for the starting point).
+    alpha: f64,
+}
+
+/// The objective, feasibility and step length of the most recent iterates, as many as the test
+/// looks back.
+pub(super) struct Progress {
+    window: Option<usize>,
+    tol: f64,
+    /// The last `window + 1` iterates, oldest first.
+    recent: VecDeque<Entry>,
+}
+
+/// What the test measured when it fired.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct NoProgress {
+    /// Objective decrease over the window (negative if it rose).
+    pub decrease: f64,
+    /// `decrease / max(1, |f|)` at the current iterate.
+    pub relative: f64,
+    /// The window's length in iterations.
+    pub iterations: usize,
+    /// The tolerance it was held to.
+    pub tol: f64,
+    /// The longest step length of the window's steps (all below 1).
+    pub largest_alpha: f64,
+}
+
+impl Progress {
+    /// A test over `window` iterations (`None`: never fires) with relative tolerance `tol`.
+    pub fn new(window: Option<usize>, tol: f64) -> Self {
+        Progress {
+            window,
+            tol,
+            recent: VecDeque::new(),
+        }
+    }
+
+    /// Records an iterate: the starting point (`alpha` 1), then each accepted step's, with the
+    /// line search's step length `alpha`.
+    pub fn record(&mut self, objective: f64, feasible: bool, alpha: f64) {
+        let Some(window) = self.window else {
+            return;
+        };
+        self.recent.push_back(Entry {
+            objective,
+            feasible,
+            alpha,
+        });
+        while self.recent.len() > window + 1 {
+            self.recent.pop_front();
+        }
+    }
+
+    /// The measured decrease when the last `window` iterations all ran between feasible
+    /// iterates, every step was shortened by the line search (`α < 1`), and together they
+    /// lowered the objective by less than `tol · max(1, |f|)`; `None` otherwise (also before
+    /// `window` iterations have been taken).
+    pub fn stalled(&self) -> Option<NoProgress> {
+        let window = self.window?;
+        if self.recent.len() < window + 1 || !self.recent.iter().all(|e| e.feasible) {
+            return None;
+        }
+        let steps = self.recent.iter().skip(1);
+        let largest_alpha = steps.map(|e| e.alpha).fold(0.0, f64::max);
+        if largest_alpha >= 1.0 {
+            return None;
+        }
+        let (first, last) = (
+            self.recent.front()?.objective,
+            self.recent.back()?.objective,
+        );
+        let decrease = first - last;
+        let relative = decrease / last.abs().max(1.0);
+        (relative < self.tol).then_some(NoProgress {
+            decrease,
+            relative,
+            iterations: window,
+            tol: self.tol,
+            largest_alpha,
+        })
+    }
+}
+
+impl fmt::Display for NoProgress {
+    /// `no progress: the objective fell by 3.21e-9 (relative 3.21e-9 < tol_progress 1e-6) over
+    /// the last 10 iterations, all at feasible points, every step cut by the line search (α ≤
+    /// 1.0e-2)`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "no progress: the objective fell by {:.2e} (relative {:.2e} < tol_progress {:.0e}) over the last {} iterations, all at feasible points, every step cut by the line search (α ≤ {:.1e})",
+            self.decrease, self.relative, self.tol, self.iterations, self.largest_alpha
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fires_only_after_a_full_window_of_feasible_iterates_without_progress() {
+        let mut p = Progress::new(Some(3), 1e-6);
+        p.record(10.0, true, 1.0);
+        for _ in 0..2 {
+            p.record(10.0, true, 0.5);
+            assert_eq!(p.stalled(), None, "fewer than 3 iterations so far");
+        }
+        p.record(10.0 - 5e-6, true, 0.25);
+        let stall = p.stalled().expect("3 iterations, 5e-7 relative");
+        assert_eq!(stall.iterations, 3);
+        assert_eq!(stall.largest_alpha, 0.5);
+        assert!((stall.decrease - 5e-6).abs() < 1e-15);
+        assert!((stall.relative - 5e-7).abs() < 1e-12);
+        // A real decrease in the window: no verdict.
+        p.record(9.0, true, 0.5);
+        assert_eq!(p.stalled(), None);
+        // An infeasible iterate in the window (its first iterate included): no verdict until it
+        // has left the window.
+        for _ in 0..3 {
+            p.record(9.0, true, 0.5);
+        }
+        assert!(p.stalled().is_some());
+        p.record(9.0, false, 0.5);
+        for _ in 0..4 {
+            assert_eq!(p.stalled(), None);
+            p.record(9.0, true, 0.5);
+        }
+        assert!(p.stalled().is_some());
+    }
+
+    #[test]
+    fn a_unit_step_in_the_window_is_progress_of_its_own() {
+        let mut p = Progress::new(Some(3), 1e-6);
+        p.record(1.0, true, 1.0);
+        for alpha in [0.1, 1.0, 0.1] {
+            p.record(1.0, true, alpha);
+        }
+        assert_eq!(p.stalled(), None, "the model's full step was accepted");
+        p.record(1.0, true, 0.1);
+        assert_eq!(p.stalled(), None, "the unit step is the window's first");
+        p.record(1.0, true, 0.1);
+        assert!(
+            p.stalled().is_some(),
+            "it left the window (the iterate it reached starts it)"
+        );
+    }
+
+    #[test]
+    fn is_absolute_below_one_and_relative_above() {
+        let mut small = Progress::new(Some(1), 1e-6);
+        small.record(1e-3, true, 1.0);
+        small.record(1e-3 - 2e-6, true, 0.5);
+        assert_eq!(small.stalled(), None, "2e-6 absolute at |f| < 1");
+        let mut large = Progress::new(Some(1), 1e-6);
+        large.record(1e4, true, 1.0);
+        large.record(1e4 - 2e-3, true, 0.5);
+        assert!(large.stalled().is_some(), "2e-7 relative at |f| = 1e4");
+    }
+
+    #[test]
+    fn off_never_fires() {
+        let mut p = Progress::new(None, 1e-6);
+        for _ in 0..100 {
+            p.record(1.0, true, 1e-3);
+        }
+        assert_eq!(p.stalled(), None);
+        assert!(p.recent.is_empty());
+    }
+
+    #[test]
+    fn message_states_the_measurement() {
+        let m = NoProgress {
+            decrease: 3.21e-9,
+            relative: 3.21e-9,
+            iterations: 10,
+            tol: 1e-6,
+            largest_alpha: 1e-2,
+        };
+        assert_eq!(
+            m.to_string(),
+            "no progress: the objective fell by 3.21e-9 (relative 3.21e-9 < tol_progress 1e-6) over the last 10 iterations, all at feasible points, every step cut by the line search (α ≤ 1.0e-2)"
+        );
+    }
+}
