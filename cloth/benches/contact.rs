@@ -14,12 +14,17 @@
 //! The targets (issue 18): self-collision ≤ +50%, a 5k-triangle mesh obstacle ≤ +30% over
 //! `plain` (friction has none). Single thread, as the targets are stated:
 //! `RAYON_NUM_THREADS=1 cargo bench -p cloth --bench contact`.
+//!
+//! With `CONTACT_ONCE=<case>/<forward|forward_grad_l>` in the environment the bench instead runs
+//! that one evaluation once and exits (no criterion), for instruction counts of exactly one
+//! evaluation: `RAYON_NUM_THREADS=1 CONTACT_ONCE=friction/forward_grad_l valgrind
+//! --tool=callgrind --collect-atstart=no --toggle-collect='*evaluate_with*' BENCH_BINARY`.
 
 use autodiff::Tensor;
 use cloth::scene::{MeshSpec, Obstacle, ObstacleRole, SelfCollisionSpec};
 use cloth::sdf::MeshSdf;
 use cloth::{Model, Scene};
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, BenchmarkId, Criterion};
 use std::collections::HashMap;
 use std::hint::black_box;
 
@@ -140,7 +145,8 @@ fn icosphere(center: [f64; 3], radius: f64, levels: usize) -> MeshSdf {
     MeshSdf::new(vertices, triangles)
 }
 
-fn contacts(c: &mut Criterion) {
+/// The bench's cases by name, in the order they are measured.
+fn cases() -> Vec<(&'static str, Scene)> {
     let plain = fold_scene(None);
     let mut with_sc = plain.clone();
     with_sc.physics.self_collision = Some(SelfCollisionSpec { thickness: 0.01 });
@@ -157,13 +163,44 @@ fn contacts(c: &mut Criterion) {
         s.validate().expect("valid scene");
         s
     };
-    let cases = [
+    vec![
         ("plain", plain.clone()),
         ("self_collision", with_sc),
         ("mesh_collider", with_mesh(ObstacleRole::Collider)),
         ("mesh_safety", with_mesh(ObstacleRole::Safety)),
         ("friction", fold_scene(Some(0.5))),
-    ];
+    ]
+}
+
+/// One evaluation of one case (`CONTACT_ONCE=<case>/<forward|forward_grad_l>`), for callgrind.
+fn once(spec: &str) {
+    let (case, mode) = spec.split_once('/').expect("CONTACT_ONCE=<case>/<mode>");
+    let (_, scene) = cases()
+        .into_iter()
+        .find(|(name, _)| *name == case)
+        .expect("a case of the bench");
+    let model = Model::from_scene(&scene).expect("model");
+    let u = fold_controls(&model);
+    let eval = match mode {
+        "forward" => model.evaluate(&u, DELTA, false),
+        "forward_grad_l" => model.evaluate_loss_gradient(&u, DELTA),
+        other => panic!("unknown mode {other}"),
+    }
+    .expect("finite");
+    // A fingerprint of the gradient's bits, so runs before and after a change can be compared.
+    let bits = eval.grad_l.map_or(0, |g| {
+        g.data()
+            .iter()
+            .fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits())
+    });
+    eprintln!(
+        "{case}/{mode}: L = {:.17e}, dL/dU bits {bits:016x}",
+        eval.metrics.l
+    );
+}
+
+fn contacts(c: &mut Criterion) {
+    let cases = cases();
     let mut group = c.benchmark_group("fold_n40");
     group.sample_size(10);
     for (name, scene) in cases {
@@ -192,4 +229,11 @@ fn contacts(c: &mut Criterion) {
 }
 
 criterion_group!(benches, contacts);
-criterion_main!(benches);
+
+fn main() {
+    if let Ok(spec) = std::env::var("CONTACT_ONCE") {
+        return once(&spec);
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
