@@ -149,7 +149,10 @@ fn icosphere(center: [f64; 3], radius: f64, levels: usize) -> MeshSdf {
 fn cases() -> Vec<(&'static str, Scene)> {
     let plain = fold_scene(None);
     let mut with_sc = plain.clone();
-    with_sc.physics.self_collision = Some(SelfCollisionSpec { thickness: 0.01 });
+    with_sc.physics.self_collision = Some(SelfCollisionSpec {
+        thickness: 0.01,
+        edge_edge: false,
+    });
     let sphere = icosphere([0.5, 0.5, 0.12], 0.1, 4);
     eprintln!("mesh obstacle: {} triangles", sphere.triangle_count());
     let with_mesh = |role: ObstacleRole| {

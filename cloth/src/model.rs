@@ -310,7 +310,8 @@ impl Model {
         }
         if let Some(sc) = &scene.physics.self_collision {
             let triangles = model.triangles.clone();
-            model.self_collision = Some(Arc::new(SelfCollision::new(sc.thickness, triangles, n)));
+            let contacts = SelfCollision::new(sc.thickness, triangles, n);
+            model.self_collision = Some(Arc::new(contacts.with_edge_edge(sc.edge_edge)));
         }
         if !safety.is_empty() {
             let field = Arc::new(safety);

@@ -9,6 +9,7 @@
 //! a tangency (a double root) is not counted. Pairs are found by their swept bounding boxes in a
 //! uniform grid.
 
+use crate::mesh::ClothMesh;
 use autodiff::Tensor;
 use nalgebra::Vector3;
 use std::collections::{BTreeSet, HashMap};
@@ -22,27 +23,17 @@ pub struct Crossings {
     pub edge_edge: Vec<([usize; 2], [usize; 2])>,
 }
 
-/// The edges of `triangles`, each once with its smaller index first, in first-use order.
-pub fn mesh_edges(triangles: &[[usize; 3]]) -> Vec<[usize; 2]> {
-    let mut seen = BTreeSet::new();
-    let mut edges = Vec::new();
-    for t in triangles {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            let e = [a.min(b), a.max(b)];
-            if seen.insert(e) {
-                edges.push(e);
-            }
-        }
-    }
-    edges
+/// The edges of a cloth of `n` particles joined by `triangles`, each once
+/// ([`ClothMesh::stretch_edges`]).
+fn mesh_edges(n: usize, triangles: &[[usize; 3]]) -> Vec<[usize; 2]> {
+    ClothMesh::from_triangles(n, triangles.to_vec()).stretch_edges()
 }
 
 /// The crossings of the cloth (`triangles`) moving straight from `x0` to `x1` (`N × 3` each).
 pub fn crossings(triangles: &[[usize; 3]], x0: &Tensor, x1: &Tensor) -> Crossings {
     let p = |x: &Tensor, i: usize| Vector3::new(x.get(i, 0), x.get(i, 1), x.get(i, 2));
     let motion = |i: usize| (p(x0, i), p(x1, i));
-    let edges = mesh_edges(triangles);
+    let edges = mesh_edges(x0.rows(), triangles);
     let mut out = Crossings::default();
     // Vertex–triangle: every vertex against every triangle whose swept box meets its own.
     let boxes_t: Vec<_> = triangles.iter().map(|t| swept_box(t, &motion)).collect();
@@ -79,7 +70,7 @@ pub fn crossings(triangles: &[[usize; 3]], x0: &Tensor, x1: &Tensor) -> Crossing
 pub fn intersections(triangles: &[[usize; 3]], x: &Tensor) -> Vec<([usize; 2], usize)> {
     let p = |i: usize| Vector3::new(x.get(i, 0), x.get(i, 1), x.get(i, 2));
     let still = |i: usize| (p(i), p(i));
-    let edges = mesh_edges(triangles);
+    let edges = mesh_edges(x.rows(), triangles);
     let boxes_e: Vec<_> = edges.iter().map(|e| swept_box(e, &still)).collect();
     let boxes_t: Vec<_> = triangles.iter().map(|t| swept_box(t, &still)).collect();
     let mut out = Vec::new();
@@ -177,6 +168,16 @@ fn volume(p: &[Vector3<f64>; 4]) -> f64 {
 /// volume, from its values at `0, ⅓, ⅔, 1`).
 fn coplanar_times(m: &[Motion; 4]) -> Vec<f64> {
     let v = [0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0].map(|s| volume(&at(m, s)));
+    // Points that stay coplanar (moving within one plane) never pass through each other's
+    // plane: no crossing, whatever rounding makes of the volume.
+    let scale = m
+        .iter()
+        .flat_map(|(a, b)| [a - m[0].0, b - m[0].1])
+        .map(|d| d.norm())
+        .fold(0.0, f64::max);
+    if v.iter().all(|x| x.abs() <= 1e-12 * scale.powi(3)) {
+        return Vec::new();
+    }
     // V(s) = c0 + c1 s + c2 s² + c3 s³ through the four samples (Newton's divided differences).
     let h = 1.0 / 3.0;
     let d1 = [(v[1] - v[0]) / h, (v[2] - v[1]) / h, (v[3] - v[2]) / h];

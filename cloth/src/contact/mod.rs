@@ -2,5 +2,7 @@
 //! contacts found during the simulation rather than at model build (self-collision).
 
 pub mod crossings;
+pub mod edge_edge;
 pub mod friction;
+pub(crate) mod grid;
 pub mod self_collision;
