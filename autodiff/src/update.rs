@@ -172,31 +172,51 @@ impl<F: RowFn> DynRowFn for F {
         state_adj: &mut [Tensor],
         carry_adj: &mut [Tensor],
     ) {
-        assert_eq!(
-            state_adj.len(),
-            carry_adj.len(),
-            "one carry adjoint per seed"
-        );
-        let points = state_adj
-            .iter()
-            .zip(carry_adj.iter())
-            .all(|(s, c)| points_layout(index, s, c));
-        if state_adj.len() > 1 && points {
-            for (s, c) in state_adj
-                .chunks_mut(SEED_CHUNK)
-                .zip(carry_adj.chunks_mut(SEED_CHUNK))
-            {
-                by_arity!(
-                    index.arity(),
-                    vjp_update_points_seeds(self, index, inputs, s, c)
-                );
-            }
+        // One seed takes the single-seed kernel.
+        let many = state_adj.len() > 1;
+        let fits = |s: &Tensor, c: &Tensor| many && points_layout(index, s, c);
+        let kernel = |s: &mut [Tensor], c: &mut [Tensor]| {
+            by_arity!(
+                index.arity(),
+                vjp_update_points_seeds(self, index, inputs, s, c)
+            )
+        };
+        if in_seed_chunks(state_adj, carry_adj, fits, kernel) {
             return;
         }
         for (s, c) in state_adj.iter_mut().zip(carry_adj.iter_mut()) {
             self.vjp_update_batch(index, inputs, s, c);
         }
     }
+}
+
+/// Runs `kernel` on the seeds' adjoints (one state and one carry adjoint per seed) in chunks of
+/// at most [`SEED_CHUNK`] seeds when every seed's pair `fits`; returns whether it did.
+fn in_seed_chunks(
+    state_adj: &mut [Tensor],
+    carry_adj: &mut [Tensor],
+    fits: impl Fn(&Tensor, &Tensor) -> bool,
+    mut kernel: impl FnMut(&mut [Tensor], &mut [Tensor]),
+) -> bool {
+    assert_eq!(
+        state_adj.len(),
+        carry_adj.len(),
+        "one carry adjoint per seed"
+    );
+    if !state_adj
+        .iter()
+        .zip(carry_adj.iter())
+        .all(|(s, c)| fits(s, c))
+    {
+        return false;
+    }
+    for (s, c) in state_adj
+        .chunks_mut(SEED_CHUNK)
+        .zip(carry_adj.chunks_mut(SEED_CHUNK))
+    {
+        kernel(s, c);
+    }
+    true
 }
 
 /// True when an update's rows are `1..=4` points (3 columns) and one carried value: the layout
@@ -292,25 +312,13 @@ impl<F: RowFn, const A: usize, const C: usize> DynRowFn for PointRows<F, A, C> {
         state_adj: &mut [Tensor],
         carry_adj: &mut [Tensor],
     ) {
-        assert_eq!(
-            state_adj.len(),
-            carry_adj.len(),
-            "one carry adjoint per seed"
-        );
-        let fits = state_adj
-            .iter()
-            .zip(carry_adj.iter())
-            .all(|(s, c)| Self::fits(index, s, c));
-        if !fits {
-            return self
-                .0
+        let fits = |s: &Tensor, c: &Tensor| Self::fits(index, s, c);
+        let kernel = |s: &mut [Tensor], c: &mut [Tensor]| {
+            vjp_update_points_seeds::<F, A, C>(&self.0, index, inputs, s, c)
+        };
+        if !in_seed_chunks(state_adj, carry_adj, fits, kernel) {
+            self.0
                 .vjp_update_batch_seeds(index, inputs, state_adj, carry_adj);
-        }
-        for (s, c) in state_adj
-            .chunks_mut(SEED_CHUNK)
-            .zip(carry_adj.chunks_mut(SEED_CHUNK))
-        {
-            vjp_update_points_seeds::<F, A, C>(&self.0, index, inputs, s, c);
         }
     }
 }

@@ -5,6 +5,8 @@
 //! - `plain`: the fold without self-collision (the cloth passes through itself);
 //! - `self_collision`: the same with `physics.self_collision.thickness = 0.01` (the flap lands
 //!   on the bottom layer, so contacts exist; the bench prints how many pairs per step);
+//! - `self_collision_edges`: the same with edge–edge contacts too
+//!   (`physics.self_collision.edge_edge`);
 //! - `mesh_collider`, `mesh_safety`: `plain` plus a closed mesh obstacle of 5120 triangles (an
 //!   icosphere of radius 0.1 generated here, four subdivisions of an icosahedron) in the crease,
 //!   so the cloth folds over it, as a collider and as a safety obstacle (`δ = 0.02`);
@@ -153,6 +155,10 @@ fn cases() -> Vec<(&'static str, Scene)> {
         thickness: 0.01,
         edge_edge: false,
     });
+    let mut with_edges = with_sc.clone();
+    if let Some(sc) = with_edges.physics.self_collision.as_mut() {
+        sc.edge_edge = true;
+    }
     let sphere = icosphere([0.5, 0.5, 0.12], 0.1, 4);
     eprintln!("mesh obstacle: {} triangles", sphere.triangle_count());
     let with_mesh = |role: ObstacleRole| {
@@ -169,6 +175,7 @@ fn cases() -> Vec<(&'static str, Scene)> {
     vec![
         ("plain", plain.clone()),
         ("self_collision", with_sc),
+        ("self_collision_edges", with_edges),
         ("mesh_collider", with_mesh(ObstacleRole::Collider)),
         ("mesh_safety", with_mesh(ObstacleRole::Safety)),
         ("friction", fold_scene(Some(0.5))),
@@ -210,15 +217,15 @@ fn contacts(c: &mut Criterion) {
         let model = Model::from_scene(&scene).expect("model");
         let u = fold_controls(&model);
         let states = model.simulate(&u).expect("finite");
-        let pairs: Vec<usize> = (0..FOLD)
+        let pairs: Vec<(usize, usize)> = (0..FOLD)
             .map(|t| {
-                model
-                    .contact_pairs(&states[t], &model.step_controls(&u, t))
-                    .len()
+                let ut = model.step_controls(&u, t);
+                let held = model.contact_pairs(&states[t], &ut);
+                (held.len(), model.edge_pairs(&states[t], &ut, &held).len())
             })
             .collect();
         eprintln!(
-            "{name}: {}; contact pairs per step {pairs:?}",
+            "{name}: {}; (vertex–triangle, edge–edge) pairs per step {pairs:?}",
             model.effects()
         );
         group.bench_with_input(BenchmarkId::new("forward", name), &name, |b, _| {

@@ -5,10 +5,11 @@
 //! the plane x = 0.05 (columns at y = ±0.05, ±0.15, …, rows at z = 0.05, 0.15, 0.25), wholly
 //! gripped and lowered 0.1 per step through A. B's vertices never face A's triangles when
 //! `w < 0.04` (and only two columns do when `w = 0.08`), so vertex–triangle contacts alone let
-//! B's bottom edge pass through A; the edge–edge rows carry A down with it instead.
+//! B's bottom edge pass through A; the edge–edge rows carry A down with it instead. (The
+//! closed-form `∇C` of [`EdgeEdge`] against the dual path: `tests/overrides.rs`.)
 
 use autodiff::{Tape, Tensor};
-use cloth::constraint::{value_and_gradient, Constraint, Generic, RowVector, MAX_ARITY};
+use cloth::constraint::value_and_gradient;
 use cloth::contact::crossings::{crossings, intersections};
 use cloth::contact::edge_edge::{EdgeEdge, EdgePair};
 use cloth::nalgebra::Vector3;
@@ -407,35 +408,6 @@ proptest! {
         prop_assert!(err <= 1e-6, "analytic {analytic} vs FD {fd1}: relative error {err:e}");
     }
 
-    /// The closed-form `∇C` of [`EdgeEdge`] and the `∇²C·v` derived from it against the generic
-    /// dual path.
-    #[test]
-    fn closed_form_gradient_and_hessian_match_the_dual_path(
-        x in proptest::collection::vec(-1.0..1.0f64, 12),
-        v in proptest::collection::vec(-1.0..1.0f64, 12),
-        above in any::<bool>(),
-        h in 0.0..0.1f64,
-    ) {
-        let c = EdgeEdge { sides: vec![if above { 1.0 } else { -1.0 }], thickness: h };
-        let generic = Generic(c.clone());
-        let (mut g, mut gg) = ([0.0; 12], [0.0; 12]);
-        let value = value_and_gradient(&c, 0, &x, &mut g);
-        let reference = value_and_gradient(&generic, 0, &x, &mut gg);
-        prop_assert_eq!(value.to_bits(), reference.to_bits());
-        let scale = gg.iter().fold(1.0f64, |m, e| m.max(e.abs()));
-        for k in 0..12 {
-            prop_assert!((g[k] - gg[k]).abs() <= 1e-12 * scale, "∇C[{}]: {} vs {}", k, g[k], gg[k]);
-        }
-        let mut hv: [RowVector; 1] = [[0.0; 3 * MAX_ARITY]];
-        hv[0][..12].copy_from_slice(&v);
-        let mut hvg = hv;
-        c.hessian_vectors(0, &x, &mut hv);
-        generic.hessian_vectors(0, &x, &mut hvg);
-        let scale = hvg[0].iter().fold(1.0f64, |m, e| m.max(e.abs()));
-        for k in 0..12 {
-            prop_assert!((hv[0][k] - hvg[0][k]).abs() <= 1e-10 * scale, "∇²C·v[{}]: {} vs {}", k, hv[0][k], hvg[0][k]);
-        }
-    }
 }
 
 /// Parallel edges have no normal: `C = −h` with gradient 0, and the projection leaves them.

@@ -37,9 +37,8 @@
 use crate::constraint::Constraint;
 use crate::contact::grid::{Aabb, BoxGrid};
 use crate::contact::self_collision::{
-    contact_projection_sets, normal_offset, point, ContactPair, SelfCollision,
+    contact_projection_sets, normal_offset, point, side_offset, ContactPair, SelfCollision,
 };
-use crate::geometry::norm;
 use crate::model::ProjectionSet;
 use autodiff::{Real, Tensor};
 use nalgebra::Vector3;
@@ -60,12 +59,8 @@ impl Constraint for EdgeEdge {
     const INEQUALITY: bool = true;
     #[inline(always)]
     fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
-        let n = (p[1] - p[0]).cross(&(p[3] - p[2]));
-        let len = norm(&n);
-        if len.value() == 0.0 {
-            return R::cst(-self.thickness);
-        }
-        (p[2] - p[0]).dot(&(n * len.recip())) * self.sides[instance] - self.thickness
+        let (d, e1, e2) = (p[2] - p[0], p[1] - p[0], p[3] - p[2]);
+        side_offset(d, e1, e2, self.sides[instance], self.thickness)
     }
 
     /// `∇C` in closed form: [`normal_offset`] of `d = p₂ − p₀` along `e₁ × e₂`
@@ -133,7 +128,10 @@ impl SelfCollision {
         inv_mass: &[f64],
         held: &[ContactPair],
     ) -> Vec<EdgePair> {
-        let p = |i: usize| Vector3::new(x.get(i, 0), x.get(i, 1), x.get(i, 2));
+        let p = |i: usize| {
+            let r = x.row(i);
+            Vector3::new(r[0], r[1], r[2])
+        };
         let Some((tris, cell)) = self.triangle_normals(x) else {
             return Vec::new();
         };
@@ -166,26 +164,42 @@ impl SelfCollision {
             let inward: [Vector3<f64>; 3] =
                 std::array::from_fn(|j| n.cross(&(corners[(j + 1) % 3] - corners[j])).normalize());
             let height = |q: &Vector3<f64>| (q - corners[0]).dot(&n);
-            let inside = |q: &Vector3<f64>| [0, 1, 2].map(|j| (q - corners[j]).dot(&inward[j]));
+            let inside = |q: &Vector3<f64>| {
+                [
+                    (q - corners[0]).dot(&inward[0]),
+                    (q - corners[1]).dot(&inward[1]),
+                    (q - corners[2]).dot(&inward[2]),
+                ]
+            };
             for &fi in &candidates {
                 if std::mem::replace(&mut seen[fi], k) == k {
                     continue;
                 }
+                // The partner's closest point lies in the candidate region, so its box meets the
+                // region's box, and some point of the segment lies within `radius` of the plane
+                // and over the triangle grown by `h` (cheapest tests first).
+                let (blo, bhi) = &boxes[fi];
+                if (0..3).any(|j| blo[j] > hi[j] || bhi[j] < lo[j]) {
+                    continue;
+                }
                 let f = self.edges[fi];
                 let (pc, pd) = (p(f[0]), p(f[1]));
-                // The partner's closest point must lie within `radius` of the plane and over the
-                // triangle grown by `h`: some point of the segment does.
                 let (hc, hd) = (height(&pc), height(&pd));
+                if hc.min(hd) > radius || hc.max(hd) < -radius {
+                    continue;
+                }
                 let (ic, id) = (inside(&pc), inside(&pd));
-                if hc.min(hd) > radius
-                    || hc.max(hd) < -radius
-                    || (0..3).any(|j| ic[j].max(id[j]) < -margin[j])
-                {
+                if (0..3).any(|j| ic[j].max(id[j]) < -margin[j]) {
                     continue;
                 }
                 for &ei in &self.triangle_edges[k] {
                     let e = self.edges[ei];
-                    if ei == fi {
+                    // Edges within one edge of each other along the cloth (the commonest
+                    // candidates: the triangle's neighbours) before any geometry.
+                    if ei == fi
+                        || f.iter()
+                            .any(|&v| self.in_ring(e[0], v) || self.in_ring(e[1], v))
+                    {
                         continue;
                     }
                     let (a, b, c0, d) = (p(e[0]), p(e[1]), p(f[0]), p(f[1]));
@@ -204,10 +218,7 @@ impl SelfCollision {
                         continue;
                     }
                     let four = [e[0], e[1], f[0], f[1]];
-                    if four.iter().all(|&v| is_held[v])
-                        || four.iter().all(|&v| inv_mass[v] == 0.0)
-                        || f.iter()
-                            .any(|&v| self.in_ring(e[0], v) || self.in_ring(e[1], v))
+                    if four.iter().all(|&v| is_held[v]) || four.iter().all(|&v| inv_mass[v] == 0.0)
                     {
                         continue;
                     }

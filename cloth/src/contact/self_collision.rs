@@ -72,12 +72,8 @@ impl Constraint for VertexTriangle {
     const INEQUALITY: bool = true;
     #[inline(always)]
     fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
-        let n = (p[2] - p[1]).cross(&(p[3] - p[1]));
-        let len = norm(&n);
-        if len.value() == 0.0 {
-            return R::cst(-self.thickness);
-        }
-        (p[0] - p[1]).dot(&(n * len.recip())) * self.sides[instance] - self.thickness
+        let (d, e1, e2) = (p[0] - p[1], p[2] - p[1], p[3] - p[1]);
+        side_offset(d, e1, e2, self.sides[instance], self.thickness)
     }
 
     /// `∇C` in closed form ([`normal_offset`] of `d = p₀ − p₁` along `e₁ × e₂`, `e₁ = p₂ − p₁`,
@@ -104,6 +100,25 @@ impl Constraint for VertexTriangle {
         }
         off.q * s - self.thickness
     }
+}
+
+/// `s·(d·n̂) − h` with `n̂` the unit normal of `e₁ × e₂`, or `−h` where `e₁ × e₂ = 0` (no
+/// normal): the generic `C` of both self-contact constraints ([`VertexTriangle`] and
+/// [`crate::contact::edge_edge::EdgeEdge`]).
+#[inline(always)]
+pub(crate) fn side_offset<R: Real>(
+    d: Vector3<R>,
+    e1: Vector3<R>,
+    e2: Vector3<R>,
+    side: f64,
+    h: f64,
+) -> R {
+    let n = e1.cross(&e2);
+    let len = norm(&n);
+    if len.value() == 0.0 {
+        return R::cst(-h);
+    }
+    d.dot(&(n * len.recip())) * side - h
 }
 
 /// The offset `q = d·n̂` of a vector `d` along the unit normal `n̂ = n/|n|` of `n = e₁ × e₂`, with
