@@ -8,6 +8,8 @@
 //! B's bottom edge pass through A; the edge–edge rows carry A down with it instead. (The
 //! closed-form `∇C` of [`EdgeEdge`] against the dual path: `tests/overrides.rs`.)
 
+mod common;
+
 use autodiff::{Tape, Tensor};
 use cloth::constraint::value_and_gradient;
 use cloth::contact::crossings::{crossings, intersections};
@@ -15,6 +17,7 @@ use cloth::contact::edge_edge::{EdgeEdge, EdgePair};
 use cloth::nalgebra::Vector3;
 use cloth::obj::ObjMesh;
 use cloth::{Model, Scene};
+use common::bitwise_eq;
 use proptest::prelude::*;
 use std::path::Path;
 
@@ -311,14 +314,6 @@ fn the_pair_search_lists_exactly_the_documented_pairs() {
     assert!(checked > 100, "{checked} pairs checked");
 }
 
-fn bitwise_eq(a: &Tensor, b: &Tensor) -> bool {
-    a.shape() == b.shape()
-        && a.data()
-            .iter()
-            .zip(b.data())
-            .all(|(x, y)| x.to_bits() == y.to_bits())
-}
-
 #[test]
 fn rollouts_and_gradients_with_edge_rows_are_bitwise_identical_on_every_path_and_thread_count() {
     let model = Model::from_scene(&strips(0.03, 0.01, 3, true)).unwrap();
@@ -341,15 +336,7 @@ fn rollouts_and_gradients_with_edge_rows_are_bitwise_identical_on_every_path_and
         x = model.record_step(&mut tape, x, ut);
         assert!(bitwise_eq(tape.value(x), &plain[t + 1]), "step {}", t + 1);
     }
-    let run = |threads: usize, budget: usize| {
-        let mut m = model.clone();
-        m.checkpoint_budget = budget;
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| m.evaluate(&u, 0.0, true).unwrap())
-    };
+    let run = |threads: usize, budget: usize| common::evaluate_in_pool(&model, &u, threads, budget);
     let reference = run(1, cloth::model::DEFAULT_CHECKPOINT_BUDGET);
     assert!(reference
         .grad_l
