@@ -225,7 +225,9 @@ fn brute_force(
                 let (aa, bb, ee) = (d1.dot(&d1), d1.dot(&d2), d2.dot(&d2));
                 let (cc, ff) = (d1.dot(&r), d2.dot(&r));
                 let denom = aa * ee - bb * bb;
-                if !(denom > 0.0) || d1.cross(&d2).norm_squared() == 0.0 {
+                if denom.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+                    || d1.cross(&d2).norm_squared() == 0.0
+                {
                     return false;
                 }
                 let (u, w) = ((bb * ff - cc * ee) / denom, (aa * ff - bb * cc) / denom);
@@ -241,7 +243,7 @@ fn brute_force(
                     let t = tris[ti];
                     let k = t.map(p);
                     let nt = (k[1] - k[0]).cross(&(k[2] - k[0]));
-                    if !(nt.norm() > 0.0) {
+                    if nt.norm().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                         return false;
                     }
                     let nt = nt / nt.norm();
@@ -296,13 +298,13 @@ fn the_pair_search_lists_exactly_the_documented_pairs() {
             scene.initial_controls()
         };
         let states = model.simulate(&u).unwrap();
-        for t in 0..states.len() - 1 {
+        for (t, x) in states[..states.len() - 1].iter().enumerate() {
             let ut = model.step_controls(&u, t);
-            let held = model.contact_pairs(&states[t], &ut);
+            let held = model.contact_pairs(x, &ut);
             let sc = model.self_collision.as_ref().unwrap();
             let radius = model.contact_radius(sc.thickness, &ut);
-            let found = model.edge_pairs(&states[t], &ut, &held);
-            let mut want = brute_force(&model, &states[t], radius, &held);
+            let found = model.edge_pairs(x, &ut, &held);
+            let mut want = brute_force(&model, x, radius, &held);
             // The search lists pairs in edge-index order; the brute force in the same order.
             want.sort_by_key(|c| (c.first, c.second));
             let mut got = found.clone();

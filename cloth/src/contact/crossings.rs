@@ -83,7 +83,8 @@ pub fn intersections(triangles: &[[usize; 3]], x: &Tensor) -> Vec<([usize; 2], u
         let [q0, q1, q2] = tri.map(p);
         let n = (q1 - q0).cross(&(q2 - q0));
         let (da, db) = ((a - q0).dot(&n), (b - q0).dot(&n));
-        if !(da * db < 0.0) {
+        // The ends on opposite sides of the plane (false for NaN as well).
+        if da * db >= 0.0 || (da * db).is_nan() {
             continue;
         }
         let hit = a + (b - a) * (da / (da - db));

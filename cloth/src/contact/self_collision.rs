@@ -167,6 +167,9 @@ pub(crate) fn point<R: Real>(x: &[R], i: usize) -> Vector3<R> {
     Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2])
 }
 
+/// A non-degenerate triangle of a state (its index) with its unit normal.
+pub(crate) type TriangleNormal = (usize, Vector3<f64>);
+
 /// One vertex–triangle contact of a step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ContactPair {
@@ -265,7 +268,7 @@ impl SelfCollision {
 
     /// The non-degenerate triangles of state `x` with their unit normals, and their mean extent
     /// (the grid's cell); `None` when there is none.
-    pub(crate) fn triangle_normals(&self, x: &Tensor) -> Option<(Vec<(usize, Vector3<f64>)>, f64)> {
+    pub(crate) fn triangle_normals(&self, x: &Tensor) -> Option<(Vec<TriangleNormal>, f64)> {
         let point = |p: usize| {
             let r = x.row(p);
             Vector3::new(r[0], r[1], r[2])
