@@ -342,17 +342,23 @@ impl<'a> TrajectoryProblem<'a> {
 
     /// Records the per-step safety term of step `t` (row `t − 1`): soft-min signed distance − δ.
     fn record_step_safety(&self, tape: &mut Tape, x_prev: Var, x: Var) -> Option<Var> {
-        let mut parts = vec![self.model.record_sdf_components(tape, x)?];
+        let kappa = self.options.kappa;
+        let mut parts = vec![self
+            .model
+            .record_sdf_components_for_soft_min(tape, x, kappa)?];
         if self.options.swept {
             for s in SWEPT_SAMPLES {
                 let a = tape.scale(x_prev, 1.0 - s);
                 let b = tape.scale(x, s);
                 let mid = tape.add(a, b);
-                parts.push(self.model.record_sdf_components(tape, mid)?);
+                parts.push(
+                    self.model
+                        .record_sdf_components_for_soft_min(tape, mid, kappa)?,
+                );
             }
         }
         let all = tape.concat_rows(&parts);
-        let soft = tape.soft_min(all, self.options.kappa);
+        let soft = tape.soft_min(all, kappa);
         Some(tape.add_scalar(soft, -self.options.delta))
     }
 

@@ -172,25 +172,16 @@ impl<F: RowFn> DynRowFn for F {
         state_adj: &mut [Tensor],
         carry_adj: &mut [Tensor],
     ) {
-        assert_eq!(
-            state_adj.len(),
-            carry_adj.len(),
-            "one carry adjoint per seed"
-        );
-        let points = state_adj
-            .iter()
-            .zip(carry_adj.iter())
-            .all(|(s, c)| points_layout(index, s, c));
-        if state_adj.len() > 1 && points {
-            for (s, c) in state_adj
-                .chunks_mut(SEED_CHUNK)
-                .zip(carry_adj.chunks_mut(SEED_CHUNK))
-            {
-                by_arity!(
-                    index.arity(),
-                    vjp_update_points_seeds(self, index, inputs, s, c)
-                );
-            }
+        // One seed takes the single-seed kernel.
+        let many = state_adj.len() > 1;
+        let fits = |s: &Tensor, c: &Tensor| many && points_layout(index, s, c);
+        let kernel = |s: &mut [Tensor], c: &mut [Tensor]| {
+            by_arity!(
+                index.arity(),
+                vjp_update_points_seeds(self, index, inputs, s, c)
+            )
+        };
+        if in_seed_chunks(state_adj, carry_adj, fits, kernel) {
             return;
         }
         if state_adj.len() > 1 {
@@ -254,34 +245,144 @@ fn vjp_update_gathered_seeds<F: RowFn>(
     }
 }
 
+/// Runs `kernel` on the seeds' adjoints (one state and one carry adjoint per seed) in chunks of
+/// at most [`SEED_CHUNK`] seeds when every seed's pair `fits`; returns whether it did.
+fn in_seed_chunks(
+    state_adj: &mut [Tensor],
+    carry_adj: &mut [Tensor],
+    fits: impl Fn(&Tensor, &Tensor) -> bool,
+    mut kernel: impl FnMut(&mut [Tensor], &mut [Tensor]),
+) -> bool {
+    assert_eq!(
+        state_adj.len(),
+        carry_adj.len(),
+        "one carry adjoint per seed"
+    );
+    if !state_adj
+        .iter()
+        .zip(carry_adj.iter())
+        .all(|(s, c)| fits(s, c))
+    {
+        return false;
+    }
+    for (s, c) in state_adj
+        .chunks_mut(SEED_CHUNK)
+        .zip(carry_adj.chunks_mut(SEED_CHUNK))
+    {
+        kernel(s, c);
+    }
+    true
+}
+
 /// True when an update's rows are `1..=4` points (3 columns) and one carried value: the layout
 /// the fixed-width kernels below serve.
 fn points_layout(index: &RowIndex, state: &Tensor, carry: &Tensor) -> bool {
     state.cols() == 3 && carry.cols() == 1 && (1..=4).contains(&index.arity())
 }
 
-/// `kernel::<F, A>(args)` for the arity `A` (1 to 4) of a [`points_layout`] update.
+/// `kernel::<F, A, 1>(args)` for the arity `A` (1 to 4) of a [`points_layout`] update.
 macro_rules! by_arity {
     ($arity:expr, $kernel:ident ( $($arg:expr),* )) => {
         match $arity {
-            1 => $kernel::<F, 1>($($arg),*),
-            2 => $kernel::<F, 2>($($arg),*),
-            3 => $kernel::<F, 3>($($arg),*),
-            4 => $kernel::<F, 4>($($arg),*),
+            1 => $kernel::<F, 1, 1>($($arg),*),
+            2 => $kernel::<F, 2, 1>($($arg),*),
+            3 => $kernel::<F, 3, 1>($($arg),*),
+            4 => $kernel::<F, 4, 1>($($arg),*),
             a => unreachable!("points_layout admits arities 1 to 4, not {a}"),
         }
     };
 }
 use by_arity;
 
-/// Largest row of [`update_points`]: four points and one carried value.
+/// Largest row of the fixed-width kernels: `3A + C` values (four points and one carried value,
+/// or one point and up to ten).
 const MAX_POINT_ROW: usize = 13;
 
-/// [`DynRowFn::update_batch`] for rows of `A` points (3 values each) and one carried value,
+/// A row function served by the fixed-width in-place kernels when its update rows hold `A`
+/// points and `C` carried values.
+///
+/// The blanket [`DynRowFn`] implementation of a [`RowFn`] uses those kernels for one carried
+/// value (a multiplier) and gathers, evaluates and scatters through allocated buffers for any
+/// other layout. A row function that carries more per row (a start position, accumulated
+/// corrections) wraps itself in `PointRows` to get the fixed-width kernels for its layout too
+/// (other layouts still take the general path). Values and gradients are those of the wrapped
+/// function, bit for bit.
+pub struct PointRows<F, const A: usize, const C: usize>(pub F);
+
+impl<F: RowFn, const A: usize, const C: usize> PointRows<F, A, C> {
+    /// Whether an update has this wrapper's layout.
+    fn fits(index: &RowIndex, state: &Tensor, carry: &Tensor) -> bool {
+        const {
+            assert!(
+                A >= 1 && C >= 1 && 3 * A + C <= MAX_POINT_ROW,
+                "PointRows: 1 ≤ A, 1 ≤ C, 3A + C ≤ 13"
+            )
+        };
+        state.cols() == 3 && carry.cols() == C && index.arity() == A
+    }
+}
+
+impl<F: RowFn, const A: usize, const C: usize> DynRowFn for PointRows<F, A, C> {
+    fn n_in(&self) -> usize {
+        RowFn::n_in(&self.0)
+    }
+    fn n_out(&self) -> usize {
+        RowFn::n_out(&self.0)
+    }
+    fn eval_batch(&self, input: &[f64], output: &mut [f64]) {
+        DynRowFn::eval_batch(&self.0, input, output);
+    }
+    fn vjp_batch(&self, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+        DynRowFn::vjp_batch(&self.0, input, out_adj, in_adj);
+    }
+    fn update_batch(
+        &self,
+        index: &RowIndex,
+        state: &mut Tensor,
+        carry: &mut Tensor,
+        saved: Option<&mut Vec<f64>>,
+    ) {
+        if !Self::fits(index, state, carry) {
+            return self.0.update_batch(index, state, carry, saved);
+        }
+        update_points::<F, A, C>(&self.0, index, state.data_mut(), carry.data_mut(), saved);
+    }
+    fn vjp_update_batch(
+        &self,
+        index: &RowIndex,
+        inputs: &[f64],
+        state_adj: &mut Tensor,
+        carry_adj: &mut Tensor,
+    ) {
+        if !Self::fits(index, state_adj, carry_adj) {
+            return self.0.vjp_update_batch(index, inputs, state_adj, carry_adj);
+        }
+        let (s, c) = (state_adj.data_mut(), carry_adj.data_mut());
+        vjp_update_points::<F, A, C>(&self.0, index, inputs, s, c);
+    }
+    fn vjp_update_batch_seeds(
+        &self,
+        index: &RowIndex,
+        inputs: &[f64],
+        state_adj: &mut [Tensor],
+        carry_adj: &mut [Tensor],
+    ) {
+        let fits = |s: &Tensor, c: &Tensor| Self::fits(index, s, c);
+        let kernel = |s: &mut [Tensor], c: &mut [Tensor]| {
+            vjp_update_points_seeds::<F, A, C>(&self.0, index, inputs, s, c)
+        };
+        if !in_seed_chunks(state_adj, carry_adj, fits, kernel) {
+            self.0
+                .vjp_update_batch_seeds(index, inputs, state_adj, carry_adj);
+        }
+    }
+}
+
+/// [`DynRowFn::update_batch`] for rows of `A` points (3 values each) and `C` carried values,
 /// writing in place, [`ROW_BLOCK`] rows at a time. Rows share no point, so blocks run in any
 /// order and chunks of rows in parallel on the same state.
 #[inline(always)]
-fn update_points<F: RowFn, const A: usize>(
+fn update_points<F: RowFn, const A: usize, const C: usize>(
     f: &F,
     index: &RowIndex,
     state: &mut [f64],
@@ -289,7 +390,7 @@ fn update_points<F: RowFn, const A: usize>(
     saved: Option<&mut Vec<f64>>,
 ) {
     let rows = index.rows();
-    let len = rows * (3 * A + 1);
+    let len = rows * (3 * A + C);
     // The saved inputs are written straight into the buffer's spare capacity (every value once,
     // below), not zero-filled first: that fill was 4% of a recorded rollout.
     let saved = saved.map(|s| {
@@ -306,10 +407,10 @@ fn update_points<F: RowFn, const A: usize>(
     let saved_rows = saved.as_ref().map(|(rows, _)| *rows);
     let (state, carry) = (SharedRows::new(state), SharedRows::new(carry));
     // SAFETY (of `for_point_blocks`): `check_update` asserted the index is disjoint and in range.
-    for_point_blocks::<A>(index, state, carry, |first, x, y| {
+    for_point_blocks::<A, C>(index, state, carry, |first, x, y| {
         if let Some(s) = saved_rows {
             // SAFETY: this block's rows of the saved inputs are written by this block alone.
-            unsafe { s.write((3 * A + 1) * first, x) };
+            unsafe { s.write((3 * A + C) * first, x) };
         }
         f.eval_rows(first, x, y);
     });
@@ -321,17 +422,17 @@ fn update_points<F: RowFn, const A: usize>(
 
 /// [`DynRowFn::vjp_update_batch`] for the layout of [`update_points`].
 #[inline(always)]
-fn vjp_update_points<F: RowFn, const A: usize>(
+fn vjp_update_points<F: RowFn, const A: usize, const C: usize>(
     f: &F,
     index: &RowIndex,
     inputs: &[f64],
     state_adj: &mut [f64],
     carry_adj: &mut [f64],
 ) {
-    check_adjoints::<A>(index, inputs, state_adj.len(), carry_adj.len());
+    check_adjoints::<A, C>(index, inputs, state_adj.len(), carry_adj.len());
     let (state, carry) = (SharedRows::new(state_adj), SharedRows::new(carry_adj));
-    for_point_blocks::<A>(index, state, carry, |first, oa, ia| {
-        let width = 3 * A + 1;
+    for_point_blocks::<A, C>(index, state, carry, |first, oa, ia| {
+        let width = 3 * A + C;
         let rows = oa.len() / width;
         // `vjp_rows` accumulates.
         ia.fill(0.0);
@@ -345,12 +446,12 @@ fn vjp_update_points<F: RowFn, const A: usize>(
 }
 
 /// Runs `body(first, rows_in, rows_out)` over an in-place update's rows in blocks of up to
-/// [`ROW_BLOCK`]: `rows_in` holds the block's gathered rows (`A` points and a carried value
+/// [`ROW_BLOCK`]: `rows_in` holds the block's gathered rows (`A` points and `C` carried values
 /// each); `body` writes all of `rows_out`, which goes back to the same rows after it.
 ///
 /// The caller has checked that `index` is disjoint and in range for `state` and `carry`.
 #[inline(always)]
-fn for_point_blocks<const A: usize>(
+fn for_point_blocks<const A: usize, const C: usize>(
     index: &RowIndex,
     state: SharedRows,
     carry: SharedRows,
@@ -359,7 +460,7 @@ fn for_point_blocks<const A: usize>(
     let idx = index.as_slice();
     for_row_ranges(index.rows(), |range| {
         // Computed here, not captured, so every copy below has a compile-time length.
-        let width = 3 * A + 1;
+        let width = 3 * A + C;
         let mut x = [0.0; MAX_POINT_ROW * ROW_BLOCK];
         let mut y = [0.0; MAX_POINT_ROW * ROW_BLOCK];
         let mut first = range.start;
@@ -370,12 +471,12 @@ fn for_point_blocks<const A: usize>(
             unsafe {
                 for b in 0..n {
                     let xb = &mut x[width * b..width * b + width];
-                    gather_point_row::<A>(idx, first + b, state, carry, xb);
+                    gather_point_row::<A, C>(idx, first + b, state, carry, xb);
                 }
                 body(first, &x[..width * n], &mut y[..width * n]);
                 for b in 0..n {
                     let yb = &y[width * b..width * b + width];
-                    scatter_point_row::<A>(idx, first + b, state, carry, yb);
+                    scatter_point_row::<A, C>(idx, first + b, state, carry, yb);
                 }
             }
             first += n;
@@ -384,8 +485,9 @@ fn for_point_blocks<const A: usize>(
 }
 
 /// Checks that saved inputs and adjoints (of `state_len` and `carry_len` values) fit an
-/// in-place update of `A` points per row, so the kernels may index them unchecked.
-fn check_adjoints<const A: usize>(
+/// in-place update of `A` points and `C` carried values per row, so the kernels may index them
+/// unchecked.
+fn check_adjoints<const A: usize, const C: usize>(
     index: &RowIndex,
     inputs: &[f64],
     state_len: usize,
@@ -394,11 +496,11 @@ fn check_adjoints<const A: usize>(
     let rows = index.rows();
     assert_eq!(
         inputs.len(),
-        rows * (3 * A + 1),
+        rows * (3 * A + C),
         "vjp_update_batch: saved inputs"
     );
     assert!(
-        index.is_disjoint() && 3 * index.bound() <= state_len && carry_len == rows,
+        index.is_disjoint() && 3 * index.bound() <= state_len && carry_len == C * rows,
         "vjp_update_batch: index does not fit the adjoints"
     );
 }
@@ -406,7 +508,7 @@ fn check_adjoints<const A: usize>(
 /// [`DynRowFn::vjp_update_batch_seeds`] for the layout of [`update_points`], up to
 /// [`SEED_CHUNK`] seeds: each row's saved inputs are read once and handed to
 /// [`RowFn::vjp_seeds`] with every seed's output adjoint.
-fn vjp_update_points_seeds<F: RowFn, const A: usize>(
+fn vjp_update_points_seeds<F: RowFn, const A: usize, const C: usize>(
     f: &F,
     index: &RowIndex,
     inputs: &[f64],
@@ -416,7 +518,7 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize>(
     let seeds = state_adj.len();
     assert!(seeds <= SEED_CHUNK, "at most SEED_CHUNK seeds at once");
     for (s, c) in state_adj.iter().zip(carry_adj.iter()) {
-        check_adjoints::<A>(index, inputs, s.data().len(), c.data().len());
+        check_adjoints::<A, C>(index, inputs, s.data().len(), c.data().len());
     }
     // Fixed arrays, not vectors: this runs once per update node and seed chunk.
     let (mut states, mut carries) = (
@@ -430,7 +532,7 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize>(
     let (states, carries) = (&states[..seeds], &carries[..seeds]);
     let idx = index.as_slice();
     for_row_ranges(index.rows(), |range| {
-        let width = 3 * A + 1;
+        let width = 3 * A + C;
         let mut oa = [0.0; MAX_POINT_ROW * SEED_CHUNK];
         let mut ia = [0.0; MAX_POINT_ROW * SEED_CHUNK];
         for k in range {
@@ -438,7 +540,7 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize>(
             unsafe {
                 for (s, (&state, &carry)) in states.iter().zip(carries).enumerate() {
                     let ob = &mut oa[width * s..width * s + width];
-                    gather_point_row::<A>(idx, k, state, carry, ob);
+                    gather_point_row::<A, C>(idx, k, state, carry, ob);
                     ia[width * s..width * s + width].fill(0.0);
                 }
                 f.vjp_seeds(
@@ -449,20 +551,20 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize>(
                 );
                 for (s, (&state, &carry)) in states.iter().zip(carries).enumerate() {
                     let ib = &ia[width * s..width * s + width];
-                    scatter_point_row::<A>(idx, k, state, carry, ib);
+                    scatter_point_row::<A, C>(idx, k, state, carry, ib);
                 }
             }
         }
     });
 }
 
-/// Copies row `k`'s `A` points and carried value into `dst` (`3A + 1` values).
+/// Copies row `k`'s `A` points and `C` carried values into `dst` (`3A + C` values).
 ///
 /// # Safety
 /// As [`SharedRows::slice`]: the index is in range for `state` and `carry`, and no other task
 /// touches row `k`'s values.
 #[inline(always)]
-unsafe fn gather_point_row<const A: usize>(
+unsafe fn gather_point_row<const A: usize, const C: usize>(
     idx: &[usize],
     k: usize,
     state: SharedRows,
@@ -472,15 +574,20 @@ unsafe fn gather_point_row<const A: usize>(
     for (j, &p) in idx[A * k..A * k + A].iter().enumerate() {
         dst[3 * j..3 * j + 3].copy_from_slice(state.slice(3 * p, 3));
     }
-    dst[3 * A] = carry.slice(k, 1)[0];
+    if C == 1 {
+        // One value: a move (a one-element copy was 2% more instructions on a whole rollout).
+        dst[3 * A] = carry.slice(k, 1)[0];
+    } else {
+        dst[3 * A..3 * A + C].copy_from_slice(carry.slice(C * k, C));
+    }
 }
 
-/// Writes `src` (`3A + 1` values) back to row `k`'s points and carried value.
+/// Writes `src` (`3A + C` values) back to row `k`'s points and carried values.
 ///
 /// # Safety
 /// As [`gather_point_row`].
 #[inline(always)]
-unsafe fn scatter_point_row<const A: usize>(
+unsafe fn scatter_point_row<const A: usize, const C: usize>(
     idx: &[usize],
     k: usize,
     state: SharedRows,
@@ -492,7 +599,13 @@ unsafe fn scatter_point_row<const A: usize>(
             .slice(3 * p, 3)
             .copy_from_slice(&src[3 * j..3 * j + 3]);
     }
-    carry.slice(k, 1)[0] = src[3 * A];
+    if C == 1 {
+        carry.slice(k, 1)[0] = src[3 * A];
+    } else {
+        carry
+            .slice(C * k, C)
+            .copy_from_slice(&src[3 * A..3 * A + C]);
+    }
 }
 
 /// A buffer that several rayon tasks write at once, each to values no other task touches.

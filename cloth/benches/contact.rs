@@ -5,6 +5,8 @@
 //! - `plain`: the fold without self-collision (the cloth passes through itself);
 //! - `self_collision`: the same with `physics.self_collision.thickness = 0.01` (the flap lands
 //!   on the bottom layer, so contacts exist; the bench prints how many pairs per step);
+//! - `self_collision_edges`: the same with edge–edge contacts too
+//!   (`physics.self_collision.edge_edge`);
 //! - `mesh_collider`, `mesh_safety`: `plain` plus a closed mesh obstacle of 5120 triangles (an
 //!   icosphere of radius 0.1 generated here, four subdivisions of an icosahedron) in the crease,
 //!   so the cloth folds over it, as a collider and as a safety obstacle (`δ = 0.02`);
@@ -14,12 +16,17 @@
 //! The targets (issue 18): self-collision ≤ +50%, a 5k-triangle mesh obstacle ≤ +30% over
 //! `plain` (friction has none). Single thread, as the targets are stated:
 //! `RAYON_NUM_THREADS=1 cargo bench -p cloth --bench contact`.
+//!
+//! With `CONTACT_ONCE=<case>/<forward|forward_grad_l>` in the environment the bench instead runs
+//! that one evaluation once and exits (no criterion), for instruction counts of exactly one
+//! evaluation: `RAYON_NUM_THREADS=1 CONTACT_ONCE=friction/forward_grad_l valgrind
+//! --tool=callgrind --collect-atstart=no --toggle-collect='*evaluate_with*' BENCH_BINARY`.
 
 use autodiff::Tensor;
 use cloth::scene::{MeshSpec, Obstacle, ObstacleRole, SelfCollisionSpec};
 use cloth::sdf::MeshSdf;
 use cloth::{Model, Scene};
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, BenchmarkId, Criterion};
 use std::collections::HashMap;
 use std::hint::black_box;
 
@@ -140,10 +147,18 @@ fn icosphere(center: [f64; 3], radius: f64, levels: usize) -> MeshSdf {
     MeshSdf::new(vertices, triangles)
 }
 
-fn contacts(c: &mut Criterion) {
+/// The bench's cases by name, in the order they are measured.
+fn cases() -> Vec<(&'static str, Scene)> {
     let plain = fold_scene(None);
     let mut with_sc = plain.clone();
-    with_sc.physics.self_collision = Some(SelfCollisionSpec { thickness: 0.01 });
+    with_sc.physics.self_collision = Some(SelfCollisionSpec {
+        thickness: 0.01,
+        edge_edge: false,
+    });
+    let mut with_edges = with_sc.clone();
+    if let Some(sc) = with_edges.physics.self_collision.as_mut() {
+        sc.edge_edge = true;
+    }
     let sphere = icosphere([0.5, 0.5, 0.12], 0.1, 4);
     eprintln!("mesh obstacle: {} triangles", sphere.triangle_count());
     let with_mesh = |role: ObstacleRole| {
@@ -157,28 +172,60 @@ fn contacts(c: &mut Criterion) {
         s.validate().expect("valid scene");
         s
     };
-    let cases = [
+    vec![
         ("plain", plain.clone()),
         ("self_collision", with_sc),
+        ("self_collision_edges", with_edges),
         ("mesh_collider", with_mesh(ObstacleRole::Collider)),
         ("mesh_safety", with_mesh(ObstacleRole::Safety)),
         ("friction", fold_scene(Some(0.5))),
-    ];
+    ]
+}
+
+/// One evaluation of one case (`CONTACT_ONCE=<case>/<forward|forward_grad_l>`), for callgrind.
+fn once(spec: &str) {
+    let (case, mode) = spec.split_once('/').expect("CONTACT_ONCE=<case>/<mode>");
+    let (_, scene) = cases()
+        .into_iter()
+        .find(|(name, _)| *name == case)
+        .expect("a case of the bench");
+    let model = Model::from_scene(&scene).expect("model");
+    let u = fold_controls(&model);
+    let eval = match mode {
+        "forward" => model.evaluate(&u, DELTA, false),
+        "forward_grad_l" => model.evaluate_loss_gradient(&u, DELTA),
+        other => panic!("unknown mode {other}"),
+    }
+    .expect("finite");
+    // A fingerprint of the gradient's bits, so runs before and after a change can be compared.
+    let bits = eval.grad_l.map_or(0, |g| {
+        g.data()
+            .iter()
+            .fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits())
+    });
+    eprintln!(
+        "{case}/{mode}: L = {:.17e}, dL/dU bits {bits:016x}",
+        eval.metrics.l
+    );
+}
+
+fn contacts(c: &mut Criterion) {
+    let cases = cases();
     let mut group = c.benchmark_group("fold_n40");
     group.sample_size(10);
     for (name, scene) in cases {
         let model = Model::from_scene(&scene).expect("model");
         let u = fold_controls(&model);
         let states = model.simulate(&u).expect("finite");
-        let pairs: Vec<usize> = (0..FOLD)
+        let pairs: Vec<(usize, usize)> = (0..FOLD)
             .map(|t| {
-                model
-                    .contact_pairs(&states[t], &model.step_controls(&u, t))
-                    .len()
+                let ut = model.step_controls(&u, t);
+                let held = model.contact_pairs(&states[t], &ut);
+                (held.len(), model.edge_pairs(&states[t], &ut, &held).len())
             })
             .collect();
         eprintln!(
-            "{name}: {}; contact pairs per step {pairs:?}",
+            "{name}: {}; (vertex–triangle, edge–edge) pairs per step {pairs:?}",
             model.effects()
         );
         group.bench_with_input(BenchmarkId::new("forward", name), &name, |b, _| {
@@ -192,4 +239,11 @@ fn contacts(c: &mut Criterion) {
 }
 
 criterion_group!(benches, contacts);
-criterion_main!(benches);
+
+fn main() {
+    if let Ok(spec) = std::env::var("CONTACT_ONCE") {
+        return once(&spec);
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

@@ -8,9 +8,15 @@
 //! gradient 0 at its kink (a particle exactly at `δ` counts as safe and exerts no pull); the
 //! minimum over spheres passes the gradient to the first sphere on a tie.
 
-use crate::model::Model;
+use crate::model::{Model, ParticleSdf, ParticleSdfComponents};
 use crate::sim::Controls;
-use autodiff::{Tape, Tensor, Var};
+use autodiff::{DynRowFn, Tape, Tensor, Var};
+use std::sync::Arc;
+
+/// A soft-min entry whose weight is below `e^−NEGLIGIBLE_WEIGHT_EXPONENT` relative to the
+/// smallest entry's does not matter: [`Model::record_sdf_components_for_soft_min`] need not
+/// query it exactly.
+pub const NEGLIGIBLE_WEIGHT_EXPONENT: f64 = 40.0;
 
 impl Model {
     /// Records `E(x)`; `None` when no constraint carries elastic energy.
@@ -42,9 +48,44 @@ impl Model {
         Some(tape.map_rows(f, x))
     }
 
+    /// [`Model::record_sdf_components`] for a soft minimum of sharpness `kappa` over them (and
+    /// over whatever else is concatenated with them): exact wherever an entry's soft-min weight
+    /// can reach `e^−40` (within `40/κ` of this state's smallest distance, see
+    /// [`NEGLIGIBLE_WEIGHT_EXPONENT`]), elsewhere a lower bound above that, so a mesh obstacle's
+    /// search stops there. Without a mesh obstacle every entry is exact (bitwise
+    /// [`Model::record_sdf_components`]). With one, only entries of weight below `e^−40` change:
+    /// the soft minimum moves by at most `K·e^−40/κ` (`K` such entries), each weight relatively
+    /// by `K·e^−40`.
+    pub fn record_sdf_components_for_soft_min(
+        &self,
+        tape: &mut Tape,
+        x: Var,
+        kappa: f64,
+    ) -> Option<Var> {
+        if self.safety_obstacles.meshes.is_empty() {
+            return self.record_sdf_components(tape, x);
+        }
+        self.safety_components.as_ref()?;
+        let smallest = crate::sdf::batch::min_distance(&self.safety_obstacles, tape.value(x));
+        let f: Arc<dyn DynRowFn> = Arc::new(ParticleSdfComponents {
+            field: self.safety_obstacles.clone(),
+            bound: smallest + NEGLIGIBLE_WEIGHT_EXPONENT / kappa,
+        });
+        Some(tape.map_rows(&f, x))
+    }
+
     /// Records `−Σᵢ relu(δ − SDF(xᵢ))` (≥ 0 only when every particle is at least `δ` away).
+    ///
+    /// The distances are exact up to `δ` only (a lower bound above `δ` elsewhere: a mesh's
+    /// search stops there): `relu(δ − ·)` and its derivative are 0 above `δ` either way, so the
+    /// value and its gradient are bitwise those of exact distances.
     pub fn record_safety(&self, tape: &mut Tape, x: Var, delta: f64) -> Option<Var> {
-        let sdf = self.record_sdf(tape, x)?;
+        self.safety.as_ref()?;
+        let f: Arc<dyn DynRowFn> = Arc::new(ParticleSdf {
+            field: self.safety_obstacles.clone(),
+            bound: delta,
+        });
+        let sdf = tape.map_rows(&f, x);
         Some(Self::record_safety_of_sdf(tape, sdf, delta))
     }
 

@@ -105,8 +105,8 @@ pub struct Model {
     pub safety: Option<Arc<dyn DynRowFn>>,
     /// Per-particle signed distance to each safety primitive (`N × 3 → N × primitives`).
     pub safety_components: Option<Arc<dyn DynRowFn>>,
-    /// The safety obstacles themselves (empty without any).
-    pub safety_obstacles: Union,
+    /// The safety obstacles themselves (empty without any), shared with the safety row functions.
+    pub safety_obstacles: Arc<Union>,
     /// The physical colliders (empty without any), projected as the `collider` group.
     pub colliders: Union,
     /// The task.
@@ -155,12 +155,15 @@ impl<C: Constraint> RowFn for Energy<C> {
     }
 }
 
-/// Signed distance of each particle to a field (`3 → 1`).
-struct ParticleSdf<S> {
-    sdf: S,
+/// Signed distance of each particle to the safety obstacles (`3 → 1`), exact wherever it is at
+/// most `bound` and a lower bound above it elsewhere ([`SignedDistance::distance_within`];
+/// `bound = ∞`: exact everywhere).
+pub(crate) struct ParticleSdf {
+    pub(crate) field: Arc<Union>,
+    pub(crate) bound: f64,
 }
 
-impl<S: SignedDistance> RowFn for ParticleSdf<S> {
+impl RowFn for ParticleSdf {
     fn n_in(&self) -> usize {
         3
     }
@@ -168,13 +171,15 @@ impl<S: SignedDistance> RowFn for ParticleSdf<S> {
         1
     }
     fn eval<R: Real>(&self, _row: usize, x: &[R], out: &mut [R]) {
-        out[0] = self.sdf.distance(&Vector3::new(x[0], x[1], x[2]));
+        out[0] = (self.field).distance_within(&Vector3::new(x[0], x[1], x[2]), self.bound);
     }
 }
 
-/// Signed distance of each particle to each primitive of a union (`3 → components`).
-struct ParticleSdfComponents {
-    union: Union,
+/// Signed distance of each particle to each primitive of the safety obstacles
+/// (`3 → components`), each bounded by `bound` as [`Union::components_within`].
+pub(crate) struct ParticleSdfComponents {
+    pub(crate) field: Arc<Union>,
+    pub(crate) bound: f64,
 }
 
 impl RowFn for ParticleSdfComponents {
@@ -182,10 +187,10 @@ impl RowFn for ParticleSdfComponents {
         3
     }
     fn n_out(&self) -> usize {
-        self.union.component_count()
+        self.field.component_count()
     }
     fn eval<R: Real>(&self, _row: usize, x: &[R], out: &mut [R]) {
-        self.union.components(&Vector3::new(x[0], x[1], x[2]), out);
+        (self.field).components_within(&Vector3::new(x[0], x[1], x[2]), self.bound, out);
     }
 }
 
@@ -223,7 +228,7 @@ impl Model {
             groups: Vec::new(),
             safety: None,
             safety_components: None,
-            safety_obstacles: Union::default(),
+            safety_obstacles: Arc::new(Union::default()),
             colliders: Union::default(),
             task: TaskSpec {
                 horizon: task.horizon,
@@ -305,16 +310,21 @@ impl Model {
         }
         if let Some(sc) = &scene.physics.self_collision {
             let triangles = model.triangles.clone();
-            model.self_collision = Some(Arc::new(SelfCollision::new(sc.thickness, triangles, n)));
+            let contacts = SelfCollision::new(sc.thickness, triangles, n);
+            model.self_collision = Some(Arc::new(contacts.with_edge_edge(sc.edge_edge)));
         }
         if !safety.is_empty() {
+            let field = Arc::new(safety);
+            let bound = f64::INFINITY;
             model.safety = Some(Arc::new(ParticleSdf {
-                sdf: safety.clone(),
+                field: field.clone(),
+                bound,
             }));
             model.safety_components = Some(Arc::new(ParticleSdfComponents {
-                union: safety.clone(),
+                field: field.clone(),
+                bound,
             }));
-            model.safety_obstacles = safety;
+            model.safety_obstacles = field;
         }
         Ok(model)
     }

@@ -6,6 +6,8 @@
 //! corners and carried over a half circle onto the far edge (a fold in half about y = 0.5), then
 //! left to settle for a few steps under gravity.
 
+mod common;
+
 use autodiff::Tensor;
 use cloth::constraint::hessian_vector;
 use cloth::contact::self_collision::{SelfCollision, VertexTriangle};
@@ -274,15 +276,7 @@ fn rollouts_and_gradients_with_contacts_are_bitwise_identical_on_every_path_and_
         .unwrap_or(0);
     eprintln!("largest contact set {largest} rows");
     assert!(largest >= 20, "largest contact set {largest}");
-    let run = |threads: usize, budget: usize| {
-        let mut m = model.clone();
-        m.checkpoint_budget = budget;
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| m.evaluate(&u, 0.0, true).unwrap())
-    };
+    let run = |threads: usize, budget: usize| common::evaluate_in_pool(&model, &u, threads, budget);
     let reference = run(1, cloth::model::DEFAULT_CHECKPOINT_BUDGET);
     for (t, x) in states.iter().enumerate() {
         assert!(bitwise_eq(x, &reference.states[t]), "state {t}");

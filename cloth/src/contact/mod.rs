@@ -1,5 +1,8 @@
 //! Contact effects beyond the fixed one-sided collider rows: friction on colliders, and
 //! contacts found during the simulation rather than at model build (self-collision).
 
+pub mod crossings;
+pub mod edge_edge;
 pub mod friction;
+pub(crate) mod grid;
 pub mod self_collision;

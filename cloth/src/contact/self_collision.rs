@@ -46,7 +46,10 @@
 
 use crate::coloring::{greedy_coloring, independent_sets};
 use crate::constraint::Constraint;
+use crate::contact::edge_edge::EdgePair;
+use crate::contact::grid::BoxGrid;
 use crate::geometry::norm;
+use crate::mesh::ClothMesh;
 use crate::model::{Carry, Model, ProjectionSet};
 use crate::projection::Projection;
 use autodiff::{Real, RowIndex, Tensor};
@@ -69,36 +72,25 @@ impl Constraint for VertexTriangle {
     const INEQUALITY: bool = true;
     #[inline(always)]
     fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
-        let n = (p[2] - p[1]).cross(&(p[3] - p[1]));
-        let len = norm(&n);
-        if len.value() == 0.0 {
-            return R::cst(-self.thickness);
-        }
-        (p[0] - p[1]).dot(&(n * len.recip())) * self.sides[instance] - self.thickness
+        let (d, e1, e2) = (p[0] - p[1], p[2] - p[1], p[3] - p[1]);
+        side_offset(d, e1, e2, self.sides[instance], self.thickness)
     }
 
-    /// `∇C` in closed form: with `e₁ = p₂ − p₁`, `e₂ = p₃ − p₁`, `n = e₁ × e₂`, `d = p₀ − p₁`,
-    /// `q = d·n̂` and `m = (d − q n̂)/|n|` (the gradient of `q` in `n`):
-    /// `∇₀ = s n̂`, `∇₂ = s e₂ × m`, `∇₃ = s m × e₁`, `∇₁ = −(∇₀ + ∇₂ + ∇₃)`.
+    /// `∇C` in closed form ([`normal_offset`] of `d = p₀ − p₁` along `e₁ × e₂`, `e₁ = p₂ − p₁`,
+    /// `e₂ = p₃ − p₁`): `∇₀ = s ∂q/∂d`, `∇₂ = s ∂q/∂e₁`, `∇₃ = s ∂q/∂e₂`,
+    /// `∇₁ = −(∇₀ + ∇₂ + ∇₃)`.
     #[inline(always)]
     fn gradient<R: Real>(&self, instance: usize, x: &[R], g: &mut [R]) -> R {
         let p1 = point(x, 1);
         let (e1, e2) = (point(x, 2) - p1, point(x, 3) - p1);
-        let n = e1.cross(&e2);
-        let len = norm(&n);
-        if len.value() == 0.0 {
+        let Some(off) = normal_offset(point(x, 0) - p1, e1, e2) else {
             g[..12].fill(R::zero());
             return R::cst(-self.thickness);
-        }
+        };
         let s = R::cst(self.sides[instance]);
-        let inv = len.recip();
-        let unit = n * inv;
-        let d = point(x, 0) - p1;
-        let q = d.dot(&unit);
-        let m = (d - unit * q) * inv;
-        let g0 = unit * s;
-        let g2 = e2.cross(&m) * s;
-        let g3 = m.cross(&e1) * s;
+        let g0 = off.d_d * s;
+        let g2 = off.d_e1 * s;
+        let g3 = off.d_e2 * s;
         let g1 = -(g0 + g2 + g3);
         for k in 0..3 {
             g[k] = g0[k];
@@ -106,15 +98,77 @@ impl Constraint for VertexTriangle {
             g[6 + k] = g2[k];
             g[9 + k] = g3[k];
         }
-        q * s - self.thickness
+        off.q * s - self.thickness
     }
+}
+
+/// `s·(d·n̂) − h` with `n̂` the unit normal of `e₁ × e₂`, or `−h` where `e₁ × e₂ = 0` (no
+/// normal): the generic `C` of both self-contact constraints ([`VertexTriangle`] and
+/// [`crate::contact::edge_edge::EdgeEdge`]).
+#[inline(always)]
+pub(crate) fn side_offset<R: Real>(
+    d: Vector3<R>,
+    e1: Vector3<R>,
+    e2: Vector3<R>,
+    side: f64,
+    h: f64,
+) -> R {
+    let n = e1.cross(&e2);
+    let len = norm(&n);
+    if len.value() == 0.0 {
+        return R::cst(-h);
+    }
+    d.dot(&(n * len.recip())) * side - h
+}
+
+/// The offset `q = d·n̂` of a vector `d` along the unit normal `n̂ = n/|n|` of `n = e₁ × e₂`, with
+/// its gradients ([`normal_offset`]).
+pub(crate) struct NormalOffset<R> {
+    /// `q`.
+    pub(crate) q: R,
+    /// `∂q/∂d = n̂`.
+    pub(crate) d_d: Vector3<R>,
+    /// `∂q/∂e₁ = e₂ × m`, with `m = (d − q n̂)/|n|` the gradient of `q` in `n`.
+    pub(crate) d_e1: Vector3<R>,
+    /// `∂q/∂e₂ = m × e₁`.
+    pub(crate) d_e2: Vector3<R>,
+}
+
+/// [`NormalOffset`] of `d` along `e₁ × e₂`, or `None` when `e₁ × e₂ = 0` (no normal). The
+/// closed form of both self-contact constraints: a vertex's height over a triangle's plane
+/// ([`VertexTriangle`]) and the distance between two edges' lines
+/// ([`crate::contact::edge_edge::EdgeEdge`]).
+#[inline(always)]
+pub(crate) fn normal_offset<R: Real>(
+    d: Vector3<R>,
+    e1: Vector3<R>,
+    e2: Vector3<R>,
+) -> Option<NormalOffset<R>> {
+    let n = e1.cross(&e2);
+    let len = norm(&n);
+    if len.value() == 0.0 {
+        return None;
+    }
+    let inv = len.recip();
+    let unit = n * inv;
+    let q = d.dot(&unit);
+    let m = (d - unit * q) * inv;
+    Some(NormalOffset {
+        q,
+        d_d: unit,
+        d_e1: e2.cross(&m),
+        d_e2: m.cross(&e1),
+    })
 }
 
 /// Particle `i`'s position in a row of coordinates.
 #[inline(always)]
-fn point<R: Real>(x: &[R], i: usize) -> Vector3<R> {
+pub(crate) fn point<R: Real>(x: &[R], i: usize) -> Vector3<R> {
     Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2])
 }
+
+/// A non-degenerate triangle of a state (its index) with its unit normal.
+pub(crate) type TriangleNormal = (usize, Vector3<f64>);
 
 /// One vertex–triangle contact of a step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -127,22 +181,29 @@ pub struct ContactPair {
     pub above: bool,
 }
 
-/// A model's self-collision: the thickness and the cloth's topology the pair search needs.
+/// A model's self-collision: the thickness and the cloth's topology the pair searches need.
 #[derive(Clone, Debug)]
 pub struct SelfCollision {
     /// The thickness `h ≥ 0`.
     pub thickness: f64,
-    triangles: Arc<[[usize; 3]]>,
+    /// Whether edge–edge contacts are added to the vertex–triangle ones
+    /// ([`crate::contact::edge_edge`]).
+    pub edge_edge: bool,
+    pub(crate) triangles: Arc<[[usize; 3]]>,
+    /// The cloth's edges ([`ClothMesh::stretch_edges`]), and each triangle's three (indices).
+    pub(crate) edges: Vec<[usize; 2]>,
+    pub(crate) triangle_edges: Vec<[usize; 3]>,
     /// Per triangle, whether each edge (`ab`, `bc`, `ca`) lies on the cloth's border (one
     /// triangle uses it).
-    border: Vec<[bool; 3]>,
+    pub(crate) border: Vec<[bool; 3]>,
     /// Each vertex's 1-ring (itself and its edge neighbours), sorted: `ring[ring_start[v]..ring_start[v + 1]]`.
     ring_start: Vec<usize>,
     ring: Vec<usize>,
 }
 
 impl SelfCollision {
-    /// Self-collision of thickness `h` on a cloth of `n_particles` with these triangles.
+    /// Self-collision of thickness `h` on a cloth of `n_particles` with these triangles
+    /// (vertex–triangle contacts; [`SelfCollision::with_edge_edge`] adds edge–edge ones).
     pub fn new(thickness: f64, triangles: Arc<[[usize; 3]]>, n_particles: usize) -> Self {
         let mut rings: Vec<Vec<usize>> = (0..n_particles).map(|v| vec![v]).collect();
         for t in triangles.iter() {
@@ -170,13 +231,62 @@ impl SelfCollision {
             .iter()
             .map(|&[a, b, c]| [edge(a, b), edge(b, c), edge(c, a)].map(|e| uses[&e] == 1))
             .collect();
+        let edges = ClothMesh::from_triangles(n_particles, triangles.to_vec()).stretch_edges();
+        let index: HashMap<(usize, usize), usize> = edges
+            .iter()
+            .enumerate()
+            .map(|(i, &[a, b])| ((a, b), i))
+            .collect();
+        let triangle_edges = triangles
+            .iter()
+            .map(|&[a, b, c]| [edge(a, b), edge(b, c), edge(c, a)].map(|e| index[&e]))
+            .collect();
         SelfCollision {
             thickness,
+            edge_edge: false,
             triangles,
+            edges,
+            triangle_edges,
             border,
             ring_start,
             ring,
         }
+    }
+
+    /// The same with edge–edge contacts when `on` ([`crate::contact::edge_edge`]).
+    pub fn with_edge_edge(mut self, on: bool) -> Self {
+        self.edge_edge = on;
+        self
+    }
+
+    /// Whether `q` is in `v`'s 1-ring (`v` itself or an edge neighbour).
+    pub(crate) fn in_ring(&self, v: usize, q: usize) -> bool {
+        self.ring[self.ring_start[v]..self.ring_start[v + 1]]
+            .binary_search(&q)
+            .is_ok()
+    }
+
+    /// The non-degenerate triangles of state `x` with their unit normals, and their mean extent
+    /// (the grid's cell); `None` when there is none.
+    pub(crate) fn triangle_normals(&self, x: &Tensor) -> Option<(Vec<TriangleNormal>, f64)> {
+        let point = |p: usize| {
+            let r = x.row(p);
+            Vector3::new(r[0], r[1], r[2])
+        };
+        let mut tris = Vec::with_capacity(self.triangles.len());
+        let mut extent_sum = 0.0;
+        for (k, t) in self.triangles.iter().enumerate() {
+            let [a, b, c] = t.map(point);
+            let n = (b - a).cross(&(c - a));
+            let len = n.norm();
+            if !(len > 0.0 && len.is_finite()) {
+                continue;
+            }
+            extent_sum += (a.sup(&b).sup(&c) - a.inf(&b).inf(&c)).max();
+            tris.push((k, n / len));
+        }
+        let cell = extent_sum / tris.len().max(1) as f64;
+        (!tris.is_empty()).then_some((tris, cell))
     }
 
     /// Whether the pair search skips triangle `triangle` for `vertex`: the triangle has a vertex
@@ -196,22 +306,13 @@ impl SelfCollision {
             Vector3::new(r[0], r[1], r[2])
         };
         // Non-degenerate triangles with their unit normals.
-        let mut tris = Vec::with_capacity(self.triangles.len());
-        let mut extent_sum = 0.0;
-        for (k, t) in self.triangles.iter().enumerate() {
-            let [a, b, c] = t.map(point);
-            let n = (b - a).cross(&(c - a));
-            let len = n.norm();
-            if !(len > 0.0 && len.is_finite()) {
-                continue;
-            }
-            extent_sum += (a.sup(&b).sup(&c) - a.inf(&b).inf(&c)).max();
-            tris.push((k, n / len));
-        }
-        if tris.is_empty() || !(radius >= 0.0 && radius.is_finite()) {
+        let Some((tris, cell)) = self.triangle_normals(x) else {
+            return Vec::new();
+        };
+        if !(radius >= 0.0 && radius.is_finite()) {
             return Vec::new();
         }
-        let grid = VertexGrid::new(x, extent_sum / tris.len() as f64);
+        let grid = BoxGrid::of_points(x, cell);
         let mut pairs = Vec::new();
         let mut candidates = Vec::new();
         for &(k, n) in &tris {
@@ -260,7 +361,7 @@ impl SelfCollision {
     /// The bounding box of the points the rules above can pair with triangle `k` (corners
     /// `corners`, unit normal `n`): the triangle with each border edge moved out by `h` in its
     /// plane, swept `±radius` along `n`; grown by a rounding slack.
-    fn query_box(
+    pub(crate) fn query_box(
         &self,
         corners: [Vector3<f64>; 3],
         n: &Vector3<f64>,
@@ -321,119 +422,31 @@ impl SelfCollision {
                 .collect(),
             thickness: self.thickness,
         });
-        let colors = greedy_coloring(&rows, inv_mass.len());
-        independent_sets(&colors)
-            .into_iter()
-            .map(|members| {
-                let idx: Vec<usize> = members.iter().flat_map(|&k| rows[k]).collect();
-                let w = idx.iter().map(|&p| inv_mass[p]).collect();
-                let projection = Projection::new(constraint.clone(), members, w, 0.0);
-                ProjectionSet {
-                    projection: Arc::new(projection),
-                    index: Arc::new(RowIndex::new(4, idx)),
-                    carry: Carry::Multiplier,
-                }
-            })
-            .collect()
+        contact_projection_sets(constraint, &rows, inv_mass)
     }
 }
 
-/// The vertices of a state bucketed in a uniform grid over their bounding box (counting sort:
-/// each cell's vertices in increasing order).
-struct VertexGrid {
-    origin: Vector3<f64>,
-    cell: f64,
-    dims: [usize; 3],
-    /// Cell `c`'s vertices: `order[start[c]..start[c + 1]]`; empty when the grid could not be
-    /// built (non-finite coordinates), then every query returns every vertex.
-    start: Vec<usize>,
-    order: Vec<usize>,
-    n: usize,
-}
-
-impl VertexGrid {
-    /// The grid of `x`'s vertices with cells of edge `cell` (larger when that would make more
-    /// than eight cells per vertex).
-    fn new(x: &Tensor, cell: f64) -> VertexGrid {
-        let n = x.rows();
-        let point = |p: usize| Vector3::new(x.get(p, 0), x.get(p, 1), x.get(p, 2));
-        let (mut lo, mut hi) = (
-            Vector3::repeat(f64::INFINITY),
-            Vector3::repeat(f64::NEG_INFINITY),
-        );
-        for p in 0..n {
-            lo = lo.inf(&point(p));
-            hi = hi.sup(&point(p));
-        }
-        let mut grid = VertexGrid {
-            origin: lo,
-            cell,
-            dims: [1; 3],
-            start: Vec::new(),
-            order: Vec::new(),
-            n,
-        };
-        let span = hi - lo;
-        if !(span.iter().all(|s| s.is_finite()) && cell > 0.0 && cell.is_finite()) {
-            return grid;
-        }
-        let dims = |c: f64| span.map(|s| (s / c).floor() + 1.0);
-        while dims(grid.cell).product() > 8.0 * n as f64 + 8.0 {
-            grid.cell *= 2.0;
-        }
-        let d = dims(grid.cell);
-        grid.dims = [d.x as usize, d.y as usize, d.z as usize];
-        let cells: Vec<usize> = (0..n).map(|p| grid.index(&grid.key(&point(p)))).collect();
-        let mut start = vec![0usize; grid.dims.iter().product::<usize>() + 1];
-        for &c in &cells {
-            start[c + 1] += 1;
-        }
-        for c in 1..start.len() {
-            start[c] += start[c - 1];
-        }
-        let mut next = start.clone();
-        let mut order = vec![0; n];
-        for (p, &c) in cells.iter().enumerate() {
-            order[next[c]] = p;
-            next[c] += 1;
-        }
-        grid.start = start;
-        grid.order = order;
-        grid
-    }
-
-    /// The cell coordinates of `v`, clamped to the grid.
-    fn key(&self, v: &Vector3<f64>) -> [usize; 3] {
-        std::array::from_fn(|k| {
-            let c = ((v[k] - self.origin[k]) / self.cell).floor();
-            // `as` saturates (NaN to 0); the clamp keeps the key in the grid.
-            (c.max(0.0) as usize).min(self.dims[k] - 1)
-        })
-    }
-
-    fn index(&self, key: &[usize; 3]) -> usize {
-        (key[2] * self.dims[1] + key[1]) * self.dims[0] + key[0]
-    }
-
-    /// Appends every vertex in the cells the box `lo..hi` touches (all vertices when the grid
-    /// is empty or the box covers more cells than there are vertices).
-    fn candidates(&self, lo: &Vector3<f64>, hi: &Vector3<f64>, out: &mut Vec<usize>) {
-        if self.start.is_empty() || !(lo.iter().chain(hi.iter()).all(|c| c.is_finite())) {
-            return out.extend(0..self.n);
-        }
-        let (a, b) = (self.key(lo), self.key(hi));
-        let cells: usize = (0..3).map(|k| b[k] - a[k] + 1).product();
-        if cells > self.n {
-            return out.extend(0..self.n);
-        }
-        for l in a[2]..=b[2] {
-            for j in a[1]..=b[1] {
-                let row = self.index(&[a[0], j, l]);
-                let (first, last) = (row, row + b[0] - a[0]);
-                out.extend_from_slice(&self.order[self.start[first]..self.start[last + 1]]);
+/// The colour sets projecting the rows `rows` (four particles each) of a contact constraint
+/// (instance `k` = row `k`), greedily coloured in row order; rigid (compliance 0).
+pub(crate) fn contact_projection_sets<C: Constraint>(
+    constraint: Arc<C>,
+    rows: &[[usize; 4]],
+    inv_mass: &[f64],
+) -> Vec<ProjectionSet> {
+    let colors = greedy_coloring(rows, inv_mass.len());
+    independent_sets(&colors)
+        .into_iter()
+        .map(|members| {
+            let idx: Vec<usize> = members.iter().flat_map(|&k| rows[k]).collect();
+            let w = idx.iter().map(|&p| inv_mass[p]).collect();
+            let projection = Projection::new(constraint.clone(), members, w, 0.0);
+            ProjectionSet {
+                projection: Arc::new(projection),
+                index: Arc::new(RowIndex::new(4, idx)),
+                carry: Carry::Multiplier,
             }
-        }
-    }
+        })
+        .collect()
 }
 
 impl Model {
@@ -458,12 +471,28 @@ impl Model {
         }
     }
 
-    /// The colour sets of a step's self-contacts, projected after the model's own sets (none
-    /// without `physics.self_collision`).
-    pub fn contact_sets(&self, x_prev: &Tensor, u: &Tensor) -> Vec<ProjectionSet> {
+    /// The edge–edge pairs of a step from `x_prev` with controls `u`, given its vertex–triangle
+    /// pairs `held` (empty unless `physics.self_collision.edge_edge`).
+    pub fn edge_pairs(&self, x_prev: &Tensor, u: &Tensor, held: &[ContactPair]) -> Vec<EdgePair> {
         match &self.self_collision {
-            None => Vec::new(),
-            Some(sc) => sc.projection_sets(&self.contact_pairs(x_prev, u), &self.inv_mass),
+            Some(sc) if sc.edge_edge => {
+                let radius = self.contact_radius(sc.thickness, u);
+                sc.find_edge_pairs(x_prev, radius, &self.inv_mass, held)
+            }
+            _ => Vec::new(),
         }
+    }
+
+    /// The colour sets of a step's self-contacts, projected after the model's own sets: the
+    /// vertex–triangle sets, then the edge–edge ones (none without `physics.self_collision`).
+    pub fn contact_sets(&self, x_prev: &Tensor, u: &Tensor) -> Vec<ProjectionSet> {
+        let Some(sc) = &self.self_collision else {
+            return Vec::new();
+        };
+        let pairs = self.contact_pairs(x_prev, u);
+        let mut sets = sc.projection_sets(&pairs, &self.inv_mass);
+        let edges = self.edge_pairs(x_prev, u, &pairs);
+        sets.extend(sc.edge_projection_sets(&edges, &self.inv_mass));
+        sets
     }
 }

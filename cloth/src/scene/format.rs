@@ -345,6 +345,10 @@ pub struct Physics {
 pub struct SelfCollisionSpec {
     /// The distance `h ≥ 0` every vertex keeps from the plane of a nearby triangle it faces.
     pub thickness: f64,
+    /// Whether crossing edges are held apart too (edge–edge contacts, see
+    /// [`crate::contact::edge_edge`]); default `false` (vertex–triangle contacts only).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub edge_edge: bool,
 }
 
 /// The step solver named by `physics.solver`.

@@ -30,12 +30,25 @@ pub fn distances_within(field: &Union, x: &Tensor, delta: f64) -> Vec<f64> {
 /// The smallest signed distance to `field` along every particle's straight path from `a` to
 /// `b`: bitwise the minimum of [`SignedDistance::min_along_segment`] over the particles.
 pub fn min_along_segments(field: &Union, a: &Tensor, b: &Tensor) -> f64 {
-    let mut values: Vec<f64> = (0..a.rows())
-        .map(|p| field.min_along_segment_within(&point(a, p), &point(b, p), f64::NEG_INFINITY))
-        .collect();
-    refine_smallest(&mut values, f64::NEG_INFINITY, |p, bound| {
+    smallest(a.rows(), |p, bound| {
         field.min_along_segment_within(&point(a, p), &point(b, p), bound)
-    });
+    })
+}
+
+/// The smallest signed distance of any particle of `x` to `field`: bitwise the minimum of
+/// [`SignedDistance::distance`] over the particles.
+pub fn min_distance(field: &Union, x: &Tensor) -> f64 {
+    smallest(x.rows(), |p, bound| {
+        field.distance_within(&point(x, p), bound)
+    })
+}
+
+/// The smallest of `n` values, exactly, from a bounded query (`query(p, bound)`: value `p`
+/// exactly wherever it is at most `bound`, a lower bound above it elsewhere): every value's
+/// cheapest lower bound first (bound −∞), then [`refine_smallest`].
+fn smallest(n: usize, query: impl Fn(usize, f64) -> f64) -> f64 {
+    let mut values: Vec<f64> = (0..n).map(|p| query(p, f64::NEG_INFINITY)).collect();
+    refine_smallest(&mut values, f64::NEG_INFINITY, query);
     values.iter().copied().fold(f64::INFINITY, f64::min)
 }
 

@@ -242,6 +242,13 @@ impl Union {
     /// The signed distance of `p` to each primitive (spheres, planes, capsules, boxes, meshes); their minimum is
     /// [`SignedDistance::distance`].
     pub fn components<R: Real>(&self, p: &Vector3<R>, out: &mut [R]) {
+        self.components_within(p, f64::INFINITY, out);
+    }
+
+    /// [`Union::components`], each primitive queried with `bound`
+    /// ([`SignedDistance::distance_within`]): exact wherever it is at most `bound`, a lower bound
+    /// above it elsewhere (only meshes answer inexactly).
+    pub fn components_within<R: Real>(&self, p: &Vector3<R>, bound: f64, out: &mut [R]) {
         let mut k = 0;
         for set in &self.spheres {
             for (c, &r) in set.centers.iter().zip(&set.radii) {
@@ -253,7 +260,7 @@ impl Union {
             out[k] = plane.distance(p);
             k += 1;
         }
-        for d in self.others(p, f64::INFINITY) {
+        for d in self.others(p, bound) {
             out[k] = d;
             k += 1;
         }

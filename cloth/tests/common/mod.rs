@@ -223,3 +223,20 @@ pub fn check_gradients_along_a_direction(
     }
     Ok(())
 }
+
+/// `model.evaluate(u, 0, true)` in a rayon pool of `threads` threads, with checkpoint budget
+/// `budget` (determinism tests compare these bit for bit).
+pub fn evaluate_in_pool(
+    model: &Model,
+    u: &Tensor,
+    threads: usize,
+    budget: usize,
+) -> cloth::grad::Evaluation {
+    let mut m = model.clone();
+    m.checkpoint_budget = budget;
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(|| m.evaluate(u, 0.0, true).unwrap())
+}
