@@ -22,6 +22,7 @@
 
 pub mod assembly;
 pub mod contact;
+pub mod curvature;
 pub mod factor;
 pub mod implicit;
 pub mod solve;
@@ -39,6 +40,11 @@ pub const DEFAULT_TOLERANCE: f64 = 1e-10;
 /// which takes a failed evaluation for "step too long", shrank its steps to 1e-9 and stalled.
 pub const DEFAULT_MAX_ITERATIONS: usize = 500;
 
+/// Default [`NewtonSettings::load_halvings`].
+pub const DEFAULT_LOAD_HALVINGS: usize = 0;
+/// Largest [`NewtonSettings::load_halvings`] (2^20 increments per step).
+pub const MAX_LOAD_HALVINGS: usize = 20;
+
 /// Convergence settings of the Newton solver.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NewtonSettings {
@@ -53,6 +59,10 @@ pub struct NewtonSettings {
     /// change of the controls; continuation follows one branch (`cloth/tests/newton_branches.rs`).
     /// The final minimizer is of the same `Φ`, so the implicit gradients are unchanged.
     pub load_steps: usize,
+    /// Branch following: a load increment whose solve leaves the region where the exact Hessian
+    /// is positive definite is halved, at most this many times (0: the `load_steps` increments
+    /// as they are).
+    pub load_halvings: usize,
 }
 
 impl Default for NewtonSettings {
@@ -61,6 +71,7 @@ impl Default for NewtonSettings {
             tolerance: DEFAULT_TOLERANCE,
             max_iterations: DEFAULT_MAX_ITERATIONS,
             load_steps: 1,
+            load_halvings: DEFAULT_LOAD_HALVINGS,
         }
     }
 }
