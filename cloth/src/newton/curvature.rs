@@ -131,9 +131,23 @@ pub fn step_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f64) -> Opt
     best
 }
 
+/// The signed step along the mode `v` that lowers `phi(η) = Φ(x + ηv)` the most: the best
+/// [`step_length`] each way, the lower one kept (an asymmetric saddle falls off one side); where
+/// both lower `Φ` equally to its round-off (a symmetric saddle), the positive way, which
+/// [`orient`] chose.
+pub fn escape_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f64) -> Option<f64> {
+    let ahead = step_length(eta0, phi0, &mut phi).map(|e| (e, phi(e)));
+    let back = step_length(eta0, phi0, |e| phi(-e)).map(|e| (-e, phi(-e)));
+    let tie = 1024.0 * f64::EPSILON * phi0.abs();
+    match (ahead, back) {
+        (Some(a), Some(b)) => Some(if b.1 < a.1 - tie { b.0 } else { a.0 }),
+        (a, b) => a.or(b).map(|(e, _)| e),
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{orient, step_length};
+    use super::{escape_length, orient, step_length};
 
     #[test]
     fn orientation_follows_the_pull_then_the_largest_coordinate() {
@@ -152,5 +166,14 @@ mod tests {
         assert!((0.35..=1.42).contains(&eta), "{eta}");
         // A minimum at the start: no step.
         assert!(step_length(1e-8, 0.0, |e| e * e).is_none());
+    }
+
+    #[test]
+    fn escape_takes_the_side_that_falls_further_and_the_positive_one_at_a_tie() {
+        // −η² + η³/2 + η⁴/... : deeper on the negative side.
+        let lopsided = |e: f64| -e * e + 0.5 * e.powi(3) + 0.25 * e.powi(4);
+        assert!(escape_length(1e-8, 0.0, lopsided).unwrap() < 0.0);
+        let symmetric = |e: f64| -e * e + e.powi(4);
+        assert!(escape_length(1e-8, 0.0, symmetric).unwrap() > 0.0);
     }
 }

@@ -125,8 +125,8 @@ impl NewtonSystem {
     }
 
     /// At `x`, a stationary point of `Φ` for `xt` that is not a minimizer: moves `x` along the
-    /// exact Hessian's unstable mode, oriented by [`curvature::orient`], by the length that
-    /// lowers `Φ` the most ([`curvature::step_length`]); returns the new `Φ`, or `None` (and
+    /// exact Hessian's unstable mode, the way and by the length that lower `Φ` the most
+    /// ([`curvature::escape_length`]; at a tie, the way [`curvature::orient`] picks); returns the new `Φ`, or `None` (and
     /// leaves `x`) when no direction of negative curvature is found, none lowers `Φ`, or the
     /// solve has left [`MAX_SADDLE_ESCAPES`] saddles already.
     fn leave_saddle(&mut self, x: &mut Tensor, xt_d: &[f64], stats: &mut StepStats) -> Option<f64> {
@@ -156,7 +156,7 @@ impl NewtonSystem {
             contacts.project(trial.data_mut());
             p.energy(trial.data(), xt_d)
         };
-        let eta = curvature::step_length(f64::EPSILON.sqrt() * x_max, phi0, &mut phi_at)?;
+        let eta = curvature::escape_length(f64::EPSILON.sqrt() * x_max, phi0, &mut phi_at)?;
         let phi_t = phi_at(eta);
         x.data_mut().copy_from_slice(trial.data());
         stats.escapes += 1;
@@ -448,7 +448,7 @@ impl Model {
         // Load fractions in units of 1/(load_steps · 2^halvings), so that they are exact.
         let finest = 1usize << settings.load_halvings.min(MAX_LOAD_HALVINGS);
         let total = settings.load_steps.max(1) * finest;
-        let (mut done, mut increment) = (0, finest);
+        let (mut done, mut increment, mut smallest) = (0, finest, 1);
         let mut x = x_prev.clone();
         while done < total {
             let next = (done + increment).min(total);
@@ -463,8 +463,19 @@ impl Model {
                     .for_each(|(a, b)| *a += s * (b - *a));
                 xs
             };
-            let convex_only = increment > 1;
-            let (xj, sj) = system.solve_inner(&x, &xs, step, settings, convex_only)?;
+            // The smallest increment takes whatever path it needs (past a fold or a bifurcation
+            // of the branch); where that ends at a saddle too shallow to leave (just past a
+            // bifurcation its unstable mode lowers Φ by less than Φ's round-off), it is doubled.
+            let convex_only = increment > smallest;
+            let (xj, sj) = match system.solve_inner(&x, &xs, step, settings, convex_only) {
+                Err(ClothError::NewtonSaddle { .. }) if next < total => {
+                    stats.rejected_loads += 1;
+                    smallest = (2 * smallest).min(total - done);
+                    increment = smallest;
+                    continue;
+                }
+                r => r?,
+            };
             stats.iterations += sj.iterations;
             stats.projected += sj.projected;
             stats.at_saddle += sj.at_saddle;
@@ -480,6 +491,7 @@ impl Model {
             x = xj;
             done = next;
             increment = (2 * increment).min(finest);
+            smallest = 1;
         }
         Ok((x, stats))
     }
