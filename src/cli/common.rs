@@ -57,7 +57,8 @@ pub struct PhysicsArgs {
     #[arg(long)]
     physics_load_steps: Option<usize>,
     /// Newton's branch following: most halvings of a load increment whose solve leaves the
-    /// convex neighbourhood of a minimizer, 0–20 (default: the scene's, else 0).
+    /// convex neighbourhood of a minimizer, 0–20 (default: the scene's, else 10; 0 with one
+    /// load step is one solve from x̃ per step).
     #[arg(long)]
     physics_load_halvings: Option<usize>,
 }
