@@ -331,30 +331,6 @@ impl Pattern {
         }
     }
 
-    /// `M d` for the free particles of the full `N × 3` data `d`, in degree-of-freedom order.
-    pub fn mass_times_free(&self, d: &[f64]) -> Vec<f64> {
-        let mut out = vec![0.0; self.n_dof];
-        for (p, &dof) in self.dof_of.iter().enumerate() {
-            if dof != NONE {
-                for k in 0..3 {
-                    out[dof as usize + k] = self.mass[p] * d[3 * p + k];
-                }
-            }
-        }
-        out
-    }
-
-    /// Adds `M⁻¹ v` (`v` in degree-of-freedom order) to the free coordinates of a full state.
-    pub fn add_inverse_mass_times(&self, x: &mut [f64], v: &[f64]) {
-        for (p, &d) in self.dof_of.iter().enumerate() {
-            if d != NONE {
-                for k in 0..3 {
-                    x[3 * p + k] += v[d as usize + k] / self.mass[p];
-                }
-            }
-        }
-    }
-
     /// `M z` for the free particles, scattered into full `N × 3` data `y` (added).
     pub fn add_mass_times(&self, z: &[f64], y: &mut [f64]) {
         for (p, &d) in self.dof_of.iter().enumerate() {

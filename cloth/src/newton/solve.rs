@@ -112,15 +112,20 @@ impl NewtonSystem {
         }
     }
 
-    /// `x + M⁻¹∇E(x)` (control particles as in `x`), with `E` the constraint energy: the
-    /// predicted state for which `x` is stationary (a minimizer when `x` was one of any step's
-    /// `Φ`: the Hessian does not depend on the predicted state).
-    pub fn rest_predicted(&mut self, x: &Tensor) -> Tensor {
+    /// `x + M⁻¹∇E(x)` (control particles as in `x`), with `E` the constraint energy and `M`
+    /// the masses `1/inv_mass`: the predicted state for which `x` is stationary (a minimizer when
+    /// `x` was one of any step's `Φ`: the Hessian does not depend on the predicted state).
+    pub fn rest_predicted(&mut self, x: &Tensor, inv_mass: &[f64]) -> Tensor {
         self.pattern
             .assemble(x.data(), x.data(), &mut self.grad, None);
         let mut out = x.clone();
-        self.pattern
-            .add_inverse_mass_times(out.data_mut(), &self.grad);
+        for (p, &w) in inv_mass.iter().enumerate() {
+            if let Some(d) = self.pattern.dof(p) {
+                for k in 0..3 {
+                    out.data_mut()[3 * p + k] += w * self.grad[d + k];
+                }
+            }
+        }
         out
     }
 
@@ -144,7 +149,12 @@ impl NewtonSystem {
         self.contacts.project_tangent(&mut v);
         // M (x̃ − x) in degree-of-freedom order.
         let diff: Vec<f64> = xt_d.iter().zip(x.data()).map(|(a, b)| a - b).collect();
-        let pull = p.mass_times_free(&diff);
+        let mut free = vec![0.0; p.n_dof];
+        p.gather(&diff, &mut free);
+        let mut scattered = vec![0.0; diff.len()];
+        p.add_mass_times(&free, &mut scattered);
+        let mut pull = free;
+        p.gather(&scattered, &mut pull);
         curvature::orient(&mut v, &pull);
         let phi0 = p.energy(x.data(), xt_d);
         let x_max = x.data().iter().fold(1.0f64, |m, a| m.max(a.abs()));
@@ -444,7 +454,7 @@ impl Model {
         }
         // The path of predicted states x̂(s) = (1 − s) x̂₀ + s x̃, with x̂₀ = x_prev + M⁻¹∇E(x_prev):
         // x_prev is the minimizer at s = 0 (same Hessian as the step it ended), x̃ at s = 1.
-        let x0 = system.rest_predicted(x_prev);
+        let x0 = system.rest_predicted(x_prev, &self.inv_mass);
         // Load fractions in units of 1/(load_steps · 2^halvings), so that they are exact.
         let finest = 1usize << settings.load_halvings.min(MAX_LOAD_HALVINGS);
         let total = settings.load_steps.max(1) * finest;
