@@ -10,7 +10,9 @@
 //! - [`terms`]: `C`, `∇C`, `∇²C` of any constraint type from nested duals;
 //! - [`assembly`]: the sparse pattern (fixed per model), `Φ`, `∇Φ` and the Hessian;
 //! - [`factor`]: faer's sparse Cholesky (symbolic once, numeric per iteration);
-//! - [`solve`]: the Newton iteration with backtracking line search on `Φ`;
+//! - [`solve`]: the Newton iteration with backtracking line search on `Φ`, and each step's
+//!   branch following ([`NewtonSettings::load_halvings`]);
+//! - [`curvature`]: leaving a saddle of `Φ` along the exact Hessian's unstable mode;
 //! - [`implicit`]: adjoints through `∂x_t/∂(x_{t−1}, u_t)`, one factorization per step for every
 //!   cost.
 //!
