@@ -23,8 +23,8 @@ const POWER_TOLERANCE: f64 = 1e-10;
 fn sym_mul(pattern: &Pattern, values: &[f64], v: &[f64], y: &mut [f64]) {
     y.fill(0.0);
     for j in 0..pattern.n_dof {
-        for idx in pattern.col_ptr[j]..pattern.col_ptr[j + 1] {
-            let (i, a) = (pattern.row_idx[idx], values[idx]);
+        let col = pattern.col_ptr[j]..pattern.col_ptr[j + 1];
+        for (&i, &a) in pattern.row_idx[col.clone()].iter().zip(&values[col]) {
             y[i] += a * v[j];
             if i != j {
                 y[j] += a * v[i];
@@ -58,7 +58,7 @@ pub fn negative_curvature(
             (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         })
         .collect();
-    let mut y = vec![0.0; n];
+    let (mut y, mut hp_v) = (vec![0.0; n], vec![0.0; n]);
     let mut mu = 0.0;
     for _ in 0..MAX_POWER_ITERATIONS {
         let norm = dot(&v, &v).sqrt();
@@ -69,9 +69,7 @@ pub fn negative_curvature(
         sym_mul(pattern, &gap, &v, &mut y);
         let dv = dot(&v, &y);
         factor.solve_in_place(&mut y, 1);
-        // Rayleigh quotient of H_p⁻¹(H_p − H) in the H_p inner product: vᵀDv / vᵀH_p v, with
-        // H_p⁻¹ D v = y, so vᵀH_p y = vᵀDv; estimate μ by vᵀDv / vᵀH_p v.
-        let mut hp_v = vec![0.0; n];
+        // μ's Rayleigh quotient vᵀ(H_p − H)v / vᵀH_p v, for the stopping test.
         sym_mul(pattern, projected, &v, &mut hp_v);
         let next = dv / dot(&v, &hp_v);
         std::mem::swap(&mut v, &mut y);
@@ -118,13 +116,12 @@ pub fn step_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f64) -> Opt
     let mut eta = eta0;
     for _ in 0..64 {
         let p = phi(eta);
-        if !(p < best_phi) {
-            if best.is_some() {
-                break;
-            }
-        } else {
+        // NaN (a state too far to evaluate) counts as no decrease.
+        if p < best_phi {
             best = Some(eta);
             best_phi = p;
+        } else if best.is_some() {
+            break;
         }
         eta *= 2.0;
     }
