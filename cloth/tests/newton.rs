@@ -405,14 +405,7 @@ fn a_saddle_of_phi_is_left_along_its_unstable_mode() {
         stats[7].escapes
     );
     // Every returned state is a minimizer: the exact Hessian is positive definite there.
-    let mut system = NewtonSystem::new(&model).unwrap();
-    for t in 1..states.len() {
-        let xt = model.begin_step(&states[t - 1], &model.step_controls(&u, t - 1));
-        assert!(
-            system.factorize_exact(states[t].data(), xt.data()),
-            "step {t} is not a minimizer"
-        );
-    }
+    common::assert_minimizers(&model, &states, &u);
     // And the gradient there is defined (this used to panic).
     let ev = model.evaluate_loss_gradient(&u, model.task.delta).unwrap();
     assert!(ev.grad_l.unwrap().data().iter().all(|g| g.is_finite()));

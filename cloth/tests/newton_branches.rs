@@ -378,12 +378,5 @@ fn a_symmetric_cloth_leaves_the_saddle_its_branch_crosses() {
     let (states, stats) = m.simulate_newton(&u, &NewtonSettings::default()).unwrap();
     let escapes: usize = stats.iter().map(|s| s.escapes).sum();
     assert!(escapes >= 1, "{stats:?}");
-    let mut system = NewtonSystem::new(&m).unwrap();
-    for t in 1..states.len() {
-        let xt = m.begin_step(&states[t - 1], &m.step_controls(&u, t - 1));
-        assert!(
-            system.factorize_exact(states[t].data(), xt.data()),
-            "step {t}"
-        );
-    }
+    common::assert_minimizers(&m, &states, &u);
 }

@@ -129,6 +129,36 @@ impl NewtonSystem {
         out
     }
 
+    /// `x` is as converged as `f64` allows: `None` (and [`StepStats::at_roundoff`]) when it is
+    /// a minimizer, else it leaves the saddle ([`NewtonSystem::leave_saddle`]) and returns the new
+    /// `Φ`.
+    ///
+    /// # Errors
+    /// [`ClothError::NewtonSaddle`] when the saddle cannot be left.
+    fn settle(
+        &mut self,
+        x: &mut Tensor,
+        xt_d: &[f64],
+        minimizer: bool,
+        stats: &mut StepStats,
+        step: usize,
+    ) -> Result<Option<f64>, ClothError> {
+        stats.at_roundoff = minimizer;
+        if minimizer {
+            return Ok(None);
+        }
+        match self.leave_saddle(x, xt_d, stats) {
+            Some(phi) => Ok(Some(phi)),
+            None => {
+                stats.at_roundoff = true;
+                Err(ClothError::NewtonSaddle {
+                    step,
+                    residual: stats.residual,
+                })
+            }
+        }
+    }
+
     /// At `x`, a stationary point of `Φ` for `xt` that is not a minimizer: moves `x` along the
     /// exact Hessian's unstable mode, the way and by the length that lower `Φ` the most
     /// ([`curvature::escape_length`]; at a tie, the way [`curvature::orient`] picks); returns the new `Φ`, or `None` (and
@@ -230,10 +260,6 @@ impl NewtonSystem {
     ) -> Result<(Option<Tensor>, StepStats), ClothError> {
         let xt_d = xt.data();
         let mut stats = StepStats::default();
-        let saddle = |stats: &StepStats| ClothError::NewtonSaddle {
-            step,
-            residual: stats.residual,
-        };
         self.pattern.assemble(xt_d, xt_d, &mut self.grad, None);
         let mut r0 = norm(&self.grad);
         let mut x = start.clone();
@@ -251,7 +277,10 @@ impl NewtonSystem {
             return if self.factorize_exact(xt_d, xt_d) {
                 Ok((Some(xt.clone()), stats))
             } else {
-                Err(saddle(&stats))
+                Err(ClothError::NewtonSaddle {
+                    step,
+                    residual: stats.residual,
+                })
             };
         }
         let mut phi = self.pattern.energy(x.data(), xt_d);
@@ -330,16 +359,12 @@ impl NewtonSystem {
             let x_max = x.data().iter().fold(1.0f64, |m, v| m.max(v.abs()));
             let d_max = self.dir.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             if d_max <= ROUNDOFF_STEP * f64::EPSILON * x_max {
-                stats.at_roundoff = true;
                 // As converged as f64 allows, but only a minimizer has an implicit gradient.
-                let exact_pd = exact_pd || (!exact_tried && self.factorize_exact(x.data(), xt_d));
-                if exact_pd {
-                    return Ok((Some(x), stats));
+                let minimizer = exact_pd || (!exact_tried && self.factorize_exact(x.data(), xt_d));
+                match self.settle(&mut x, xt_d, minimizer, &mut stats, step)? {
+                    None => return Ok((Some(x), stats)),
+                    Some(phi_t) => (phi, stay_projected) = (phi_t, false),
                 }
-                let Some(phi_t) = self.leave_saddle(&mut x, xt_d, &mut stats) else {
-                    return Err(saddle(&stats));
-                };
-                (phi, stay_projected, stats.at_roundoff) = (phi_t, false, false);
                 continue;
             }
             let slope: f64 = self.dir.iter().zip(&self.grad).map(|(d, g)| d * g).sum();
@@ -363,16 +388,12 @@ impl NewtonSystem {
                     norm(&g)
                 };
                 if trial_res >= res {
-                    stats.at_roundoff = true;
-                    let exact_pd =
+                    let minimizer =
                         exact_pd || (!exact_tried && self.factorize_exact(x.data(), xt_d));
-                    if exact_pd {
-                        return Ok((Some(x), stats));
+                    match self.settle(&mut x, xt_d, minimizer, &mut stats, step)? {
+                        None => return Ok((Some(x), stats)),
+                        Some(phi_t) => (phi, stay_projected) = (phi_t, false),
                     }
-                    let Some(phi_t) = self.leave_saddle(&mut x, xt_d, &mut stats) else {
-                        return Err(saddle(&stats));
-                    };
-                    (phi, stay_projected, stats.at_roundoff) = (phi_t, false, false);
                     continue;
                 }
                 accepted = Some(p.energy(trial.data(), xt_d));
