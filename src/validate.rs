@@ -35,6 +35,15 @@ pub fn ensure_positive_or_infinite(name: &str, value: f64) -> Result<()> {
     )
 }
 
+/// A count is at most `max`, or an error naming it.
+pub fn ensure_at_most(name: &str, value: usize, max: usize) -> Result<()> {
+    require(
+        value <= max,
+        name,
+        format!("must be at most {max}, got {value}"),
+    )
+}
+
 /// `Ok` when `ok`, else [`Error::InvalidSetting`] for `name`.
 fn require(ok: bool, name: &str, requirement: String) -> Result<()> {
     match ok {

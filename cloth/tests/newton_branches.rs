@@ -1,15 +1,20 @@
 //! A quasi-static step can have several minimizers of `Φ` (a cloth that can buckle either way), and
 //! which one Newton's method ends in depends on its path. Measured at the controls where the SQP
-//! planner stalled on `u_obstacle` (`optimize u_obstacle --physics newton --search off`, κ = 200):
-//! moving the controls by `1e-10` along the planner's step switches step 3's state to another
-//! minimum (both found after 200+ projected-Hessian iterations, `Φ` equal to 2e-6 relative), so
-//! the rollout, `L` and the safety rows jump — no line search can pass such a jump. Load steps
-//! ([`NewtonSettings::load_steps`]) follow one branch from the previous state, and the jump is gone.
+//! planner stalled on `u_obstacle` (`optimize u_obstacle --physics newton --search off`, κ = 200,
+//! one solve per step from `x̃`): moving the controls by `1e-10` along the planner's step switches
+//! step 3's state to another minimum (both found after 200+ projected-Hessian iterations, `Φ`
+//! equal to 2e-6 relative), so the rollout, `L` and the safety rows jump — no line search can
+//! pass such a jump. Branch following ([`NewtonSettings::load_halvings`], the default) continues
+//! the previous state's branch, and the jump is gone; a jump remains only where that branch
+//! ends (a fold), measured on an 8 × 8 `u_obstacle`.
 
 use autodiff::Tensor;
 use cloth::newton::solve::NewtonSystem;
 use cloth::newton::NewtonSettings;
 use cloth::{Model, Scene};
+use common::XorShift;
+
+mod common;
 
 /// The planner's iterate at the stall (10 steps × 2 control points × xyz).
 const STALL: [f64; 60] = [
@@ -73,6 +78,71 @@ const STALL: [f64; 60] = [
     0.07422753917978324,
     0.4695778118832201,
     -0.11117757330190285,
+];
+
+/// Where the planner with branch following stalled on `u_obstacle` refined to 8 × 8 (`--search
+/// off`, 254 SQP iterations): step 3's branch ends (a fold) within `1e-9` of these controls.
+const FOLD: [f64; 60] = [
+    0.13278898399223238,
+    0.4260891923523508,
+    -0.12416368874942979,
+    -0.10659501245171303,
+    0.3864630196596416,
+    -0.08801631140983543,
+    0.13278849095994313,
+    0.4260887677562951,
+    -0.12416329070863034,
+    -0.10659471819251931,
+    0.3864628728535431,
+    -0.08801665717701222,
+    0.13278363268401291,
+    0.4260896821503879,
+    -0.12416083261145111,
+    -0.10659156157526392,
+    0.3864652282937328,
+    -0.0880155206477687,
+    0.13277531373461537,
+    0.42607543071231446,
+    -0.12416272210265152,
+    -0.10658124843590192,
+    0.3864756492990784,
+    -0.08801404285415214,
+    -0.0371430185218168,
+    0.4118975055262849,
+    -0.10913558996746758,
+    0.02415768162919298,
+    0.44452018688373063,
+    -0.10418109726715452,
+    -0.09393146831929962,
+    0.408401038710873,
+    -0.10353572179046214,
+    0.07466095852558219,
+    0.4648023342048028,
+    -0.11040602791526326,
+    -0.09393115182963169,
+    0.4084014136502669,
+    -0.10353595212972334,
+    0.07466038403012225,
+    0.46480198858121696,
+    -0.11040581400560405,
+    -0.09393115183223594,
+    0.40840141365372223,
+    -0.10353595211025439,
+    0.07466038419586601,
+    0.4648019885987951,
+    -0.11040581404433407,
+    -0.09393115296517679,
+    0.4084014140847875,
+    -0.103535951956401,
+    0.07466038530818615,
+    0.464801989573333,
+    -0.11040581423569465,
+    -0.09393115665542862,
+    0.4084013883226229,
+    -0.10353593381975369,
+    0.07466041184305806,
+    0.4648020144601718,
+    -0.1104058305842036,
 ];
 
 /// [`STALL`] plus `1e-10` times the planner's step there.
@@ -147,9 +217,11 @@ fn controls(v: &[f64; 60]) -> Tensor {
     Tensor::new(10, 6, v.to_vec())
 }
 
-fn settings(load_steps: usize) -> NewtonSettings {
+/// `load_steps` parts without branch following (`halvings` 0), or with it.
+fn settings(load_steps: usize, load_halvings: usize) -> NewtonSettings {
     NewtonSettings {
         load_steps,
+        load_halvings,
         ..NewtonSettings::default()
     }
 }
@@ -168,8 +240,8 @@ fn one_solve_per_step_switches_minimum_under_a_tiny_control_change() {
     let m = model();
     let (ua, ub) = (controls(&STALL), controls(&STALL_NUDGED));
     assert!(max_diff(&ua, &ub) < 1e-10);
-    let (sa, _) = m.simulate_newton(&ua, &settings(1)).unwrap();
-    let (sb, stats) = m.simulate_newton(&ub, &settings(1)).unwrap();
+    let (sa, _) = m.simulate_newton(&ua, &settings(1, 0)).unwrap();
+    let (sb, stats) = m.simulate_newton(&ub, &settings(1, 0)).unwrap();
     // Steps 1–2 move with the controls; step 3 lands in another minimum.
     assert!(
         max_diff(&sa[2], &sb[2]) < 1e-9,
@@ -196,11 +268,31 @@ fn one_solve_per_step_switches_minimum_under_a_tiny_control_change() {
 }
 
 #[test]
+fn branch_following_removes_the_jump() {
+    let m = model();
+    let (ua, ub) = (controls(&STALL), controls(&STALL_NUDGED));
+    let default = NewtonSettings::default();
+    assert!(default.load_halvings > 0, "branch following is the default");
+    let (sa, stats) = m.simulate_newton(&ua, &default).unwrap();
+    let (sb, _) = m.simulate_newton(&ub, &default).unwrap();
+    for t in 0..sa.len() {
+        let d = max_diff(&sa[t], &sb[t]);
+        assert!(d < 1e-8, "step {t} moved by {d:.3e}");
+    }
+    // Step 3's load was split where a solve left the convex neighbourhood of the branch.
+    assert!(
+        stats[2].rejected_loads > 0 && stats[2].loads > 1,
+        "{:?}",
+        stats[2]
+    );
+}
+
+#[test]
 fn load_steps_follow_one_branch() {
     let m = model();
     let (ua, ub) = (controls(&STALL), controls(&STALL_NUDGED));
-    let (sa, _) = m.simulate_newton(&ua, &settings(16)).unwrap();
-    let (sb, _) = m.simulate_newton(&ub, &settings(16)).unwrap();
+    let (sa, _) = m.simulate_newton(&ua, &settings(16, 0)).unwrap();
+    let (sb, _) = m.simulate_newton(&ub, &settings(16, 0)).unwrap();
     for t in 0..sa.len() {
         let d = max_diff(&sa[t], &sb[t]);
         assert!(d < 1e-8, "step {t} moved by {d:.3e}");
@@ -208,13 +300,83 @@ fn load_steps_follow_one_branch() {
 }
 
 #[test]
-fn one_load_step_is_the_plain_solve() {
-    // load_steps 1 is bitwise the solve from x̃ (the former behaviour).
+fn one_load_step_without_halvings_is_the_plain_solve() {
+    // load_steps 1, load_halvings 0 is bitwise the solve from x̃ (the former behaviour).
     let m = model();
     let u = controls(&STALL);
-    let (states, _) = m.simulate_newton(&u, &settings(1)).unwrap();
+    let (states, _) = m.simulate_newton(&u, &settings(1, 0)).unwrap();
     let mut system = NewtonSystem::new(&m).unwrap();
     let xt = m.begin_step(&states[0], &m.step_controls(&u, 0));
-    let (x, _) = system.solve(&xt, 1, &settings(1)).unwrap();
+    let (x, _) = system.solve(&xt, 1, &settings(1, 0)).unwrap();
     assert_eq!(x.data(), states[1].data());
+}
+
+#[test]
+fn the_previous_state_is_the_minimizer_where_the_load_path_starts() {
+    // x̂₀ = x + M⁻¹∇E(x): ∇Φ(x; x̂₀) = 0, so the solve from x̂₀'s minimizer x takes no iteration.
+    let m = model();
+    let u = controls(&STALL);
+    let (states, _) = m.simulate_newton(&u, &NewtonSettings::default()).unwrap();
+    let mut system = NewtonSystem::new(&m).unwrap();
+    let x = &states[4];
+    let x0 = system.rest_predicted(x, &m.inv_mass);
+    assert!(max_diff(&x0, x) > 1e-3, "the shift is not trivial");
+    let (y, stats) = system.solve_from(x, &x0, 5, &settings(1, 0)).unwrap();
+    assert_eq!(stats.iterations, 0, "{stats:?}");
+    assert_eq!(y.data(), x.data());
+}
+
+#[test]
+fn a_jump_remains_where_the_branch_ends() {
+    // On u_obstacle at 8 × 8, where the planner with branch following stalled: a 1e-9 change of
+    // the controls moves step 3 by 2e-2, and Newton started from the first state at the changed
+    // controls does not stay near it (its branch has ended: a fold), while the second state at
+    // the first controls is still a minimizer (one iteration): the planner is at the edge of a
+    // branch, where no smooth method finds a KKT point.
+    let scene = Scene::builtin("u_obstacle").unwrap().refined(8, 8).unwrap();
+    let m = Model::from_scene(&scene).unwrap();
+    let ua = controls(&FOLD);
+    let mut rng = XorShift::new(7);
+    let mut ub = ua.clone();
+    for v in ub.data_mut() {
+        *v += 1e-9 * rng.uniform(-1.0, 1.0);
+    }
+    let set = NewtonSettings::default();
+    let (sa, _) = m.simulate_newton(&ua, &set).unwrap();
+    let (sb, _) = m.simulate_newton(&ub, &set).unwrap();
+    assert!(max_diff(&sa[2], &sb[2]) < 1e-8);
+    let jump = max_diff(&sa[3], &sb[3]);
+    assert!(jump > 1e-2, "step 3 moved by {jump:.3e}");
+    let mut system = NewtonSystem::new(&m).unwrap();
+    let xt_b = m.begin_step(&sb[2], &m.step_controls(&ub, 2));
+    let (from_a, _) = system
+        .solve_from(&sa[3], &xt_b, 3, &settings(1, 0))
+        .unwrap();
+    assert!(max_diff(&from_a, &sa[3]) > 1e-2, "A's branch goes on");
+    assert!(max_diff(&from_a, &sb[3]) < 1e-8);
+    let xt_a = m.begin_step(&sa[2], &m.step_controls(&ua, 2));
+    let (from_b, stats) = system
+        .solve_from(&sb[3], &xt_a, 3, &settings(1, 0))
+        .unwrap();
+    assert!(
+        max_diff(&from_b, &sb[3]) < 1e-8 && stats.iterations <= 2,
+        "{stats:?}"
+    );
+}
+
+#[test]
+fn a_symmetric_cloth_leaves_the_saddle_its_branch_crosses() {
+    // u_obstacle at 20 × 20 from its initial guess: continuing the flat, symmetric state crosses
+    // a buckling point, where the state is a saddle of Φ (this was `NewtonSaddle`); it is left
+    // along the unstable mode, and every returned state is a minimizer.
+    let scene = Scene::builtin("u_obstacle")
+        .unwrap()
+        .refined(20, 20)
+        .unwrap();
+    let m = Model::from_scene(&scene).unwrap();
+    let u = scene.initial_controls();
+    let (states, stats) = m.simulate_newton(&u, &NewtonSettings::default()).unwrap();
+    let escapes: usize = stats.iter().map(|s| s.escapes).sum();
+    assert!(escapes >= 1, "{stats:?}");
+    common::assert_minimizers(&m, &states, &u);
 }

@@ -44,7 +44,7 @@ fn newton_model(s: &Scene) -> Model {
     m.solver = Solver::Newton(NewtonSettings {
         tolerance: 1e-12,
         max_iterations: 200,
-        load_steps: 1,
+        ..NewtonSettings::default()
     });
     m
 }

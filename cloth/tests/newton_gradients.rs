@@ -57,7 +57,7 @@ fn newton_model(scene: &Scene, user_constraint: bool) -> Model {
     m.solver = Solver::Newton(NewtonSettings {
         tolerance: 1e-13,
         max_iterations: 100,
-        load_steps: 1,
+        ..NewtonSettings::default()
     });
     m
 }

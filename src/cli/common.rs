@@ -5,7 +5,7 @@ use anyhow::{Context, Result};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{self, top_view_path, RolloutFigure};
 use clothopt::plan::{controls_from_nested, initial_controls};
-use clothopt::validate::{ensure_iterations, ensure_open_unit};
+use clothopt::validate::{ensure_at_most, ensure_iterations, ensure_open_unit};
 use std::path::{Path, PathBuf};
 
 /// The animated outputs shared by `simulate` and `optimize`.
@@ -56,6 +56,11 @@ pub struct PhysicsArgs {
     /// Newton's load steps per time step, ≥ 1 (default: the scene's, else 1).
     #[arg(long)]
     physics_load_steps: Option<usize>,
+    /// Newton's branch following: most halvings of a load increment whose solve leaves the
+    /// convex neighbourhood of a minimizer, 0–20 (default: the scene's, else 10; 0 with one
+    /// load step is one solve from x̃ per step).
+    #[arg(long)]
+    physics_load_halvings: Option<usize>,
 }
 
 /// `--physics` values.
@@ -82,6 +87,14 @@ impl PhysicsArgs {
         if let Some(k) = self.physics_load_steps {
             ensure_iterations("--physics-load-steps", k)?;
             scene.physics.load_steps = Some(k);
+        }
+        if let Some(h) = self.physics_load_halvings {
+            ensure_at_most(
+                "--physics-load-halvings",
+                h,
+                cloth::newton::MAX_LOAD_HALVINGS,
+            )?;
+            scene.physics.load_halvings = Some(h);
         }
         Ok(())
     }

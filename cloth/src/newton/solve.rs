@@ -12,8 +12,9 @@
 
 use super::assembly::{HessianKind, Pattern};
 use super::contact::Contacts;
+use super::curvature;
 use super::factor::Factor;
-use super::{check_supported, NewtonSettings};
+use super::{check_supported, NewtonSettings, MAX_LOAD_HALVINGS};
 use crate::error::ClothError;
 use crate::model::Model;
 use crate::sim::{check_finite, Controls};
@@ -27,6 +28,8 @@ const ROUNDOFF_STEP: f64 = 16.0;
 const PHI_ROUNDOFF: f64 = 1024.0;
 /// Halvings of the step before the line search gives up.
 const MAX_HALVINGS: usize = 40;
+/// Saddles one solve leaves at most (a guard against cycling between saddles).
+const MAX_SADDLE_ESCAPES: usize = 8;
 
 /// What one step's Newton solve did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -43,6 +46,13 @@ pub struct StepStats {
     /// Iterations that were within the tolerance but not at a minimizer (the exact Hessian was
     /// not positive definite), so the solve went on.
     pub at_saddle: usize,
+    /// Saddles of `Φ` left along their unstable mode ([`super::curvature`]).
+    pub escapes: usize,
+    /// Load increments solved ([`NewtonSettings::load_steps`] or more, when halved).
+    pub loads: usize,
+    /// Load increments abandoned and halved because a solve left the region where the exact
+    /// Hessian is positive definite.
+    pub rejected_loads: usize,
 }
 
 /// A model's Newton system with its buffers: built once per rollout.
@@ -102,6 +112,97 @@ impl NewtonSystem {
         }
     }
 
+    /// `x + M⁻¹∇E(x)` (control particles as in `x`), with `E` the constraint energy and `M`
+    /// the masses `1/inv_mass`: the predicted state for which `x` is stationary (a minimizer when
+    /// `x` was one of any step's `Φ`: the Hessian does not depend on the predicted state).
+    pub fn rest_predicted(&mut self, x: &Tensor, inv_mass: &[f64]) -> Tensor {
+        self.pattern
+            .assemble(x.data(), x.data(), &mut self.grad, None);
+        let mut out = x.clone();
+        for (p, &w) in inv_mass.iter().enumerate() {
+            if let Some(d) = self.pattern.dof(p) {
+                for k in 0..3 {
+                    out.data_mut()[3 * p + k] += w * self.grad[d + k];
+                }
+            }
+        }
+        out
+    }
+
+    /// `x` is as converged as `f64` allows: `None` (and [`StepStats::at_roundoff`]) when it is
+    /// a minimizer, else it leaves the saddle ([`NewtonSystem::leave_saddle`]) and returns the new
+    /// `Φ`.
+    ///
+    /// # Errors
+    /// [`ClothError::NewtonSaddle`] when the saddle cannot be left.
+    fn settle(
+        &mut self,
+        x: &mut Tensor,
+        xt_d: &[f64],
+        minimizer: bool,
+        stats: &mut StepStats,
+        step: usize,
+    ) -> Result<Option<f64>, ClothError> {
+        stats.at_roundoff = minimizer;
+        if minimizer {
+            return Ok(None);
+        }
+        match self.leave_saddle(x, xt_d, stats) {
+            Some(phi) => Ok(Some(phi)),
+            None => {
+                stats.at_roundoff = true;
+                Err(ClothError::NewtonSaddle {
+                    step,
+                    residual: stats.residual,
+                })
+            }
+        }
+    }
+
+    /// At `x`, a stationary point of `Φ` for `xt` that is not a minimizer: moves `x` along the
+    /// exact Hessian's unstable mode, the way and by the length that lower `Φ` the most
+    /// ([`curvature::escape_length`]; at a tie, the way [`curvature::orient`] picks); returns the new `Φ`, or `None` (and
+    /// leaves `x`) when no direction of negative curvature is found, none lowers `Φ`, or the
+    /// solve has left [`MAX_SADDLE_ESCAPES`] saddles already.
+    fn leave_saddle(&mut self, x: &mut Tensor, xt_d: &[f64], stats: &mut StepStats) -> Option<f64> {
+        if stats.escapes == MAX_SADDLE_ESCAPES {
+            return None;
+        }
+        self.assemble_at(x.data(), xt_d, HessianKind::Exact);
+        let exact = self.values.clone();
+        self.assemble_at(x.data(), xt_d, HessianKind::Projected);
+        if !self.factor.factorize(&self.pattern, &self.values) {
+            return None;
+        }
+        let p = &self.pattern;
+        let mut v = curvature::negative_curvature(p, &exact, &self.values, &self.factor)?;
+        self.contacts.project_tangent(&mut v);
+        // M (x̃ − x) in degree-of-freedom order.
+        let diff: Vec<f64> = xt_d.iter().zip(x.data()).map(|(a, b)| a - b).collect();
+        let mut free = vec![0.0; p.n_dof];
+        p.gather(&diff, &mut free);
+        let mut scattered = vec![0.0; diff.len()];
+        p.add_mass_times(&free, &mut scattered);
+        let mut pull = free;
+        p.gather(&scattered, &mut pull);
+        curvature::orient(&mut v, &pull);
+        let phi0 = p.energy(x.data(), xt_d);
+        let x_max = x.data().iter().fold(1.0f64, |m, a| m.max(a.abs()));
+        let mut trial = x.clone();
+        let contacts = &self.contacts;
+        let mut phi_at = |eta: f64| {
+            trial.data_mut().copy_from_slice(x.data());
+            p.add_scaled(trial.data_mut(), eta, &v);
+            contacts.project(trial.data_mut());
+            p.energy(trial.data(), xt_d)
+        };
+        let eta = curvature::escape_length(f64::EPSILON.sqrt() * x_max, phi0, &mut phi_at)?;
+        let phi_t = phi_at(eta);
+        x.data_mut().copy_from_slice(trial.data());
+        stats.escapes += 1;
+        Some(phi_t)
+    }
+
     /// Factorizes the exact Hessian of `Φ` at `x` for the predicted state `xt` (with contact
     /// rows: the reduced exact Hessian of the Lagrangian on the active set at `x`); false when
     /// it is not positive definite.
@@ -138,12 +239,27 @@ impl NewtonSystem {
         step: usize,
         settings: &NewtonSettings,
     ) -> Result<(Tensor, StepStats), ClothError> {
+        let (x, stats) = self.solve_inner(start, xt, step, settings, false)?;
+        Ok((
+            x.expect("a solve that may leave the convex region returns a state"),
+            stats,
+        ))
+    }
+
+    /// [`NewtonSystem::solve_from`]; with `convex_only`, the solve gives up (`None`, with the
+    /// statistics so far) at the first iterate whose exact Hessian is not positive definite: the
+    /// start was not in the convex neighbourhood of a minimizer, so where Newton ends depends on
+    /// the path ([`Model::simulate_newton`]'s branch following).
+    fn solve_inner(
+        &mut self,
+        start: &Tensor,
+        xt: &Tensor,
+        step: usize,
+        settings: &NewtonSettings,
+        convex_only: bool,
+    ) -> Result<(Option<Tensor>, StepStats), ClothError> {
         let xt_d = xt.data();
         let mut stats = StepStats::default();
-        let saddle = |stats: &StepStats| ClothError::NewtonSaddle {
-            step,
-            residual: stats.residual,
-        };
         self.pattern.assemble(xt_d, xt_d, &mut self.grad, None);
         let mut r0 = norm(&self.grad);
         let mut x = start.clone();
@@ -159,9 +275,12 @@ impl NewtonSystem {
         if r0 == 0.0 {
             // x̃ is already stationary; it must still be a minimizer for the implicit gradient.
             return if self.factorize_exact(xt_d, xt_d) {
-                Ok((xt.clone(), stats))
+                Ok((Some(xt.clone()), stats))
             } else {
-                Err(saddle(&stats))
+                Err(ClothError::NewtonSaddle {
+                    step,
+                    residual: stats.residual,
+                })
             };
         }
         let mut phi = self.pattern.energy(x.data(), xt_d);
@@ -194,10 +313,18 @@ impl NewtonSystem {
             let exact_pd = exact_tried && self.factor.factorize(&self.pattern, &self.values);
             if within_tolerance {
                 if exact_pd {
-                    return Ok((x, stats));
+                    return Ok((Some(x), stats));
                 }
-                // Within the tolerance but at a saddle of Φ: keep descending.
+                // Within the tolerance but at a saddle of Φ: leave it along its unstable mode
+                // (or, when none is found, keep descending).
                 stats.at_saddle += 1;
+                if !convex_only {
+                    if let Some(phi_t) = self.leave_saddle(&mut x, xt_d, &mut stats) {
+                        phi = phi_t;
+                        stay_projected = false;
+                        continue;
+                    }
+                }
             }
             let not_converged = |stats: &StepStats| ClothError::NewtonNotConverged {
                 step,
@@ -207,6 +334,9 @@ impl NewtonSystem {
             };
             if stats.iterations == settings.max_iterations {
                 return Err(not_converged(&stats));
+            }
+            if convex_only && !exact_pd {
+                return Ok((None, stats));
             }
             stats.iterations += 1;
             if !exact_pd {
@@ -229,14 +359,13 @@ impl NewtonSystem {
             let x_max = x.data().iter().fold(1.0f64, |m, v| m.max(v.abs()));
             let d_max = self.dir.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             if d_max <= ROUNDOFF_STEP * f64::EPSILON * x_max {
-                stats.at_roundoff = true;
                 // As converged as f64 allows, but only a minimizer has an implicit gradient.
-                let exact_pd = exact_pd || (!exact_tried && self.factorize_exact(x.data(), xt_d));
-                return if exact_pd {
-                    Ok((x, stats))
-                } else {
-                    Err(saddle(&stats))
-                };
+                let minimizer = exact_pd || (!exact_tried && self.factorize_exact(x.data(), xt_d));
+                match self.settle(&mut x, xt_d, minimizer, &mut stats, step)? {
+                    None => return Ok((Some(x), stats)),
+                    Some(phi_t) => (phi, stay_projected) = (phi_t, false),
+                }
+                continue;
             }
             let slope: f64 = self.dir.iter().zip(&self.grad).map(|(d, g)| d * g).sum();
             let mut alpha = 1.0;
@@ -259,14 +388,13 @@ impl NewtonSystem {
                     norm(&g)
                 };
                 if trial_res >= res {
-                    stats.at_roundoff = true;
-                    let exact_pd =
+                    let minimizer =
                         exact_pd || (!exact_tried && self.factorize_exact(x.data(), xt_d));
-                    return if exact_pd {
-                        Ok((x, stats))
-                    } else {
-                        Err(saddle(&stats))
-                    };
+                    match self.settle(&mut x, xt_d, minimizer, &mut stats, step)? {
+                        None => return Ok((Some(x), stats)),
+                        Some(phi_t) => (phi, stay_projected) = (phi_t, false),
+                    }
+                    continue;
                 }
                 accepted = Some(p.energy(trial.data(), xt_d));
             } else {
@@ -323,10 +451,14 @@ impl Model {
         Ok((states, stats))
     }
 
-    /// One step (number `step`, 1-based) from `x_prev` with control move `u`, by
-    /// [`NewtonSettings::load_steps`] continuation solves: the control particles move by
-    /// `u · j / load_steps`, `j = 1, …`, each solve starting from the last one's minimizer; the
-    /// iteration counts are summed and the residual is the last solve's.
+    /// One step (number `step`, 1-based) from `x_prev` with control move `u`, by continuation
+    /// in the control move ([`NewtonSettings::load_steps`], [`NewtonSettings::load_halvings`]):
+    /// the control particles move by `u · s` for increasing load fractions `s` up to 1, each
+    /// solve starting from the last one's minimizer (the first from `x̃`). A solve whose iterate
+    /// leaves the region where the exact Hessian is positive definite is abandoned and the
+    /// increment halved (at most `load_halvings` times; at the smallest increment the solve
+    /// takes whatever path it needs); after an accepted solve the increment doubles again, up to
+    /// `1/load_steps`. The iteration counts are summed, the residual is the last solve's.
     fn solve_step_newton(
         &self,
         system: &mut NewtonSystem,
@@ -335,24 +467,63 @@ impl Model {
         step: usize,
         settings: &NewtonSettings,
     ) -> Result<(Tensor, StepStats), ClothError> {
-        let k = settings.load_steps.max(1);
-        let mut x: Option<Tensor> = None;
-        let mut total = StepStats::default();
-        for j in 1..=k {
-            let mut uj = u.clone();
-            if j < k {
-                let s = j as f64 / k as f64;
-                uj.data_mut().iter_mut().for_each(|v| *v *= s);
-            }
-            let xt = self.begin_step(x_prev, &uj);
-            let (xj, sj) = system.solve_from(x.as_ref().unwrap_or(&xt), &xt, step, settings)?;
-            x = Some(xj);
-            total.iterations += sj.iterations;
-            total.projected += sj.projected;
-            total.at_saddle += sj.at_saddle;
-            total.residual = sj.residual;
-            total.at_roundoff = sj.at_roundoff;
+        let xt = self.begin_step(x_prev, u);
+        let mut stats = StepStats::default();
+        if settings.load_steps <= 1 && settings.load_halvings == 0 {
+            let (x, s) = system.solve(&xt, step, settings)?;
+            return Ok((x, StepStats { loads: 1, ..s }));
         }
-        Ok((x.expect("at least one load step"), total))
+        // The path of predicted states x̂(s) = (1 − s) x̂₀ + s x̃, with x̂₀ = x_prev + M⁻¹∇E(x_prev):
+        // x_prev is the minimizer at s = 0 (same Hessian as the step it ended), x̃ at s = 1.
+        let x0 = system.rest_predicted(x_prev, &self.inv_mass);
+        // Load fractions in units of 1/(load_steps · 2^halvings), so that they are exact.
+        let finest = 1usize << settings.load_halvings.min(MAX_LOAD_HALVINGS);
+        let total = settings.load_steps.max(1) * finest;
+        let (mut done, mut increment, mut smallest) = (0, finest, 1);
+        let mut x = x_prev.clone();
+        while done < total {
+            let next = (done + increment).min(total);
+            let xs = if next == total {
+                xt.clone()
+            } else {
+                let s = next as f64 / total as f64;
+                let mut xs = x0.clone();
+                xs.data_mut()
+                    .iter_mut()
+                    .zip(xt.data())
+                    .for_each(|(a, b)| *a += s * (b - *a));
+                xs
+            };
+            // The smallest increment takes whatever path it needs (past a fold or a bifurcation
+            // of the branch); where that ends at a saddle too shallow to leave (just past a
+            // bifurcation its unstable mode lowers Φ by less than Φ's round-off), it is doubled.
+            let convex_only = increment > smallest;
+            let (xj, sj) = match system.solve_inner(&x, &xs, step, settings, convex_only) {
+                Err(ClothError::NewtonSaddle { .. }) if next < total => {
+                    stats.rejected_loads += 1;
+                    smallest = (2 * smallest).min(total - done);
+                    increment = smallest;
+                    continue;
+                }
+                r => r?,
+            };
+            stats.iterations += sj.iterations;
+            stats.projected += sj.projected;
+            stats.at_saddle += sj.at_saddle;
+            stats.escapes += sj.escapes;
+            let Some(xj) = xj else {
+                stats.rejected_loads += 1;
+                increment /= 2;
+                continue;
+            };
+            stats.loads += 1;
+            stats.residual = sj.residual;
+            stats.at_roundoff = sj.at_roundoff;
+            x = xj;
+            done = next;
+            increment = (2 * increment).min(finest);
+            smallest = 1;
+        }
+        Ok((x, stats))
     }
 }

@@ -334,6 +334,11 @@ pub struct Physics {
     /// [`crate::newton::NewtonSettings::load_steps`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub load_steps: Option<usize>,
+    /// Newton only: most halvings of a load increment whose solve leaves the convex
+    /// neighbourhood of a minimizer (0 to [`crate::newton::MAX_LOAD_HALVINGS`]), see
+    /// [`crate::newton::NewtonSettings::load_halvings`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_halvings: Option<usize>,
     /// Self-collision of the cloth (absent: none), see [`crate::contact::self_collision`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub self_collision: Option<SelfCollisionSpec>,
@@ -380,6 +385,7 @@ impl Physics {
                     tolerance: self.tolerance.unwrap_or(d.tolerance),
                     max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),
                     load_steps: self.load_steps.unwrap_or(d.load_steps),
+                    load_halvings: self.load_halvings.unwrap_or(d.load_halvings),
                 })
             }
         }

@@ -233,6 +233,15 @@ impl Scene {
         if p.load_steps == Some(0) {
             return Err(invalid("physics.load_steps", "must be at least 1, got 0"));
         }
+        if let Some(h) = p.load_halvings {
+            let max = crate::newton::MAX_LOAD_HALVINGS;
+            if h > max {
+                return Err(invalid(
+                    "physics.load_halvings",
+                    format!("must be at most {max}, got {h}"),
+                ));
+            }
+        }
         if p.max_newton_iterations == Some(0) {
             return Err(invalid(
                 "physics.max_newton_iterations",

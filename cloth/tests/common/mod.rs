@@ -240,3 +240,16 @@ pub fn evaluate_in_pool(
         .unwrap()
         .install(|| m.evaluate(u, 0.0, true).unwrap())
 }
+
+/// Asserts that every state of the Newton rollout `states` of controls `u` is a minimizer of its
+/// step's `Φ` (the exact Hessian is positive definite there).
+pub fn assert_minimizers(model: &Model, states: &[Tensor], u: &Tensor) {
+    let mut system = cloth::newton::solve::NewtonSystem::new(model).unwrap();
+    for t in 1..states.len() {
+        let xt = model.begin_step(&states[t - 1], &model.step_controls(u, t - 1));
+        assert!(
+            system.factorize_exact(states[t].data(), xt.data()),
+            "step {t} is not a minimizer"
+        );
+    }
+}

@@ -65,6 +65,11 @@ struct Args {
     /// mesh sizes (e.g. `10,20,40`), against the converged Newton gradient; no other rows.
     #[arg(long, value_delimiter = ',')]
     newton_sizes: Vec<usize>,
+    /// Mesh sizes of the Newton rows at which each setting also plans `u_obstacle` and the plan
+    /// is re-simulated with converged physics (Newton at the reference tolerance) and with XPBD
+    /// at 3000 iterations.
+    #[arg(long, value_delimiter = ',', default_value = "10")]
+    newton_plan_sizes: Vec<usize>,
     /// XPBD iteration counts of the Newton rows.
     #[arg(long, value_delimiter = ',', default_value = "100,1000")]
     newton_xpbd_iterations: Vec<usize>,
@@ -170,8 +175,14 @@ fn main() -> Result<()> {
     }
 
     if !args.newton_sizes.is_empty() {
-        let rows = newton::sweep(&args.newton_sizes, &args.newton_xpbd_iterations, cfg.reps)?;
+        let rows = newton::sweep(
+            &args.newton_sizes,
+            &args.newton_xpbd_iterations,
+            &args.newton_plan_sizes,
+            &cfg,
+        )?;
         newton::print_table(&rows);
+        newton::print_plans(&rows);
         if let Some(out) = &args.out {
             newton::write(out, &rows)?;
             println!("wrote {}", out.display());

@@ -6,7 +6,9 @@
 //! reference, so their error includes the distance between XPBD's fixed point and Newton's
 //! minimizer (they differ: README "Which physics solver"), which no iteration count removes.
 //! Timing and peak memory come from a fresh child process per row (the mesh measurement).
-//! Planning with each physics is not part of these rows.
+//! At the `--newton-plan-sizes`, each setting also plans `u_obstacle` with its own physics, and
+//! the plan is re-simulated with converged physics (Newton at the reference tolerance) and with
+//! XPBD at [`XPBD_CHECK_ITERATIONS`] (the check; XPBD's limit is another fixed point).
 
 use anyhow::Result;
 use cloth::scene::SolverKind;
@@ -15,13 +17,29 @@ use clothopt::plan;
 use clothopt::plot::{draw_xy, Series, XyFigure};
 use serde::Serialize;
 
-use crate::rows::MeshRow;
-use crate::sweep::{rel_err, spawn_mesh_with};
+use crate::rows::{MeshRow, PlanRow};
+use crate::sweep::{finite, plan_at, rel_err, spawn_mesh_with, with_iterations, Stretch};
+use crate::Config;
 
 /// Newton tolerances swept (relative `‖∇Φ‖`).
 pub const TOLERANCES: [f64; 4] = [1e-4, 1e-6, 1e-8, 1e-10];
 /// The reference's tolerance.
 pub const REFERENCE_TOLERANCE: f64 = 1e-12;
+/// XPBD iterations of the second re-simulation of each plan.
+pub const XPBD_CHECK_ITERATIONS: usize = 3000;
+
+/// A plan made with one row's physics, re-simulated.
+#[derive(Serialize)]
+pub struct NewtonPlan {
+    /// The plan, and its re-simulation with Newton at [`REFERENCE_TOLERANCE`] (`true_*`, `safe`).
+    #[serde(flatten)]
+    pub plan: PlanRow,
+    /// Smallest obstacle distance of the plan re-simulated with XPBD at
+    /// [`XPBD_CHECK_ITERATIONS`].
+    pub xpbd_check_min_sdf: Option<f64>,
+    /// That re-simulation passes [`plan::is_safe`].
+    pub xpbd_check_safe: Option<bool>,
+}
 
 /// One solver setting at one mesh size.
 #[derive(Serialize)]
@@ -40,6 +58,10 @@ pub struct SolverRow {
     pub l: f64,
     /// Forward and forward+∇L timing and peak RSS (one thread, fresh process).
     pub measured: MeshRow,
+    /// The plan made with this physics (at the `--newton-plan-sizes`).
+    pub plan: Option<NewtonPlan>,
+    /// Why there is no plan.
+    pub plan_skipped: Option<String>,
 }
 
 /// `scene` solved by Newton to `tolerance`.
@@ -58,42 +80,86 @@ fn grad_l(scene: &Scene) -> Result<(autodiff::Tensor, f64)> {
     Ok((ev.grad_l.expect("requested"), ev.metrics.l))
 }
 
-/// The rows at each size of `sizes`: Newton at [`TOLERANCES`], XPBD at `xpbd_iters`.
-pub fn sweep(sizes: &[usize], xpbd_iters: &[usize], reps: usize) -> Result<Vec<SolverRow>> {
+/// The rows at each size of `sizes`: Newton at [`TOLERANCES`], XPBD at `xpbd_iters`; at the
+/// sizes in `plan_sizes`, each with its plan ([`plan_with`]).
+pub fn sweep(
+    sizes: &[usize],
+    xpbd_iters: &[usize],
+    plan_sizes: &[usize],
+    cfg: &Config,
+) -> Result<Vec<SolverRow>> {
     let mut rows = Vec::new();
     for &n in sizes {
         let scene = Scene::builtin("u_obstacle")?.refined(n, n)?;
-        let (reference, _) = grad_l(&with_newton(&scene, REFERENCE_TOLERANCE))?;
-        for tol in TOLERANCES {
-            eprintln!("newton n = {n}, tolerance {tol:e} …");
-            let (g, l) = grad_l(&with_newton(&scene, tol))?;
-            rows.push(SolverRow {
-                solver: "newton",
-                n,
-                tolerance: Some(tol),
-                n_iter: None,
-                grad_rel_err: rel_err(&g, &reference),
-                l,
-                measured: spawn_mesh_with(n, 1, reps, 0, Some(tol))?,
-            });
-        }
-        for &it in xpbd_iters {
-            eprintln!("xpbd n = {n}, {it} iterations …");
-            let mut s = scene.clone();
-            s.physics.iterations = it;
+        let reference_scene = with_newton(&scene, REFERENCE_TOLERANCE);
+        let (reference, _) = grad_l(&reference_scene)?;
+        let checks = plan_sizes
+            .contains(&n)
+            .then(|| -> Result<_> {
+                let truth = Model::from_scene(&reference_scene)?;
+                let xpbd = Model::from_scene(&with_iterations(&scene, XPBD_CHECK_ITERATIONS))?;
+                Ok((truth, xpbd))
+            })
+            .transpose()?;
+        let settings = TOLERANCES
+            .iter()
+            .map(|&tol| (with_newton(&scene, tol), Some(tol), None))
+            .chain(
+                xpbd_iters
+                    .iter()
+                    .map(|&it| (with_iterations(&scene, it), None, Some(it))),
+            );
+        for (s, tolerance, n_iter) in settings {
+            let what = match (tolerance, n_iter) {
+                (Some(tol), _) => format!("newton n = {n}, tolerance {tol:e}"),
+                (_, it) => format!("xpbd n = {n}, {} iterations", it.unwrap_or(0)),
+            };
+            eprintln!("{what} …");
             let (g, l) = grad_l(&s)?;
+            let (plan, plan_skipped) = match &checks {
+                None => (None, Some(format!("n = {n} is not in --newton-plan-sizes"))),
+                Some((truth, xpbd)) => {
+                    eprintln!("{what}: planning …");
+                    match plan_with(&s, truth, xpbd, cfg) {
+                        Ok(p) => (Some(p), None),
+                        Err(e) => (None, Some(format!("planning failed: {e:#}"))),
+                    }
+                }
+            };
             rows.push(SolverRow {
-                solver: "xpbd",
+                solver: if tolerance.is_some() {
+                    "newton"
+                } else {
+                    "xpbd"
+                },
                 n,
-                tolerance: None,
-                n_iter: Some(it),
+                tolerance,
+                n_iter,
                 grad_rel_err: rel_err(&g, &reference),
                 l,
-                measured: spawn_mesh_with(n, 1, reps, it, None)?,
+                measured: spawn_mesh_with(n, 1, cfg.reps, n_iter.unwrap_or(0), tolerance)?,
+                plan,
+                plan_skipped,
             });
         }
     }
     Ok(rows)
+}
+
+/// Plans `scene`'s task with its own physics from its initial guess, then re-simulates the plan
+/// with `truth` (converged Newton) and `xpbd` (XPBD at [`XPBD_CHECK_ITERATIONS`]).
+fn plan_with(scene: &Scene, truth: &Model, xpbd: &Model, cfg: &Config) -> Result<NewtonPlan> {
+    let model = Model::from_scene(scene)?;
+    let start = plan::initial_controls(scene, &model)?;
+    let stretch = Stretch::of(scene);
+    let (plan, controls) = plan_at(&model, scene, truth, &start, &stretch, cfg)?;
+    let check = xpbd.evaluate(&controls, scene.task.delta, false)?;
+    let min_sdf = finite(check.metrics.min_sdf);
+    Ok(NewtonPlan {
+        plan,
+        xpbd_check_min_sdf: min_sdf,
+        xpbd_check_safe: min_sdf.map(|_| plan::is_safe(&check.metrics)),
+    })
 }
 
 /// Prints the rows as a table.
@@ -106,11 +172,7 @@ pub fn print_table(rows: &[SolverRow]) {
         "n", "solver", "setting", "∇L rel err", "L", "forward ms", "fwd+∇L ms", "peak MB"
     );
     for r in rows {
-        let setting = match (r.tolerance, r.n_iter) {
-            (Some(t), _) => format!("tol {t:.0e}"),
-            (_, Some(i)) => format!("{i} it"),
-            _ => String::new(),
-        };
+        let setting = setting(r);
         let m = &r.measured;
         println!(
             "{:>4} {:>7} {:>10} {:>12.3e} {:>10.4} {:>12.1} {:>14.1} {:>9}",
@@ -123,6 +185,65 @@ pub fn print_table(rows: &[SolverRow]) {
             1e3 * m.forward_grad_l.median_s,
             m.peak_rss_mb.map_or("-".into(), |v| format!("{v:.0}")),
         );
+    }
+}
+
+/// Prints the plans of the rows that have one: what the planner saw with that physics, and the
+/// plan re-simulated with converged Newton and with XPBD at [`XPBD_CHECK_ITERATIONS`].
+pub fn print_plans(rows: &[SolverRow]) {
+    let planned: Vec<_> = rows
+        .iter()
+        .filter_map(|r| r.plan.as_ref().map(|p| (r, p)))
+        .collect();
+    if planned.is_empty() {
+        return;
+    }
+    println!(
+        "\nu_obstacle plans made with each physics (min SDF ≥ δ is safe), re-simulated with Newton at tolerance {REFERENCE_TOLERANCE:e} and with XPBD at {XPBD_CHECK_ITERATIONS} iterations"
+    );
+    println!(
+        "{:>4} {:>7} {:>10} {:>16} {:>6} {:>6} {:>9} {:>9} {:>10} {:>6} {:>11} {:>6}",
+        "n",
+        "solver",
+        "setting",
+        "status",
+        "iters",
+        "sims",
+        "L",
+        "min SDF",
+        "Newton SDF",
+        "safe",
+        "XPBD SDF",
+        "safe"
+    );
+    let opt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.4}"));
+    let yes = |v: Option<bool>| v.map_or("-", |b| if b { "yes" } else { "NO" });
+    for (r, p) in planned {
+        let q = &p.plan;
+        println!(
+            "{:>4} {:>7} {:>10} {:>16} {:>6} {:>6} {:>9.4} {:>9} {:>10} {:>6} {:>11} {:>6}",
+            r.n,
+            r.solver,
+            setting(r),
+            q.status,
+            q.iterations,
+            q.simulations,
+            q.planned_l,
+            opt(q.planned_min_sdf),
+            opt(q.true_min_sdf),
+            yes(q.safe),
+            opt(p.xpbd_check_min_sdf),
+            yes(p.xpbd_check_safe),
+        );
+    }
+}
+
+/// A row's setting as a label: Newton's tolerance or XPBD's iterations.
+fn setting(r: &SolverRow) -> String {
+    match (r.tolerance, r.n_iter) {
+        (Some(t), _) => format!("tol {t:.0e}"),
+        (_, Some(i)) => format!("{i} it"),
+        _ => String::new(),
     }
 }
 

@@ -19,7 +19,7 @@ pub struct Stretch {
 }
 
 impl Stretch {
-    fn of(scene: &Scene) -> Stretch {
+    pub fn of(scene: &Scene) -> Stretch {
         let x = scene.rest_positions();
         let edges = scene.mesh().stretch_edges();
         let rest = edges.iter().map(|&[i, j]| dist(&x[i], &x[j])).collect();
@@ -279,7 +279,7 @@ pub fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, Option
         } else {
             eprintln!("{name}: n_iter = {n_iter}: planning …");
             match plan_at(&model, &scene, &ref_model, &start, &stretch, cfg) {
-                Ok(p) => row.plan = Some(p),
+                Ok((p, _)) => row.plan = Some(p),
                 Err(e) => row.plan_skipped = Some(format!("planning failed: {e:#}")),
             }
         }
@@ -288,7 +288,8 @@ pub fn sweep_scene(name: &str, cfg: &Config) -> Result<(Vec<AccuracyRow>, Option
     Ok((rows, jax_grad))
 }
 
-/// Optimizes at `model`'s accuracy, then re-simulates the plan with `ref_model`.
+/// Optimizes at `model`'s accuracy (at most `cfg.plan_iterations` per stage), then re-simulates
+/// the plan with `ref_model`; also returns the plan's controls (checked against `ref_model`).
 pub fn plan_at(
     model: &Model,
     scene: &Scene,
@@ -296,7 +297,7 @@ pub fn plan_at(
     start: &Controls,
     stretch: &Stretch,
     cfg: &Config,
-) -> Result<PlanRow> {
+) -> Result<(PlanRow, Controls)> {
     let mut options = PlanOptions::for_model(model);
     options.iterations = cfg.plan_iterations;
     let delta = options.task.delta;
@@ -305,7 +306,7 @@ pub fn plan_at(
     let controls = plan::controls_from_nested(ref_model, &result.controls)?;
     let truth = ref_model.evaluate(&controls, delta, false)?;
     let true_min_sdf = finite(truth.metrics.min_sdf);
-    Ok(PlanRow {
+    let row = PlanRow {
         status: result.status.clone(),
         iterations: result.iterations,
         simulations: result.evaluations,
@@ -320,5 +321,6 @@ pub fn plan_at(
         true_min_sdf_swept: finite(truth.metrics.min_sdf_swept),
         true_max_abs_c: stretch.residual(&truth.states).0,
         safe: true_min_sdf.map(|_| plan::is_safe(&truth.metrics)),
-    })
+    };
+    Ok((row, controls))
 }
