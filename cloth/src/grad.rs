@@ -397,6 +397,8 @@ pub struct RecordedRollout {
     pub states: Vec<Tensor>,
     /// One recording per step (step `t` at `t − 1`), or `None` when they did not fit.
     recordings: Option<Vec<Recording>>,
+    /// Under Newton: the system and the steps' factorizations kept for the implicit gradients.
+    newton: Option<crate::newton::continuation::NewtonKept>,
 }
 
 impl RecordedRollout {
@@ -405,6 +407,12 @@ impl RecordedRollout {
     pub fn recorded_bytes(&self) -> Option<usize> {
         let recs = self.recordings.as_ref()?;
         Some(recs.iter().map(|r| r.tape.memory_bytes()).sum())
+    }
+
+    /// Under Newton: the steps whose factorization was kept for the gradients, and their bytes
+    /// ([`crate::newton::continuation::NewtonKept`]).
+    pub fn kept_factorizations(&self) -> Option<(usize, usize)> {
+        self.newton.as_ref().map(|k| (k.steps(), k.bytes()))
     }
 
     /// The states and the gradients of `costs` (the costs the rollout was recorded with) with
@@ -419,6 +427,16 @@ impl RecordedRollout {
         controls: &Controls,
         costs: &[StepCost<'_>],
     ) -> (Vec<Tensor>, Vec<Tensor>) {
+        if let (Some(kept), crate::newton::Solver::Newton(_)) = (self.newton, model.solver) {
+            let grads = if costs.is_empty() {
+                Vec::new()
+            } else {
+                model
+                    .newton_gradients_kept(&self.states, controls, costs, Some(kept))
+                    .0
+            };
+            return (self.states, grads);
+        }
         let Some(mut recordings) = self.recordings else {
             let grads = model.gradients(&self.states, controls, costs);
             return (self.states, grads);
@@ -461,13 +479,26 @@ impl Model {
     ) -> Result<RecordedRollout, ClothError> {
         let horizon = self.task.horizon;
         let lower_bound = horizon * self.iterations.max(1) * self.recorded_bytes_per_iteration();
-        // Newton steps are differentiated implicitly ([`Model::gradients`] dispatches), not by
-        // recording their iterations.
-        let newton = matches!(self.solver, crate::newton::Solver::Newton(_));
-        if newton || costs.is_empty() || lower_bound > self.checkpoint_budget {
+        // Newton steps are differentiated implicitly, not by recording their iterations; the
+        // forward keeps its factorizations for that within the budget.
+        if let crate::newton::Solver::Newton(settings) = self.solver {
+            let budget = if costs.is_empty() {
+                0
+            } else {
+                self.checkpoint_budget
+            };
+            let rollout = self.simulate_newton_keeping(controls, &settings, budget)?;
+            return Ok(RecordedRollout {
+                states: rollout.states,
+                recordings: None,
+                newton: Some(rollout.kept),
+            });
+        }
+        if costs.is_empty() || lower_bound > self.checkpoint_budget {
             return Ok(RecordedRollout {
                 states: self.simulate(controls)?,
                 recordings: None,
+                newton: None,
             });
         }
         self.check_controls(controls)?;
@@ -509,7 +540,11 @@ impl Model {
                 check_finite(&x, t)?;
                 states.push(x);
             }
-            Ok(RecordedRollout { states, recordings })
+            Ok(RecordedRollout {
+                states,
+                recordings,
+                newton: None,
+            })
         })
     }
 }

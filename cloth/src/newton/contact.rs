@@ -127,6 +127,12 @@ impl Contacts {
         self.n_active
     }
 
+    /// Per free particle (degree-of-freedom block): whether it is held on its contact surface at
+    /// the last [`Contacts::activate`].
+    pub fn active_set(&self) -> &[bool] {
+        &self.active
+    }
+
     /// The geometry of block `b`'s row at the full state `x`.
     fn geometry(&self, b: usize, row: Row, x: &[f64]) -> RowGeometry {
         let terms = self.groups[row.group as usize].as_ref();

@@ -4,6 +4,12 @@
 //! ([`super::ordering`]), so neither the matrix nor the right-hand sides are permuted (faer's
 //! general entry point permutes the values on every factorization: 7% of its time at n = 40).
 //! Everything runs sequentially (`Par::Seq`), so results do not depend on the thread count.
+//!
+//! A [`Factor`] keeps the matrix of its numeric factorization: asked to factorize a matrix equal
+//! bit for bit to it, it reuses the factorization without work (the same bits: the numeric
+//! factorization is deterministic). A factorization can be copied out ([`Factor::current`]) and
+//! put back ([`Factor::insert`]): the rollout keeps each step's final one for the implicit
+//! gradient ([`super::continuation`]).
 
 use super::assembly::Pattern;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -19,11 +25,50 @@ use faer::sparse::linalg::cholesky::supernodal::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
 
+/// What a [`Factor`] has done since it was made.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FactorCounts {
+    /// Numeric factorizations that succeeded.
+    pub factorized: usize,
+    /// Numeric factorizations that stopped at a non-positive pivot (the matrix is not positive
+    /// definite).
+    pub failed: usize,
+    /// Requests answered by a kept factorization of the same matrix, without work.
+    pub reused: usize,
+}
+
+impl FactorCounts {
+    /// The counts since `earlier` (an earlier reading of the same factor).
+    pub fn since(self, earlier: FactorCounts) -> FactorCounts {
+        FactorCounts {
+            factorized: self.factorized - earlier.factorized,
+            failed: self.failed - earlier.failed,
+            reused: self.reused - earlier.reused,
+        }
+    }
+}
+
+/// One numeric factorization and the matrix it factorizes (values in the pattern, bit for bit).
+#[derive(Clone, Default)]
+pub struct NumericFactor {
+    l_values: Vec<f64>,
+    matrix: Vec<f64>,
+}
+
+impl NumericFactor {
+    /// Bytes held (the factor and the matrix).
+    pub fn bytes(&self) -> usize {
+        (self.l_values.len() + self.matrix.len()) * std::mem::size_of::<f64>()
+    }
+}
+
 /// A Cholesky factorization of matrices with one pattern.
 pub struct Factor {
     symbolic: SymbolicSupernodalCholesky<usize>,
-    l_values: Vec<f64>,
-    factored: bool,
+    numeric: NumericFactor,
+    /// The last factorization succeeded (or a factorization was inserted).
+    valid: bool,
+    counts: FactorCounts,
     /// Scratch of the numeric factorization, kept between iterations (its contents do not
     /// matter; allocating it per iteration was 4% of a 40 × 40 rollout).
     scratch: MemBuffer,
@@ -61,7 +106,6 @@ impl Factor {
             Default::default(),
         )
         .expect("symbolic Cholesky analysis of a valid pattern");
-        let l_values = vec![0.0; symbolic.len_val()];
         let scratch = MemBuffer::new(factorize_supernodal_numeric_llt_scratch::<usize, f64>(
             &symbolic,
             Par::Seq,
@@ -69,19 +113,27 @@ impl Factor {
         ));
         Factor {
             symbolic,
-            l_values,
-            factored: false,
+            numeric: NumericFactor::default(),
+            valid: false,
+            counts: FactorCounts::default(),
             scratch,
         }
     }
 
     /// Factorizes the matrix with `values` in `pattern`; false if it is not positive definite.
+    /// A matrix equal bit for bit to the current factorization's is not factorized again.
     pub fn factorize(&mut self, pattern: &Pattern, values: &[f64]) -> bool {
+        if self.valid && same(&self.numeric.matrix, values) {
+            self.counts.reused += 1;
+            return true;
+        }
         let n = pattern.n_dof;
         let sym =
             SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
+        let numeric = &mut self.numeric;
+        numeric.l_values.resize(self.symbolic.len_val(), 0.0);
         let ok = factorize_supernodal_numeric_llt::<usize, f64>(
-            &mut self.l_values,
+            &mut numeric.l_values,
             SparseColMatRef::new(sym, values),
             LltRegularization::default(),
             &self.symbolic,
@@ -90,21 +142,56 @@ impl Factor {
             Default::default(),
         )
         .is_ok();
-        self.factored = ok;
+        self.valid = ok;
+        if ok {
+            numeric.matrix.clear();
+            numeric.matrix.extend_from_slice(values);
+            self.counts.factorized += 1;
+        } else {
+            self.counts.failed += 1;
+        }
         ok
     }
 
-    /// Solves `A X = B` in place for the `n × k` column-major `b` (after a successful
-    /// [`Factor::factorize`]).
+    /// A copy of the current factorization (after a successful [`Factor::factorize`]), to
+    /// [`Factor::insert`] later.
+    ///
+    /// # Panics
+    /// If the last factorization failed.
+    pub fn current(&self) -> NumericFactor {
+        assert!(self.valid, "Factor::current after a failed factorization");
+        self.numeric.clone()
+    }
+
+    /// Makes `numeric` (from [`Factor::current`] of a factor of the same pattern) the current
+    /// factorization, so that factorizing its matrix reuses it.
+    ///
+    /// # Panics
+    /// If `numeric` is of another pattern.
+    pub fn insert(&mut self, numeric: NumericFactor) {
+        assert_eq!(
+            numeric.l_values.len(),
+            self.symbolic.len_val(),
+            "Factor::insert of another pattern's factor"
+        );
+        self.numeric = numeric;
+        self.valid = true;
+    }
+
+    /// Solves `A X = B` in place for the `n × k` column-major `b` with the current
+    /// factorization (the last successful [`Factor::factorize`] or [`Factor::insert`]).
+    ///
+    /// # Panics
+    /// If the last factorization failed.
     pub fn solve_in_place(&self, b: &mut [f64], k: usize) {
         assert!(
-            self.factored,
+            self.valid,
             "Factor::solve_in_place before a successful factorization"
         );
         let n = self.symbolic.nrows();
         let mut buf = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
         let rhs = MatMut::from_column_major_slice_mut(b, n, k);
-        SupernodalLltRef::new(&self.symbolic, &self.l_values).solve_in_place_with_conj(
+        SupernodalLltRef::new(&self.symbolic, &self.numeric.l_values).solve_in_place_with_conj(
             Conj::No,
             rhs,
             Par::Seq,
@@ -112,8 +199,23 @@ impl Factor {
         );
     }
 
-    /// Bytes of the numeric factor.
-    pub fn factor_bytes(&self) -> usize {
-        self.l_values.len() * std::mem::size_of::<f64>()
+    /// The counts of factorizations and reuses so far.
+    pub fn counts(&self) -> FactorCounts {
+        self.counts
     }
+
+    /// Bytes of one numeric factor.
+    pub fn factor_bytes(&self) -> usize {
+        self.symbolic.len_val() * std::mem::size_of::<f64>()
+    }
+
+    /// Bytes of one [`Factor::current`]: the factor and the matrix.
+    pub fn kept_bytes(&self) -> usize {
+        self.factor_bytes() + self.numeric.matrix.len() * std::mem::size_of::<f64>()
+    }
+}
+
+/// `a` and `b` hold the same bits (a `−0` differs from a `+0`, and a NaN matches itself).
+fn same(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
 }

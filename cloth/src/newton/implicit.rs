@@ -9,7 +9,13 @@
 //! With contact rows, the active ones are equalities at the minimizer (they do not depend on
 //! `x_prev` or `u`): `z = P y` with `K y = P ā_f`, `K` the reduced Hessian of the Lagrangian
 //! ([`super::contact`]), so `dx_f` stays in the contact surfaces' tangent planes.
+//!
+//! The matrix is the one the forward's convergence test factorized at the same state; where the
+//! forward kept that factorization ([`super::continuation::NewtonKept`]) it is reused, after
+//! checking that the assembled matrix is the kept one bit for bit.
 
+use super::continuation::NewtonKept;
+use super::factor::FactorCounts;
 use super::solve::NewtonSystem;
 use crate::grad::StepCost;
 use crate::model::Model;
@@ -29,9 +35,33 @@ impl Model {
         controls: &Controls,
         costs: &[StepCost<'_>],
     ) -> Vec<Tensor> {
-        let mut system = NewtonSystem::new(self)
-            .expect("newton_gradients: the model has no rigid constraint group");
+        self.newton_gradients_kept(states, controls, costs, None).0
+    }
+
+    /// [`Model::newton_gradients`] with what [`Model::simulate_newton_keeping`] kept of the
+    /// rollout `states` (its system and factorizations): the same values bit for bit, with no
+    /// factorization at the steps whose factorization was kept; and the gradient pass's
+    /// factorizations ([`FactorCounts::reused`]: the kept ones it used).
+    ///
+    /// # Panics
+    /// As [`Model::newton_gradients`].
+    pub fn newton_gradients_kept(
+        &self,
+        states: &[Tensor],
+        controls: &Controls,
+        costs: &[StepCost<'_>],
+        kept: Option<NewtonKept>,
+    ) -> (Vec<Tensor>, FactorCounts) {
+        let (mut system, mut factors) = match kept {
+            Some(k) => (k.system, k.factors),
+            None => (
+                NewtonSystem::new(self)
+                    .expect("newton_gradients: the model has no rigid constraint group"),
+                Vec::new(),
+            ),
+        };
         let n_dof = system.pattern.n_dof;
+        let before = system.factor.counts();
         let mut grads: Vec<Tensor> = costs.iter().map(|_| self.zero_controls()).collect();
         let (n, k) = (self.n_particles(), costs.len());
         let mut adjoints: Vec<Tensor> = costs.iter().map(|_| Tensor::zeros(n, 3)).collect();
@@ -56,6 +86,9 @@ impl Model {
             // The step's pull-back with one factorization.
             let u_t = self.step_controls(controls, t - 1);
             let xt = self.begin_step(&states[t - 1], &u_t);
+            if let Some(f) = factors.get_mut(t - 1).and_then(Option::take) {
+                system.factor.insert(f);
+            }
             assert!(
                 system.factorize_exact(states[t].data(), xt.data()),
                 "newton_gradients: the Hessian of Φ at the state of step {t} is not positive \
@@ -91,6 +124,6 @@ impl Model {
                 adjoints[j] = prev;
             }
         }
-        grads
+        (grads, system.factor.counts().since(before))
     }
 }

@@ -12,11 +12,12 @@
 //! - [`psd`]: the per-constraint semidefinite projection of the Hessian's blocks;
 //! - [`ordering`]: the fill-reducing elimination order, on the particle graph;
 //! - [`factor`]: faer's sparse Cholesky (symbolic once, numeric per iteration);
-//! - [`solve`]: the Newton iteration with backtracking line search on `Φ`, and each step's
-//!   branch following ([`NewtonSettings::load_halvings`]);
+//! - [`solve`]: the Newton iteration with backtracking line search on `Φ` and chord steps;
+//! - [`continuation`]: the rollout, each step by branch following
+//!   ([`NewtonSettings::load_halvings`]), each step's final factorization kept for the gradients;
 //! - [`curvature`]: leaving a saddle of `Φ` along the exact Hessian's unstable mode;
 //! - [`implicit`]: adjoints through `∂x_t/∂(x_{t−1}, u_t)`, one factorization per step for every
-//!   cost.
+//!   cost (the forward's own, where it was kept).
 //!
 //! - [`contact`]: rigid one-sided rows on one particle (colliders) by an active-set projected
 //!   Newton, whose converged state is XPBD's rigid (compliance 0) answer.
@@ -26,6 +27,7 @@
 
 pub mod assembly;
 pub mod contact;
+pub mod continuation;
 pub mod curvature;
 pub mod factor;
 pub mod implicit;
@@ -76,6 +78,11 @@ pub struct NewtonSettings {
     /// state, the rollout jumps only where that branch ends (`cloth/tests/newton_branches.rs`).
     /// The final state is a minimizer of the same `Φ`, so the implicit gradients are unchanged.
     pub load_halvings: usize,
+    /// Chord steps ([`solve`]): after a whole step with the exact Hessian, the next steps reuse
+    /// its factorization while the KKT residual falls by [`solve::CHORD_CONTRACTION`] per step,
+    /// and a solve that continues the branch following's last state starts with that state's
+    /// factorization. The returned state is a minimizer to the same tolerance either way.
+    pub chord_steps: bool,
 }
 
 impl Default for NewtonSettings {
@@ -85,6 +92,7 @@ impl Default for NewtonSettings {
             max_iterations: DEFAULT_MAX_ITERATIONS,
             load_steps: 1,
             load_halvings: DEFAULT_LOAD_HALVINGS,
+            chord_steps: true,
         }
     }
 }

@@ -1,0 +1,104 @@
+//! Scratch: Newton forward + ∇L on u_obstacle refined to n × n, per-step statistics, beside XPBD.
+//! `RAYON_NUM_THREADS=1 cargo run --release -p cloth --example newton_counts -- 40 3 [flags]`
+use cloth::newton::solve::StepStats;
+use cloth::newton::Solver;
+use cloth::scene::SolverKind;
+use cloth::{Model, Scene};
+use std::time::Instant;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let n: usize = args.get(1).map_or(40, |a| a.parse().unwrap());
+    let reps: usize = args.get(2).map_or(3, |a| a.parse().unwrap());
+    let flag = |f: &str| args.iter().any(|a| a == f);
+    let value = |f: &str| {
+        args.iter()
+            .position(|a| a == f)
+            .map(|i| args[i + 1].clone())
+    };
+    let scene_name = value("--scene").unwrap_or("u_obstacle".into());
+    let base = Scene::builtin(&scene_name)?;
+    let base = if n > 0 { base.refined(n, n)? } else { base };
+    let mut ns = base.clone();
+    ns.physics.solver = SolverKind::Newton;
+    let mut newton = Model::from_scene(&ns)?;
+    let Solver::Newton(mut settings) = newton.solver else {
+        unreachable!()
+    };
+    if flag("--no-chord") {
+        settings.chord_steps = false;
+    }
+    if let Some(h) = value("--halvings") {
+        settings.load_halvings = h.parse()?;
+    }
+    newton.solver = Solver::Newton(settings);
+    if let Some(b) = value("--budget") {
+        newton.checkpoint_budget = b.parse::<usize>()? << 20;
+    }
+    let xpbd = Model::from_scene(&base)?;
+    let (u, delta) = (base.initial_controls(), base.task.delta);
+    let t = Instant::now();
+    let r = newton.simulate_newton_keeping(&u, &settings, newton.checkpoint_budget)?;
+    let tf = t.elapsed().as_secs_f64();
+    let it: Vec<usize> = r.stats.iter().map(|s| s.iterations).collect();
+    println!("iterations {:?} total {}", it, it.iter().sum::<usize>());
+    let f: Vec<usize> = r.stats.iter().map(|s| s.factorizations).collect();
+    println!("factorizations {:?} total {}", f, f.iter().sum::<usize>());
+    let tot = r.stats.iter().fold(StepStats::default(), sum);
+    println!(
+        "chord {} failed {} projected {} loads {} rejected {} escapes {} saddle {}; kept {} steps {:.1} MB; forward {:.3} s",
+        tot.chord_steps, tot.failed_factorizations, tot.projected, tot.loads, tot.rejected_loads,
+        tot.escapes, tot.at_saddle, r.kept.steps(), r.kept.bytes() as f64 / 1e6, tf
+    );
+    let ev = newton.evaluate_loss_gradient(&u, delta)?;
+    let g = ev.grad_l.unwrap();
+    println!("L {:.12} |gL| {:.12e}", ev.metrics.l, norm(g.data()));
+    if flag("--ref") {
+        let mut reference = newton.clone();
+        reference.solver = Solver::Newton(cloth::newton::NewtonSettings {
+            tolerance: 1e-12,
+            ..settings
+        });
+        let er = reference.evaluate_loss_gradient(&u, delta)?;
+        let gr = er.grad_l.unwrap();
+        let d: Vec<f64> = g.data().iter().zip(gr.data()).map(|(a, b)| a - b).collect();
+        println!(
+            "reference L {:.12} rel grad err {:.3e}",
+            er.metrics.l,
+            norm(&d) / norm(gr.data())
+        );
+    }
+    if flag("--newton-only") {
+        for _ in 0..reps {
+            std::hint::black_box(newton.evaluate_loss_gradient(&u, delta)?);
+        }
+        return Ok(());
+    }
+    for _ in 0..reps {
+        let t = Instant::now();
+        std::hint::black_box(xpbd.evaluate_loss_gradient(&u, delta)?);
+        let tx = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        std::hint::black_box(newton.evaluate_loss_gradient(&u, delta)?);
+        let tn = t.elapsed().as_secs_f64();
+        println!("xpbd {tx:.3} s newton {tn:.3} s ratio {:.2}", tn / tx);
+    }
+    Ok(())
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|a| a * a).sum::<f64>().sqrt()
+}
+
+fn sum(mut a: StepStats, s: &StepStats) -> StepStats {
+    a.iterations += s.iterations;
+    a.chord_steps += s.chord_steps;
+    a.factorizations += s.factorizations;
+    a.failed_factorizations += s.failed_factorizations;
+    a.projected += s.projected;
+    a.at_saddle += s.at_saddle;
+    a.escapes += s.escapes;
+    a.loads += s.loads;
+    a.rejected_loads += s.rejected_loads;
+    a
+}

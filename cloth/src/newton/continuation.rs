@@ -1,0 +1,185 @@
+//! The Newton rollout: each step by branch following along its load path
+//! ([`NewtonSettings::load_halvings`]), and each step's final factorization (the exact Hessian
+//! at its converged state, which the implicit gradient needs too) kept for the gradient pass
+//! within a memory budget ([`NewtonRollout`]).
+
+use super::factor::NumericFactor;
+use super::solve::{NewtonSystem, StepStats};
+use super::{NewtonSettings, MAX_LOAD_HALVINGS};
+use crate::error::ClothError;
+use crate::model::Model;
+use crate::sim::{check_finite, Controls};
+use autodiff::Tensor;
+
+/// A Newton rollout and what its implicit gradients can reuse.
+pub struct NewtonRollout {
+    /// `T + 1` states, the first the rest state.
+    pub states: Vec<Tensor>,
+    /// Each step's statistics.
+    pub stats: Vec<StepStats>,
+    /// The system and the kept factorizations.
+    pub kept: NewtonKept,
+}
+
+/// What a Newton rollout keeps for its gradients ([`Model::newton_gradients_kept`]): the system
+/// (pattern, ordering, symbolic analysis) and, per step, the factorization of the exact Hessian
+/// at its converged state with the matrix it factorizes, as many steps as fit the budget given
+/// to [`Model::simulate_newton_keeping`]. The gradient pass reuses a kept factorization only
+/// where the matrix it assembles equals the kept one bit for bit, so the gradients are the same
+/// bits as with none kept.
+pub struct NewtonKept {
+    pub(super) system: NewtonSystem,
+    /// Step `t`'s factorization at `t − 1`.
+    pub(super) factors: Vec<Option<NumericFactor>>,
+}
+
+impl NewtonKept {
+    /// Steps whose factorization is kept.
+    pub fn steps(&self) -> usize {
+        self.factors.iter().flatten().count()
+    }
+
+    /// Bytes of the kept factorizations (factors and matrices).
+    pub fn bytes(&self) -> usize {
+        self.factors
+            .iter()
+            .flatten()
+            .map(NumericFactor::bytes)
+            .sum()
+    }
+}
+
+impl Model {
+    /// [`Model::simulate`] with Newton's method: `T + 1` states and each step's statistics.
+    ///
+    /// # Errors
+    /// As [`Model::simulate`]; [`ClothError::NewtonUnsupported`] for a rigid constraint group;
+    /// [`ClothError::NewtonNotConverged`] naming the step that did not converge.
+    pub fn simulate_newton(
+        &self,
+        controls: &Controls,
+        settings: &NewtonSettings,
+    ) -> Result<(Vec<Tensor>, Vec<StepStats>), ClothError> {
+        let r = self.simulate_newton_keeping(controls, settings, 0)?;
+        Ok((r.states, r.stats))
+    }
+
+    /// [`Model::simulate_newton`], keeping each step's final factorization while their bytes
+    /// stay within `budget` (the first steps' when not all fit), for
+    /// [`Model::newton_gradients_kept`].
+    ///
+    /// # Errors
+    /// As [`Model::simulate_newton`].
+    pub fn simulate_newton_keeping(
+        &self,
+        controls: &Controls,
+        settings: &NewtonSettings,
+        budget: usize,
+    ) -> Result<NewtonRollout, ClothError> {
+        self.check_controls(controls)?;
+        let mut system = NewtonSystem::new(self)?;
+        let horizon = self.task.horizon;
+        let mut states = Vec::with_capacity(horizon + 1);
+        let mut stats = Vec::with_capacity(horizon);
+        let mut factors = Vec::with_capacity(horizon);
+        let mut kept_bytes = 0;
+        states.push(self.rest.clone());
+        for t in 0..horizon {
+            let u = self.step_controls(controls, t);
+            let (x, s) = self.solve_step_newton(&mut system, &states[t], &u, t + 1, settings)?;
+            check_finite(&x, t + 1)?;
+            // Every solve ends with the exact Hessian's factorization at the state it returns.
+            let bytes = system.factor.kept_bytes();
+            factors.push((kept_bytes + bytes <= budget).then(|| {
+                kept_bytes += bytes;
+                system.factor.current()
+            }));
+            states.push(x);
+            stats.push(s);
+        }
+        Ok(NewtonRollout {
+            states,
+            stats,
+            kept: NewtonKept { system, factors },
+        })
+    }
+
+    /// One step (number `step`, 1-based) from `x_prev` with control move `u`, by continuation
+    /// in the control move ([`NewtonSettings::load_steps`], [`NewtonSettings::load_halvings`]):
+    /// the control particles move by `u · s` for increasing load fractions `s` up to 1, each
+    /// solve starting from the last one's minimizer (the first from `x̃`). A solve whose iterate
+    /// leaves the region where the exact Hessian is positive definite is abandoned and the
+    /// increment halved (at most `load_halvings` times; at the smallest increment the solve
+    /// takes whatever path it needs); after an accepted solve the increment doubles again, up to
+    /// `1/load_steps`. The iteration counts are summed, the residual is the last solve's.
+    fn solve_step_newton(
+        &self,
+        system: &mut NewtonSystem,
+        x_prev: &Tensor,
+        u: &Tensor,
+        step: usize,
+        settings: &NewtonSettings,
+    ) -> Result<(Tensor, StepStats), ClothError> {
+        let xt = self.begin_step(x_prev, u);
+        let mut stats = StepStats::default();
+        if settings.load_steps <= 1 && settings.load_halvings == 0 {
+            let (x, s) = system.solve(&xt, step, settings)?;
+            return Ok((x, StepStats { loads: 1, ..s }));
+        }
+        // The path of predicted states x̂(s) = (1 − s) x̂₀ + s x̃, with x̂₀ = x_prev + M⁻¹∇E(x_prev):
+        // x_prev is the minimizer at s = 0 (same Hessian as the step it ended), x̃ at s = 1.
+        let x0 = system.rest_predicted(x_prev, &self.inv_mass);
+        // Load fractions in units of 1/(load_steps · 2^halvings), so that they are exact.
+        let finest = 1usize << settings.load_halvings.min(MAX_LOAD_HALVINGS);
+        let total = settings.load_steps.max(1) * finest;
+        let (mut done, mut increment, mut smallest) = (0, finest, 1);
+        let mut x = x_prev.clone();
+        while done < total {
+            let next = (done + increment).min(total);
+            let xs = if next == total {
+                xt.clone()
+            } else {
+                let s = next as f64 / total as f64;
+                let mut xs = x0.clone();
+                xs.data_mut()
+                    .iter_mut()
+                    .zip(xt.data())
+                    .for_each(|(a, b)| *a += s * (b - *a));
+                xs
+            };
+            // The smallest increment takes whatever path it needs (past a fold or a bifurcation
+            // of the branch); where that ends at a saddle too shallow to leave (just past a
+            // bifurcation its unstable mode lowers Φ by less than Φ's round-off), it is doubled.
+            let convex_only = increment > smallest;
+            let (xj, sj) = match system.solve_inner(&x, &xs, step, settings, convex_only) {
+                Err(ClothError::NewtonSaddle { .. }) if next < total => {
+                    stats.rejected_loads += 1;
+                    smallest = (2 * smallest).min(total - done);
+                    increment = smallest;
+                    continue;
+                }
+                r => r?,
+            };
+            stats.iterations += sj.iterations;
+            stats.chord_steps += sj.chord_steps;
+            stats.factorizations += sj.factorizations;
+            stats.failed_factorizations += sj.failed_factorizations;
+            stats.projected += sj.projected;
+            stats.at_saddle += sj.at_saddle;
+            stats.escapes += sj.escapes;
+            let Some(xj) = xj else {
+                stats.rejected_loads += 1;
+                increment /= 2;
+                continue;
+            };
+            stats.loads += 1;
+            stats.residual = sj.residual;
+            stats.at_roundoff = sj.at_roundoff;
+            x = xj;
+            done = next;
+            increment = (2 * increment).min(finest);
+            smallest = 1;
+        }
+        Ok((x, stats))
+    }
+}
