@@ -1,5 +1,10 @@
-//! Scratch: Newton forward + ∇L on u_obstacle refined to n × n, per-step statistics, beside XPBD.
+//! Where Newton's time goes: forward + ∇L on a built-in scene (u_obstacle unless `--scene NAME`)
+//! refined to n × n (0 keeps the scene's grid), per-step iteration and factorization counts, then
+//! `reps` timings interleaved with XPBD at the scene's iterations.
 //! `RAYON_NUM_THREADS=1 cargo run --release -p cloth --example newton_counts -- 40 3 [flags]`
+//! Flags: `--no-chord` (no chord steps), `--halvings H` (`physics.load_halvings`), `--budget MIB`
+//! (`Model::checkpoint_budget`), `--ref` (∇L error against tolerance 1e-12), `--newton-only`
+//! (time Newton alone, for `perf record`).
 use cloth::newton::solve::StepStats;
 use cloth::newton::Solver;
 use cloth::scene::SolverKind;
@@ -91,13 +96,7 @@ fn norm(v: &[f64]) -> f64 {
 }
 
 fn sum(mut a: StepStats, s: &StepStats) -> StepStats {
-    a.iterations += s.iterations;
-    a.chord_steps += s.chord_steps;
-    a.factorizations += s.factorizations;
-    a.failed_factorizations += s.failed_factorizations;
-    a.projected += s.projected;
-    a.at_saddle += s.at_saddle;
-    a.escapes += s.escapes;
+    a.add_work(s);
     a.loads += s.loads;
     a.rejected_loads += s.rejected_loads;
     a

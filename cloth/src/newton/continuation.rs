@@ -160,13 +160,7 @@ impl Model {
                 }
                 r => r?,
             };
-            stats.iterations += sj.iterations;
-            stats.chord_steps += sj.chord_steps;
-            stats.factorizations += sj.factorizations;
-            stats.failed_factorizations += sj.failed_factorizations;
-            stats.projected += sj.projected;
-            stats.at_saddle += sj.at_saddle;
-            stats.escapes += sj.escapes;
+            stats.add_work(&sj);
             let Some(xj) = xj else {
                 stats.rejected_loads += 1;
                 increment /= 2;

@@ -82,6 +82,21 @@ pub struct StepStats {
     pub rejected_loads: usize,
 }
 
+impl StepStats {
+    /// Adds `other`'s work counts (iterations, chord steps, factorizations, failed
+    /// factorizations, projected iterations, saddles, escapes) to these; the residual, the
+    /// round-off flag and the load counts stay.
+    pub fn add_work(&mut self, other: &StepStats) {
+        self.iterations += other.iterations;
+        self.chord_steps += other.chord_steps;
+        self.factorizations += other.factorizations;
+        self.failed_factorizations += other.failed_factorizations;
+        self.projected += other.projected;
+        self.at_saddle += other.at_saddle;
+        self.escapes += other.escapes;
+    }
+}
+
 /// A model's Newton system with its buffers: built once per rollout.
 pub struct NewtonSystem {
     /// The sparse pattern and the energy.
