@@ -79,6 +79,15 @@ pub enum Error {
     /// A value that could not be turned into JSON.
     #[error(transparent)]
     Json(#[from] serde_json::Error),
+    /// Re-simulating a plan under the check's physics failed ([`crate::physics_check`]).
+    #[error("the check under {physics}: {source}")]
+    Check {
+        /// The check's physics, in words.
+        physics: String,
+        /// Why it failed (e.g. an effect that physics does not model).
+        #[source]
+        source: cloth::ClothError,
+    },
 }
 
 /// A result of the planning library.

@@ -14,6 +14,7 @@ pub mod export;
 pub mod figures;
 pub mod outcome;
 pub mod output;
+pub mod physics_check;
 pub mod plan;
 pub mod problem;
 pub mod request;

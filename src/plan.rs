@@ -185,6 +185,9 @@ pub struct PlanResult {
     /// The route search, when it ran ([`crate::search`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub search: Option<crate::search::SearchReport>,
+    /// The plan checked under other physics, when asked ([`crate::physics_check`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub check: Option<crate::physics_check::PhysicsCheck>,
     /// Cloth grid `[rows, cols]` (particle `r·cols + c`); `[0, 0]` for a mesh cloth.
     pub grid: [usize; 2],
     /// A mesh cloth's triangles (particle indices); absent for a grid, whose triangles follow
@@ -511,6 +514,7 @@ pub fn plan(
         feasibility_tolerance: options.tol_feasibility,
         warnings,
         search: None,
+        check: None,
         grid: [scene.cloth.rows, scene.cloth.cols],
         triangles: mesh_triangles(scene, model),
         control_particles: model.controls.as_slice().to_vec(),
@@ -616,6 +620,7 @@ pub fn snapshot(
         feasibility_tolerance: options.tol_feasibility,
         warnings: Vec::new(),
         search: None,
+        check: None,
         grid: [scene.cloth.rows, scene.cloth.cols],
         triangles: mesh_triangles(scene, model),
         control_particles: model.controls.as_slice().to_vec(),

@@ -46,6 +46,9 @@ impl PlanResult {
             "iterations {} ({per_stage})  simulations {}  gradients {}{wall}",
             self.iterations, self.evaluations, self.gradient_evaluations
         )?;
+        if let Some(check) = &self.check {
+            writeln!(s, "{}", check.summary())?;
+        }
         if let Some(search) = &self.search {
             writeln!(
                 s,

@@ -243,3 +243,33 @@ fn sweeps_set_the_solver_sweeps_under_every_spelling() {
         "{help}"
     );
 }
+
+#[test]
+fn optimize_check_reports_the_plan_under_other_physics_and_rejects_bad_values() {
+    let dir = scratch("check");
+    let scene = small_obstacle_scene(&dir);
+    let out = dir.join("checked.json");
+    let o = run(bin()
+        .arg("optimize")
+        .arg(&scene)
+        .args(["--search", "off", "--check", "xpbd:200", "--out"])
+        .arg(&out));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let check = &v["check"];
+    assert_eq!(check["physics"]["solver"], "xpbd", "{}", stdout(&o));
+    assert_eq!(check["physics"]["iterations"], 200);
+    assert_eq!(check["delta"], 0.1);
+    let last = check["rounds"].as_array().unwrap().last().unwrap().clone();
+    // The exit code follows the check: a plan failing it is "no safe plan" (4).
+    let safe = last["safe"].as_bool().unwrap();
+    assert_eq!(safe, last["C"].as_f64().unwrap() >= -1e-6);
+    assert!(stdout(&o).contains("checked under XPBD at 200 iterations"));
+    if !safe {
+        assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    }
+    for bad in ["xpbd", "xpbd:0", "newton:1.5", "jax"] {
+        let o = run(bin().arg("optimize").arg(&scene).args(["--check", bad]));
+        assert_eq!(o.status.code(), Some(2), "{bad}");
+        assert!(stderr(&o).contains("--check"), "{}", stderr(&o));
+    }
+}

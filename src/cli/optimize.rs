@@ -7,6 +7,7 @@ use super::summary;
 use anyhow::{Context, Result};
 use cloth::Model;
 use clothopt::output::write_json_atomic;
+use clothopt::physics_check::{plan_until_checked, CheckPhysics};
 use clothopt::plan::{self, SolverKind};
 use clothopt::problem::SafetyForm;
 use clothopt::request::OptimizeRequest;
@@ -100,6 +101,14 @@ pub struct OptimizeArgs {
     no_timing: bool,
     #[command(flatten)]
     physics: PhysicsArgs,
+    /// Check the plan under other physics: `xpbd:N` (XPBD at N iterations per step), `newton`
+    /// or `newton:TOL`. The plan must also be safe at δ there; where it is not, it is re-planned
+    /// from itself with the margin raised by 1.25× the shortfall, up to `--check-rounds` times.
+    #[arg(long)]
+    check: Option<CheckPhysics>,
+    /// Most re-plans with a raised margin after a failed `--check` (0: only report).
+    #[arg(long, default_value_t = 3)]
+    check_rounds: usize,
 }
 
 /// The command-line spelling of a setting: `reuse_band` → `--reuse-band`.
@@ -146,33 +155,51 @@ pub fn run(args: OptimizeArgs) -> Result<i32> {
     .context("cannot install the Ctrl-C handler")?;
     let (out, no_timing) = (args.out, args.no_timing);
     let budget = args.iterations * (1 + usize::from(options.kappa_warmup.is_some()));
-    let mut reporter = Reporter::new(budget, args.verbose, options.tol_feasibility);
-    let mut save = |x: &[f64], violation: f64, seen: usize| {
-        let Some(path) = &out else { return };
-        match plan::snapshot(&model, &scene, x, violation, seen, &options) {
-            Ok(mut r) => {
-                if no_timing {
-                    r.drop_timing();
+    // One plan at margin `delta` from `start`, with its progress and best-so-far file.
+    let run_plan = |delta: f64, start: &cloth::Controls| {
+        let mut options = options.clone();
+        options.task.delta = delta;
+        let mut reporter = Reporter::new(budget, args.verbose, options.tol_feasibility);
+        let mut save = |x: &[f64], violation: f64, seen: usize| {
+            let Some(path) = &out else { return };
+            match plan::snapshot(&model, &scene, x, violation, seen, &options) {
+                Ok(mut r) => {
+                    if no_timing {
+                        r.drop_timing();
+                    }
+                    if let Err(e) = write_json_atomic(path, &r) {
+                        eprintln!("warning: best-so-far file: {e:#}");
+                    }
                 }
-                if let Err(e) = write_json_atomic(path, &r) {
-                    eprintln!("warning: best-so-far file: {e:#}");
-                }
+                Err(e) => eprintln!("warning: best-so-far file: {e:#}"),
             }
-            Err(e) => eprintln!("warning: best-so-far file: {e:#}"),
-        }
+        };
+        let result = plan_with_search(
+            &model,
+            &scene,
+            start,
+            &options,
+            &search,
+            |event| match event {
+                Progress::Iteration(info) => reporter.iteration(info, &mut save),
+                Progress::Stage { stage, route } => reporter.stage(stage, route),
+            },
+        );
+        reporter.finish();
+        result
     };
-    let result = plan_with_search(
-        &model,
-        &scene,
-        &start,
-        &options,
-        &search,
-        |event| match event {
-            Progress::Iteration(info) => reporter.iteration(info, &mut save),
-            Progress::Stage { stage, route } => reporter.stage(stage, route),
-        },
-    );
-    reporter.finish();
+    let result = match args.check {
+        None => run_plan(options.task.delta, &start),
+        Some(physics) => plan_until_checked(
+            &model,
+            &scene,
+            physics,
+            options.task.delta,
+            args.check_rounds,
+            &start,
+            run_plan,
+        ),
+    };
     let mut result = result?;
     if no_timing {
         result.drop_timing();

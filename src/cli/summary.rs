@@ -29,6 +29,8 @@ pub fn report_verdict(result: &PlanResult, out: Option<&Path>) -> i32 {
             result.message,
             result.constraint_violation
         );
+    } else if code == 4 && result.check.as_ref().is_some_and(|c| !c.last().safe) {
+        eprintln!("no safe plan: {}{written}", result.task.explanation);
     } else if code == 4 {
         eprintln!(
             "no safe plan: the returned plan violates the safety margin (C = {:.3e}){written}",

@@ -1,0 +1,243 @@
+//! A plan checked under other physics, and the margin that makes it pass.
+//!
+//! A plan is safe under the physics it was planned with; XPBD at the scene's iterations, XPBD at
+//! many more and Newton's minimizer of `Φ` are different models of the same cloth (their states
+//! differ by centimetres on a stretched cloth), so a plan whose safety rows are active can sit
+//! inside the margin under another one. [`check_plan`] re-simulates a plan's controls with another
+//! step solver and measures it at the user's margin `δ`; [`plan_until_checked`] re-plans, from the
+//! last plan, with the planning margin raised by the shortfall the check measured
+//! ([`MARGIN_GROWTH`] times it) until the check passes or the rounds run out.
+
+use crate::plan::{self, PlanResult};
+use crate::{outcome, Error, Result};
+use cloth::scene::SolverKind;
+use cloth::{Controls, Model, Scene};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// How much more than the measured shortfall a round adds to the planning margin: the gap
+/// between two physics changes with the plan, so adding exactly the shortfall tends to miss by a
+/// little again.
+pub const MARGIN_GROWTH: f64 = 1.25;
+
+/// The physics a plan is checked under.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "solver")]
+pub enum CheckPhysics {
+    /// XPBD with this many Gauss–Seidel iterations per step.
+    Xpbd {
+        /// Iterations per step (≥ 1).
+        iterations: usize,
+    },
+    /// Newton's minimizer of `Φ` to this relative tolerance.
+    Newton {
+        /// Relative `‖∇Φ‖` tolerance, in (0, 1).
+        tolerance: f64,
+    },
+}
+
+impl FromStr for CheckPhysics {
+    type Err = Error;
+
+    /// `xpbd:N` (N iterations per step), `newton` (tolerance 1e-12) or `newton:TOL`.
+    fn from_str(s: &str) -> Result<Self> {
+        let bad = |requirement: String| Error::InvalidSetting {
+            name: "check".into(),
+            requirement,
+        };
+        let (name, value) = match s.split_once(':') {
+            Some((n, v)) => (n, Some(v)),
+            None => (s, None),
+        };
+        match (name, value) {
+            ("xpbd", Some(v)) => match v.parse::<usize>() {
+                Ok(iterations) if iterations >= 1 => Ok(CheckPhysics::Xpbd { iterations }),
+                _ => Err(bad(format!(
+                    "needs XPBD's iterations as a count ≥ 1 (`xpbd:3000`), got `{s}`"
+                ))),
+            },
+            ("newton", v) => match v.map_or(Ok(1e-12), str::parse::<f64>) {
+                Ok(tolerance) if tolerance > 0.0 && tolerance < 1.0 => {
+                    Ok(CheckPhysics::Newton { tolerance })
+                }
+                _ => Err(bad(format!(
+                    "needs Newton's tolerance in (0, 1) (`newton:1e-12`), got `{s}`"
+                ))),
+            },
+            _ => Err(bad(format!(
+                "must be `xpbd:N`, `newton` or `newton:TOL`, got `{s}`"
+            ))),
+        }
+    }
+}
+
+impl fmt::Display for CheckPhysics {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CheckPhysics::Xpbd { iterations } => write!(f, "XPBD at {iterations} iterations"),
+            CheckPhysics::Newton { tolerance } => write!(f, "Newton at tolerance {tolerance:e}"),
+        }
+    }
+}
+
+impl CheckPhysics {
+    /// `scene` with its step solver replaced by this physics.
+    pub fn apply(&self, scene: &Scene) -> Scene {
+        let mut s = scene.clone();
+        match *self {
+            CheckPhysics::Xpbd { iterations } => {
+                s.physics.solver = SolverKind::Xpbd;
+                s.physics.iterations = iterations;
+            }
+            CheckPhysics::Newton { tolerance } => {
+                s.physics.solver = SolverKind::Newton;
+                s.physics.tolerance = Some(tolerance);
+            }
+        }
+        s
+    }
+}
+
+/// One check of one plan.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CheckRound {
+    /// The margin the checked plan was planned with.
+    pub planned_delta: f64,
+    /// Smallest signed distance of any particle at any step under the check's physics.
+    pub min_sdf: f64,
+    /// `C` at the user's margin under the check's physics.
+    #[serde(rename = "C")]
+    pub c: f64,
+    /// `C ≥ −1e−6` ([`plan::is_safe`]).
+    pub safe: bool,
+    /// Largest final distance of a target from its position under the check's physics.
+    pub max_target_error: f64,
+}
+
+/// What checking a plan under other physics found (the `check` section of a result).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PhysicsCheck {
+    /// The physics the plan was checked under.
+    pub physics: CheckPhysics,
+    /// The user's margin, at which the check judges safety.
+    pub delta: f64,
+    /// Every check made, the last one of the returned plan.
+    pub rounds: Vec<CheckRound>,
+}
+
+impl PhysicsCheck {
+    /// The returned plan's check.
+    pub fn last(&self) -> &CheckRound {
+        self.rounds.last().expect("a check has at least one round")
+    }
+
+    /// One line for the summary.
+    pub fn summary(&self) -> String {
+        let last = self.last();
+        let replans = match self.rounds.len() - 1 {
+            0 => String::new(),
+            k => format!(
+                " (planned at δ′ = {:.4} after {k} re-plan{})",
+                last.planned_delta,
+                if k == 1 { "" } else { "s" }
+            ),
+        };
+        format!(
+            "checked under {}: min SDF {:.4} against δ = {}, {}; largest target error {:.4}{replans}",
+            self.physics,
+            last.min_sdf,
+            self.delta,
+            if last.safe { "safe" } else { "NOT safe" },
+            last.max_target_error
+        )
+    }
+}
+
+/// Re-simulates `controls` of `scene` under `physics` and measures them at margin `delta`.
+///
+/// # Errors
+/// The checked physics cannot model the scene (e.g. friction under Newton), or its rollout fails.
+pub fn check_plan(
+    scene: &Scene,
+    physics: CheckPhysics,
+    controls: &Controls,
+    delta: f64,
+    planned_delta: f64,
+) -> Result<CheckRound> {
+    let failed = |source| Error::Check {
+        physics: physics.to_string(),
+        source,
+    };
+    let model = Model::from_scene(&physics.apply(scene)).map_err(failed)?;
+    let ev = model.evaluate(controls, delta, false).map_err(failed)?;
+    let last = ev.states.last().expect("a rollout has its rest state");
+    let errors = outcome::target_errors(&model, last);
+    Ok(CheckRound {
+        planned_delta,
+        min_sdf: ev.metrics.min_sdf,
+        c: ev.metrics.c,
+        safe: plan::is_safe(&ev.metrics),
+        max_target_error: errors.iter().copied().fold(0.0, f64::max),
+    })
+}
+
+/// Plans with `replan(δ′, start)` until the plan passes the check under `physics` at the
+/// user's margin `delta`, at most `1 + rounds` plans: the first at `delta` from `start`, each
+/// further one from the previous plan with `δ′` raised by [`MARGIN_GROWTH`] times the shortfall
+/// `δ − min SDF` the check measured. Returns the last plan with its [`PhysicsCheck`]; a plan that
+/// still fails the check is returned with its verdict turned to "no safe plan", saying so.
+///
+/// # Errors
+/// A plan or a check fails (see [`check_plan`]).
+pub fn plan_until_checked(
+    model: &Model,
+    scene: &Scene,
+    physics: CheckPhysics,
+    delta: f64,
+    rounds: usize,
+    start: &Controls,
+    mut replan: impl FnMut(f64, &Controls) -> Result<PlanResult>,
+) -> Result<PlanResult> {
+    let mut planned_delta = delta;
+    let mut result = replan(planned_delta, start)?;
+    let mut checks = Vec::new();
+    loop {
+        let controls = plan::controls_from_nested(model, &result.controls)?;
+        let round = check_plan(scene, physics, &controls, delta, planned_delta)?;
+        let passed = round.safe;
+        let shortfall = delta - round.min_sdf;
+        checks.push(round);
+        // A plan that is not safe under its own physics is not made safer by a larger margin
+        // of the same kind; the planner's verdict already says why.
+        if passed || checks.len() > rounds || !result.is_safe() || !shortfall.is_finite() {
+            break;
+        }
+        planned_delta += MARGIN_GROWTH * shortfall.max(0.0) + f64::EPSILON * delta.max(1.0);
+        result = replan(planned_delta, &controls)?;
+    }
+    let check = PhysicsCheck {
+        physics,
+        delta,
+        rounds: checks,
+    };
+    let last = check.last().clone();
+    if !last.safe {
+        let plans = check.rounds.len();
+        let mut why = format!(
+            "under {physics} the cloth comes to {:.4} of the safety obstacles, inside δ = {delta} \
+             (C = {:.3e}), after {plans} plan{}",
+            last.min_sdf,
+            last.c,
+            if plans == 1 { "" } else { "s" }
+        );
+        if !result.task.achieved {
+            why = format!("{why}; under its own physics: {}", result.task.explanation);
+        }
+        result.task.achieved = false;
+        result.task.reason = outcome::Reason::NoSafePlan;
+        result.task.explanation = why;
+    }
+    result.check = Some(check);
+    Ok(result)
+}

@@ -1,0 +1,172 @@
+//! Plans checked under other physics (`optimize --check`): the check re-simulates the plan with
+//! the other step solver and judges it at the user's margin; a plan that fails is re-planned from
+//! itself with the margin raised by 1.25× the measured shortfall.
+//!
+//! Measured on `u_obstacle` refined to 6 × 6, planned on XPBD-100 and checked under Newton at
+//! 1e-12: the first plan (δ = 0.2) keeps 0.2 under XPBD but comes to 0.1708 under Newton (the two
+//! physics' states differ); the re-plan at δ′ = 0.2366 keeps 0.2190 under Newton.
+
+use cloth::{Model, Scene};
+use clothopt::outcome::{exit_code, Reason};
+use clothopt::physics_check::{check_plan, plan_until_checked, CheckPhysics, MARGIN_GROWTH};
+use clothopt::plan::{self, controls_from_nested, PlanOptions};
+use clothopt::Error;
+
+#[test]
+fn check_physics_parses_and_names_the_setting() {
+    assert_eq!(
+        "xpbd:3000".parse::<CheckPhysics>().unwrap(),
+        CheckPhysics::Xpbd { iterations: 3000 }
+    );
+    assert_eq!(
+        "newton".parse::<CheckPhysics>().unwrap(),
+        CheckPhysics::Newton { tolerance: 1e-12 }
+    );
+    assert_eq!(
+        "newton:1e-8".parse::<CheckPhysics>().unwrap(),
+        CheckPhysics::Newton { tolerance: 1e-8 }
+    );
+    for bad in [
+        "xpbd",
+        "xpbd:0",
+        "xpbd:-3",
+        "newton:2",
+        "newton:nan",
+        "pbd:10",
+        "",
+    ] {
+        let e = bad.parse::<CheckPhysics>().unwrap_err();
+        assert!(
+            matches!(&e, Error::InvalidSetting { name, .. } if name == "check"),
+            "{bad}: {e}"
+        );
+        assert!(e.to_string().contains(&format!("`{bad}`")), "{e}");
+    }
+}
+
+/// `u_obstacle` at 6 × 6 on the scene's XPBD physics.
+fn small_scene() -> (Scene, Model) {
+    let scene = Scene::builtin("u_obstacle").unwrap().refined(6, 6).unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    (scene, model)
+}
+
+/// Plans `model`'s task at margin `delta` from `start`, without the route search.
+fn replan<'a>(
+    scene: &'a Scene,
+    model: &'a Model,
+) -> impl FnMut(f64, &cloth::Controls) -> clothopt::Result<plan::PlanResult> + 'a {
+    move |delta, start| {
+        let mut options = PlanOptions::for_model(model);
+        options.task.delta = delta;
+        plan::plan(model, scene, start, &options, |_| {})
+    }
+}
+
+#[test]
+fn a_plan_failing_its_check_is_replanned_with_a_larger_margin_until_it_passes() {
+    let (scene, model) = small_scene();
+    let delta = scene.task.delta;
+    let newton = CheckPhysics::Newton { tolerance: 1e-12 };
+    let start = plan::initial_controls(&scene, &model).unwrap();
+    let result = plan_until_checked(
+        &model,
+        &scene,
+        newton,
+        delta,
+        3,
+        &start,
+        replan(&scene, &model),
+    )
+    .unwrap();
+    let check = result.check.clone().expect("a check");
+    let rounds = &check.rounds;
+    // The premise: the plan at δ is safe under XPBD but not under Newton.
+    assert!(!rounds[0].safe, "{rounds:?}");
+    assert!(rounds[0].min_sdf < delta - 1e-4, "{rounds:?}");
+    assert_eq!(rounds[0].planned_delta, delta);
+    for pair in rounds.windows(2) {
+        let grown = pair[0].planned_delta + MARGIN_GROWTH * (delta - pair[0].min_sdf);
+        assert!((pair[1].planned_delta - grown).abs() < 1e-12, "{rounds:?}");
+    }
+    let last = check.last();
+    assert!(last.safe, "{rounds:?}");
+    assert!(last.min_sdf >= delta - 1e-6, "{rounds:?}");
+    assert_eq!(result.delta, last.planned_delta);
+    assert!(result.is_safe(), "{:?}", result.metrics);
+    // The check's numbers are a re-simulation of the returned plan under Newton.
+    let controls = controls_from_nested(&model, &result.controls).unwrap();
+    let again = check_plan(&scene, newton, &controls, delta, result.delta).unwrap();
+    assert_eq!(&again, last);
+    let mut newton_scene = scene.clone();
+    newton_scene.physics.solver = cloth::scene::SolverKind::Newton;
+    newton_scene.physics.tolerance = Some(1e-12);
+    let truth = Model::from_scene(&newton_scene)
+        .unwrap()
+        .evaluate(&controls, delta, false)
+        .unwrap();
+    assert_eq!(truth.metrics.min_sdf, last.min_sdf);
+    // A passed check leaves the planner's verdict alone.
+    assert_ne!(result.task.reason, Reason::NoSafePlan, "{:?}", result.task);
+}
+
+#[test]
+fn a_plan_still_failing_its_check_is_no_safe_plan_and_says_under_which_physics() {
+    let (scene, model) = small_scene();
+    let delta = scene.task.delta;
+    let newton = CheckPhysics::Newton { tolerance: 1e-12 };
+    let start = plan::initial_controls(&scene, &model).unwrap();
+    let result = plan_until_checked(
+        &model,
+        &scene,
+        newton,
+        delta,
+        0,
+        &start,
+        replan(&scene, &model),
+    )
+    .unwrap();
+    let check = result.check.as_ref().unwrap();
+    assert_eq!(check.rounds.len(), 1);
+    assert!(!check.last().safe);
+    assert!(result.is_safe(), "safe under its own physics");
+    assert!(!result.task.achieved);
+    assert_eq!(result.task.reason, Reason::NoSafePlan);
+    assert_eq!(exit_code(&result.task), 4);
+    assert!(
+        result
+            .task
+            .explanation
+            .contains("under Newton at tolerance 1e-12"),
+        "{}",
+        result.task.explanation
+    );
+    assert!(result.summary(false).contains("NOT safe"));
+    // The check is part of the result file.
+    let json = serde_json::to_value(&result).unwrap();
+    assert_eq!(json["check"]["physics"]["solver"], "newton");
+    assert_eq!(json["check"]["rounds"].as_array().unwrap().len(), 1);
+}
+
+#[test]
+fn a_physics_that_cannot_model_the_scene_is_a_named_error() {
+    // The fold has friction and self-collision, which Newton does not model.
+    let scene = Scene::builtin("fold").unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    let controls = plan::initial_controls(&scene, &model).unwrap();
+    let newton = CheckPhysics::Newton { tolerance: 1e-10 };
+    let e = check_plan(
+        &scene,
+        newton,
+        &controls,
+        scene.task.delta,
+        scene.task.delta,
+    )
+    .unwrap_err();
+    assert!(matches!(e, Error::Check { .. }), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with("the check under Newton at tolerance 1e-10: "),
+        "{e}"
+    );
+}
