@@ -72,6 +72,8 @@ class Scene:
         time_limit: Optional[float] = None,
         start: Optional[ArrayLike] = None,
         timing: bool = True,
+        check: Optional[str] = None,
+        check_rounds: int = 3,
     ) -> Plan:
         """Plans the task as `clothopt optimize` does (same defaults)."""
 

@@ -5,6 +5,7 @@ use crate::errors::{bad_argument, to_py};
 use crate::results::{Plan, Rollout};
 use clap::ValueEnum;
 use cloth::Model;
+use clothopt::physics_check::{plan_until_checked, CheckPhysics};
 use clothopt::plan::initial_controls;
 use clothopt::problem::SafetyForm;
 use clothopt::request::{load_scene, OptimizeRequest};
@@ -209,20 +210,22 @@ impl Scene {
     /// optimize(delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp",
     /// search="auto", starts=6, safety="per_step", swept=False, kappa=None, reuse_band=None,
     /// tol=1e-4, feasibility_tol=1e-8, allow_unsafe_start=False, time_limit=None, start=None,
-    /// timing=True) -> Plan
+    /// timing=True, check=None, check_rounds=3) -> Plan
     ///
     /// Plans the scene's task exactly as `clothopt optimize` does (same defaults; `None` takes
     /// the scene's value): `solver` is "sqp" or "lbfgs", `search` "auto", "always" or "off",
     /// `safety` "per_step", "aggregate" or "scalar"; `start` the starting controls
     /// `(T, K, 3)` (default the initial guess); `time_limit` in seconds; `timing=False` leaves the
-    /// wall-clock time out of the result (as `--no-timing`). Raises ValueError for a bad setting
+    /// wall-clock time out of the result (as `--no-timing`); `check` ("xpbd:N", "newton" or
+    /// "newton:TOL") re-simulates the plan under that physics and re-plans with a raised margin
+    /// up to `check_rounds` times where it is unsafe there (as `--check`). Raises ValueError for a bad setting
     /// (named as here, e.g. `delta must be a finite number ≥ 0, got -1`). The GIL is released
     /// while it runs.
     #[pyo3(signature = (
         delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp", search="auto",
         starts=6, safety="per_step", swept=false, kappa=None, reuse_band=None, tol=1e-4,
         feasibility_tol=clothopt::plan::FEASIBILITY_TOLERANCE, allow_unsafe_start=false,
-        time_limit=None, start=None, timing=true
+        time_limit=None, start=None, timing=true, check=None, check_rounds=3
     ))]
     #[allow(clippy::too_many_arguments)]
     fn optimize(
@@ -245,6 +248,8 @@ impl Scene {
         time_limit: Option<f64>,
         start: Option<ControlsArg<'_>>,
         timing: bool,
+        check: Option<&str>,
+        check_rounds: usize,
     ) -> PyResult<Plan> {
         let request = OptimizeRequest {
             delta,
@@ -267,8 +272,28 @@ impl Scene {
         request.check(&field).map_err(bad_argument)?;
         let u = self.controls(start)?;
         let (options, search) = request.options(&self.model, &field).map_err(bad_argument)?;
+        let check = check
+            .map(str::parse::<CheckPhysics>)
+            .transpose()
+            .map_err(bad_argument)?;
+        let run_plan = |delta: f64, start: &cloth::Controls| {
+            let mut options = options.clone();
+            options.task.delta = delta;
+            plan_with_search(&self.model, &self.scene, start, &options, &search, |_| {})
+        };
         let mut result = py
-            .detach(|| plan_with_search(&self.model, &self.scene, &u, &options, &search, |_| {}))
+            .detach(|| match check {
+                None => run_plan(options.task.delta, &u),
+                Some(physics) => plan_until_checked(
+                    &self.model,
+                    &self.scene,
+                    physics,
+                    options.task.delta,
+                    check_rounds,
+                    &u,
+                    run_plan,
+                ),
+            })
             .map_err(to_py)?;
         if !timing {
             result.drop_timing();

@@ -105,3 +105,16 @@ def test_small_optimize_equals_cli(cli, quick_scene_file, tmp_path):
     assert saved.read_text() == plan.to_json()
     # The planned controls simulate to the reported metrics.
     assert scene.simulate(plan.controls, delta=plan.delta).metrics["L"] == plan.metrics["L"]
+
+
+def test_checked_optimize_equals_cli(cli, quick_scene_file, tmp_path):
+    scene = clothopt.Scene.load(str(quick_scene_file))
+    plan = scene.optimize(iterations=3, search="off", timing=False, check="xpbd:50", check_rounds=1)
+    out = tmp_path / "checked.json"
+    run_cli(cli, "optimize", str(quick_scene_file), "--iterations", "3", "--search", "off",
+            "--no-timing", "--check", "xpbd:50", "--check-rounds", "1", "--out", str(out),
+            ok=(0, 3, 4))
+    assert plan.to_json() == out.read_text()
+    check = plan.to_dict()["check"]
+    assert check["physics"] == {"solver": "xpbd", "iterations": 50}
+    assert 1 <= len(check["rounds"]) <= 2
