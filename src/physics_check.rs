@@ -104,7 +104,9 @@ impl CheckPhysics {
 pub struct CheckRound {
     /// The margin the checked plan was planned with.
     pub planned_delta: f64,
-    /// Smallest signed distance of any particle at any step under the check's physics.
+    /// Smallest signed distance of any particle at any step under the check's physics (∞
+    /// without safety obstacles, `null` in JSON).
+    #[serde(deserialize_with = "null_as_infinity")]
     pub min_sdf: f64,
     /// `C` at the user's margin under the check's physics.
     #[serde(rename = "C")]
@@ -113,6 +115,12 @@ pub struct CheckRound {
     pub safe: bool,
     /// Largest final distance of a target from its position under the check's physics.
     pub max_target_error: f64,
+}
+
+/// Reads a number that JSON may hold as `null` (how `serde_json` writes ∞): `null` reads as ∞.
+fn null_as_infinity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v: Option<f64> = Deserialize::deserialize(d)?;
+    Ok(v.unwrap_or(f64::INFINITY))
 }
 
 /// What checking a plan under other physics found (the `check` section of a result).
@@ -143,13 +151,19 @@ impl PhysicsCheck {
                 if k == 1 { "" } else { "s" }
             ),
         };
+        let safety = if last.min_sdf.is_finite() {
+            format!(
+                "min SDF {:.4} against δ = {}, {}",
+                last.min_sdf,
+                self.delta,
+                if last.safe { "safe" } else { "NOT safe" }
+            )
+        } else {
+            "no safety obstacle".to_string()
+        };
         format!(
-            "checked under {}: min SDF {:.4} against δ = {}, {}; largest target error {:.4}{replans}",
-            self.physics,
-            last.min_sdf,
-            self.delta,
-            if last.safe { "safe" } else { "NOT safe" },
-            last.max_target_error
+            "checked under {}: {safety}; largest target error {:.4}{replans}",
+            self.physics, last.max_target_error
         )
     }
 }

@@ -170,3 +170,30 @@ fn a_physics_that_cannot_model_the_scene_is_a_named_error() {
         "{e}"
     );
 }
+
+#[test]
+fn a_check_without_safety_obstacles_reads_back_from_its_json() {
+    let scene = Scene::load("examples/scenes/towel/towel.json").unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    let start = plan::initial_controls(&scene, &model).unwrap();
+    let xpbd = CheckPhysics::Xpbd { iterations: 20 };
+    let mut result = plan_until_checked(&model, &scene, xpbd, 0.0, 1, &start, |delta, u| {
+        let mut options = PlanOptions::for_model(&model);
+        options.task.delta = delta;
+        options.iterations = 3;
+        plan::plan(&model, &scene, u, &options, |_| {})
+    })
+    .unwrap();
+    result.drop_timing();
+    let check = result.check.as_ref().unwrap();
+    assert_eq!(check.last().min_sdf, f64::INFINITY);
+    assert!(check.last().safe);
+    assert!(
+        check.summary().contains("no safety obstacle"),
+        "{}",
+        check.summary()
+    );
+    let json = serde_json::to_string(&result).unwrap();
+    let back: plan::PlanResult = serde_json::from_str(&json).unwrap();
+    assert_eq!(back.check, result.check);
+}
