@@ -23,6 +23,7 @@ pub mod search;
 #[cfg(feature = "figures")]
 pub use viz as plot;
 pub mod start_check;
+pub mod strain;
 mod summary;
 pub mod validate;
 
