@@ -63,22 +63,31 @@ fn replan<'a>(
     }
 }
 
-#[test]
-fn a_plan_failing_its_check_is_replanned_with_a_larger_margin_until_it_passes() {
+/// Newton at 1e-12, the check of these tests.
+const NEWTON: CheckPhysics = CheckPhysics::Newton { tolerance: 1e-12 };
+
+/// [`small_scene`] planned on XPBD and checked under [`NEWTON`] with up to `rounds` re-plans.
+fn checked_under_newton(rounds: usize) -> (Scene, Model, plan::PlanResult) {
     let (scene, model) = small_scene();
-    let delta = scene.task.delta;
-    let newton = CheckPhysics::Newton { tolerance: 1e-12 };
     let start = plan::initial_controls(&scene, &model).unwrap();
+    let delta = scene.task.delta;
     let result = plan_until_checked(
         &model,
         &scene,
-        newton,
+        NEWTON,
         delta,
-        3,
+        rounds,
         &start,
         replan(&scene, &model),
     )
     .unwrap();
+    (scene, model, result)
+}
+
+#[test]
+fn a_plan_failing_its_check_is_replanned_with_a_larger_margin_until_it_passes() {
+    let (scene, model, result) = checked_under_newton(3);
+    let (delta, newton) = (scene.task.delta, NEWTON);
     let check = result.check.clone().expect("a check");
     let rounds = &check.rounds;
     // The premise: the plan at δ is safe under XPBD but not under Newton.
@@ -112,20 +121,7 @@ fn a_plan_failing_its_check_is_replanned_with_a_larger_margin_until_it_passes() 
 
 #[test]
 fn a_plan_still_failing_its_check_is_no_safe_plan_and_says_under_which_physics() {
-    let (scene, model) = small_scene();
-    let delta = scene.task.delta;
-    let newton = CheckPhysics::Newton { tolerance: 1e-12 };
-    let start = plan::initial_controls(&scene, &model).unwrap();
-    let result = plan_until_checked(
-        &model,
-        &scene,
-        newton,
-        delta,
-        0,
-        &start,
-        replan(&scene, &model),
-    )
-    .unwrap();
+    let (_, _, result) = checked_under_newton(0);
     let check = result.check.as_ref().unwrap();
     assert_eq!(check.rounds.len(), 1);
     assert!(!check.last().safe);
