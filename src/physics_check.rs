@@ -4,7 +4,7 @@
 //! many more and Newton's minimizer of `Φ` are different models of the same cloth (their states
 //! differ by centimetres on a stretched cloth), so a plan whose safety rows are active can sit
 //! inside the margin under another one. [`check_plan`] re-simulates a plan's controls with another
-//! step solver and measures it at the user's margin `δ`; [`plan_until_checked`] re-plans, from the
+//! step solver and measures it at the user's margin `δ`; [`plan_with_check`] re-plans, from the
 //! last plan, with the planning margin raised by the shortfall the check measured
 //! ([`MARGIN_GROWTH`] times it) until the check passes or the rounds run out.
 
@@ -168,7 +168,45 @@ impl PhysicsCheck {
     }
 }
 
-/// Re-simulates `controls` of `scene` under `physics` and measures them at margin `delta`.
+/// `scene` as `physics` models it.
+///
+/// # Errors
+/// The physics cannot model the scene (e.g. friction under Newton).
+fn check_model(scene: &Scene, physics: CheckPhysics) -> Result<Model> {
+    Model::from_scene(&physics.apply(scene)).map_err(|source| Error::Check {
+        physics: physics.to_string(),
+        source,
+    })
+}
+
+/// Re-simulates `controls` with `model` (a scene under `physics`, [`check_model`]) and measures
+/// them at margin `delta`.
+fn measure(
+    model: &Model,
+    physics: CheckPhysics,
+    controls: &Controls,
+    delta: f64,
+    planned_delta: f64,
+) -> Result<CheckRound> {
+    let ev = model
+        .evaluate(controls, delta, false)
+        .map_err(|source| Error::Check {
+            physics: physics.to_string(),
+            source,
+        })?;
+    let last = ev.states.last().expect("a rollout has its rest state");
+    let errors = outcome::target_errors(model, last);
+    Ok(CheckRound {
+        planned_delta,
+        min_sdf: ev.metrics.min_sdf,
+        c: ev.metrics.c,
+        safe: plan::is_safe(&ev.metrics),
+        max_target_error: errors.iter().copied().fold(0.0, f64::max),
+    })
+}
+
+/// Re-simulates `controls` of `scene` under `physics` and measures them at margin `delta`
+/// (`planned_delta`: the margin they were planned with, recorded in the round).
 ///
 /// # Errors
 /// The checked physics cannot model the scene (e.g. friction under Newton), or its rollout fails.
@@ -179,55 +217,61 @@ pub fn check_plan(
     delta: f64,
     planned_delta: f64,
 ) -> Result<CheckRound> {
-    let failed = |source| Error::Check {
-        physics: physics.to_string(),
-        source,
-    };
-    let model = Model::from_scene(&physics.apply(scene)).map_err(failed)?;
-    let ev = model.evaluate(controls, delta, false).map_err(failed)?;
-    let last = ev.states.last().expect("a rollout has its rest state");
-    let errors = outcome::target_errors(&model, last);
-    Ok(CheckRound {
+    measure(
+        &check_model(scene, physics)?,
+        physics,
+        controls,
+        delta,
         planned_delta,
-        min_sdf: ev.metrics.min_sdf,
-        c: ev.metrics.c,
-        safe: plan::is_safe(&ev.metrics),
-        max_target_error: errors.iter().copied().fold(0.0, f64::max),
-    })
+    )
 }
 
-/// Plans with `replan(δ′, start)` until the plan passes the check under `physics` at the
-/// user's margin `delta`, at most `1 + rounds` plans: the first at `delta` from `start`, each
-/// further one from the previous plan with `δ′` raised by [`MARGIN_GROWTH`] times the shortfall
-/// `δ − min SDF` the check measured. Returns the last plan with its [`PhysicsCheck`]; a plan that
-/// still fails the check is returned with its verdict turned to "no safe plan", saying so.
+/// A check asked of a planning run: the physics, and the most re-plans after a failed check.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CheckRequest {
+    /// The physics the plan is checked under.
+    pub physics: CheckPhysics,
+    /// Most re-plans with a raised margin (0: only report).
+    pub rounds: usize,
+}
+
+/// Plans with `replan(δ′, start)` at the user's margin `delta` from `start`; without a `check`,
+/// that plan is the result. With one, until the plan passes the check at `delta`, at most
+/// `1 + rounds` plans: each further one from the previous plan with `δ′` raised by
+/// [`MARGIN_GROWTH`] times the shortfall `δ − min SDF` the check measured. Returns the last plan
+/// with its [`PhysicsCheck`]; a plan that still fails the check is returned with its verdict
+/// turned to "no safe plan", saying so.
 ///
 /// # Errors
 /// A plan or a check fails (see [`check_plan`]).
-pub fn plan_until_checked(
+pub fn plan_with_check(
     model: &Model,
     scene: &Scene,
-    physics: CheckPhysics,
+    check: Option<CheckRequest>,
     delta: f64,
-    rounds: usize,
     start: &Controls,
     mut replan: impl FnMut(f64, &Controls) -> Result<PlanResult>,
 ) -> Result<PlanResult> {
+    let mut result = replan(delta, start)?;
+    let Some(CheckRequest { physics, rounds }) = check else {
+        return Ok(result);
+    };
+    let checker = check_model(scene, physics)?;
     let mut planned_delta = delta;
-    let mut result = replan(planned_delta, start)?;
     let mut checks = Vec::new();
     loop {
         let controls = plan::controls_from_nested(model, &result.controls)?;
-        let round = check_plan(scene, physics, &controls, delta, planned_delta)?;
+        let round = measure(&checker, physics, &controls, delta, planned_delta)?;
         let passed = round.safe;
+        // Not safe means `C < 0`: some distance, so the smallest, is below δ.
         let shortfall = delta - round.min_sdf;
         checks.push(round);
         // A plan that is not safe under its own physics is not made safer by a larger margin
         // of the same kind; the planner's verdict already says why.
-        if passed || checks.len() > rounds || !result.is_safe() || !shortfall.is_finite() {
+        if passed || checks.len() > rounds || !result.is_safe() {
             break;
         }
-        planned_delta += MARGIN_GROWTH * shortfall.max(0.0) + f64::EPSILON * delta.max(1.0);
+        planned_delta += MARGIN_GROWTH * shortfall;
         result = replan(planned_delta, &controls)?;
     }
     let check = PhysicsCheck {

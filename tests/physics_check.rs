@@ -8,7 +8,9 @@
 
 use cloth::{Model, Scene};
 use clothopt::outcome::{exit_code, Reason};
-use clothopt::physics_check::{check_plan, plan_until_checked, CheckPhysics, MARGIN_GROWTH};
+use clothopt::physics_check::{
+    check_plan, plan_with_check, CheckPhysics, CheckRequest, MARGIN_GROWTH,
+};
 use clothopt::plan::{self, controls_from_nested, PlanOptions};
 use clothopt::Error;
 
@@ -71,12 +73,15 @@ fn checked_under_newton(rounds: usize) -> (Scene, Model, plan::PlanResult) {
     let (scene, model) = small_scene();
     let start = plan::initial_controls(&scene, &model).unwrap();
     let delta = scene.task.delta;
-    let result = plan_until_checked(
+    let check = CheckRequest {
+        physics: NEWTON,
+        rounds,
+    };
+    let result = plan_with_check(
         &model,
         &scene,
-        NEWTON,
+        Some(check),
         delta,
-        rounds,
         &start,
         replan(&scene, &model),
     )
@@ -173,7 +178,11 @@ fn a_check_without_safety_obstacles_reads_back_from_its_json() {
     let model = Model::from_scene(&scene).unwrap();
     let start = plan::initial_controls(&scene, &model).unwrap();
     let xpbd = CheckPhysics::Xpbd { iterations: 20 };
-    let mut result = plan_until_checked(&model, &scene, xpbd, 0.0, 1, &start, |delta, u| {
+    let check = Some(CheckRequest {
+        physics: xpbd,
+        rounds: 1,
+    });
+    let mut result = plan_with_check(&model, &scene, check, 0.0, &start, |delta, u| {
         let mut options = PlanOptions::for_model(&model);
         options.task.delta = delta;
         options.iterations = 3;

@@ -18,6 +18,7 @@
 //! - a sphere at its centre: gradient 0, `∇²C·v = 0`; a tie between obstacles: the first one's
 //!   derivatives (as [`Real::min`]).
 
+use crate::geometry::{point, write_points};
 use autodiff::{Dual, Real};
 use nalgebra::Vector3;
 
@@ -263,12 +264,6 @@ impl Constraint for Distance {
     }
 }
 
-/// Particle `i`'s position in a row of coordinates.
-#[inline(always)]
-fn point<R: Real>(x: &[R], i: usize) -> Vector3<R> {
-    Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2])
-}
-
 /// Dihedral-angle bending on two triangles sharing the edge `p₀p₁`, with opposite vertices `p₂`
 /// (first triangle) and `p₃` (second): `C = φ − φ⁰`, `φ` the signed angle between the triangle
 /// normals about the shared edge, computed with `atan2` so it stays smooth through flat (`φ = 0`).
@@ -328,12 +323,7 @@ impl Constraint for DihedralBending {
         let g_a = e.cross(&g_n1);
         let g_b = g_n2.cross(&e);
         let g_0 = -(g_e + g_a + g_b);
-        for k in 0..3 {
-            g[k] = g_0[k];
-            g[3 + k] = g_e[k];
-            g[6 + k] = g_a[k];
-            g[9 + k] = g_b[k];
-        }
+        write_points(g, [g_0, g_e, g_a, g_b]);
         phi
     }
 }

@@ -43,6 +43,21 @@ pub fn constant<R: Real>(v: &[f64; 3]) -> Vector3<R> {
     Vector3::new(R::cst(v[0]), R::cst(v[1]), R::cst(v[2]))
 }
 
+/// Particle `i`'s position in a row of coordinates (`x[3i..3i + 3]`).
+#[inline(always)]
+pub fn point<R: Real>(x: &[R], i: usize) -> Vector3<R> {
+    Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2])
+}
+
+/// Writes one vector per particle into a row of coordinates: `g[3i..3i + 3] = parts[i]` (the
+/// inverse of [`point`]).
+#[inline(always)]
+pub fn write_points<R: Real, const K: usize>(g: &mut [R], parts: [Vector3<R>; K]) {
+    for (i, v) in parts.iter().enumerate() {
+        g[3 * i..3 * i + 3].copy_from_slice(v.as_slice());
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,7 +5,7 @@ use crate::errors::{bad_argument, to_py};
 use crate::results::{Plan, Rollout};
 use clap::ValueEnum;
 use cloth::Model;
-use clothopt::physics_check::{plan_until_checked, CheckPhysics};
+use clothopt::physics_check::{plan_with_check, CheckPhysics, CheckRequest};
 use clothopt::plan::initial_controls;
 use clothopt::problem::SafetyForm;
 use clothopt::request::{load_scene, OptimizeRequest};
@@ -282,17 +282,19 @@ impl Scene {
             plan_with_search(&self.model, &self.scene, start, &options, &search, |_| {})
         };
         let mut result = py
-            .detach(|| match check {
-                None => run_plan(options.task.delta, &u),
-                Some(physics) => plan_until_checked(
+            .detach(|| {
+                let check = check.map(|physics| CheckRequest {
+                    physics,
+                    rounds: check_rounds,
+                });
+                plan_with_check(
                     &self.model,
                     &self.scene,
-                    physics,
+                    check,
                     options.task.delta,
-                    check_rounds,
                     &u,
                     run_plan,
-                ),
+                )
             })
             .map_err(to_py)?;
         if !timing {

@@ -7,7 +7,7 @@ use super::summary;
 use anyhow::{Context, Result};
 use cloth::Model;
 use clothopt::output::write_json_atomic;
-use clothopt::physics_check::{plan_until_checked, CheckPhysics};
+use clothopt::physics_check::{plan_with_check, CheckPhysics, CheckRequest};
 use clothopt::plan::{self, SolverKind};
 use clothopt::problem::SafetyForm;
 use clothopt::request::OptimizeRequest;
@@ -188,18 +188,11 @@ pub fn run(args: OptimizeArgs) -> Result<i32> {
         reporter.finish();
         result
     };
-    let result = match args.check {
-        None => run_plan(options.task.delta, &start),
-        Some(physics) => plan_until_checked(
-            &model,
-            &scene,
-            physics,
-            options.task.delta,
-            args.check_rounds,
-            &start,
-            run_plan,
-        ),
-    };
+    let check = args.check.map(|physics| CheckRequest {
+        physics,
+        rounds: args.check_rounds,
+    });
+    let result = plan_with_check(&model, &scene, check, options.task.delta, &start, run_plan);
     let mut result = result?;
     if no_timing {
         result.drop_timing();

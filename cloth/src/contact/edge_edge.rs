@@ -37,8 +37,9 @@
 use crate::constraint::Constraint;
 use crate::contact::grid::{Aabb, BoxGrid};
 use crate::contact::self_collision::{
-    contact_projection_sets, normal_offset, point, side_offset, ContactPair, SelfCollision,
+    contact_projection_sets, normal_offset, side_offset, ContactPair, SelfCollision,
 };
+use crate::geometry::{point, write_points};
 use crate::model::ProjectionSet;
 use autodiff::{Real, Tensor};
 use nalgebra::Vector3;
@@ -79,12 +80,7 @@ impl Constraint for EdgeEdge {
         let g3 = off.d_e2 * s;
         let g2 = off.d_d * s - g3;
         let g0 = -(g1 + g2 + g3);
-        for k in 0..3 {
-            g[k] = g0[k];
-            g[3 + k] = g1[k];
-            g[6 + k] = g2[k];
-            g[9 + k] = g3[k];
-        }
+        write_points(g, [g0, g1, g2, g3]);
         off.q * s - self.thickness
     }
 }

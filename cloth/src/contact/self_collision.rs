@@ -48,7 +48,7 @@ use crate::coloring::{greedy_coloring, independent_sets};
 use crate::constraint::Constraint;
 use crate::contact::edge_edge::EdgePair;
 use crate::contact::grid::BoxGrid;
-use crate::geometry::norm;
+use crate::geometry::{norm, point, write_points};
 use crate::mesh::ClothMesh;
 use crate::model::{Carry, Model, ProjectionSet};
 use crate::projection::Projection;
@@ -92,12 +92,7 @@ impl Constraint for VertexTriangle {
         let g2 = off.d_e1 * s;
         let g3 = off.d_e2 * s;
         let g1 = -(g0 + g2 + g3);
-        for k in 0..3 {
-            g[k] = g0[k];
-            g[3 + k] = g1[k];
-            g[6 + k] = g2[k];
-            g[9 + k] = g3[k];
-        }
+        write_points(g, [g0, g1, g2, g3]);
         off.q * s - self.thickness
     }
 }
@@ -159,12 +154,6 @@ pub(crate) fn normal_offset<R: Real>(
         d_e1: e2.cross(&m),
         d_e2: m.cross(&e1),
     })
-}
-
-/// Particle `i`'s position in a row of coordinates.
-#[inline(always)]
-pub(crate) fn point<R: Real>(x: &[R], i: usize) -> Vector3<R> {
-    Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2])
 }
 
 /// A non-degenerate triangle of a state (its index) with its unit normal.
