@@ -464,9 +464,12 @@ mod gradients {
             let analytic: f64 = g.data().iter().zip(&dir).map(|(a, b)| a * b).sum();
             let f = |s: f64| with.evaluate(&shifted(&u, &dir, s), 0.0, false).unwrap().metrics.l;
             let fd = |e: f64| (8.0 * (f(e) - f(-e)) - (f(2.0 * e) - f(-2.0 * e))) / (12.0 * e);
-            let (fd1, fd2) = (fd(STEP), fd(2.0 * STEP));
+            // A kink between STEP/10 and STEP bends both fd(STEP) and fd(2·STEP) alike (measured:
+            // h 0.0410, central differences at 1e-9 and 1e-8 within 2e-8 of the analytic value,
+            // at 1e-7 and 2e-7 both 1.3e-6 off), so the stencil is compared at three scales.
+            let (fd0, fd1, fd2) = (fd(0.1 * STEP), fd(STEP), fd(2.0 * STEP));
             let err = (analytic - fd1).abs() / (analytic.abs().max(fd1.abs()) + 1e-8 * ev.metrics.l.abs().max(1.0));
-            let fd_noise = (fd1 - fd2).abs() / fd1.abs().max(1e-12);
+            let fd_noise = (fd1 - fd2).abs().max((fd1 - fd0).abs()) / fd1.abs().max(1e-12);
             eprintln!("h {h:.4}: analytic {analytic:.9e} fd {fd1:.9e} rel err {err:.2e} (fd h/2h {fd_noise:.2e})");
             prop_assume!(fd_noise <= 1e-6, "the FD stencil crosses a kink");
             prop_assert!(err <= 1e-6, "analytic {analytic} vs FD {fd1}: relative error {err:e}");
