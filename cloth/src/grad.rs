@@ -427,23 +427,17 @@ impl RecordedRollout {
         controls: &Controls,
         costs: &[StepCost<'_>],
     ) -> (Vec<Tensor>, Vec<Tensor>) {
+        if costs.is_empty() {
+            return (self.states, Vec::new());
+        }
         if let (Some(kept), crate::newton::Solver::Newton(_)) = (self.newton, model.solver) {
-            let grads = if costs.is_empty() {
-                Vec::new()
-            } else {
-                model
-                    .newton_gradients_kept(&self.states, controls, costs, Some(kept))
-                    .0
-            };
-            return (self.states, grads);
+            let grads = model.newton_gradients_kept(&self.states, controls, costs, Some(kept));
+            return (self.states, grads.0);
         }
         let Some(mut recordings) = self.recordings else {
             let grads = model.gradients(&self.states, controls, costs);
             return (self.states, grads);
         };
-        if costs.is_empty() {
-            return (self.states, Vec::new());
-        }
         let grads = in_pool(|| {
             let mut grads: Vec<Tensor> = costs.iter().map(|_| model.zero_controls()).collect();
             let mut adjoints: Vec<Adjoint> = costs.iter().map(|_| Adjoint::default()).collect();

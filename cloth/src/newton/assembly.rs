@@ -299,7 +299,12 @@ impl Pattern {
                 let ps = terms.particles(k);
                 let d = gather_local(ps, x, &mut local);
                 let (g, h) = (&mut g[..d], &mut h[..d * d]);
-                let c = terms.second_order(k, &local[..d], g, h);
+                // `∇²C` only where a Hessian is assembled (`∇C` is the same bits either way).
+                let c = if values.is_some() {
+                    terms.second_order(k, &local[..d], g, h)
+                } else {
+                    terms.first_order(k, &local[..d], g)
+                };
                 if terms.inequality() && c >= 0.0 {
                     continue;
                 }

@@ -105,9 +105,10 @@ impl Model {
     }
 
     /// One step (number `step`, 1-based) from `x_prev` with control move `u`, by continuation
-    /// in the control move ([`NewtonSettings::load_steps`], [`NewtonSettings::load_halvings`]):
-    /// the control particles move by `u · s` for increasing load fractions `s` up to 1, each
-    /// solve starting from the last one's minimizer (the first from `x̃`). A solve whose iterate
+    /// along the load path ([`NewtonSettings::load_steps`], [`NewtonSettings::load_halvings`]):
+    /// the predicted state moves from the one whose minimizer is `x_prev` to `x̃` over increasing
+    /// load fractions `s` up to 1, each solve starting from the last one's minimizer (the first
+    /// from `x_prev`). A solve whose iterate
     /// leaves the region where the exact Hessian is positive definite is abandoned and the
     /// increment halved (at most `load_halvings` times; at the smallest increment the solve
     /// takes whatever path it needs); after an accepted solve the increment doubles again, up to

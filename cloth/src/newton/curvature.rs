@@ -8,13 +8,15 @@
 //! the per-constraint PSD projection, so `H_p − H` is positive semidefinite and `vᵀHv < 0`
 //! exactly when `μ > 1`), found by Lanczos on `H_p⁻¹ (H_p − H)` with `H_p`'s Cholesky factor
 //! (at `u_obstacle` 40 × 40's saddles the top two `μ` are 1.0016 and about 0.99: the power
-//! iteration this replaced took 130 solves per saddle). Which way the cloth buckles is a modelling choice at an exact symmetry; the rule here
-//! is geometric: toward the predicted state `x̃` (the way the step's inertia and gravity pull),
-//! and where that pull has no component along the mode beyond round-off (a symmetric cloth under
-//! a symmetric load and an antisymmetric mode), the sign that makes the mode's product with a
-//! fixed generic vector positive: a choice round-off cannot flip (the pull's component and the
-//! mode's largest coordinate can: at a symmetric saddle both are ties decided by the last bits
-//! of the state, which any change of the solver's arithmetic moves).
+//! iteration this replaced took 130 solves per saddle). The step off the saddle tries both signs
+//! of the mode and takes the one that lowers `Φ` more ([`escape_length`]); [`orient`] only fixes
+//! the sign the search starts from, which decides an exact tie: toward the predicted state `x̃`
+//! (the way the step's inertia and gravity pull), and where that pull has no component along the
+//! mode beyond round-off (a symmetric cloth under a symmetric load and an antisymmetric mode),
+//! the sign that makes the mode's product with a fixed generic vector positive: a choice
+//! round-off cannot flip (the pull's component and the mode's largest coordinate can: at a
+//! symmetric saddle both are ties decided by the last bits of the state, which any change of the
+//! solver's arithmetic moves).
 
 use super::assembly::Pattern;
 use super::factor::Factor;
@@ -68,7 +70,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// (each iteration one solve with `factor` and two products), stopped when the top Ritz pair's
 /// residual is below [`LANCZOS_TOLERANCE`] of its value. `projected` holds `H_p` and `factor`
 /// its factorization.
-pub fn negative_curvature(
+pub(super) fn negative_curvature(
     pattern: &Pattern,
     exact: &[f64],
     projected: &[f64],
@@ -168,7 +170,7 @@ fn top_ritz_pair(alpha: &[f64], beta: &[f64]) -> (f64, Vec<f64>) {
 /// Orients the mode `v` toward the predicted state: the sign of `vᵀ M (x̃ − x)` (`m_pull` is
 /// `M (x̃ − x)` in degree-of-freedom order) where it exceeds round-off ([`PULL_TIE`]); else the
 /// sign that makes `vᵀw` positive for a fixed generic `w`.
-pub fn orient(v: &mut [f64], m_pull: &[f64]) {
+pub(super) fn orient(v: &mut [f64], m_pull: &[f64]) {
     let along = dot(v, m_pull);
     let scale = dot(v, v).sqrt() * dot(m_pull, m_pull).sqrt();
     let flip = if along.abs() > PULL_TIE * scale {
@@ -184,7 +186,7 @@ pub fn orient(v: &mut [f64], m_pull: &[f64]) {
 /// The step length along `v` that lowers `phi(η) = Φ(x + ηv)` the most among `η₀ 2^k` (from
 /// `η₀`, doubling while `Φ` keeps falling); `None` when no length lowers `Φ` below `phi0` by
 /// more than its round-off.
-pub fn step_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f64) -> Option<f64> {
+fn step_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f64) -> Option<f64> {
     let floor = phi0 - 1024.0 * f64::EPSILON * phi0.abs();
     let (mut best, mut best_phi) = (None, floor);
     let mut eta = eta0;
@@ -206,7 +208,7 @@ pub fn step_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f64) -> Opt
 /// [`step_length`] each way, the lower one kept (an asymmetric saddle falls off one side); where
 /// both lower `Φ` equally to its round-off (a symmetric saddle), the positive way, which
 /// [`orient`] chose.
-pub fn escape_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f64) -> Option<f64> {
+pub(super) fn escape_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f64) -> Option<f64> {
     let ahead = step_length(eta0, phi0, &mut phi).map(|e| (e, phi(e)));
     let back = step_length(eta0, phi0, |e| phi(-e)).map(|e| (-e, phi(-e)));
     let tie = 1024.0 * f64::EPSILON * phi0.abs();

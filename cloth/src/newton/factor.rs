@@ -211,7 +211,7 @@ impl Factor {
 
     /// Bytes of one [`Factor::current`]: the factor and the matrix.
     pub fn kept_bytes(&self) -> usize {
-        self.factor_bytes() + self.numeric.matrix.len() * std::mem::size_of::<f64>()
+        self.numeric.bytes()
     }
 }
 

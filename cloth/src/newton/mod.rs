@@ -7,7 +7,7 @@
 //! inequality constraint (`C ≥ 0`) has a term only while `C < 0`. `∇Φ = 0` is XPBD's
 //! stationarity condition `M(x − x̃) = Σ ∇Cⱼ λⱼ`, `λⱼ = −Cⱼ/α̃ⱼ`.
 //!
-//! - [`terms`]: `C`, `∇C`, `∇²C` of any constraint type from nested duals;
+//! - [`terms`]: `C`, `∇C`, `∇²C` of any constraint type, through its overrides or duals;
 //! - [`assembly`]: the sparse pattern (fixed per model), `Φ`, `∇Φ` and the Hessian;
 //! - [`psd`]: the per-constraint semidefinite projection of the Hessian's blocks;
 //! - [`ordering`]: the fill-reducing elimination order, on the particle graph;
@@ -79,9 +79,8 @@ pub struct NewtonSettings {
     /// The final state is a minimizer of the same `Φ`, so the implicit gradients are unchanged.
     pub load_halvings: usize,
     /// Chord steps ([`solve`]): after a whole step with the exact Hessian, the next steps reuse
-    /// its factorization while the KKT residual falls by [`solve::CHORD_CONTRACTION`] per step,
-    /// and a solve that continues the branch following's last state starts with that state's
-    /// factorization. The returned state is a minimizer to the same tolerance either way.
+    /// its factorization while the KKT residual falls by [`solve::CHORD_CONTRACTION`] per step.
+    /// The returned state is a minimizer to the same tolerance either way.
     pub chord_steps: bool,
 }
 

@@ -17,7 +17,7 @@ use faer::sparse::SymbolicSparseColMatRef;
 /// The elimination position of each of `n` nodes of the undirected graph with `edges` (pairs of
 /// node indices, any order, duplicates and self-loops allowed): a permutation of `0..n`.
 /// Deterministic: it depends only on the graph as given.
-pub fn elimination_positions(n: usize, edges: &[(u32, u32)]) -> Vec<u32> {
+pub(super) fn elimination_positions(n: usize, edges: &[(u32, u32)]) -> Vec<u32> {
     if n == 0 {
         return Vec::new();
     }

@@ -18,7 +18,7 @@ use nalgebra::{ArrayStorage, Const, DefaultAllocator, DimDiff, DimSub, SMatrix, 
 
 /// Overwrites `h` (holding `∇²C`, `d × d` row-major, `d = g.len()`) with the projection of
 /// `s (∇C∇Cᵀ + C∇²C)` onto the semidefinite matrices (`g = ∇C`, `c = C`).
-pub fn projected_local_hessian(s: f64, c: f64, g: &[f64], h: &mut [f64]) {
+pub(super) fn projected_local_hessian(s: f64, c: f64, g: &[f64], h: &mut [f64]) {
     let d = g.len();
     if !gradient_in_null_space(g, h) {
         local_hessian(s, c, g, h);
@@ -31,8 +31,10 @@ pub fn projected_local_hessian(s: f64, c: f64, g: &[f64], h: &mut [f64]) {
         if is_semidefinite(h, d) {
             h.fill(0.0);
         } else {
+            // `h` failed the semidefinite test above (negation is exact): straight to the
+            // eigendecomposition.
             h.iter_mut().for_each(|v| *v = -*v);
-            project_psd(h, d);
+            clamp(h, d);
         }
     }
     for a in 0..d {
@@ -58,9 +60,13 @@ fn gradient_in_null_space(g: &[f64], h: &[f64]) -> bool {
 /// arity 1 to [`crate::constraint::MAX_ARITY`]), so it allocates nothing: with heap-allocated
 /// dynamic matrices it was 14% of a 40 × 40 Newton rollout with ∇L.
 fn project_psd(h: &mut [f64], d: usize) {
-    if is_semidefinite(h, d) {
-        return;
+    if !is_semidefinite(h, d) {
+        clamp(h, d);
     }
+}
+
+/// [`clamp_eigenvalues`] for the block size `d`.
+fn clamp(h: &mut [f64], d: usize) {
     match d {
         3 => clamp_eigenvalues::<3>(h),
         6 => clamp_eigenvalues::<6>(h),

@@ -1,4 +1,4 @@
-//! Newton's method on one step's `Φ`, and the rollout built from it.
+//! Newton's method on one step's `Φ` (the rollout built from it is in [`super::continuation`]).
 //!
 //! Each iteration assembles `∇Φ` and the exact Hessian; when its Cholesky factorization fails
 //! (the Hessian is indefinite away from the minimizer), the Hessian is rebuilt with every
@@ -158,8 +158,7 @@ impl NewtonSystem {
     /// [`CHORD_CONTRACTION`]; returns the new `Φ`. `None` (and `x` unchanged) when it is not
     /// kept, when `x` is within the tolerance (the convergence test needs the exact Hessian at
     /// `x`) or outside [`CHORD_RESIDUAL`], when the active set has changed, or at the iteration
-    /// limit. `fresh` says that the
-    /// last assembly was at `x`; on return it says whether it is.
+    /// limit. `fresh` says that the last assembly was at `x` (after an accepted chord step).
     #[allow(clippy::too_many_arguments)]
     fn chord_step(
         &mut self,
@@ -170,12 +169,12 @@ impl NewtonSystem {
         set: &[bool],
         settings: &NewtonSettings,
         stats: &mut StepStats,
-        fresh: &mut bool,
+        fresh: bool,
     ) -> Option<f64> {
         if stats.iterations == settings.max_iterations {
             return None;
         }
-        if !*fresh {
+        if !fresh {
             self.assemble_gradient_at(x.data(), xt_d);
         }
         let res = self.residual();
@@ -183,7 +182,6 @@ impl NewtonSystem {
         if !(relative > settings.tolerance && relative <= CHORD_RESIDUAL)
             || self.contacts.active_set() != set
         {
-            *fresh = true;
             return None;
         }
         for (d, g) in self.dir.iter_mut().zip(&self.grad) {
@@ -203,10 +201,8 @@ impl NewtonSystem {
             std::mem::swap(x, trial);
             stats.iterations += 1;
             stats.chord_steps += 1;
-            *fresh = true;
             Some(phi_t)
         } else {
-            *fresh = false;
             None
         }
     }
@@ -258,13 +254,10 @@ impl NewtonSystem {
         }
         match self.leave_saddle(x, xt_d, stats) {
             Some(phi) => Ok(Some(phi)),
-            None => {
-                stats.at_roundoff = true;
-                Err(ClothError::NewtonSaddle {
-                    step,
-                    residual: stats.residual,
-                })
-            }
+            None => Err(ClothError::NewtonSaddle {
+                step,
+                residual: stats.residual,
+            }),
         }
     }
 
@@ -421,18 +414,23 @@ impl NewtonSystem {
         // The contacts' active set of the current factorization while chord steps may use it:
         // the exact Hessian, positive definite, at the last iterate, from which the step was
         // whole.
-        let mut chord: Option<Vec<bool>> = None;
-        let mut fresh = false;
+        let (mut chord, mut chord_set) = (false, Vec::new());
         loop {
-            if let Some(set) = chord.take() {
-                let state = (r0, phi);
-                let stepped = self.chord_step(
-                    &mut x, &mut trial, xt_d, state, &set, settings, &mut stats, &mut fresh,
-                );
-                if let Some(phi_t) = stepped {
+            // Chord steps only right after a whole exact step (`chord` is set again below).
+            if std::mem::take(&mut chord) {
+                let mut fresh = false;
+                while let Some(phi_t) = self.chord_step(
+                    &mut x,
+                    &mut trial,
+                    xt_d,
+                    (r0, phi),
+                    &chord_set,
+                    settings,
+                    &mut stats,
+                    fresh,
+                ) {
                     phi = phi_t;
-                    chord = Some(set);
-                    continue;
+                    fresh = true;
                 }
             }
             let kind = if stay_projected {
@@ -558,9 +556,11 @@ impl NewtonSystem {
                 return Err(not_converged(&stats));
             };
             stay_projected = !exact_pd && alpha < 1.0;
-            chord = (settings.chord_steps && exact_pd && alpha == 1.0)
-                .then(|| self.contacts.active_set().to_vec());
-            fresh = false;
+            chord = settings.chord_steps && exact_pd && alpha == 1.0;
+            if chord {
+                chord_set.clear();
+                chord_set.extend_from_slice(self.contacts.active_set());
+            }
             phi = phi_t;
             std::mem::swap(&mut x, &mut trial);
         }

@@ -25,6 +25,9 @@ pub trait ConstraintTerms: Send + Sync {
     fn compliance(&self) -> f64;
     /// `C` of instance `k` at its `3 · arity` coordinates `x`.
     fn value(&self, k: usize, x: &[f64]) -> f64;
+    /// `C` and `∇C` (into `g[..d]`), `d = 3 · arity`: [`ConstraintTerms::second_order`]
+    /// without the Hessian, the same values bit for bit.
+    fn first_order(&self, k: usize, x: &[f64], g: &mut [f64]) -> f64;
     /// `C`, `∇C` (into `g[..d]`) and `∇²C` (row-major `d × d` into `h`), `d = 3 · arity`.
     fn second_order(&self, k: usize, x: &[f64], g: &mut [f64], h: &mut [f64]) -> f64;
 }
@@ -69,6 +72,10 @@ impl<C: Constraint> ConstraintTerms for Terms<C> {
             *pi = Vector3::new(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
         }
         self.constraint.c(k, &p[..C::ARITY])
+    }
+    fn first_order(&self, k: usize, x: &[f64], g: &mut [f64]) -> f64 {
+        let d = 3 * C::ARITY;
+        self.constraint.gradient(k, &x[..d], &mut g[..d])
     }
     fn second_order(&self, k: usize, x: &[f64], g: &mut [f64], h: &mut [f64]) -> f64 {
         let c = self.constraint.as_ref();
@@ -120,6 +127,11 @@ mod tests {
         let terms = Terms::new(Arc::new(c), (0..C::ARITY).collect(), 1.0);
         let (mut g, mut h) = (vec![0.0; d], vec![0.0; d * d]);
         let v = terms.second_order(0, &x[..d], &mut g, &mut h);
+        // Without the Hessian: the same `C` and `∇C`, bit for bit.
+        let mut g1 = vec![0.0; d];
+        let v1 = terms.first_order(0, &x[..d], &mut g1);
+        assert_eq!(v1.to_bits(), v.to_bits());
+        assert!(g1.iter().zip(&g).all(|(a, b)| a.to_bits() == b.to_bits()));
         (v, g, h)
     }
 
