@@ -54,9 +54,11 @@ fn newton_model(scene: &Scene, user_constraint: bool) -> Model {
         m.add_constraints("area", TriangleArea { rest }, tris, 50.0)
             .unwrap();
     }
+    // The default iteration limit: branch following through a buckling step of a cloth without
+    // bending, with chord steps counted as iterations, took up to 83 iterations at a step at the
+    // proptest's controls and over 100 at a finite-difference neighbour (measured).
     m.solver = Solver::Newton(NewtonSettings {
         tolerance: 1e-13,
-        max_iterations: 100,
         ..NewtonSettings::default()
     });
     m
