@@ -106,7 +106,7 @@ pub struct CheckRound {
     pub planned_delta: f64,
     /// Smallest signed distance of any particle at any step under the check's physics (∞
     /// without safety obstacles, `null` in JSON).
-    #[serde(deserialize_with = "null_as_infinity")]
+    #[serde(deserialize_with = "cloth::grad::null_as_infinity")]
     pub min_sdf: f64,
     /// `C` at the user's margin under the check's physics.
     #[serde(rename = "C")]
@@ -115,12 +115,6 @@ pub struct CheckRound {
     pub safe: bool,
     /// Largest final distance of a target from its position under the check's physics.
     pub max_target_error: f64,
-}
-
-/// Reads a number that JSON may hold as `null` (how `serde_json` writes ∞): `null` reads as ∞.
-fn null_as_infinity<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v: Option<f64> = Deserialize::deserialize(d)?;
-    Ok(v.unwrap_or(f64::INFINITY))
 }
 
 /// What checking a plan under other physics found (the `check` section of a result).

@@ -259,14 +259,29 @@ fn optimize_check_reports_the_plan_under_other_physics_and_rejects_bad_values() 
     assert_eq!(check["physics"]["solver"], "xpbd", "{}", stdout(&o));
     assert_eq!(check["physics"]["iterations"], 200);
     assert_eq!(check["delta"], 0.1);
-    let last = check["rounds"].as_array().unwrap().last().unwrap().clone();
-    // The exit code follows the check: a plan failing it is "no safe plan" (4).
-    let safe = last["safe"].as_bool().unwrap();
-    assert_eq!(safe, last["C"].as_f64().unwrap() >= -1e-6);
+    // Measured: the plan at δ = 0.1 (20 iterations per step) comes to 0.02 under XPBD-200; the
+    // re-plan at the raised margin passes.
+    let rounds = check["rounds"].as_array().unwrap();
+    assert!(rounds.len() >= 2, "{rounds:?}");
+    assert_eq!(rounds[0]["safe"], false, "{rounds:?}");
+    assert_eq!(rounds.last().unwrap()["safe"], true, "{rounds:?}");
     assert!(stdout(&o).contains("checked under XPBD at 200 iterations"));
-    if !safe {
-        assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
-    }
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // Without re-plans the failing check is the verdict: no safe plan (4), naming the physics.
+    let o = run(bin().arg("optimize").arg(&scene).args([
+        "--search",
+        "off",
+        "--check",
+        "xpbd:200",
+        "--check-rounds",
+        "0",
+    ]));
+    assert_eq!(o.status.code(), Some(4), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no safe plan: under XPBD at 200 iterations"),
+        "{}",
+        stderr(&o)
+    );
     for bad in ["xpbd", "xpbd:0", "newton:1.5", "jax"] {
         let o = run(bin().arg("optimize").arg(&scene).args(["--check", bad]));
         assert_eq!(o.status.code(), Some(2), "{bad}");

@@ -97,6 +97,12 @@ fn a_plan_failing_its_check_is_replanned_with_a_larger_margin_until_it_passes() 
     let rounds = &check.rounds;
     // The premise: the plan at δ is safe under XPBD but not under Newton.
     assert!(!rounds[0].safe, "{rounds:?}");
+    // The measured rounds of the module docs.
+    assert_eq!(rounds.len(), 2, "{rounds:?}");
+    let near = |a: f64, b: f64| (a - b).abs() < 1e-3;
+    assert!(near(rounds[0].min_sdf, 0.1708), "{rounds:?}");
+    assert!(near(rounds[1].planned_delta, 0.2366), "{rounds:?}");
+    assert!(near(rounds[1].min_sdf, 0.2190), "{rounds:?}");
     assert!(rounds[0].min_sdf < delta - 1e-4, "{rounds:?}");
     assert_eq!(rounds[0].planned_delta, delta);
     for pair in rounds.windows(2) {
