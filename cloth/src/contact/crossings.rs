@@ -257,13 +257,7 @@ fn edge_edge_crosses(m: &[Motion; 4]) -> bool {
         let u = (b * f - c * e) / denom;
         let w = (a * f - b * c) / denom;
         let gap = (p[0] + d1 * u - (p[2] + d2 * w)).norm();
-        (0.0..=1.0).contains(&u)
-            && (0.0..=1.0).contains(&w)
-            && u > 0.0
-            && u < 1.0
-            && w > 0.0
-            && w < 1.0
-            && gap <= 1e-9 * (a.sqrt() + e.sqrt())
+        u > 0.0 && u < 1.0 && w > 0.0 && w < 1.0 && gap <= 1e-9 * (a.sqrt() + e.sqrt())
     })
 }
 

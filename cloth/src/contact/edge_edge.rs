@@ -9,7 +9,7 @@
 //! `s = ±1` they were on at the step's start (`+1` when they met), at least the thickness `h`.
 //! It is written once, generically; a closed-form `∇C` (the same as the vertex–triangle one,
 //! [`crate::contact::self_collision::normal_offset`]) overrides the dual one, and
-//! `tests/self_collision_edges.rs` checks it against the generic path. Parallel edges have no
+//! `tests/overrides.rs` checks it against the generic path. Parallel edges have no
 //! normal: there `C = −h` with gradient 0, which the projection leaves alone.
 //!
 //! # Which pairs

@@ -199,7 +199,7 @@ impl RowFn for FrictionalContact {
 
 /// One row's forward values that its adjoint needs ([`FrictionalContact::linearize`]).
 #[derive(Clone, Copy, Debug)]
-pub struct Linearization {
+struct Linearization {
     /// What the row did: `None` when it leaves everything unchanged (no field gradient, or not
     /// touching), else the contact's and friction's quantities.
     active: Option<Active>,
@@ -217,8 +217,6 @@ struct Active {
     n: Vector3<f64>,
     nn: f64,
     rho: f64,
-    /// Whether the contact projected (`d < 0`).
-    contact: bool,
     /// The friction step, when the row has touched (`D' > 0`).
     friction: Option<FrictionStep>,
 }
@@ -242,7 +240,7 @@ impl FrictionalContact {
     /// The row's forward pass at `x` (in `f64`, the branches of [`FrictionalContact::project`])
     /// with what its adjoint needs; the field's value and derivatives from one `Dual<f64, 3>`
     /// query (its values are bitwise the plain query's, so the branches are the forward's).
-    pub fn linearize(&self, x: &[f64]) -> Linearization {
+    fn linearize(&self, x: &[f64]) -> Linearization {
         let v = |k: usize| Vector3::new(x[k], x[k + 1], x[k + 2]);
         let (p, start, depth, lambda) = (v(0), v(3), x[6], v(7));
         let q = Vector3::from_fn(|k, _| Dual::<f64, 3>::variable(p[k], k));
@@ -256,9 +254,8 @@ impl FrictionalContact {
         let grad_d = Vector3::from(dd.eps);
         let jac_n = Matrix3::from_fn(|i, j| nd[i].eps[j]);
         let rho = nn.sqrt();
-        let contact = d < 0.0;
         let (mut p1, mut depth1) = (p, depth);
-        if contact {
+        if d < 0.0 {
             p1 -= n * (d / nn);
             depth1 -= d / rho;
         }
@@ -288,7 +285,6 @@ impl FrictionalContact {
                 n,
                 nn,
                 rho,
-                contact,
                 friction,
             }),
         }
@@ -298,7 +294,7 @@ impl FrictionalContact {
 impl Linearization {
     /// `in_adj += Jᵀ out_adj` for the row (both `3 + CARRY_WIDTH` values): the steps of
     /// [`FrictionalContact::project`] in reverse.
-    pub fn pull_back(&self, out_adj: &[f64], in_adj: &mut [f64]) {
+    fn pull_back(&self, out_adj: &[f64], in_adj: &mut [f64]) {
         let v = |s: &[f64], k: usize| Vector3::new(s[k], s[k + 1], s[k + 2]);
         let Some(a) = &self.active else {
             for (i, o) in in_adj.iter_mut().zip(out_adj) {
@@ -339,8 +335,8 @@ impl Linearization {
             }
         };
         let mut a_d = 0.0;
-        if a.contact {
-            // p' = p − n·d/|n|², D' = D − d/|n|.
+        if a.d < 0.0 {
+            // The contact projected: p' = p − n·d/|n|², D' = D − d/|n|.
             let c = a.d / a.nn;
             let n_ap = a.n.dot(&a_p1);
             a_n += -a_p1 * c + a.n * (2.0 * c * n_ap / a.nn);

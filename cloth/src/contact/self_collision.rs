@@ -281,10 +281,9 @@ impl SelfCollision {
     /// Whether the pair search skips triangle `triangle` for `vertex`: the triangle has a vertex
     /// of `vertex`'s 1-ring.
     pub fn excludes(&self, vertex: usize, triangle: usize) -> bool {
-        let ring = &self.ring[self.ring_start[vertex]..self.ring_start[vertex + 1]];
         self.triangles[triangle]
             .iter()
-            .any(|q| ring.binary_search(q).is_ok())
+            .any(|&q| self.in_ring(vertex, q))
     }
 
     /// The contact pairs of a step that starts from `x` (`N × 3`), within query radius `radius`

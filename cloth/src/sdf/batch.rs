@@ -18,13 +18,9 @@ fn point(x: &Tensor, p: usize) -> Vector3<f64> {
 /// wherever it is at most `delta` and at the smallest one; elsewhere a lower bound above
 /// `delta`. So `relu(δ − d)` of every particle and the minimum are exact.
 pub fn distances_within(field: &Union, x: &Tensor, delta: f64) -> Vec<f64> {
-    let mut values: Vec<f64> = (0..x.rows())
-        .map(|p| field.distance_within(&point(x, p), delta))
-        .collect();
-    refine_smallest(&mut values, delta, |p, bound| {
+    refined(x.rows(), delta, |p, bound| {
         field.distance_within(&point(x, p), bound)
-    });
-    values
+    })
 }
 
 /// The smallest signed distance to `field` along every particle's straight path from `a` to
@@ -47,9 +43,16 @@ pub fn min_distance(field: &Union, x: &Tensor) -> f64 {
 /// exactly wherever it is at most `bound`, a lower bound above it elsewhere): every value's
 /// cheapest lower bound first (bound −∞), then [`refine_smallest`].
 fn smallest(n: usize, query: impl Fn(usize, f64) -> f64) -> f64 {
-    let mut values: Vec<f64> = (0..n).map(|p| query(p, f64::NEG_INFINITY)).collect();
-    refine_smallest(&mut values, f64::NEG_INFINITY, query);
+    let values = refined(n, f64::NEG_INFINITY, query);
     values.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+/// `n` values from a bounded query at `bound` (exact where at most `bound`), the smallest then
+/// made exact ([`refine_smallest`]).
+fn refined(n: usize, bound: f64, query: impl Fn(usize, f64) -> f64) -> Vec<f64> {
+    let mut values: Vec<f64> = (0..n).map(|p| query(p, bound)).collect();
+    refine_smallest(&mut values, bound, query);
+    values
 }
 
 /// Makes the smallest of `values` exact, given that each is exact where at most `exact_up_to`
