@@ -416,6 +416,11 @@ fn a_saddle_of_phi_is_left_along_its_unstable_mode() {
     };
     assert!(count(&chord_stats) < count(&stats));
     assert_eq!(
+        chord_stats[7].escapes, 0,
+        "with chord steps: {:?}",
+        chord_stats[7]
+    );
+    assert_eq!(
         stats.iter().map(|s| s.escapes).sum::<usize>(),
         stats[7].escapes
     );
