@@ -368,8 +368,37 @@ pub enum SolverKind {
 }
 
 impl SolverKind {
+    /// Every solver, in the order their names are listed.
+    pub const ALL: [SolverKind; 2] = [SolverKind::Xpbd, SolverKind::Newton];
+
+    /// The name the scene format and the CLI give it (`"xpbd"`, `"newton"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Xpbd => "xpbd",
+            SolverKind::Newton => "newton",
+        }
+    }
+
     fn is_xpbd(&self) -> bool {
         *self == SolverKind::Xpbd
+    }
+}
+
+impl std::fmt::Display for SolverKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for SolverKind {
+    type Err = String;
+
+    /// Parses a solver's name (as [`SolverKind::name`] spells it).
+    fn from_str(s: &str) -> Result<Self, String> {
+        SolverKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown physics solver {s:?}: expected \"xpbd\" or \"newton\""))
     }
 }
 

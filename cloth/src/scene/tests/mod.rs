@@ -712,3 +712,18 @@ fn roles() {
 }
 
 // --- built-in scenes ---
+
+#[test]
+fn solver_kind_names_round_trip_through_json_and_from_str() {
+    for kind in SolverKind::ALL {
+        let json = serde_json::to_string(&kind).expect("serializes");
+        assert_eq!(json, format!("\"{}\"", kind.name()));
+        assert_eq!(kind.name().parse::<SolverKind>(), Ok(kind));
+        assert_eq!(kind.to_string(), kind.name());
+    }
+    let err = "jacobi".parse::<SolverKind>().unwrap_err();
+    assert!(
+        err.contains("\"jacobi\"") && err.contains("newton"),
+        "{err}"
+    );
+}
