@@ -2,8 +2,8 @@
 //! its first iteration (a window of one iteration, any decrease below 100%) with no safety row
 //! active is the plan — the sharp stage is not run — and that plan is achieved and safe, and its
 //! rollout, simulated again, gives the same errors. (The full `optimize fold` run and its numbers
-//! are in the README.) Also: when the planner skips the sharp stage, and that the progress
-//! options are checked.
+//! are in docs/performance.md, "The towel and the fold".) Also: when the planner skips the sharp
+//! stage, and that the progress options are checked.
 
 use cloth::{Model, Scene};
 use clothopt::outcome::target_errors;

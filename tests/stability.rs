@@ -6,12 +6,12 @@
 //!   through [`TrajectoryProblem`];
 //! - the gradient agrees with finite differences: central differences (Richardson, `h = 1e-6`)
 //!   where the rollout is smooth, and where it is not, the documented sub-gradient convention
-//!   (README, "Conventions at non-differentiable points"). At a norm kink (`‖·‖` at 0: `T` with
-//!   identical consecutive controls, coincident particles, a particle at a sphere's centre) the
-//!   kink is symmetric, so the central difference *is* the convention's value 0 for that term. At
-//!   the relu kink and the sphere tie the convention is one side's derivative: it is compared with
-//!   the one-sided difference from that side, and the other side is shown to differ (so the check
-//!   can fail);
+//!   (docs/physics.md, "Conventions at non-differentiable points"). At a norm kink (`‖·‖` at 0:
+//!   `T` with identical consecutive controls, coincident particles, a particle at a sphere's
+//!   centre) the kink is symmetric, so the central difference *is* the convention's value 0 for
+//!   that term. At the relu kink and the sphere tie the convention is one side's derivative: it is
+//!   compared with the one-sided difference from that side, and the other side is shown to differ
+//!   (so the check can fail);
 //! - nothing panics.
 //!
 //! The long-horizon cases print the gradient norm and compare it with a shorter horizon; see

@@ -81,8 +81,8 @@ fn newton_evaluate_is_bitwise_identical_with_one_and_two_threads_with_contacts()
     scene.physics.solver = SolverKind::Newton;
     scene.validate().unwrap();
     let model = Model::from_scene(&scene).unwrap();
-    // Grippers lowered to the ground and dragged (the README's Newton contact example), with
-    // noise: the cloth lands on the collider, so contact rows are active.
+    // Grippers lowered to the ground and dragged (docs/performance.md, "Contact under Newton"),
+    // with noise: the cloth lands on the collider, so contact rows are active.
     let mut u = model.zero_controls();
     for t in 0..model.task.horizon {
         for k in 0..model.n_controls() {

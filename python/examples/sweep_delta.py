@@ -2,7 +2,7 @@
 
     python python/examples/sweep_delta.py OUT_DIR [--address ray://host:10001] [--quick]
 
-- δ grid: `u_obstacle` at δ ∈ {0.05, 0.2, 0.4} (the README's table under "Safety margins").
+- δ grid: `u_obstacle` at δ ∈ {0.05, 0.2, 0.4} (Table I in docs/experiments.md).
 - ablation: `swing` and `drop` × {G, G+αT, G+βE, G+αT+βE}: α and β at 0 or the scene's own
   weights, without the safety constraint (neither scene has a safety obstacle).
 

@@ -4,7 +4,8 @@
 //! Reference: ∇L of the Newton minimizer at [`REFERENCE_TOLERANCE`] (relative `‖∇Φ‖`; round-off
 //! stops the solve where `f64` can do no better). XPBD rows are measured against the same
 //! reference, so their error includes the distance between XPBD's fixed point and Newton's
-//! minimizer (they differ: README "Which physics solver"), which no iteration count removes.
+//! minimizer (they differ: docs/physics.md, "The two solvers"), which no iteration count
+//! removes.
 //! Timing and peak memory come from a fresh child process per row (the mesh measurement).
 //! At the `--newton-plan-sizes`, each setting also plans `u_obstacle` with its own physics, and
 //! the plan is re-simulated with converged physics (Newton at the reference tolerance) and with
