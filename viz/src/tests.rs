@@ -6,6 +6,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::format::{fmt_num, fmt_tick};
+use crate::render::{de, draw_rgb};
 use crate::style::*;
 use crate::text::{ensure_font, Canvas};
 use crate::trajectory::prims::{paint_order, Prim, Projector};
@@ -561,5 +562,55 @@ fn a_long_legend_label_stays_inside_the_figure() {
             "{name}: the legend box reaches the image's right edge"
         );
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A box much longer in y than high (the `swing` scene's) puts the vertical axis's title beside
+/// the box's left edge, where it ran off the image and showed as "[m]": the box now shrinks until
+/// every axis title is inside, so the whole "z [m]", pixel for pixel as drawn alone, is found in
+/// the image.
+#[test]
+fn axis_titles_stay_inside_a_wide_box() {
+    let dir = scratch("titles");
+    let (a, b) = (sheet(-1.5), sheet(1.0));
+    let fig = TrajectoryFigure {
+        title: "wide".into(),
+        grid: (3, 3),
+        frames: vec![(&a[..], "initial".into()), (&b[..], "final".into())],
+        ..Default::default()
+    };
+    let path = dir.join("3d.png");
+    draw_view(&fig, &path);
+    let (w, _, px) = decode(&path);
+    let label = draw_rgb((100, 40), |root| {
+        let style = text(17.0).pos(Pos::new(HPos::Center, VPos::Center));
+        root.draw(&Text::new("z [m]".to_string(), (50, 20), style))
+            .map_err(de)
+    })
+    .expect("label");
+    let at = |x: usize, y: usize| {
+        [
+            label[3 * (y * 100 + x)],
+            label[3 * (y * 100 + x) + 1],
+            label[3 * (y * 100 + x) + 2],
+        ]
+    };
+    let inked: Vec<(usize, usize)> = (0..40)
+        .flat_map(|y| (0..100).map(move |x| (x, y)))
+        .filter(|&(x, y)| at(x, y) != [255, 255, 255])
+        .collect();
+    let (x0, y0) = (
+        inked.iter().map(|p| p.0).min().expect("label drawn"),
+        inked.iter().map(|p| p.1).min().expect("label drawn"),
+    );
+    let w = w as usize;
+    let found = (0..px.len() / w - 40).any(|y| {
+        (0..w - 100).any(|x| {
+            inked
+                .iter()
+                .all(|&(lx, ly)| px[(y + ly - y0) * w + x + lx - x0] == at(lx, ly))
+        })
+    });
+    assert!(found, "the vertical axis's title is not whole in the image");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -184,12 +184,7 @@ impl NewtonSystem {
         {
             return None;
         }
-        for (d, g) in self.dir.iter_mut().zip(&self.grad) {
-            *d = -g;
-        }
-        self.contacts.project_tangent(&mut self.dir);
-        self.factor.solve_in_place(&mut self.dir, 1);
-        self.contacts.project_tangent(&mut self.dir);
+        self.newton_direction();
         trial.data_mut().copy_from_slice(x.data());
         self.pattern.add_scaled(trial.data_mut(), 1.0, &self.dir);
         self.contacts.project(trial.data_mut());
@@ -380,7 +375,47 @@ impl NewtonSystem {
         convex_only: bool,
     ) -> Result<(Option<Tensor>, StepStats), ClothError> {
         let xt_d = xt.data();
-        let mut stats = StepStats::default();
+        let stats = StepStats::default();
+        let (x, r0) = self.start_at(start, xt);
+        if r0 == 0.0 {
+            // x̃ is already stationary; it must still be a minimizer for the implicit gradient.
+            return if self.factorize_exact(xt_d, xt_d) {
+                Ok((Some(xt.clone()), stats))
+            } else {
+                Err(ClothError::NewtonSaddle {
+                    step,
+                    residual: stats.residual,
+                })
+            };
+        }
+        let mut run = Run {
+            xt_d,
+            r0,
+            step,
+            settings,
+            convex_only,
+            phi: self.pattern.energy(x.data(), xt_d),
+            trial: x.clone(),
+            x,
+            stats,
+            stay_projected: false,
+            chord: false,
+            chord_set: Vec::new(),
+        };
+        loop {
+            match self.iteration(&mut run)? {
+                None => {}
+                Some(End::Minimizer) => return Ok((Some(run.x), run.stats)),
+                Some(End::LeftConvex) => return Ok((None, run.stats)),
+            }
+        }
+    }
+
+    /// The start of a solve for the predicted state `xt`: `start` with the control particles
+    /// held at `xt` (and projected onto the contact rows), and the residual the tolerance is
+    /// relative to ([`NewtonSystem::solve_from`]).
+    fn start_at(&mut self, start: &Tensor, xt: &Tensor) -> (Tensor, f64) {
+        let xt_d = xt.data();
         self.pattern.assemble(xt_d, xt_d, &mut self.grad, None);
         let mut r0 = norm(&self.grad);
         let mut x = start.clone();
@@ -393,178 +428,265 @@ impl NewtonSystem {
             r0 = r0.max(norm(&self.grad));
             self.contacts.project(x.data_mut());
         }
-        if r0 == 0.0 {
-            // x̃ is already stationary; it must still be a minimizer for the implicit gradient.
-            return if self.factorize_exact(xt_d, xt_d) {
-                Ok((Some(xt.clone()), stats))
-            } else {
-                Err(ClothError::NewtonSaddle {
-                    step,
-                    residual: stats.residual,
-                })
-            };
+        (x, r0)
+    }
+
+    /// One Newton iteration at `run.x`, after the chord steps the last one allows: the
+    /// convergence test (and the saddle escape), the Newton step with the exact or else the
+    /// projected Hessian, and its line search. `Some` when the solve ends.
+    fn iteration(&mut self, run: &mut Run<'_>) -> Result<Option<End>, ClothError> {
+        // Chord steps only right after a whole exact step (`chord` is set again below).
+        if std::mem::take(&mut run.chord) {
+            self.chord_steps(run);
         }
-        let mut phi = self.pattern.energy(x.data(), xt_d);
-        let mut trial = x.clone();
-        // After a projected iteration whose line search shortened the step, x is still far from
-        // the region where the exact Hessian is positive definite: the next iteration goes
-        // straight to the projected Hessian (one factorization instead of a failed exact one and
-        // the projected one). A full projected step, or the tolerance, tries the exact one again.
-        let mut stay_projected = false;
-        // The contacts' active set of the current factorization while chord steps may use it:
-        // the exact Hessian, positive definite, at the last iterate, from which the step was
-        // whole.
-        let (mut chord, mut chord_set) = (false, Vec::new());
-        loop {
-            // Chord steps only right after a whole exact step (`chord` is set again below).
-            if std::mem::take(&mut chord) {
-                let mut fresh = false;
-                while let Some(phi_t) = self.chord_step(
-                    &mut x,
-                    &mut trial,
-                    xt_d,
-                    (r0, phi),
-                    &chord_set,
-                    settings,
-                    &mut stats,
-                    fresh,
-                ) {
-                    phi = phi_t;
-                    fresh = true;
+        let test = self.test_iterate(run)?;
+        if test.within_tolerance {
+            if test.exact_pd {
+                return Ok(Some(End::Minimizer));
+            }
+            // Within the tolerance but at a saddle of Φ: leave it along its unstable mode
+            // (or, when none is found, keep descending).
+            run.stats.at_saddle += 1;
+            if !run.convex_only {
+                if let Some(phi_t) = self.leave_saddle(&mut run.x, run.xt_d, &mut run.stats) {
+                    (run.phi, run.stay_projected) = (phi_t, false);
+                    return Ok(None);
                 }
             }
-            let kind = if stay_projected {
-                HessianKind::Projected
-            } else {
-                HessianKind::Exact
-            };
-            self.assemble_at(x.data(), xt_d, kind);
-            let res = self.residual();
-            stats.residual = res / r0;
-            if !stats.residual.is_finite() {
-                check_finite(&x, step)?;
+        }
+        if run.stats.iterations == run.settings.max_iterations {
+            return Err(run.not_converged());
+        }
+        if run.convex_only && !test.exact_pd {
+            return Ok(Some(End::LeftConvex));
+        }
+        run.stats.iterations += 1;
+        if !test.exact_pd {
+            run.stats.projected += 1;
+            if test.exact_tried {
+                self.assemble_at(run.x.data(), run.xt_d, HessianKind::Projected);
             }
-            let within_tolerance = stats.residual <= settings.tolerance;
-            if kind == HessianKind::Projected && within_tolerance {
-                // The convergence test needs the exact Hessian.
-                self.assemble_at(x.data(), xt_d, HessianKind::Exact);
+            if !self.factor.factorize(&self.pattern, &self.values) {
+                return Err(run.not_converged());
             }
-            // The exact Hessian's factorization: the Newton matrix below, and the test that x is
-            // a minimizer (the implicit gradient needs it positive definite at the returned state).
-            let exact_tried = kind == HessianKind::Exact || within_tolerance;
-            let exact_pd = exact_tried && self.factor.factorize(&self.pattern, &self.values);
-            if within_tolerance {
-                if exact_pd {
-                    return Ok((Some(x), stats));
-                }
-                // Within the tolerance but at a saddle of Φ: leave it along its unstable mode
-                // (or, when none is found, keep descending).
-                stats.at_saddle += 1;
-                if !convex_only {
-                    if let Some(phi_t) = self.leave_saddle(&mut x, xt_d, &mut stats) {
-                        phi = phi_t;
-                        stay_projected = false;
-                        continue;
-                    }
-                }
+        }
+        self.newton_direction();
+        // A step at the coordinates' round-off cannot improve x: converged as far as f64 goes.
+        if self.is_roundoff_step(&run.x) {
+            return self.at_roundoff(run, &test);
+        }
+        let slope: f64 = self.dir.iter().zip(&self.grad).map(|(d, g)| d * g).sum();
+        let (accepted, alpha) = if -slope <= PHI_ROUNDOFF * f64::EPSILON * run.phi.abs() {
+            // Φ's predicted decrease is below its round-off, so Φ cannot rank the step:
+            // take the full step if the residual drops; if it does not, x is as converged as
+            // f64 allows.
+            if self.full_step_residual(run) >= test.res {
+                return self.at_roundoff(run, &test);
             }
-            let not_converged = |stats: &StepStats| ClothError::NewtonNotConverged {
-                step,
-                iterations: stats.iterations,
-                residual: stats.residual,
-                tolerance: settings.tolerance,
-            };
-            if stats.iterations == settings.max_iterations {
-                return Err(not_converged(&stats));
-            }
-            if convex_only && !exact_pd {
-                return Ok((None, stats));
-            }
-            stats.iterations += 1;
-            if !exact_pd {
-                stats.projected += 1;
-                if exact_tried {
-                    self.assemble_at(x.data(), xt_d, HessianKind::Projected);
-                }
-                if !self.factor.factorize(&self.pattern, &self.values) {
-                    return Err(not_converged(&stats));
-                }
-            }
-            for (d, g) in self.dir.iter_mut().zip(&self.grad) {
-                *d = -g;
-            }
-            self.contacts.project_tangent(&mut self.dir);
-            self.factor.solve_in_place(&mut self.dir, 1);
-            self.contacts.project_tangent(&mut self.dir);
-            let p = &self.pattern;
-            // A step at the coordinates' round-off cannot improve x: converged as far as f64 goes.
-            let x_max = x.data().iter().fold(1.0f64, |m, v| m.max(v.abs()));
-            let d_max = self.dir.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            if d_max <= ROUNDOFF_STEP * f64::EPSILON * x_max {
-                // As converged as f64 allows, but only a minimizer has an implicit gradient.
-                let minimizer = exact_pd || (!exact_tried && self.factorize_exact(x.data(), xt_d));
-                match self.settle(&mut x, xt_d, minimizer, &mut stats, step)? {
-                    None => return Ok((Some(x), stats)),
-                    Some(phi_t) => (phi, stay_projected) = (phi_t, false),
-                }
-                continue;
-            }
-            let slope: f64 = self.dir.iter().zip(&self.grad).map(|(d, g)| d * g).sum();
-            let mut alpha = 1.0;
-            let mut accepted = None;
-            if -slope <= PHI_ROUNDOFF * f64::EPSILON * phi.abs() {
-                // Φ's predicted decrease is below its round-off, so Φ cannot rank the step:
-                // take the full step if the residual drops; if it does not, x is as converged as
-                // f64 allows.
-                trial.data_mut().copy_from_slice(x.data());
-                p.add_scaled(trial.data_mut(), 1.0, &self.dir);
-                let mut g = vec![0.0; self.grad.len()];
-                let trial_res = if self.contacts.any() {
-                    self.contacts.project(trial.data_mut());
-                    p.assemble(trial.data(), xt_d, &mut g, None);
-                    let mut at_trial = self.contacts.clone();
-                    at_trial.activate(trial.data(), &g);
-                    at_trial.residual_norm(&g)
-                } else {
-                    p.assemble(trial.data(), xt_d, &mut g, None);
-                    norm(&g)
-                };
-                if trial_res >= res {
-                    let minimizer =
-                        exact_pd || (!exact_tried && self.factorize_exact(x.data(), xt_d));
-                    match self.settle(&mut x, xt_d, minimizer, &mut stats, step)? {
-                        None => return Ok((Some(x), stats)),
-                        Some(phi_t) => (phi, stay_projected) = (phi_t, false),
-                    }
-                    continue;
-                }
-                accepted = Some(p.energy(trial.data(), xt_d));
-            } else {
-                for _ in 0..MAX_HALVINGS {
-                    trial.data_mut().copy_from_slice(x.data());
-                    p.add_scaled(trial.data_mut(), alpha, &self.dir);
-                    self.contacts.project(trial.data_mut());
-                    let phi_t = p.energy(trial.data(), xt_d);
-                    if phi_t <= phi + ARMIJO * alpha * slope {
-                        accepted = Some(phi_t);
-                        break;
-                    }
-                    alpha *= 0.5;
-                }
-            }
-            let Some(phi_t) = accepted else {
-                return Err(not_converged(&stats));
-            };
-            stay_projected = !exact_pd && alpha < 1.0;
-            chord = settings.chord_steps && exact_pd && alpha == 1.0;
-            if chord {
-                chord_set.clear();
-                chord_set.extend_from_slice(self.contacts.active_set());
-            }
-            phi = phi_t;
-            std::mem::swap(&mut x, &mut trial);
+            (Some(self.pattern.energy(run.trial.data(), run.xt_d)), 1.0)
+        } else {
+            self.armijo(run, slope)
+        };
+        let Some(phi_t) = accepted else {
+            return Err(run.not_converged());
+        };
+        self.take_step(run, phi_t, test.exact_pd, alpha);
+        Ok(None)
+    }
+
+    /// Chord steps from `run.x` with the current factorization, as long as they are kept
+    /// ([`NewtonSystem::chord_step`]).
+    fn chord_steps(&mut self, run: &mut Run<'_>) {
+        let mut fresh = false;
+        while let Some(phi_t) = self.chord_step(
+            &mut run.x,
+            &mut run.trial,
+            run.xt_d,
+            (run.r0, run.phi),
+            &run.chord_set,
+            run.settings,
+            &mut run.stats,
+            fresh,
+        ) {
+            run.phi = phi_t;
+            fresh = true;
         }
     }
+
+    /// Assembles at `run.x` (the projected Hessian while `run.stay_projected`), records the
+    /// relative residual and tests it against the tolerance; factorizes the exact Hessian when
+    /// it was assembled, or when the tolerance is met (the convergence test needs it).
+    fn test_iterate(&mut self, run: &mut Run<'_>) -> Result<Test, ClothError> {
+        let kind = if run.stay_projected {
+            HessianKind::Projected
+        } else {
+            HessianKind::Exact
+        };
+        self.assemble_at(run.x.data(), run.xt_d, kind);
+        let res = self.residual();
+        run.stats.residual = res / run.r0;
+        if !run.stats.residual.is_finite() {
+            check_finite(&run.x, run.step)?;
+        }
+        let within_tolerance = run.stats.residual <= run.settings.tolerance;
+        if kind == HessianKind::Projected && within_tolerance {
+            // The convergence test needs the exact Hessian.
+            self.assemble_at(run.x.data(), run.xt_d, HessianKind::Exact);
+        }
+        // The exact Hessian's factorization: the Newton matrix below, and the test that x is
+        // a minimizer (the implicit gradient needs it positive definite at the returned state).
+        let exact_tried = kind == HessianKind::Exact || within_tolerance;
+        let exact_pd = exact_tried && self.factor.factorize(&self.pattern, &self.values);
+        Ok(Test {
+            res,
+            within_tolerance,
+            exact_tried,
+            exact_pd,
+        })
+    }
+
+    /// The Newton direction `−K⁻¹∇Φ` (in the active contacts' tangent space) with the current
+    /// factorization, into `dir`.
+    fn newton_direction(&mut self) {
+        for (d, g) in self.dir.iter_mut().zip(&self.grad) {
+            *d = -g;
+        }
+        self.contacts.project_tangent(&mut self.dir);
+        self.factor.solve_in_place(&mut self.dir, 1);
+        self.contacts.project_tangent(&mut self.dir);
+    }
+
+    /// The direction is at most [`ROUNDOFF_STEP`] ulps of `x`'s largest coordinate.
+    fn is_roundoff_step(&self, x: &Tensor) -> bool {
+        let x_max = x.data().iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        let d_max = self.dir.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        d_max <= ROUNDOFF_STEP * f64::EPSILON * x_max
+    }
+
+    /// `run.x` is as converged as `f64` allows: the solve ends when it is a minimizer, else it
+    /// leaves the saddle ([`NewtonSystem::settle`]) and goes on (`None`).
+    fn at_roundoff(&mut self, run: &mut Run<'_>, test: &Test) -> Result<Option<End>, ClothError> {
+        // As converged as f64 allows, but only a minimizer has an implicit gradient.
+        let minimizer =
+            test.exact_pd || (!test.exact_tried && self.factorize_exact(run.x.data(), run.xt_d));
+        match self.settle(&mut run.x, run.xt_d, minimizer, &mut run.stats, run.step)? {
+            None => Ok(Some(End::Minimizer)),
+            Some(phi_t) => {
+                (run.phi, run.stay_projected) = (phi_t, false);
+                Ok(None)
+            }
+        }
+    }
+
+    /// The KKT residual at the full step from `run.x` (into `run.trial`, projected onto the
+    /// contact rows, with the active set there).
+    fn full_step_residual(&self, run: &mut Run<'_>) -> f64 {
+        let p = &self.pattern;
+        let trial = &mut run.trial;
+        trial.data_mut().copy_from_slice(run.x.data());
+        p.add_scaled(trial.data_mut(), 1.0, &self.dir);
+        let mut g = vec![0.0; self.grad.len()];
+        if self.contacts.any() {
+            self.contacts.project(trial.data_mut());
+            p.assemble(trial.data(), run.xt_d, &mut g, None);
+            let mut at_trial = self.contacts.clone();
+            at_trial.activate(trial.data(), &g);
+            at_trial.residual_norm(&g)
+        } else {
+            p.assemble(trial.data(), run.xt_d, &mut g, None);
+            norm(&g)
+        }
+    }
+
+    /// Backtracking (Armijo) on `Φ` from `run.x` along the direction, into `run.trial`: its
+    /// `Φ` (`None` after [`MAX_HALVINGS`] halvings) and the step length.
+    fn armijo(&self, run: &mut Run<'_>, slope: f64) -> (Option<f64>, f64) {
+        let p = &self.pattern;
+        let mut alpha = 1.0;
+        for _ in 0..MAX_HALVINGS {
+            run.trial.data_mut().copy_from_slice(run.x.data());
+            p.add_scaled(run.trial.data_mut(), alpha, &self.dir);
+            self.contacts.project(run.trial.data_mut());
+            let phi_t = p.energy(run.trial.data(), run.xt_d);
+            if phi_t <= run.phi + ARMIJO * alpha * slope {
+                return (Some(phi_t), alpha);
+            }
+            alpha *= 0.5;
+        }
+        (None, alpha)
+    }
+
+    /// Moves to the accepted trial state (`Φ` = `phi_t`, step length `alpha`): the next
+    /// iteration stays with the projected Hessian after a shortened projected step and tries
+    /// chord steps after a whole exact one.
+    fn take_step(&self, run: &mut Run<'_>, phi_t: f64, exact_pd: bool, alpha: f64) {
+        run.stay_projected = !exact_pd && alpha < 1.0;
+        run.chord = run.settings.chord_steps && exact_pd && alpha == 1.0;
+        if run.chord {
+            run.chord_set.clear();
+            run.chord_set.extend_from_slice(self.contacts.active_set());
+        }
+        run.phi = phi_t;
+        std::mem::swap(&mut run.x, &mut run.trial);
+    }
+}
+
+/// One solve under way: what it was asked, its iterate and what each iteration leaves the next.
+struct Run<'a> {
+    /// The predicted state's coordinates.
+    xt_d: &'a [f64],
+    /// The residual the tolerance is relative to.
+    r0: f64,
+    step: usize,
+    settings: &'a NewtonSettings,
+    convex_only: bool,
+    x: Tensor,
+    /// The line search's trial state (swapped with `x` when accepted).
+    trial: Tensor,
+    /// `Φ(x)`.
+    phi: f64,
+    stats: StepStats,
+    /// After a projected iteration whose line search shortened the step, x is still far from
+    /// the region where the exact Hessian is positive definite: the next iteration goes
+    /// straight to the projected Hessian (one factorization instead of a failed exact one and
+    /// the projected one). A full projected step, or the tolerance, tries the exact one again.
+    stay_projected: bool,
+    /// Chord steps may use the current factorization: the exact Hessian, positive definite, at
+    /// the last iterate, from which the step was whole.
+    chord: bool,
+    /// The contacts' active set of that factorization.
+    chord_set: Vec<bool>,
+}
+
+impl Run<'_> {
+    /// [`ClothError::NewtonNotConverged`] with the iterations and residual so far.
+    fn not_converged(&self) -> ClothError {
+        ClothError::NewtonNotConverged {
+            step: self.step,
+            iterations: self.stats.iterations,
+            residual: self.stats.residual,
+            tolerance: self.settings.tolerance,
+        }
+    }
+}
+
+/// How a solve ends without an error.
+enum End {
+    /// At a minimizer: the state is returned.
+    Minimizer,
+    /// `convex_only`, at an iterate whose exact Hessian is not positive definite.
+    LeftConvex,
+}
+
+/// The tests at an iterate ([`NewtonSystem::test_iterate`]).
+struct Test {
+    /// The KKT residual `‖∇Φ‖`.
+    res: f64,
+    within_tolerance: bool,
+    /// The exact Hessian was factorized ...
+    exact_tried: bool,
+    /// ... and is positive definite.
+    exact_pd: bool,
 }
 
 /// Euclidean norm.

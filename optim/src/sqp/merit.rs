@@ -1,5 +1,6 @@
 //! The ℓ1 merit line search: backtracking with the Armijo test on the QP's predicted reduction,
-//! one second-order correction, and accepting a trial point.
+//! one second-order correction, and accepting a trial point (step 4); the reduction the QP's model
+//! predicts.
 
 use crate::bfgs::DampedBfgs;
 use crate::error::EvalError;
@@ -92,20 +93,26 @@ impl SqpSolver {
                     }
                 }
             }
-            // Quadratic interpolation of the merit along the step, safeguarded to [0.1α, 0.5α].
-            let denom = 2.0 * (phit - phi0 + alpha * pred);
-            let interp = if denom > 0.0 {
-                pred * alpha * alpha / denom
-            } else {
-                0.5 * alpha
-            };
-            alpha = interp.clamp(0.1 * alpha, 0.5 * alpha);
+            alpha = next_step_length(alpha, phi0, phit, pred);
         }
         Search::Failed {
             all_evaluations_failed: trials > 0 && failures == trials,
             last_error,
         }
     }
+}
+
+/// The step length after `alpha` was rejected with merit `phit` (`phi0` at the iterate, `pred`
+/// the predicted reduction of the full step): the minimizer of the quadratic interpolation of the
+/// merit along the step, safeguarded to [0.1α, 0.5α].
+fn next_step_length(alpha: f64, phi0: f64, phit: f64, pred: f64) -> f64 {
+    let denom = 2.0 * (phit - phi0 + alpha * pred);
+    let interp = if denom > 0.0 {
+        pred * alpha * alpha / denom
+    } else {
+        0.5 * alpha
+    };
+    interp.clamp(0.1 * alpha, 0.5 * alpha)
 }
 
 /// Accepts the trial point `x` of step length `alpha`, whose values are known, once its derivatives
@@ -158,25 +165,6 @@ fn second_order_correction<P: Problem + ?Sized>(
     ev.project(&mut xs);
     let vs = ev.values(&xs).ok()?;
     Some((xs, vs))
-}
-
-/// True when the QP step `d` brings the linearization of a kept (not evaluated here) Jacobian row
-/// below half of the reuse margin: that row may be about to matter, so it must be evaluated.
-pub(super) fn kept_row_nears_activity<P: Problem + ?Sized>(
-    ev: &Evaluator<'_, P>,
-    pt: &PointValues,
-    dv: &PointDerivatives,
-    d: &[f64],
-) -> bool {
-    let Some(margin) = ev.reuse_margin else {
-        return false;
-    };
-    if !dv.has_kept_rows() {
-        return false;
-    }
-    let mut jd = vec![0.0; ev.m];
-    dv.jc.mul_vec(d, &mut jd);
-    (0..ev.m).any(|i| dv.kept[i] && (pt.c[i] + jd[i]) / ev.c_scale[i] < 0.5 * margin)
 }
 
 /// `m(0) − m(d)` for the ℓ1 model `f + gᵀd + ½dᵀBd + Σw‖r + Ad‖ + ν·linviol(d)`.

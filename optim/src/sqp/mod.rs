@@ -24,26 +24,36 @@
 //!
 //! Constraints whose gradient at `x₀` exceeds `max_constraint_gradient` are scaled down once (IPOPT's
 //! rule); violations, tolerances and multipliers in the results refer to the unscaled constraints.
+//!
+//! The files of this module follow the iteration: [`start`] (the initial Hessian, the first
+//! iterate), [`state`] (what the iteration carries from one iterate to the next),
+//! [`iteration`] (one iteration, step by step), [`step`] and [`steering`] (1 and 2), [`kkt`] (3),
+//! [`stopping`] (the status tests), [`merit`] (4), [`update`] (5), [`retry`] (repeating an
+//! iteration after a refresh of kept Jacobian rows or a Hessian reset) and [`progress`].
 
 use crate::bfgs::DampedBfgs;
 use crate::error::OptimError;
 use crate::eval::Evaluator;
-use crate::linalg::{norm_inf, DenseMatrix};
 use crate::problem::Problem;
-use crate::qp::{QpData, QpSolution, QpSubproblem};
 use crate::settings::SqpSettings;
-use crate::status::{IterationInfo, Multipliers, Solution, Status};
+use crate::status::{IterationInfo, Solution};
 use std::ops::ControlFlow;
 use std::time::Instant;
 
+mod iteration;
 mod kkt;
 mod merit;
 mod progress;
+mod retry;
+mod start;
+mod state;
+mod steering;
 mod step;
+mod stopping;
+mod update;
 
-use kkt::{extract_multipliers, kkt_residual, lagrangian_gradient};
-use merit::{kept_row_nears_activity, predicted_reduction, Search};
-use progress::Progress;
+use iteration::Next;
+use start::{failed_start, initial_hessian};
 
 /// The SQP solver. Create it with settings, then [`solve`](SqpSolver::solve) any number of problems.
 ///
@@ -82,18 +92,6 @@ pub struct SqpSolver {
     settings: SqpSettings,
 }
 
-/// The QP step at one iterate, after penalty steering.
-struct Step {
-    qp: QpSubproblem,
-    sol: QpSolution,
-    /// Penalty weights the solution was computed with.
-    penalty: Vec<f64>,
-    /// Linearized ℓ1 violation left by `sol.d`.
-    lin_violation: f64,
-    /// The feasibility LP could not reduce the linearized violation.
-    infeasible_stationary: bool,
-}
-
 impl SqpSolver {
     /// A solver with validated settings.
     pub fn new(settings: SqpSettings) -> Result<Self, OptimError> {
@@ -119,7 +117,7 @@ impl SqpSolver {
     }
 
     /// Like [`solve`](SqpSolver::solve), calling `callback` once per iteration; returning
-    /// `ControlFlow::Break(())` stops the run with [`Status::Interrupted`].
+    /// `ControlFlow::Break(())` stops the run with [`Status::Interrupted`](crate::Status::Interrupted).
     pub fn solve_with_callback<P, F>(
         &self,
         problem: &mut P,
@@ -135,315 +133,16 @@ impl SqpSolver {
         s.validate()?;
         let mut ev = Evaluator::new(problem, x0)?;
         ev.reuse_margin = s.jacobian_reuse_margin;
-        let n = ev.n;
-        let initial_hessian = match ev.problem.initial_hessian() {
-            None => None,
-            Some(b0) => {
-                if b0.nrows() != n || b0.ncols() != n {
-                    return Err(OptimError::DimensionMismatch {
-                        what: "initial Hessian rows/columns".into(),
-                        expected: n,
-                        got: if b0.nrows() != n {
-                            b0.nrows()
-                        } else {
-                            b0.ncols()
-                        },
-                    });
-                }
-                if !b0.is_symmetric_positive_definite() {
-                    return Err(OptimError::InvalidProblem(
-                        "initial Hessian must be symmetric positive definite".into(),
-                    ));
-                }
-                Some(b0.as_slice().to_vec())
-            }
+        let bfgs = DampedBfgs::new(ev.n, initial_hessian(&ev)?, s.bfgs_damping);
+        let mut state = match self.start(&mut ev, x0, bfgs) {
+            Ok(state) => state,
+            Err((message, x)) => return Ok(failed_start(&ev, message, x, start)),
         };
-        let mut bfgs = DampedBfgs::new(n, initial_hessian, s.bfgs_damping);
-        let norms = ev.norms.clone();
-
-        // The starting point; from the first evaluation on, the iterate is `pt.x`.
-        let mut x = x0.to_vec();
-        ev.project(&mut x);
-        let empty_mult = Multipliers {
-            inequality: vec![0.0; ev.m],
-            equality: vec![0.0; ev.q],
-            lower_bound: vec![0.0; n],
-            upper_bound: vec![0.0; n],
-            norm_terms: ev.norms.iter().map(|nd| vec![0.0; nd.rows.len()]).collect(),
-        };
-        let failed_start = |ev: &Evaluator<'_, P>, msg: String, x: Vec<f64>| Solution {
-            status: Status::EvaluationFailed,
-            message: msg,
-            x,
-            objective: f64::NAN,
-            constraint_violation: f64::NAN,
-            kkt_residual: f64::NAN,
-            iterations: 0,
-            function_evaluations: ev.function_evaluations,
-            gradient_evaluations: ev.gradient_evaluations,
-            multipliers: empty_mult.clone(),
-            solve_time: start.elapsed().as_secs_f64(),
-            hessian: None,
-        };
-        let mut pt = match ev.values(&x) {
-            Ok(v) => v,
-            Err(e) => {
-                let msg = format!("evaluation failed at the starting point: {e}");
-                return Ok(failed_start(&ev, msg, x));
-            }
-        };
-        let mut dv = match ev.derivatives(&x) {
-            Ok(v) => v,
-            Err(e) => {
-                let msg = format!("derivative evaluation failed at the starting point: {e}");
-                return Ok(failed_start(&ev, msg, x));
-            }
-        };
-
-        if s.max_constraint_gradient.is_finite() {
-            ev.set_scaling(s.max_constraint_gradient, &mut pt, &mut dv);
-        }
-        let mut progress = Progress::new(s.progress_window, s.tol_progress);
-        progress.record(pt.objective(), pt.violation_inf() <= s.tol_feasibility, 1.0);
-        let mut penalty = vec![s.elastic_weight; ev.m + ev.q];
-        let mut iterations = 0usize;
-        let mut last_step_norm = 0.0;
-        let mut last_alpha = 0.0;
-        let mut best_violation = pt.violation_inf();
-        let mut mult = empty_mult.clone();
-        let mut kkt = f64::INFINITY;
-        // A Hessian reset repeats an iteration; the callback sees each iteration number once.
-        let mut reported: Option<usize> = None;
-
-        // Re-evaluates the Jacobian rows kept from earlier iterates and repeats the iteration.
-        macro_rules! refresh_kept_rows {
-            () => {
-                if dv.has_kept_rows() {
-                    match ev.derivatives(&pt.x) {
-                        Ok(fresh) => {
-                            dv = fresh;
-                            continue;
-                        }
-                        Err(e) => {
-                            break (
-                                Status::EvaluationFailed,
-                                format!("derivative evaluation failed at an iterate: {e}"),
-                            )
-                        }
-                    }
-                }
-            };
-        }
-
         let (status, message) = loop {
-            let xinf = norm_inf(&pt.x);
-            let delta = s.step_bound_scale * xinf.max(1.0);
-            let step_lower: Vec<f64> = (0..n)
-                .map(|j| (ev.lower[j] - pt.x[j]).max(-delta))
-                .collect();
-            let step_upper: Vec<f64> = (0..n).map(|j| (ev.upper[j] - pt.x[j]).min(delta)).collect();
-            let data = QpData {
-                n,
-                hessian: bfgs.matrix(),
-                gradient: &dv.g,
-                ineq: &pt.c,
-                ineq_jac: &dv.jc,
-                eq: &pt.h,
-                eq_jac: &dv.jh,
-                norms: &norms,
-                norm_residuals: &pt.residuals,
-                step_lower: &step_lower,
-                step_upper: &step_upper,
-            };
-            let mut step = match self.compute_step(&data, &pt, &dv, &mut penalty) {
-                Ok(step) => step,
-                Err(msg) => {
-                    refresh_kept_rows!();
-                    if !bfgs.is_fresh() {
-                        bfgs.reset();
-                        continue;
-                    }
-                    break (
-                        Status::Stalled,
-                        format!("QP subproblem could not be set up: {msg}"),
-                    );
-                }
-            };
-            let qp_usable = step.sol.outcome.is_usable();
-            if qp_usable && kept_row_nears_activity(&ev, &pt, &dv, &step.sol.d) {
-                refresh_kept_rows!();
-            }
-            if qp_usable {
-                mult =
-                    extract_multipliers(&step.sol, &pt.x, &ev.lower, &ev.upper, delta, &ev.norms);
-                kkt = kkt_residual(&pt, &dv, &mult, &ev.norms, &ev.lower, &ev.upper);
-            }
-            let viol = pt.violation_inf();
-            best_violation = best_violation.min(viol);
-            if reported != Some(iterations) {
-                reported = Some(iterations);
-                let info = IterationInfo {
-                    iteration: iterations,
-                    objective: pt.objective(),
-                    constraint_violation: viol,
-                    kkt_residual: kkt,
-                    step_norm: last_step_norm,
-                    step_length: last_alpha,
-                    penalty: step.penalty.iter().fold(0.0, |a: f64, b| a.max(*b)),
-                    linearized_violation: step.lin_violation,
-                    function_evaluations: ev.function_evaluations,
-                    gradient_evaluations: ev.gradient_evaluations,
-                    x: pt.x.clone(),
-                };
-                if callback(&info).is_break() {
-                    break (Status::Interrupted, "stopped by the callback".into());
-                }
-            }
-            if viol <= s.tol_feasibility && kkt <= s.tol_optimality {
-                break (
-                    Status::Converged,
-                    format!("KKT residual {kkt:.2e} and violation {viol:.2e} within tolerance"),
-                );
-            }
-            if qp_usable && viol > s.tol_feasibility && step.infeasible_stationary {
-                refresh_kept_rows!();
-                break (
-                    Status::Infeasible { best_violation },
-                    format!(
-                        "no step can reduce the linearized violation {:.3e}: locally infeasible",
-                        pt.violation_l1()
-                    ),
-                );
-            }
-            if let Some(stall) = progress.stalled() {
-                refresh_kept_rows!();
-                break (
-                    Status::NoProgress,
-                    format!("{stall}; KKT residual {kkt:.2e}"),
-                );
-            }
-            if iterations >= s.max_iterations {
-                break (Status::IterationLimit, format!("{iterations} iterations"));
-            }
-            if ev.function_evaluations >= s.max_function_evaluations {
-                break (
-                    Status::IterationLimit,
-                    format!("{} function evaluations", ev.function_evaluations),
-                );
-            }
-
-            // The step and its predicted merit reduction.
-            let d: Vec<f64> = step
-                .sol
-                .d
-                .iter()
-                .zip(step_lower.iter().zip(&step_upper))
-                .map(|(v, (l, u))| v.clamp(*l, *u))
-                .collect();
-            let pred = predicted_reduction(&pt, &dv, &bfgs, &ev.norms, &d, &step.penalty);
-            let negligible = norm_inf(&d) <= s.tol_step * (1.0 + xinf);
-            let descent = pred > 0.0;
-            if !qp_usable || negligible || !descent || d.iter().any(|v| !v.is_finite()) {
-                refresh_kept_rows!();
-                if !bfgs.is_fresh() {
-                    bfgs.reset();
-                    continue;
-                }
-                let why = if !qp_usable {
-                    format!("QP subproblem failed ({:?})", step.sol.outcome)
-                } else {
-                    format!(
-                        "negligible step (‖d‖∞ = {:.2e}, predicted reduction {pred:.2e})",
-                        norm_inf(&d)
-                    )
-                };
-                break (Status::Stalled, why);
-            }
-
-            let search = self.line_search(&mut ev, &pt, &dv, &d, pred, &step.penalty, &mut step.qp);
-            match search {
-                Search::Accepted {
-                    values,
-                    derivatives,
-                    alpha,
-                } => {
-                    let s_vec: Vec<f64> = values.x.iter().zip(&pt.x).map(|(a, b)| a - b).collect();
-                    // `mult` are this step's multipliers (the QP was usable to get here).
-                    let gl_old = lagrangian_gradient(&dv, &mult);
-                    let gl_new = lagrangian_gradient(&derivatives, &mult);
-                    let y: Vec<f64> = gl_new.iter().zip(&gl_old).map(|(a, b)| a - b).collect();
-                    bfgs.update(&s_vec, &y);
-                    last_step_norm = norm_inf(&s_vec);
-                    last_alpha = alpha;
-                    pt = *values;
-                    dv = *derivatives;
-                    iterations += 1;
-                    progress.record(
-                        pt.objective(),
-                        pt.violation_inf() <= s.tol_feasibility,
-                        alpha,
-                    );
-                    // Multipliers/KKT of the new point come from its own QP next iteration.
-                    kkt = f64::INFINITY;
-                }
-                Search::Budget => {
-                    break (
-                        Status::IterationLimit,
-                        format!(
-                            "{} function evaluations (during a line search)",
-                            ev.function_evaluations
-                        ),
-                    );
-                }
-                Search::Failed {
-                    all_evaluations_failed,
-                    last_error,
-                } => {
-                    refresh_kept_rows!();
-                    if !bfgs.is_fresh() {
-                        bfgs.reset();
-                        continue;
-                    }
-                    if all_evaluations_failed {
-                        break (
-                            Status::EvaluationFailed,
-                            format!(
-                                "no evaluable point along the step: {}",
-                                last_error.unwrap_or_default()
-                            ),
-                        );
-                    }
-                    break (
-                        Status::Stalled,
-                        "line search failed even after a Hessian reset".into(),
-                    );
-                }
+            if let Next::Stop(status, message) = self.iterate(&mut ev, &mut state, &mut callback) {
+                break (status, message);
             }
         };
-
-        // Multipliers of the scaled constraints sᵢcᵢ → multipliers of cᵢ.
-        for (l, sc) in mult.inequality.iter_mut().zip(&ev.c_scale) {
-            *l *= sc;
-        }
-        for (l, sc) in mult.equality.iter_mut().zip(&ev.h_scale) {
-            *l *= sc;
-        }
-        Ok(Solution {
-            status,
-            message,
-            objective: pt.objective(),
-            constraint_violation: pt.violation_inf(),
-            kkt_residual: kkt,
-            x: pt.x,
-            iterations,
-            function_evaluations: ev.function_evaluations,
-            gradient_evaluations: ev.gradient_evaluations,
-            multipliers: mult,
-            solve_time: start.elapsed().as_secs_f64(),
-            // Only a matrix another solve accepts as its initial Hessian: BFGS keeps it symmetric,
-            // but in floating point a badly conditioned one can fail the Cholesky test.
-            hessian: DenseMatrix::from_row_major(n, n, bfgs.matrix().to_vec())
-                .filter(DenseMatrix::is_symmetric_positive_definite),
-        })
+        Ok(state.into_solution(&ev, status, message, start))
     }
 }

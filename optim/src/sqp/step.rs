@@ -1,14 +1,87 @@
-//! The step at an iterate: the elastic QP and the steering of its penalty weights.
+//! Step 1: the elastic QP at an iterate, within the step box.
 
 use crate::eval::{PointDerivatives, PointValues};
 use crate::linalg::norm_inf;
-use crate::qp::{QpData, QpMode, QpSubproblem};
+use crate::problem::NormData;
+use crate::qp::{QpData, QpMode, QpSolution, QpSubproblem};
 
-use super::kkt::{linearized_violation, linearized_violations};
-use super::{SqpSolver, Step};
+use super::kkt::linearized_violation;
+use super::SqpSolver;
+
+/// The QP step at one iterate, after penalty steering.
+pub(super) struct Step {
+    pub qp: QpSubproblem,
+    pub sol: QpSolution,
+    /// Penalty weights the solution was computed with.
+    pub penalty: Vec<f64>,
+    /// Linearized ℓ1 violation left by `sol.d`.
+    pub lin_violation: f64,
+    /// The feasibility LP could not reduce the linearized violation.
+    pub infeasible_stationary: bool,
+}
+
+/// The step box at `x`: `max(l−x, −Δ) ≤ d ≤ min(u−x, Δ)`, `Δ = step_bound_scale · max(1, ‖x‖∞)`.
+pub(super) struct StepBox {
+    /// `‖x‖∞`.
+    pub xinf: f64,
+    /// The step bound `Δ`.
+    pub delta: f64,
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+}
+
+impl StepBox {
+    /// The box at `x` within the variable bounds `lower`, `upper`.
+    pub fn new(x: &[f64], lower: &[f64], upper: &[f64], step_bound_scale: f64) -> Self {
+        let n = x.len();
+        let xinf = norm_inf(x);
+        let delta = step_bound_scale * xinf.max(1.0);
+        let step_lower: Vec<f64> = (0..n).map(|j| (lower[j] - x[j]).max(-delta)).collect();
+        let step_upper: Vec<f64> = (0..n).map(|j| (upper[j] - x[j]).min(delta)).collect();
+        StepBox {
+            xinf,
+            delta,
+            lower: step_lower,
+            upper: step_upper,
+        }
+    }
+
+    /// The QP data at the iterate `pt` (derivatives `dv`, Hessian approximation `hessian`,
+    /// row-major) in this box.
+    pub fn qp_data<'a>(
+        &'a self,
+        hessian: &'a [f64],
+        pt: &'a PointValues,
+        dv: &'a PointDerivatives,
+        norms: &'a [NormData],
+    ) -> QpData<'a> {
+        QpData {
+            n: self.lower.len(),
+            hessian,
+            gradient: &dv.g,
+            ineq: &pt.c,
+            ineq_jac: &dv.jc,
+            eq: &pt.h,
+            eq_jac: &dv.jh,
+            norms,
+            norm_residuals: &pt.residuals,
+            step_lower: &self.lower,
+            step_upper: &self.upper,
+        }
+    }
+
+    /// `d` clamped into the box.
+    pub fn clamp(&self, d: &[f64]) -> Vec<f64> {
+        d.iter()
+            .zip(self.lower.iter().zip(&self.upper))
+            .map(|(v, (l, u))| v.clamp(*l, *u))
+            .collect()
+    }
+}
 
 impl SqpSolver {
-    /// Solves the elastic QP and steers the penalty.
+    /// Solves the elastic QP with the penalty weights `penalty` and steers them
+    /// ([`SqpSolver::steer_penalty`], which raises `penalty` in place).
     pub(super) fn compute_step(
         &self,
         data: &QpData<'_>,
@@ -25,81 +98,20 @@ impl SqpSolver {
             s.qp_max_iterations,
         )
         .map_err(|e| e.0)?;
-        let mut sol = qp.solve();
-        let mut lin_violation = linearized_violation(pt, dv, &sol.d);
-        let mut step_penalty = penalty.to_vec();
-        let mut infeasible_stationary = false;
-        let lv0 = pt.violation_l1();
-        let scale = 1.0 + norm_inf(&pt.c).max(norm_inf(&pt.h));
-        let lin_tol = s.tol_feasibility.max(10.0 * s.qp_tolerance * scale);
-        if sol.outcome.is_usable() && lin_violation > lin_tol {
-            let mut fqp = QpSubproblem::new(
-                data,
-                QpMode::Feasibility,
-                &[],
-                s.qp_tolerance,
-                s.qp_max_iterations,
-            )
-            .map_err(|e| e.0)?;
-            let fsol = fqp.solve();
-            let lv_min = if fsol.outcome.is_usable() {
-                let v = linearized_violation(pt, dv, &fsol.d);
-                // Stationary for the violation only if the LP cannot reduce it by more than a
-                // relative tol_optimality (relative at every size: an absolute floor would call a
-                // 1e-7 violation that the LP halves stationary).
-                infeasible_stationary = v > lin_tol && lv0 - v <= s.tol_optimality * lv0;
-                v.min(lin_violation)
-            } else {
-                0.0
-            };
-            let good_enough = |lv: f64| {
-                if lv_min <= lin_tol {
-                    lv <= lin_tol
-                } else {
-                    lv0 - lv >= 0.1 * (lv0 - lv_min)
-                }
-            };
-            let count = penalty.len().max(1) as f64;
-            while !good_enough(lin_violation) {
-                // Raise the weights of the constraints the step leaves violated (all, if none stands out).
-                let per = linearized_violations(pt, dv, &sol.d);
-                let mut next = penalty.to_vec();
-                let mut raised = false;
-                for (w, v) in next.iter_mut().zip(&per) {
-                    if *v > lin_tol / count && *w < s.elastic_weight_max {
-                        *w = (*w * s.elastic_weight_growth).min(s.elastic_weight_max);
-                        raised = true;
-                    }
-                }
-                if !raised {
-                    for w in next.iter_mut() {
-                        if *w < s.elastic_weight_max {
-                            *w = (*w * s.elastic_weight_growth).min(s.elastic_weight_max);
-                            raised = true;
-                        }
-                    }
-                }
-                if !raised || qp.update_penalty(&next).is_err() {
-                    break;
-                }
-                penalty.copy_from_slice(&next);
-                let trial = qp.solve();
-                if !trial.outcome.is_usable() {
-                    // Keep the last usable step; restore the QP to its weights for a consistent SOC.
-                    let _ = qp.update_penalty(&step_penalty);
-                    break;
-                }
-                step_penalty = next;
-                lin_violation = linearized_violation(pt, dv, &trial.d);
-                sol = trial;
-            }
-        }
-        Ok(Step {
+        let sol = qp.solve();
+        let lin_violation = linearized_violation(pt, dv, &sol.d);
+        let mut step = Step {
             qp,
             sol,
-            penalty: step_penalty,
+            penalty: penalty.to_vec(),
             lin_violation,
-            infeasible_stationary,
-        })
+            infeasible_stationary: false,
+        };
+        let scale = 1.0 + norm_inf(&pt.c).max(norm_inf(&pt.h));
+        let lin_tol = s.tol_feasibility.max(10.0 * s.qp_tolerance * scale);
+        if step.sol.outcome.is_usable() && step.lin_violation > lin_tol {
+            self.steer_penalty(data, pt, dv, penalty, &mut step, lin_tol)?;
+        }
+        Ok(step)
     }
 }

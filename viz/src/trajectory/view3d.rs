@@ -194,8 +194,19 @@ pub(crate) fn scene_3d(
     };
     let bb = corners(chart.plotting_area().as_coord_spec());
     let f = (avail_w / (bb[1] - bb[0]).max(1) as f64).min(avail_h / (bb[3] - bb[2]).max(1) as f64);
-    let k = k0 * f;
+    let mut k = k0 * f;
     set_size(&mut chart, k);
+    // Where an axis title would run off the image (the vertical axis's, beside a wide box's left
+    // edge), shrink the box until it fits: the titles keep their distance from the box.
+    for _ in 0..4 {
+        let coord = chart.plotting_area().as_coord_spec();
+        let fit = axis_titles_fit(root, coord, b, plot_area, title_size)?;
+        if fit >= 1.0 {
+            break;
+        }
+        k *= fit;
+        set_size(&mut chart, k);
+    }
 
     let fmt_y = |v: &f64| fmt_tick(-*v);
     let fmt_v = |v: &f64| fmt_tick(*v);
@@ -249,15 +260,19 @@ pub(crate) fn scene_3d(
     Ok(())
 }
 
-/// Puts "x [m]", "y [m]", "z [m]" beside the box edges on which plotters draws the tick labels (the
-/// same choice as plotters' `draw_axis`: the nearest back-panel edge, then the highest).
-pub(crate) fn draw_axis_titles(
-    root: &Area,
-    coord: &Coord3,
-    b: &[[f64; 2]; 3],
-    plot_area: &Area,
-    size: f64,
-) -> Result<(), PlotError> {
+/// An axis title and where it goes.
+struct AxisTitle {
+    name: &'static str,
+    /// The centre of the text, in pixels.
+    at: (i32, i32),
+    /// The midpoint of the box edge it labels, from the centre of the plot area, in pixels.
+    edge: (f64, f64),
+}
+
+/// Where "x [m]", "y [m]", "z [m]" go: beside the box edges on which plotters draws the tick
+/// labels (the same choice as plotters' `draw_axis`: the nearest back-panel edge, then the
+/// highest), outwards from the centre of `plot_area`.
+fn axis_titles(coord: &Coord3, b: &[[f64; 2]; 3], plot_area: &Area, size: f64) -> Vec<AxisTitle> {
     // Ranges in plotters' axis order (X = x, Y = z, Z = −y).
     let r = [[b[0][0], b[0][1]], [b[2][0], b[2][1]], [-b[1][1], -b[1][0]]];
     let depth = |p: [f64; 3]| coord.projected_depth(&p[0], &p[1], &p[2]);
@@ -277,6 +292,7 @@ pub(crate) fn draw_axis_titles(
     let (xr, yr) = plot_area.get_pixel_range();
     let centre = ((xr.start + xr.end) / 2, (yr.start + yr.end) / 2);
     let names = ["x [m]", "z [m]", "y [m]"];
+    let mut titles = Vec::with_capacity(3);
     for idx in 0..3 {
         let candidates = (0..3).filter(|&i| i != idx).flat_map(|i| {
             let j = 3 - i - idx;
@@ -302,12 +318,60 @@ pub(crate) fn draw_axis_titles(
             (m.0 + d.0 / n * off).round() as i32,
             (m.1 + d.1 / n * off).round() as i32,
         );
-        root.draw(&Text::new(
-            names[idx].to_string(),
+        titles.push(AxisTitle {
+            name: names[idx],
             at,
+            edge: d,
+        });
+    }
+    titles
+}
+
+/// Puts the axis titles ([`axis_titles`]) on `root`.
+pub(crate) fn draw_axis_titles(
+    root: &Area,
+    coord: &Coord3,
+    b: &[[f64; 2]; 3],
+    plot_area: &Area,
+    size: f64,
+) -> Result<(), PlotError> {
+    for t in axis_titles(coord, b, plot_area, size) {
+        root.draw(&Text::new(
+            t.name.to_string(),
+            t.at,
             text(size).pos(Pos::new(HPos::Center, VPos::Center)),
         ))
         .map_err(de)?;
     }
     Ok(())
+}
+
+/// The factor (at most 1) by which the box's scale must shrink for every axis title to lie
+/// within `root`: a title that runs `over` pixels past a side of the image needs the edge it
+/// labels `over` pixels closer to the centre of `plot_area` (a title keeps its distance from
+/// its edge, and the edges' distances from the centre scale with the box). A title that no
+/// shrinking brings in is left as it is.
+fn axis_titles_fit(
+    root: &Area,
+    coord: &Coord3,
+    b: &[[f64; 2]; 3],
+    plot_area: &Area,
+    size: f64,
+) -> Result<f64, PlotError> {
+    let (rx, ry) = root.get_pixel_range();
+    let mut fit = 1.0f64;
+    for t in axis_titles(coord, b, plot_area, size) {
+        let (w, h) = root.estimate_text_size(t.name, &text(size)).map_err(de)?;
+        // Half the text's extent, and a pixel to spare.
+        let (hw, hh) = (f64::from(w) / 2.0 + 1.0, f64::from(h) / 2.0 + 1.0);
+        let (x, y) = (f64::from(t.at.0), f64::from(t.at.1));
+        let over_x = (f64::from(rx.start) - (x - hw)).max(x + hw - f64::from(rx.end));
+        let over_y = (f64::from(ry.start) - (y - hh)).max(y + hh - f64::from(ry.end));
+        for (over, dist) in [(over_x, t.edge.0.abs()), (over_y, t.edge.1.abs())] {
+            if over > 0.0 && dist > over {
+                fit = fit.min((dist - over) / dist);
+            }
+        }
+    }
+    Ok(fit)
 }
