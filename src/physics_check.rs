@@ -106,7 +106,7 @@ pub struct CheckRound {
     pub planned_delta: f64,
     /// Smallest signed distance of any particle at any step under the check's physics (∞
     /// without safety obstacles, `null` in JSON).
-    #[serde(deserialize_with = "cloth::grad::null_as_infinity")]
+    #[serde(deserialize_with = "cloth::null_as_infinity")]
     pub min_sdf: f64,
     /// `C` at the user's margin under the check's physics.
     #[serde(rename = "C")]

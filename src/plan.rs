@@ -570,11 +570,7 @@ fn max_violation(problem: &mut TrajectoryProblem<'_>, x: &[f64]) -> Result<f64> 
 
 /// The rollout of `controls` with the run's weights and margin (not the scene's): what a result
 /// reports.
-fn rescore(
-    model: &Model,
-    controls: &Controls,
-    options: &PlanOptions,
-) -> Result<cloth::grad::Evaluation> {
+fn rescore(model: &Model, controls: &Controls, options: &PlanOptions) -> Result<cloth::Evaluation> {
     let mut scored = model.clone();
     scored.task.alpha = options.task.alpha;
     scored.task.beta = options.task.beta;

@@ -22,7 +22,7 @@
 
 use crate::control_rows::{collider_rows, control_rows, workspace_rows, ControlRow, LinearRow};
 use autodiff::{soft_min_value, soft_min_weights, Tape, Tensor, Var};
-use cloth::grad::StepCost;
+use cloth::StepCost;
 use cloth::{ClothError, Controls, Model};
 use optim::{DenseMatrix, EvalError, Jacobian, NormTerm, Problem};
 

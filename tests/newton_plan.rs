@@ -6,9 +6,9 @@
 //! κ = 3000: 20); with one Newton solve per step from `x̃` (`load_halvings` 0) the sharp stage
 //! stalls after 79 iterations, because the rollout jumps between minima of a step's `Φ`.
 
-use cloth::newton::{NewtonSettings, Solver};
 use cloth::scene::SolverKind;
 use cloth::{Model, Scene};
+use cloth::{NewtonSettings, Solver};
 use clothopt::plan::{self, controls_from_nested, PlanOptions};
 
 /// `u_obstacle` at `n × n` particles on Newton physics with the default settings.

@@ -14,7 +14,7 @@
 
 use autodiff::{DynRowFn, RowIndex, Tensor};
 use cloth::constraint::{Distance, Generic};
-use cloth::projection::Projection;
+use cloth::internals::Projection;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use std::hint::black_box;
 use std::sync::Arc;

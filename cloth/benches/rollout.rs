@@ -13,7 +13,7 @@
 //! Single thread, as the targets are stated: `RAYON_NUM_THREADS=1 cargo bench -p cloth --bench rollout`.
 
 use autodiff::{Tape, Tensor, Var};
-use cloth::grad::StepCost;
+use cloth::StepCost;
 use cloth::{Model, Scene};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;

@@ -1,12 +1,12 @@
 //! Does the cloth pass through itself? The `fold` built-in's initial guess simulated without
 //! self-collision, with vertex–triangle contacts (the scene as shipped) and with edge–edge
 //! contacts too (`physics.self_collision.edge_edge`): per step, the edge–edge and vertex–triangle
-//! crossings between consecutive states (`cloth::contact::crossings`) and the edge–triangle
+//! crossings between consecutive states (`cloth::crossings`) and the edge–triangle
 //! intersections of each state, the contact pairs, and the simulation's wall time.
 //!
 //! `cargo run --release -p cloth --example crossings`
 
-use cloth::contact::crossings::{crossings, intersections};
+use cloth::{crossings, intersections};
 use cloth::{Model, Scene};
 use std::time::Instant;
 

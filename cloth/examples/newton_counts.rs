@@ -5,9 +5,9 @@
 //! Flags: `--no-chord` (no chord steps), `--halvings H` (`physics.load_halvings`), `--budget MIB`
 //! (`Model::checkpoint_budget`), `--ref` (∇L error against tolerance 1e-12), `--newton-only`
 //! (time Newton alone, for `perf record`).
-use cloth::newton::solve::StepStats;
-use cloth::newton::Solver;
 use cloth::scene::SolverKind;
+use cloth::Solver;
+use cloth::StepStats;
 use cloth::{Model, Scene};
 use std::time::Instant;
 
@@ -60,7 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("L {:.12} |gL| {:.12e}", ev.metrics.l, norm(g.data()));
     if flag("--ref") {
         let mut reference = newton.clone();
-        reference.solver = Solver::Newton(cloth::newton::NewtonSettings {
+        reference.solver = Solver::Newton(cloth::NewtonSettings {
             tolerance: 1e-12,
             ..settings
         });

@@ -6,7 +6,7 @@
 //! vectors without spelling out the layout:
 //!
 //! ```
-//! use cloth::controls::ControlsView;
+//! use cloth::ControlsView;
 //! use cloth::Controls;
 //! let mut u = Controls::zeros(4, 3 * 2); // 4 steps, 2 grippers
 //! u.set_at(2, 1, [0.0, 0.1, 0.0]);
@@ -17,7 +17,10 @@
 //! assert_eq!(path[4], [0.0, 0.1, 0.0]);
 //! ```
 
-use crate::sim::Controls;
+use autodiff::Tensor;
+
+/// Controls: one row per time step, `3 × n_controls` displacements per row.
+pub type Controls = Tensor;
 
 /// (step, gripper) access to a controls tensor; steps `t` count from 0 (row `t` acts during step
 /// `t + 1`), grippers `k` in the scene's `controls` order. Out-of-range indices panic, as slice

@@ -1,51 +1,70 @@
-//! Differentiable quasi-static XPBD cloth: scenes, constraints, the simulator, costs and SDFs.
+//! Differentiable quasi-static cloth: scenes, constraints, the simulator (XPBD and Newton), costs,
+//! gradients and signed distances.
 //!
-//! A [`Scene`](scene::Scene) (JSON) compiles to a [`Model`](model::Model) that holds only the
-//! effects it calls for. Constraints are written once as a generic function `C` ([`constraint`]);
-//! the projection's `∇C` and the backward pass both come from `autodiff`.
+//! A [`Scene`] (JSON, the [`scene`] module) compiles to a [`Model`] that holds only the effects it
+//! calls for. [`Model::simulate`] rolls it out under [`Controls`]; [`Model::evaluate`] returns the
+//! paper's [`Metrics`] and their gradients, [`Model::gradients`] those of any per-step costs
+//! ([`StepCost`]). Constraints are written once as a generic function `C` (the [`constraint`]
+//! module); the projection's `∇C`, the backward pass and Newton's Hessians all come from
+//! `autodiff`. Obstacles are signed-distance fields (the [`sdf`] module).
 //!
-//! - [`scene`]: the scene file format, its validation, built-ins and JSON printing;
-//! - [`layout`]: the geometry a scene derives (rest positions, control and target indices);
-//! - [`geometry`]: shared vector helpers; [`obj`]: the OBJ triangle-mesh reader;
-//! - [`mesh`]: the grid mesh and its constraints in canonical order;
-//! - [`coloring`]: greedy colouring into independent sets;
-//! - [`contact`]: contacts found during the simulation (self-collision);
-//! - [`constraint`], [`projection`], [`sdf`]: constraint functions, their XPBD projection, obstacles
-//!   (spheres, planes, capsules, boxes, closed meshes);
-//! - [`contact`]: contact effects beyond the collider constraint (friction);
-//! - [`controls`]: the controls tensor viewed by (step, gripper);
-//! - [`model`]: a scene compiled to its effects; [`registry`]: constraint types scene files name; [`sim`]: time stepping; [`cost`], [`grad`]: costs
-//!   and gradients;
-//! - [`strain`]: edge strain;
-//! - [`newton`]: the converged (Newton) step and its implicit gradients, beside XPBD.
+//! Inside (private; see `ARCHITECTURE.md`): `model` (the compiled data and the compiler), `xpbd`
+//! (colour sets, projections, time stepping), `newton` (the converged step and its implicit
+//! gradients), `rollout` (costs, strain, gradients), `contact` (friction, self-collision), and the
+//! scene-derived geometry (`layout`, `mesh`, `obj`, `refine`, `controls`).
 
-pub mod coloring;
 pub mod constraint;
-pub mod contact;
-pub mod controls;
-pub mod cost;
-pub mod error;
-pub mod geometry;
-pub mod grad;
-pub mod layout;
-pub mod mesh;
-pub mod model;
-pub mod newton;
-pub mod obj;
-pub mod projection;
-pub mod refine;
-pub mod registry;
 pub mod scene;
 pub mod sdf;
-pub mod sim;
-pub mod strain;
 
-pub use controls::ControlsView;
+mod contact;
+mod controls;
+mod error;
+mod geometry;
+mod layout;
+mod mesh;
+mod model;
+mod newton;
+mod obj;
+mod refine;
+mod registry;
+mod rollout;
+mod xpbd;
+
+pub use contact::crossings::{crossings, intersections, Crossings};
+pub use controls::{controls_from_steps, Controls, ControlsView};
 pub use error::ClothError;
-pub use grad::{Evaluation, Metrics};
-pub use model::Model;
+pub use mesh::ClothMesh;
+pub use model::{ConstraintGroup, Model, TaskSpec, DEFAULT_CHECKPOINT_BUDGET};
 /// The `nalgebra` this crate is built with: constraints take `nalgebra::Vector3<R>` points.
 pub use nalgebra;
-pub use registry::ConstraintRegistry;
+pub use newton::continuation::{NewtonKept, NewtonRollout};
+pub use newton::factor::FactorCounts;
+pub use newton::solve::StepStats;
+pub use newton::{
+    NewtonSettings, Solver, DEFAULT_LOAD_HALVINGS, DEFAULT_MAX_ITERATIONS, DEFAULT_TOLERANCE,
+};
+pub use obj::{ObjError, ObjMesh};
+pub use registry::{ConstraintRegistry, CustomInput};
+pub use rollout::grad::{null_as_infinity, Evaluation, Metrics, RecordedRollout, StepCost};
 pub use scene::Scene;
-pub use sim::Controls;
+pub use xpbd::set::{Carry, ProjectionSet};
+
+/// The simulator's building blocks, for this crate's own tests, benches and examples (feature
+/// `internals`): not part of the API, and free to change.
+#[cfg(feature = "internals")]
+#[doc(hidden)]
+pub mod internals {
+    pub use crate::contact::edge_edge::{EdgeEdge, EdgePair};
+    pub use crate::contact::friction::{FrictionalContact, Regime, CARRY_WIDTH};
+    pub use crate::contact::self_collision::{ContactPair, SelfCollision, VertexTriangle};
+    pub use crate::mesh::GridMesh;
+    pub use crate::newton::assembly::{HessianKind, Pattern};
+    pub use crate::newton::factor::Factor;
+    pub use crate::newton::solve::NewtonSystem;
+    pub use crate::rollout::cost::{trajectory_irregularity, NEGLIGIBLE_WEIGHT_EXPONENT};
+    pub use crate::sdf::batch::distances_within;
+    pub use crate::sdf::bvh::Bvh;
+    pub use crate::xpbd::coloring::{greedy_coloring, independent_sets};
+    pub use crate::xpbd::projection::Projection;
+}

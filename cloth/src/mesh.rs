@@ -51,11 +51,13 @@ impl GridMesh {
     }
 
     /// Number of particle rows.
+    #[cfg(any(test, feature = "internals"))]
     pub fn rows(&self) -> usize {
         self.rows
     }
 
     /// Number of particle columns.
+    #[cfg(any(test, feature = "internals"))]
     pub fn cols(&self) -> usize {
         self.cols
     }
@@ -66,6 +68,7 @@ impl GridMesh {
     }
 
     /// `(row, col)` of particle index `p` (inverse of [`GridMesh::index`]).
+    #[cfg(any(test, feature = "internals"))]
     pub fn row_col(&self, p: usize) -> (usize, usize) {
         (p / self.cols, p % self.cols)
     }
@@ -78,6 +81,7 @@ impl GridMesh {
     /// The triangles, two per cell in row-major cell order: `(a, b, e)` then `(a, e, d)` (see the module
     /// docs). All are consistently oriented: for a cloth laid out along vectors `right` (columns) and `down`
     /// (rows), every triangle's normal `(p1 − p0) × (p2 − p0)` points along `right × down`.
+    #[cfg(any(test, feature = "internals"))]
     pub fn triangles(&self) -> &[[usize; 3]] {
         &self.triangles
     }
@@ -126,12 +130,14 @@ impl GridMesh {
     /// [`GridMesh::topology`]): one per interior edge in the order of [`GridMesh::stretch_edges`].
     ///
     /// Count: `(rows−2)·(cols−1) + (rows−1)·(cols−2) + (rows−1)·(cols−1)` (225 for `10 × 10`).
+    #[cfg(any(test, feature = "internals"))]
     pub fn bending_pairs(&self) -> Vec<[usize; 2]> {
         self.topology().bending_pairs()
     }
 
     /// Dihedral-bending stencils ([`ClothMesh::dihedral_quads`] of [`GridMesh::topology`]), one
     /// per interior edge in the order of [`GridMesh::stretch_edges`].
+    #[cfg(any(test, feature = "internals"))]
     pub fn dihedral_quads(&self) -> Vec<[usize; 4]> {
         self.topology().dihedral_quads()
     }

@@ -17,7 +17,7 @@
 //! ```
 //! use cloth::constraint::{norm, Constraint};
 //! use cloth::nalgebra::Vector3;
-//! use cloth::registry::ConstraintRegistry;
+//! use cloth::ConstraintRegistry;
 //! use cloth::{Model, Scene};
 //!
 //! /// Keeps each pair of particles at `params.length`.
@@ -50,25 +50,8 @@
 use crate::constraint::Constraint;
 use crate::error::ClothError;
 use crate::model::Model;
-use crate::scene::{Scene, SceneError, Stiffness};
-use serde::{Deserialize, Serialize};
+use crate::scene::{CustomConstraint, Scene, SceneError, Stiffness};
 use std::collections::BTreeMap;
-
-/// One entry of a scene's `custom_constraints`: constraints of a registered type.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CustomConstraint {
-    /// The registered type's name (JSON `"type"`).
-    #[serde(rename = "type")]
-    pub kind: String,
-    /// `[r, c]` of the particles of every instance in order, the type's arity per instance.
-    pub particles: Vec<[usize; 2]>,
-    /// Stiffness of every instance: a positive number or `"inf"`.
-    pub stiffness: Stiffness,
-    /// Parameters for the type's builder, any JSON (default `null`).
-    #[serde(default, skip_serializing_if = "serde_json::Value::is_null")]
-    pub params: serde_json::Value,
-}
 
 /// What a builder gets to make its constraint from one `custom_constraints` entry.
 pub struct CustomInput<'a> {
@@ -180,19 +163,6 @@ impl ConstraintRegistry {
 
 fn invalid(field: String, reason: String) -> ClothError {
     ClothError::Scene(SceneError::Invalid { field, reason })
-}
-
-impl Model {
-    /// Compiles a validated scene whose `custom_constraints` use the types in `registry`
-    /// ([`Model::from_scene`] is this with an empty registry).
-    pub fn from_scene_with(
-        scene: &Scene,
-        registry: &ConstraintRegistry,
-    ) -> Result<Model, ClothError> {
-        let mut model = Model::from_scene_builtin(scene)?;
-        registry.apply(&mut model, scene)?;
-        Ok(model)
-    }
 }
 
 impl Scene {

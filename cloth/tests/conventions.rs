@@ -13,8 +13,8 @@ mod common;
 
 use autodiff::{vjp_by_duals, RowFn, Tensor};
 use cloth::constraint::{value_and_gradient, Collision, Distance};
-use cloth::cost::trajectory_irregularity;
-use cloth::projection::Projection;
+use cloth::internals::trajectory_irregularity;
+use cloth::internals::Projection;
 use cloth::scene::ObstacleRole;
 use cloth::sdf::{Plane, SphereSet, Union};
 use cloth::{Model, Scene};

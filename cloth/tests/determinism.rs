@@ -6,7 +6,7 @@ mod common;
 
 use autodiff::rowfn::PARALLEL_MIN_ROWS;
 use autodiff::{Tape, Tensor};
-use cloth::grad::Evaluation;
+use cloth::Evaluation;
 use cloth::{Model, Scene};
 use common::{bitwise_eq, XorShift};
 

@@ -11,7 +11,7 @@
 //!   (the plain path runs).
 
 use autodiff::{Tape, Tensor, Var};
-use cloth::grad::StepCost;
+use cloth::StepCost;
 use cloth::{Model, Scene};
 
 fn model(name: &str) -> (Model, Tensor) {

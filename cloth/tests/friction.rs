@@ -7,9 +7,9 @@ mod common;
 
 use autodiff::update::update_rows;
 use autodiff::Tensor;
-use cloth::contact::friction::{FrictionalContact, Regime};
-use cloth::model::Carry;
+use cloth::internals::{FrictionalContact, Regime};
 use cloth::scene::{InitialControls, Obstacle, ObstacleRole, PlaneSpec, SolverKind, Target};
+use cloth::Carry;
 use cloth::{Model, Scene};
 use common::{bitwise_eq, central, dot, small_scene, BendKind, XorShift};
 use proptest::prelude::*;

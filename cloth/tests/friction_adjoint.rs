@@ -5,7 +5,7 @@
 //! (free, sticking, sliding; with and without a contact projection this iteration).
 
 use autodiff::{vjp_by_duals, RowFn};
-use cloth::contact::friction::{FrictionalContact, Regime, CARRY_WIDTH};
+use cloth::internals::{FrictionalContact, Regime, CARRY_WIDTH};
 use cloth::scene::{
     BoxSpec, CapsuleSpec, MeshSpec, Obstacle, ObstacleRole, PlaneSpec, SphereSetSpec,
 };

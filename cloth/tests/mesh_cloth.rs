@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use cloth::mesh::GridMesh;
+use cloth::internals::GridMesh;
 use cloth::scene::{ParticleRef, Scene, SceneError};
 use cloth::Model;
 use serde_json::{json, Value};

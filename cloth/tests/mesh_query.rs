@@ -5,9 +5,9 @@
 //! gradient and its swept safety metric bitwise unchanged by the bound.
 
 use cloth::constraint::{Collision, Generic};
+use cloth::internals::Bvh;
 use cloth::nalgebra::Vector3;
 use cloth::scene::{MeshSpec, Obstacle, ObstacleRole};
-use cloth::sdf::bvh::Bvh;
 use cloth::sdf::{sphere_surface, Capsule, Cuboid, MeshSdf, Plane, SignedDistance, Union};
 use cloth::{Model, Scene};
 use proptest::prelude::*;
@@ -319,7 +319,7 @@ fn the_safety_metrics_are_bitwise_the_exact_ones() {
         let term = model.record_safety(&mut tape, xv, delta).expect("safety");
         c += tape.value(term).item();
         // The bounded values: exact below δ and at the minimum, lower bounds above δ elsewhere.
-        let bounded = cloth::sdf::batch::distances_within(&model.safety_obstacles, x, delta);
+        let bounded = cloth::internals::distances_within(&model.safety_obstacles, x, delta);
         let smallest = exact.iter().copied().fold(f64::INFINITY, f64::min);
         for (&e, &v) in exact.iter().zip(&bounded) {
             if e <= delta || e == smallest {

@@ -4,10 +4,10 @@
 mod common;
 
 use autodiff::Tensor;
-use cloth::newton::solve::NewtonSystem;
-use cloth::newton::{NewtonSettings, Solver};
+use cloth::internals::NewtonSystem;
 use cloth::scene::{ObstacleRole, SolverKind, Stiffness};
 use cloth::{ClothError, Model, Scene};
+use cloth::{NewtonSettings, Solver};
 use common::{small_scene, spheres, BendKind};
 
 fn newton_scene(scene: &Scene) -> Scene {
@@ -203,7 +203,7 @@ fn newton_settings_are_validated_with_their_json_path() {
         s.physics.solver(),
         Solver::Newton(NewtonSettings {
             tolerance: 1e-9,
-            max_iterations: cloth::newton::DEFAULT_MAX_ITERATIONS,
+            max_iterations: cloth::DEFAULT_MAX_ITERATIONS,
             ..NewtonSettings::default()
         })
     );
@@ -411,9 +411,7 @@ fn a_saddle_of_phi_is_left_along_its_unstable_mode() {
         let d = a.data().iter().zip(b.data()).map(|(p, q)| (p - q).abs());
         assert!(d.fold(0.0, f64::max) < 1e-9);
     }
-    let count = |s: &[cloth::newton::solve::StepStats]| -> usize {
-        s.iter().map(|s| s.factorizations).sum()
-    };
+    let count = |s: &[cloth::StepStats]| -> usize { s.iter().map(|s| s.factorizations).sum() };
     assert!(count(&chord_stats) < count(&stats));
     assert_eq!(
         chord_stats[7].escapes, 0,

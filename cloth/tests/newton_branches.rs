@@ -9,8 +9,8 @@
 //! ends (a fold), measured on an 8 × 8 `u_obstacle`.
 
 use autodiff::Tensor;
-use cloth::newton::solve::NewtonSystem;
-use cloth::newton::NewtonSettings;
+use cloth::internals::NewtonSystem;
+use cloth::NewtonSettings;
 use cloth::{Model, Scene};
 use common::XorShift;
 

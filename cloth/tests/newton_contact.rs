@@ -6,11 +6,11 @@
 mod common;
 
 use autodiff::Tensor;
-use cloth::newton::solve::NewtonSystem;
-use cloth::newton::{NewtonSettings, Solver};
+use cloth::internals::NewtonSystem;
 use cloth::scene::{BoxSpec, CapsuleSpec, MeshSpec, Obstacle, ObstacleRole, SolverKind};
 use cloth::sdf::{Cuboid, MeshSdf, SignedDistance};
 use cloth::{Model, Scene};
+use cloth::{NewtonSettings, Solver};
 use common::{plane, small_scene, spheres, BendKind};
 use proptest::prelude::*;
 

@@ -4,8 +4,8 @@
 //! its fill is within 10% of faer's minimum degree ordering of the coordinates (measured: 2% to 7%
 //! smaller on three of these cloths, 6% larger on `drop` at 9 × 7).
 
-use cloth::newton::assembly::{HessianKind, Pattern};
-use cloth::newton::factor::Factor;
+use cloth::internals::Factor;
+use cloth::internals::{HessianKind, Pattern};
 use cloth::scene::{ObstacleRole, SolverKind};
 use cloth::{Model, Scene};
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymmetricOrdering};

@@ -7,9 +7,9 @@ mod common;
 use autodiff::{Real, Tensor};
 use cloth::constraint::{norm, Constraint};
 use cloth::nalgebra::Vector3;
-use cloth::newton::{NewtonSettings, Solver};
 use cloth::scene::ObstacleRole;
 use cloth::{Model, Scene};
+use cloth::{NewtonSettings, Solver};
 use common::{small_scene, spheres, BendKind};
 use proptest::prelude::*;
 

@@ -7,11 +7,12 @@
 mod common;
 
 use autodiff::{Tape, Tensor, Var};
-use cloth::grad::StepCost;
-use cloth::newton::solve::{NewtonSystem, StepStats};
-use cloth::newton::{NewtonSettings, Solver};
+use cloth::internals::NewtonSystem;
 use cloth::scene::{ObstacleRole, SolverKind};
+use cloth::StepCost;
+use cloth::StepStats;
 use cloth::{Model, Scene};
+use cloth::{NewtonSettings, Solver};
 use common::{assert_minimizers, bitwise_eq, plane, small_scene, BendKind, XorShift};
 
 /// Newton's settings of `model`.

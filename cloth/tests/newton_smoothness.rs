@@ -10,9 +10,9 @@
 mod common;
 
 use autodiff::{Tape, Tensor, Var};
-use cloth::grad::StepCost;
-use cloth::newton::{NewtonSettings, Solver};
+use cloth::StepCost;
 use cloth::{Model, Scene};
+use cloth::{NewtonSettings, Solver};
 use common::{dot, shifted, XorShift};
 
 /// The planner's first-stage sharpness of the soft minimum (1/length).
@@ -149,7 +149,7 @@ fn a_loose_tolerance_returns_minimizers_whose_gradients_are_defined() {
     let (states, stats) = m.simulate_newton(&u, &settings).unwrap();
     let saddles: usize = stats.iter().map(|s| s.at_saddle).sum();
     assert!(saddles > 0, "the case no longer meets a saddle: {stats:?}");
-    let mut system = cloth::newton::solve::NewtonSystem::new(&m).unwrap();
+    let mut system = cloth::internals::NewtonSystem::new(&m).unwrap();
     for t in 1..states.len() {
         let xt = m.begin_step(&states[t - 1], &m.step_controls(&u, t - 1));
         assert!(

@@ -6,8 +6,8 @@
 mod common;
 
 use autodiff::Tensor;
-use cloth::grad::Evaluation;
 use cloth::scene::SolverKind;
+use cloth::Evaluation;
 use cloth::{Model, Scene};
 use common::{bitwise_eq, XorShift};
 

@@ -282,8 +282,8 @@ proptest! {
     /// The self-contacts: a vertex over a triangle, and two edges' lines (either side).
     #[test]
     fn self_contacts_match_generic(seed in any::<u64>()) {
-        use cloth::contact::edge_edge::EdgeEdge;
-        use cloth::contact::self_collision::VertexTriangle;
+        use cloth::internals::EdgeEdge;
+        use cloth::internals::VertexTriangle;
         let mut rng = XorShift::new(seed);
         let (side, h) = (if rng.next_f64() < 0.5 { 1.0 } else { -1.0 }, rng.uniform(0.0, 0.1));
         let v = rng.direction(12);

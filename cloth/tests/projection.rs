@@ -27,7 +27,7 @@ mod common;
 
 use autodiff::{vjp_by_duals, RowFn};
 use cloth::constraint::{value_and_gradient, Collision, Constraint, DihedralBending, Distance};
-use cloth::projection::Projection;
+use cloth::internals::Projection;
 use cloth::sdf::{Plane, SphereSet};
 use common::{dot, within, XorShift};
 use nalgebra::Vector3;

@@ -9,7 +9,7 @@
 //!   without a mesh obstacle, bitwise the exact recording.
 
 use autodiff::{soft_min_value, Tape, Tensor};
-use cloth::cost::NEGLIGIBLE_WEIGHT_EXPONENT;
+use cloth::internals::NEGLIGIBLE_WEIGHT_EXPONENT;
 use cloth::nalgebra::Vector3;
 use cloth::scene::{MeshSpec, Obstacle, ObstacleRole, SphereSetSpec};
 use cloth::sdf::{sphere_surface, Capsule, MeshSdf, SignedDistance};

@@ -6,8 +6,8 @@
 
 use std::path::PathBuf;
 
-use cloth::coloring::{greedy_coloring, independent_sets};
-use cloth::mesh::GridMesh;
+use cloth::internals::GridMesh;
+use cloth::internals::{greedy_coloring, independent_sets};
 use cloth::scene::{Scene, SceneError};
 
 fn scenes_dir() -> PathBuf {

@@ -10,7 +10,7 @@ mod common;
 
 use autodiff::Tensor;
 use cloth::constraint::hessian_vector;
-use cloth::contact::self_collision::{SelfCollision, VertexTriangle};
+use cloth::internals::{SelfCollision, VertexTriangle};
 use cloth::{Model, Scene};
 use nalgebra::Vector3;
 use std::sync::Arc;
@@ -277,14 +277,14 @@ fn rollouts_and_gradients_with_contacts_are_bitwise_identical_on_every_path_and_
     eprintln!("largest contact set {largest} rows");
     assert!(largest >= 20, "largest contact set {largest}");
     let run = |threads: usize, budget: usize| common::evaluate_in_pool(&model, &u, threads, budget);
-    let reference = run(1, cloth::model::DEFAULT_CHECKPOINT_BUDGET);
+    let reference = run(1, cloth::DEFAULT_CHECKPOINT_BUDGET);
     for (t, x) in states.iter().enumerate() {
         assert!(bitwise_eq(x, &reference.states[t]), "state {t}");
     }
     // 2 threads; the re-recording path (no first-forward recording); blocks of iterations.
     let per_iteration = model.recorded_bytes_per_iteration();
     for (threads, budget) in [
-        (2, cloth::model::DEFAULT_CHECKPOINT_BUDGET),
+        (2, cloth::DEFAULT_CHECKPOINT_BUDGET),
         (1, 0),
         (2, 0),
         (1, 2 * 7 * per_iteration),

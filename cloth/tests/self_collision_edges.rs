@@ -12,10 +12,10 @@ mod common;
 
 use autodiff::{Tape, Tensor};
 use cloth::constraint::value_and_gradient;
-use cloth::contact::crossings::{crossings, intersections};
-use cloth::contact::edge_edge::{EdgeEdge, EdgePair};
+use cloth::internals::{EdgeEdge, EdgePair};
 use cloth::nalgebra::Vector3;
-use cloth::obj::ObjMesh;
+use cloth::ObjMesh;
+use cloth::{crossings, intersections};
 use cloth::{Model, Scene};
 use common::bitwise_eq;
 use proptest::prelude::*;
@@ -94,7 +94,7 @@ fn lower(model: &Model) -> Tensor {
 fn strip_gap(model: &Model, x: &Tensor) -> f64 {
     let p = |i: usize| Vector3::new(x.get(i, 0), x.get(i, 1), x.get(i, 2));
     let edges =
-        cloth::mesh::ClothMesh::from_triangles(x.rows(), model.triangles.to_vec()).stretch_edges();
+        cloth::ClothMesh::from_triangles(x.rows(), model.triangles.to_vec()).stretch_edges();
     let (a, b): (Vec<[usize; 2]>, Vec<[usize; 2]>) = edges.iter().partition(|e| e[0] < A);
     let mut best = f64::INFINITY;
     for e in &a {
@@ -184,19 +184,19 @@ fn edge_edge_rows_are_absent_unless_asked_for() {
     assert!(!text.contains("edge_edge"), "{text}");
 }
 
-/// The documented rule (module `cloth::contact::edge_edge`), every edge pair against every one of
+/// The documented rule (`cloth/src/contact/edge_edge.rs`), every edge pair against every one of
 /// its triangles.
 fn brute_force(
     model: &Model,
     x: &Tensor,
     radius: f64,
-    held: &[cloth::contact::self_collision::ContactPair],
+    held: &[cloth::internals::ContactPair],
 ) -> Vec<EdgePair> {
     let sc = model.self_collision.as_ref().unwrap();
     let h = sc.thickness;
     let tris = &model.triangles;
     let p = |i: usize| Vector3::new(x.get(i, 0), x.get(i, 1), x.get(i, 2));
-    let mesh = cloth::mesh::ClothMesh::from_triangles(x.rows(), tris.to_vec());
+    let mesh = cloth::ClothMesh::from_triangles(x.rows(), tris.to_vec());
     let edges = mesh.stretch_edges();
     let key = |a: usize, b: usize| [a.min(b), a.max(b)];
     let mut of_edge: std::collections::HashMap<[usize; 2], Vec<usize>> = Default::default();
@@ -339,7 +339,7 @@ fn rollouts_and_gradients_with_edge_rows_are_bitwise_identical_on_every_path_and
         assert!(bitwise_eq(tape.value(x), &plain[t + 1]), "step {}", t + 1);
     }
     let run = |threads: usize, budget: usize| common::evaluate_in_pool(&model, &u, threads, budget);
-    let reference = run(1, cloth::model::DEFAULT_CHECKPOINT_BUDGET);
+    let reference = run(1, cloth::DEFAULT_CHECKPOINT_BUDGET);
     assert!(reference
         .grad_l
         .as_ref()
@@ -347,7 +347,7 @@ fn rollouts_and_gradients_with_edge_rows_are_bitwise_identical_on_every_path_and
         .data()
         .iter()
         .any(|&g| g != 0.0));
-    for (threads, budget) in [(2, cloth::model::DEFAULT_CHECKPOINT_BUDGET), (1, 0), (2, 0)] {
+    for (threads, budget) in [(2, cloth::DEFAULT_CHECKPOINT_BUDGET), (1, 0), (2, 0)] {
         let other = run(threads, budget);
         assert_eq!(other.metrics.l.to_bits(), reference.metrics.l.to_bits());
         for (a, b) in other.states.iter().zip(&reference.states) {

@@ -3,7 +3,7 @@
 //! the documented rule admits when every vertex is tested against every triangle.
 
 use autodiff::Tensor;
-use cloth::contact::self_collision::ContactPair;
+use cloth::internals::ContactPair;
 use cloth::nalgebra::Vector3;
 use cloth::{Model, Scene};
 use std::collections::HashMap;

@@ -92,7 +92,7 @@ impl PhysicsArgs {
             ensure_at_most(
                 "--physics-load-halvings",
                 h,
-                cloth::newton::MAX_LOAD_HALVINGS,
+                cloth::scene::MAX_LOAD_HALVINGS,
             )?;
             scene.physics.load_halvings = Some(h);
         }

@@ -118,7 +118,7 @@ pub struct CandidateReport {
     pub g: f64,
     /// Smallest signed distance to the safety obstacles over the rollout (∞ without any,
     /// `null` in JSON, which reads back as ∞).
-    #[serde(deserialize_with = "cloth::grad::null_as_infinity")]
+    #[serde(deserialize_with = "cloth::null_as_infinity")]
     pub min_sdf: f64,
     /// Rollouts simulated by that stage.
     pub simulations: usize,

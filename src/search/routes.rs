@@ -20,8 +20,8 @@
 //! up to the cloth's size) complete the set. Everything is deterministic.
 
 use autodiff::Tensor;
-use cloth::controls::ControlsView;
 use cloth::sdf::SignedDistance;
+use cloth::ControlsView;
 use cloth::{Controls, Model};
 use rand::{RngExt, SeedableRng};
 use rand_xorshift::XorShiftRng;
@@ -387,7 +387,7 @@ fn controls_of(paths: &Paths) -> Controls {
         .windows(2)
         .map(|w| w[1].iter().zip(&w[0]).map(|(&b, &a)| sub(b, a)).collect())
         .collect();
-    cloth::controls::controls_from_steps(&steps)
+    cloth::controls_from_steps(&steps)
         .unwrap_or_else(|| Tensor::zeros(0, 3 * paths.first().map_or(0, Vec::len)))
 }
 

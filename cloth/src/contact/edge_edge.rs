@@ -40,7 +40,7 @@ use crate::contact::self_collision::{
     contact_projection_sets, normal_offset, side_offset, ContactPair, SelfCollision,
 };
 use crate::geometry::{point, write_points};
-use crate::model::ProjectionSet;
+use crate::xpbd::set::ProjectionSet;
 use autodiff::{Real, Tensor};
 use nalgebra::Vector3;
 use std::sync::Arc;

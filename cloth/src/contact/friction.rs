@@ -5,7 +5,7 @@
 //! When some collider of a scene has `"friction": μ > 0`, the collider group's colour set is this
 //! row function instead of the frictionless [`crate::constraint::Collision`] projection. One row
 //! is one free particle; besides its position `p` it carries, through the step's Gauss–Seidel
-//! iterations ([`Carry::StartPosition`](crate::model::Carry::StartPosition)):
+//! iterations ([`Carry::StartPosition`](crate::xpbd::set::Carry::StartPosition)):
 //!
 //! - `x₀`: the particle's position at the step's start (before gravity), a copy of `x_prev`, so
 //!   the recorded step differentiates through it back to `x_prev`;
@@ -39,9 +39,9 @@
 //! the fields a query bounded at 0 ([`SignedDistance::distance_gradient_within`]: a mesh stops its
 //! search there); a touching row asks exactly. Values are the exact query's, bit for bit.
 
-use crate::model::{Carry, ProjectionSet};
 use crate::scene::Obstacle;
 use crate::sdf::{SignedDistance, Union};
+use crate::xpbd::set::{Carry, ProjectionSet};
 use autodiff::update::PointRows;
 use autodiff::{Dual, Real, RowFn, RowIndex};
 use nalgebra::{Matrix3, Vector3};
@@ -115,6 +115,7 @@ pub enum Regime {
 
 impl FrictionalContact {
     /// The regime of one row's projection at `input` (the row's `3 + CARRY_WIDTH` values).
+    #[cfg(any(test, feature = "internals"))]
     pub fn regime(&self, input: &[f64]) -> Regime {
         let mut out = [0.0; 3 + CARRY_WIDTH];
         self.project(input, &mut out)

@@ -6,3 +6,4 @@ pub mod edge_edge;
 pub mod friction;
 pub(crate) mod grid;
 pub mod self_collision;
+mod sets;

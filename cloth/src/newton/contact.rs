@@ -123,6 +123,7 @@ impl Contacts {
     }
 
     /// Number of particles held on a contact surface at the last [`Contacts::activate`].
+    #[cfg(any(test, feature = "internals"))]
     pub fn n_active(&self) -> usize {
         self.n_active
     }

@@ -5,10 +5,12 @@
 
 use super::factor::NumericFactor;
 use super::solve::{NewtonSystem, StepStats};
-use super::{NewtonSettings, MAX_LOAD_HALVINGS};
+use super::NewtonSettings;
+use crate::controls::Controls;
 use crate::error::ClothError;
 use crate::model::Model;
-use crate::sim::{check_finite, Controls};
+use crate::scene::MAX_LOAD_HALVINGS;
+use crate::xpbd::sim::check_finite;
 use autodiff::Tensor;
 
 /// A Newton rollout and what its implicit gradients can reuse.

@@ -205,6 +205,7 @@ impl Factor {
     }
 
     /// Bytes of one numeric factor.
+    #[cfg(any(test, feature = "internals"))]
     pub fn factor_bytes(&self) -> usize {
         self.symbolic.len_val() * std::mem::size_of::<f64>()
     }

@@ -17,9 +17,9 @@
 use super::continuation::NewtonKept;
 use super::factor::FactorCounts;
 use super::solve::NewtonSystem;
-use crate::grad::StepCost;
+use crate::controls::Controls;
 use crate::model::Model;
-use crate::sim::Controls;
+use crate::rollout::grad::StepCost;
 use autodiff::{Tape, Tensor};
 
 impl Model {

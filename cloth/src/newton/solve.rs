@@ -26,7 +26,7 @@ use super::factor::FactorCounts;
 use super::{check_supported, NewtonSettings};
 use crate::error::ClothError;
 use crate::model::Model;
-use crate::sim::check_finite;
+use crate::xpbd::sim::check_finite;
 use autodiff::Tensor;
 
 /// Armijo's sufficient-decrease constant.

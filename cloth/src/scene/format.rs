@@ -32,7 +32,7 @@ pub struct Scene {
     pub task: Task,
     /// Constraints of user-registered types (default none); see [`crate::registry`].
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub custom_constraints: Vec<crate::registry::CustomConstraint>,
+    pub custom_constraints: Vec<CustomConstraint>,
 }
 
 /// The cloth: a `rows × cols` grid laid out on a parallelogram, or a triangle mesh read from an
@@ -356,6 +356,25 @@ pub struct SelfCollisionSpec {
     pub edge_edge: bool,
 }
 
+/// One entry of a scene's `custom_constraints`: constraints of a registered type.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CustomConstraint {
+    /// The registered type's name (JSON `"type"`).
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// `[r, c]` of the particles of every instance in order, the type's arity per instance.
+    pub particles: Vec<[usize; 2]>,
+    /// Stiffness of every instance: a positive number or `"inf"`.
+    pub stiffness: Stiffness,
+    /// Parameters for the type's builder, any JSON (default `null`).
+    #[serde(default, skip_serializing_if = "serde_json::Value::is_null")]
+    pub params: serde_json::Value,
+}
+
+/// Largest `physics.load_halvings` (2^20 increments per Newton step).
+pub const MAX_LOAD_HALVINGS: usize = 20;
+
 /// The step solver named by `physics.solver`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -399,26 +418,6 @@ impl std::str::FromStr for SolverKind {
             .into_iter()
             .find(|k| k.name() == s)
             .ok_or_else(|| format!("unknown physics solver {s:?}: expected \"xpbd\" or \"newton\""))
-    }
-}
-
-impl Physics {
-    /// The solver these settings describe, with Newton's defaults filled in.
-    pub fn solver(&self) -> crate::newton::Solver {
-        use crate::newton::{NewtonSettings, Solver};
-        match self.solver {
-            SolverKind::Xpbd => Solver::Xpbd,
-            SolverKind::Newton => {
-                let d = NewtonSettings::default();
-                Solver::Newton(NewtonSettings {
-                    tolerance: self.tolerance.unwrap_or(d.tolerance),
-                    max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),
-                    load_steps: self.load_steps.unwrap_or(d.load_steps),
-                    load_halvings: self.load_halvings.unwrap_or(d.load_halvings),
-                    ..d
-                })
-            }
-        }
     }
 }
 

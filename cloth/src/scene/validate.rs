@@ -234,7 +234,7 @@ impl Scene {
             return Err(invalid("physics.load_steps", "must be at least 1, got 0"));
         }
         if let Some(h) = p.load_halvings {
-            let max = crate::newton::MAX_LOAD_HALVINGS;
+            let max = super::format::MAX_LOAD_HALVINGS;
             if h > max {
                 return Err(invalid(
                     "physics.load_halvings",

@@ -140,6 +140,7 @@ impl Bvh {
 
     /// The triangle nearest to `p` by `distance_squared(triangle, p)` and that squared distance;
     /// on a tie the smaller triangle index.
+    #[cfg(any(test, feature = "internals"))]
     pub fn nearest(
         &self,
         p: &Vector3<f64>,

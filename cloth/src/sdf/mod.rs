@@ -5,10 +5,11 @@
 //! safety constraint and their derivatives. Conventions: at a sphere's centre the distance is
 //! `−r` with gradient 0 (the norm's convention); on a tie between spheres, the first sphere wins.
 
-pub mod batch;
-pub mod bvh;
-pub mod mesh;
-pub mod shapes;
+pub(crate) mod batch;
+pub(crate) mod bvh;
+mod mesh;
+pub(crate) mod rows;
+mod shapes;
 
 pub use mesh::MeshSdf;
 pub use shapes::{sphere_surface, Capsule, Cuboid, Surface};

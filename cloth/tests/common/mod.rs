@@ -186,7 +186,7 @@ pub fn replay_watching(
     let mut states = vec![model.rest.clone()];
     let mut pattern = Vec::new();
     let mut margin = f64::INFINITY;
-    let sets: Vec<(&str, &cloth::model::ProjectionSet)> = model
+    let sets: Vec<(&str, &cloth::ProjectionSet)> = model
         .groups
         .iter()
         .flat_map(|g| g.sets.iter().map(move |s| (g.name.as_str(), s)))
@@ -248,7 +248,7 @@ pub fn evaluate_in_pool(
     u: &Tensor,
     threads: usize,
     budget: usize,
-) -> cloth::grad::Evaluation {
+) -> cloth::Evaluation {
     let mut m = model.clone();
     m.checkpoint_budget = budget;
     rayon::ThreadPoolBuilder::new()
@@ -261,7 +261,7 @@ pub fn evaluate_in_pool(
 /// Asserts that every state of the Newton rollout `states` of controls `u` is a minimizer of its
 /// step's `Φ` (the exact Hessian is positive definite there).
 pub fn assert_minimizers(model: &Model, states: &[Tensor], u: &Tensor) {
-    let mut system = cloth::newton::solve::NewtonSystem::new(model).unwrap();
+    let mut system = cloth::internals::NewtonSystem::new(model).unwrap();
     for t in 1..states.len() {
         let xt = model.begin_step(&states[t - 1], &model.step_controls(u, t - 1));
         assert!(

@@ -1,132 +1,25 @@
-//! A scene compiled to the effects it calls for, and nothing else.
-//!
-//! No bending sets when bending is off, no gravity work when `g = 0`, no collider projection
-//! without a collider, no signed-distance evaluation without a safety obstacle. Every constraint
-//! type, built-in or user-written, enters through [`Model::add_constraints`].
+//! Compiling a scene into a [`Model`]: rest geometry, one constraint group per effect the scene
+//! calls for (coloured into independent sets), colliders, self-collision, the safety field, the
+//! task and the step solver.
 
-use crate::coloring::{greedy_coloring, independent_sets};
+use super::{ConstraintGroup, Model, TaskSpec};
 use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_ARITY};
 use crate::contact::friction::FrictionalContact;
 use crate::contact::self_collision::SelfCollision;
 use crate::error::ClothError;
-use crate::newton::terms::{ConstraintTerms, Terms};
-use crate::newton::Solver;
-use crate::projection::Projection;
-use crate::scene::{BendingModel, Limits, Obstacle, Scene, Stiffness};
-use crate::sdf::{SignedDistance, Union};
-use crate::strain::EdgeStrain;
+use crate::newton::settings::{NewtonSettings, Solver};
+use crate::newton::terms::Terms;
+use crate::registry::ConstraintRegistry;
+use crate::rollout::strain::EdgeStrain;
+use crate::scene::{BendingModel, Obstacle, Physics, Scene, SolverKind, Stiffness};
+use crate::sdf::rows::{ParticleSdf, ParticleSdfComponents};
+use crate::sdf::Union;
+use crate::xpbd::coloring::{greedy_coloring, independent_sets};
+use crate::xpbd::projection::Projection;
+use crate::xpbd::set::{Carry, ProjectionSet};
 use autodiff::{DynRowFn, Real, RowFn, RowIndex, Tensor};
 use nalgebra::Vector3;
 use std::sync::Arc;
-
-/// One Gauss–Seidel colour set: a projection and the particles of each of its rows.
-#[derive(Clone)]
-pub struct ProjectionSet {
-    /// The projection row function (row = one constraint).
-    pub projection: Arc<dyn DynRowFn>,
-    /// Particles of each row.
-    pub index: Arc<RowIndex>,
-    /// What each row carries through a step's iterations besides its particles.
-    pub carry: Carry,
-}
-
-/// The per-row values a colour set carries through a step's Gauss–Seidel iterations (the
-/// `carry` of [`autodiff::update::update_rows`]), and how each step starts them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Carry {
-    /// One XPBD multiplier `λ`, zero at each step's start.
-    Multiplier,
-    /// The row's (single) particle's position at the step's start, copied from the previous
-    /// state, then `width − 3` values starting at zero ([`crate::contact::friction`]).
-    StartPosition {
-        /// Carried values per row (≥ 3).
-        width: usize,
-    },
-}
-
-/// All constraints of one type: their colour sets (in sweep order) and their energy.
-#[derive(Clone)]
-pub struct ConstraintGroup {
-    /// A short name (`stretch`, `bending`, `collider`, or a user's).
-    pub name: String,
-    /// Number of constraints.
-    pub count: usize,
-    /// Colour sets, visited in order every iteration.
-    pub sets: Vec<ProjectionSet>,
-    /// `½ k C²` per constraint, with the particles of every constraint; `None` for inequality and
-    /// rigid constraints, which carry no elastic energy.
-    pub energy: Option<(Arc<dyn DynRowFn>, Arc<RowIndex>)>,
-    /// The constraints with their second derivatives, for the Newton solver.
-    pub terms: Arc<dyn ConstraintTerms>,
-}
-
-/// The task: targets and cost weights.
-#[derive(Clone, Debug)]
-pub struct TaskSpec {
-    /// Number of time steps `T`.
-    pub horizon: usize,
-    /// Target particles.
-    pub targets: Arc<RowIndex>,
-    /// Target positions (`targets × 3`).
-    pub target_positions: Tensor,
-    /// Weight of the trajectory irregularity `T`.
-    pub alpha: f64,
-    /// Weight of the elastic energy `E`.
-    pub beta: f64,
-    /// Safety margin `δ`.
-    pub delta: f64,
-    /// Robot limits (`task.limits`; empty when the scene sets none).
-    pub limits: Limits,
-    /// Distance within which a target counts as reached at the final step (`task.tolerance`).
-    pub tolerance: f64,
-}
-
-/// A compiled, ready-to-simulate scene.
-#[derive(Clone)]
-pub struct Model {
-    /// Rest (initial) positions, `N × 3`.
-    pub rest: Tensor,
-    /// The cloth's triangles (particle indices; [`crate::mesh::ClothMesh::triangles`]), for
-    /// figures and exports.
-    pub triangles: Arc<[[usize; 3]]>,
-    /// Inverse mass per particle (0 for control particles).
-    pub inv_mass: Vec<f64>,
-    /// Control particles, in the order of the controls' rows.
-    pub controls: Arc<RowIndex>,
-    /// `½ g Δt²` added to every particle each step; `None` when `g = 0`.
-    pub gravity_step: Option<[f64; 3]>,
-    /// Time step `Δt`.
-    pub dt: f64,
-    /// Gauss–Seidel iterations per step.
-    pub iterations: usize,
-    /// Constraint groups in sweep order.
-    pub groups: Vec<ConstraintGroup>,
-    /// Per-particle signed distance to the safety obstacles (`N × 3 → N × 1`); `None` without any.
-    pub safety: Option<Arc<dyn DynRowFn>>,
-    /// Per-particle signed distance to each safety primitive (`N × 3 → N × primitives`).
-    pub safety_components: Option<Arc<dyn DynRowFn>>,
-    /// The safety obstacles themselves (empty without any), shared with the safety row functions.
-    pub safety_obstacles: Arc<Union>,
-    /// The physical colliders (empty without any), projected as the `collider` group.
-    pub colliders: Union,
-    /// The task.
-    pub task: TaskSpec,
-    /// Edge strain `|x_i − x_j|/L₀ − 1` per stretch edge (`6 → 1`) with the edges' particles;
-    /// `None` when the cloth has no stretch edge of positive rest length.
-    pub strain: Option<(Arc<dyn DynRowFn>, Arc<RowIndex>)>,
-    /// Bytes [`Model::gradients`] may keep in recordings for the backward pass (two at a time:
-    /// one pulled back while the next is recorded). A step whose recording would not fit half of
-    /// it is recorded in blocks of iterations from checkpoints of a plain forward sweep (one more
-    /// forward pass per step, memory ∝ one block). When the whole rollout's recording fits it,
-    /// [`Model::evaluate`] records every step during the first forward instead
-    /// ([`Model::simulate_recording`]).
-    pub checkpoint_budget: usize,
-    /// The method that solves each step (`physics.solver`).
-    pub solver: Solver,
-    /// Self-collision (`physics.self_collision`): contact sets found at the start of each step
-    /// ([`Model::contact_sets`]); `None` when the scene does not ask for it.
-    pub self_collision: Option<Arc<SelfCollision>>,
-}
 
 /// Default [`Model::checkpoint_budget`]: 32 MiB (`u_obstacle` steps fit whole up to a 20 × 20
 /// mesh).
@@ -155,50 +48,22 @@ impl<C: Constraint> RowFn for Energy<C> {
     }
 }
 
-/// Signed distance of each particle to the safety obstacles (`3 → 1`), exact wherever it is at
-/// most `bound` and a lower bound above it elsewhere ([`SignedDistance::distance_within`];
-/// `bound = ∞`: exact everywhere).
-pub(crate) struct ParticleSdf {
-    pub(crate) field: Arc<Union>,
-    pub(crate) bound: f64,
-}
-
-impl RowFn for ParticleSdf {
-    fn n_in(&self) -> usize {
-        3
-    }
-    fn n_out(&self) -> usize {
-        1
-    }
-    fn eval<R: Real>(&self, _row: usize, x: &[R], out: &mut [R]) {
-        out[0] = (self.field).distance_within(&Vector3::new(x[0], x[1], x[2]), self.bound);
-    }
-}
-
-/// Signed distance of each particle to each primitive of the safety obstacles
-/// (`3 → components`), each bounded by `bound` as [`Union::components_within`].
-pub(crate) struct ParticleSdfComponents {
-    pub(crate) field: Arc<Union>,
-    pub(crate) bound: f64,
-}
-
-impl RowFn for ParticleSdfComponents {
-    fn n_in(&self) -> usize {
-        3
-    }
-    fn n_out(&self) -> usize {
-        self.field.component_count()
-    }
-    fn eval<R: Real>(&self, _row: usize, x: &[R], out: &mut [R]) {
-        (self.field).components_within(&Vector3::new(x[0], x[1], x[2]), self.bound, out);
-    }
-}
-
 impl Model {
     /// Compiles a validated scene. A scene with `custom_constraints` needs their types:
     /// [`Model::from_scene_with`].
     pub fn from_scene(scene: &Scene) -> Result<Model, ClothError> {
-        Model::from_scene_with(scene, &crate::registry::ConstraintRegistry::new())
+        Model::from_scene_with(scene, &ConstraintRegistry::new())
+    }
+
+    /// Compiles a validated scene whose `custom_constraints` use the types in `registry`
+    /// ([`Model::from_scene`] is this with an empty registry).
+    pub fn from_scene_with(
+        scene: &Scene,
+        registry: &ConstraintRegistry,
+    ) -> Result<Model, ClothError> {
+        let mut model = Model::from_scene_builtin(scene)?;
+        registry.apply(&mut model, scene)?;
+        Ok(model)
     }
 
     /// Compiles a validated scene's built-in effects (everything but `custom_constraints`).
@@ -329,16 +194,6 @@ impl Model {
         Ok(model)
     }
 
-    /// Number of particles `N`.
-    pub fn n_particles(&self) -> usize {
-        self.rest.rows()
-    }
-
-    /// Number of control particles.
-    pub fn n_controls(&self) -> usize {
-        self.controls.rows()
-    }
-
     fn rest_point(&self, p: usize) -> Vector3<f64> {
         let r = self.rest.row(p);
         Vector3::new(r[0], r[1], r[2])
@@ -435,50 +290,6 @@ impl Model {
         });
         Ok(())
     }
-
-    /// Projections performed per solver iteration (rows over all sets).
-    pub fn projections_per_iteration(&self) -> usize {
-        self.groups.iter().map(|g| g.count).sum()
-    }
-
-    /// Colour sets visited per solver iteration.
-    pub fn sets_per_iteration(&self) -> usize {
-        self.groups.iter().map(|g| g.sets.len()).sum()
-    }
-
-    /// The group called `name`, if the model has it.
-    pub fn group(&self, name: &str) -> Option<&ConstraintGroup> {
-        self.groups.iter().find(|g| g.name == name)
-    }
-
-    /// A one-line list of the effects this model simulates.
-    pub fn effects(&self) -> String {
-        let mut parts: Vec<String> = self
-            .groups
-            .iter()
-            .map(|g| {
-                format!(
-                    "{} ({} constraints, {} sets)",
-                    g.name,
-                    g.count,
-                    g.sets.len()
-                )
-            })
-            .collect();
-        if self.sets().any(|s| s.carry != Carry::Multiplier) {
-            parts.push("friction".into());
-        }
-        if let Some(sc) = &self.self_collision {
-            parts.push(format!("self-collision (thickness {})", sc.thickness));
-        }
-        if self.gravity_step.is_some() {
-            parts.push("gravity".into());
-        }
-        if self.safety.is_some() {
-            parts.push("safety SDF".into());
-        }
-        parts.join(", ")
-    }
 }
 
 fn flatten<const K: usize>(rows: &[[usize; K]]) -> Vec<usize> {
@@ -498,4 +309,23 @@ fn split_obstacles(obstacles: &[Obstacle]) -> (Union, Union) {
         }
     }
     (colliders, safety)
+}
+
+impl Physics {
+    /// The solver these settings describe, with Newton's defaults filled in.
+    pub fn solver(&self) -> Solver {
+        match self.solver {
+            SolverKind::Xpbd => Solver::Xpbd,
+            SolverKind::Newton => {
+                let d = NewtonSettings::default();
+                Solver::Newton(NewtonSettings {
+                    tolerance: self.tolerance.unwrap_or(d.tolerance),
+                    max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),
+                    load_steps: self.load_steps.unwrap_or(d.load_steps),
+                    load_halvings: self.load_halvings.unwrap_or(d.load_halvings),
+                    ..d
+                })
+            }
+        }
+    }
 }

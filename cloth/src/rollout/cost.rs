@@ -8,8 +8,9 @@
 //! gradient 0 at its kink (a particle exactly at `δ` counts as safe and exerts no pull); the
 //! minimum over spheres passes the gradient to the first sphere on a tie.
 
-use crate::model::{Model, ParticleSdf, ParticleSdfComponents};
-use crate::sim::Controls;
+use crate::controls::Controls;
+use crate::model::Model;
+use crate::sdf::rows::{ParticleSdf, ParticleSdfComponents};
 use autodiff::{DynRowFn, Tape, Tensor, Var};
 use std::sync::Arc;
 

@@ -4,10 +4,11 @@
 //! pass from its checkpoint (peak tape memory one time step, or one block of iterations, whatever
 //! the horizon).
 
-use crate::cost::trajectory_irregularity;
+use crate::controls::Controls;
 use crate::error::ClothError;
 use crate::model::Model;
-use crate::sim::{check_finite, control_entry, Controls, StepScratch};
+use crate::rollout::cost::trajectory_irregularity;
+use crate::xpbd::sim::{check_finite, control_entry, StepScratch};
 use autodiff::{in_pool, Gradients, Tape, Tensor, Var};
 use rayon::prelude::*;
 
@@ -239,7 +240,7 @@ impl Model {
         if costs.is_empty() {
             return Vec::new();
         }
-        if let crate::newton::Solver::Newton(_) = self.solver {
+        if let crate::newton::settings::Solver::Newton(_) = self.solver {
             return self.newton_gradients(states, controls, costs);
         }
         in_pool(|| self.gradients_in_pool(states, controls, costs))
@@ -247,7 +248,7 @@ impl Model {
 
     /// Bytes one recorded Gauss–Seidel iteration keeps for the backward pass.
     pub fn recorded_bytes_per_iteration(&self) -> usize {
-        let per_set = |s: &crate::model::ProjectionSet| {
+        let per_set = |s: &crate::xpbd::set::ProjectionSet| {
             s.index.rows() * s.projection.n_in() * std::mem::size_of::<f64>()
         };
         self.sets().map(per_set).sum()
@@ -430,7 +431,9 @@ impl RecordedRollout {
         if costs.is_empty() {
             return (self.states, Vec::new());
         }
-        if let (Some(kept), crate::newton::Solver::Newton(_)) = (self.newton, model.solver) {
+        if let (Some(kept), crate::newton::settings::Solver::Newton(_)) =
+            (self.newton, model.solver)
+        {
             let grads = model.newton_gradients_kept(&self.states, controls, costs, Some(kept));
             return (self.states, grads.0);
         }
@@ -475,7 +478,7 @@ impl Model {
         let lower_bound = horizon * self.iterations.max(1) * self.recorded_bytes_per_iteration();
         // Newton steps are differentiated implicitly, not by recording their iterations; the
         // forward keeps its factorizations for that within the budget.
-        if let crate::newton::Solver::Newton(settings) = self.solver {
+        if let crate::newton::settings::Solver::Newton(settings) = self.solver {
             let budget = if costs.is_empty() {
                 0
             } else {

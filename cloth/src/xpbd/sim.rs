@@ -5,13 +5,12 @@
 //! every constraint group in order. Both paths run the same [`autodiff::update::update_rows`]
 //! kernel on the same inputs, so their states agree bit for bit.
 
+use super::set::{Carry, ProjectionSet};
+use crate::controls::Controls;
 use crate::error::ClothError;
-use crate::model::{Carry, Model, ProjectionSet};
+use crate::model::Model;
 use autodiff::update::update_rows;
 use autodiff::{in_pool, Tape, Tensor, Var};
-
-/// Controls: one row per time step, `3 × n_controls` displacements per row.
-pub type Controls = Tensor;
 
 /// Reusable buffers of the plain path.
 #[derive(Default)]
@@ -203,7 +202,7 @@ impl Model {
     /// If the controls do not fit the model, or a state stops being finite (naming the step and
     /// particle).
     pub fn simulate(&self, controls: &Controls) -> Result<Vec<Tensor>, ClothError> {
-        if let crate::newton::Solver::Newton(settings) = &self.solver {
+        if let crate::newton::settings::Solver::Newton(settings) = &self.solver {
             return self.simulate_newton(controls, settings).map(|(s, _)| s);
         }
         self.check_controls(controls)?;

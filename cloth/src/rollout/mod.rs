@@ -1,0 +1,10 @@
+//! A rollout's costs and their derivatives with respect to the controls.
+//!
+//! - [`cost`]: the paper's costs (`G`, `E`, the safety term, `T`) recorded on a tape;
+//! - [`strain`]: edge strain and its smooth maximum (the `max_strain` rows);
+//! - [`grad`]: metrics of a rollout, and gradients of any per-step costs by reverse mode
+//!   (checkpointed per step or per block of iterations).
+
+pub mod cost;
+pub mod grad;
+pub mod strain;
