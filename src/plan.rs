@@ -15,14 +15,28 @@ use optim::{IterationInfo, LbfgsSettings, LbfgsSolver, Problem, SqpSettings, Sqp
 use serde::Serialize;
 use std::time::Instant;
 
-/// Which solver runs the problem.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+/// The optimizer that runs a planning problem (`--solver`, Python's `solver=`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
-pub enum SolverKind {
+pub enum Optimizer {
     /// SQP on Clarabel: constraints, and the trajectory term's kinks as second-order cones.
     Sqp,
     /// L-BFGS: unconstrained only; the trajectory term's kinks get the sub-gradient 0.
     Lbfgs,
+}
+
+impl Optimizer {
+    /// Every optimizer, in the order their names are listed.
+    pub const ALL: [Optimizer; 2] = [Optimizer::Sqp, Optimizer::Lbfgs];
+
+    /// The name the CLI, Python and JSON give it (`"sqp"`, `"lbfgs"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Optimizer::Sqp => "sqp",
+            Optimizer::Lbfgs => "lbfgs",
+        }
+    }
 }
 
 /// Everything a planning run needs besides the model.
@@ -33,8 +47,8 @@ pub struct PlanOptions {
     /// Iteration limit of the solver, per κ stage (see `kappa_warmup`): a warmed-up plan may take
     /// up to twice as many in all.
     pub iterations: usize,
-    /// The solver.
-    pub solver: SolverKind,
+    /// The optimizer.
+    pub solver: Optimizer,
     /// SQP step bound: `‖d‖∞ ≤ scale · max(1, ‖U‖∞)`, in control units (a control is a
     /// displacement per step; 0.5 is half a cloth width).
     pub step_bound: f64,
@@ -85,7 +99,7 @@ impl PlanOptions {
         PlanOptions {
             task: TaskOptions::for_model(model),
             iterations: 200,
-            solver: SolverKind::Sqp,
+            solver: Optimizer::Sqp,
             step_bound: 0.5,
             tol_optimality: 1e-4,
             kappa_warmup: Some(200.0),
@@ -363,8 +377,7 @@ pub fn plan(
     let mut stages = Vec::new();
     // Set when the warm-up leaves the sharp stage nothing to do (see `sharp_stage_needed`).
     let mut settled = None;
-    if let (SolverKind::Sqp, Some(kappa), true) =
-        (options.solver, options.kappa_warmup, soft_safety)
+    if let (Optimizer::Sqp, Some(kappa), true) = (options.solver, options.kappa_warmup, soft_safety)
     {
         if kappa < options.task.kappa {
             let mut task = options.task.clone();
@@ -404,11 +417,11 @@ pub fn plan(
             solution.constraint_violation = max_violation(&mut problem, &x0)?;
             solution
         }
-        (SolverKind::Sqp, None) => {
+        (Optimizer::Sqp, None) => {
             let settings = sqp_settings(options, options.tol_optimality)?;
             SqpSolver::new(settings)?.solve_with_callback(&mut problem, &x0, callback)?
         }
-        (SolverKind::Lbfgs, None) => {
+        (Optimizer::Lbfgs, None) => {
             if problem.num_inequalities() > 0 {
                 return Err(Error::LbfgsWithConstraints {
                     rows: problem.num_inequalities(),

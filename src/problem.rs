@@ -27,9 +27,8 @@ use cloth::{ClothError, Controls, Model};
 use optim::{DenseMatrix, EvalError, Jacobian, NormTerm, Problem};
 
 /// How the obstacle-avoidance constraint reaches the optimizer.
-#[derive(
-    Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
-)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum SafetyForm {
     /// One smooth row per step: the soft minimum of the distances of every particle to every
@@ -40,6 +39,25 @@ pub enum SafetyForm {
     Aggregate,
     /// The paper's scalar `C = −Σ_t Σ_i relu(δ − SDF(x_i^(t))) ≥ 0`.
     Scalar,
+}
+
+impl SafetyForm {
+    /// Every form, in the order their names are listed.
+    pub const ALL: [SafetyForm; 3] = [
+        SafetyForm::PerStep,
+        SafetyForm::Aggregate,
+        SafetyForm::Scalar,
+    ];
+
+    /// The name Python and JSON give it (`"per_step"`, `"aggregate"`, `"scalar"`; the CLI spells
+    /// `per_step` as `per-step`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SafetyForm::PerStep => "per_step",
+            SafetyForm::Aggregate => "aggregate",
+            SafetyForm::Scalar => "scalar",
+        }
+    }
 }
 
 /// What a [`TrajectoryProblem`] optimizes and how.

@@ -3,7 +3,7 @@
 //! [`PlanOptions`] and [`SearchOptions`]. Error messages name the setting the way the caller
 //! spells it (`--delta` on the command line, `delta` from Python).
 
-use crate::plan::{PlanOptions, SolverKind, FEASIBILITY_TOLERANCE};
+use crate::plan::{Optimizer, PlanOptions, FEASIBILITY_TOLERANCE};
 use crate::problem::SafetyForm;
 use crate::search::{SearchMode, SearchOptions};
 use crate::validate::{
@@ -49,8 +49,8 @@ pub struct OptimizeRequest {
     pub kappa: Option<f64>,
     /// Jacobian reuse band (default off).
     pub reuse_band: Option<f64>,
-    /// The solver (default SQP).
-    pub solver: SolverKind,
+    /// The optimizer (default SQP).
+    pub solver: Optimizer,
     /// Route search mode (default auto).
     pub search: SearchMode,
     /// Most candidate routes of the search (default 6).
@@ -77,7 +77,7 @@ impl Default for OptimizeRequest {
             swept: false,
             kappa: None,
             reuse_band: None,
-            solver: SolverKind::Sqp,
+            solver: Optimizer::Sqp,
             search: SearchMode::Auto,
             starts: 6,
             tol: 1e-4,

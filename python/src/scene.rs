@@ -3,10 +3,9 @@
 use crate::arrays::{controls_in, controls_out};
 use crate::errors::{bad_argument, to_py};
 use crate::results::{Plan, Rollout};
-use clap::ValueEnum;
 use cloth::Model;
 use clothopt::physics_check::{plan_with_check, CheckPhysics, CheckRequest};
-use clothopt::plan::initial_controls;
+use clothopt::plan::{initial_controls, Optimizer};
 use clothopt::problem::SafetyForm;
 use clothopt::request::{load_scene, OptimizeRequest};
 use clothopt::search::{plan_with_search, SearchMode};
@@ -55,20 +54,50 @@ impl Scene {
     }
 }
 
-/// A `snake_case` choice (`"per_step"`, `"sqp"`, `"auto"`) of one of the CLI's value enums.
-fn choice<T: ValueEnum>(field: &str, value: &str) -> PyResult<T> {
-    let spelled = value.replace('_', "-");
-    T::from_str(&spelled, true).map_err(|_| {
-        let names: Vec<String> = T::value_variants()
-            .iter()
-            .filter_map(|v| v.to_possible_value())
-            .map(|p| format!("'{}'", p.get_name().replace('-', "_")))
-            .collect();
-        PyValueError::new_err(format!(
-            "{field}: must be one of {}, got '{value}'",
-            names.join(", ")
-        ))
-    })
+/// One of the library's choice enums, by the names it gives its values.
+trait Choice: Copy + 'static {
+    /// Every value, in the order an error lists them.
+    const ALL: &'static [Self];
+    /// The value's `snake_case` name (`"per_step"`, `"sqp"`, `"auto"`).
+    fn name(self) -> &'static str;
+}
+
+impl Choice for SafetyForm {
+    const ALL: &'static [Self] = &SafetyForm::ALL;
+    fn name(self) -> &'static str {
+        SafetyForm::name(self)
+    }
+}
+
+impl Choice for Optimizer {
+    const ALL: &'static [Self] = &Optimizer::ALL;
+    fn name(self) -> &'static str {
+        Optimizer::name(self)
+    }
+}
+
+impl Choice for SearchMode {
+    const ALL: &'static [Self] = &SearchMode::ALL;
+    fn name(self) -> &'static str {
+        SearchMode::name(self)
+    }
+}
+
+/// A `snake_case` choice (`"per_step"`, `"sqp"`, `"auto"`), in any case and with `-` for `_`
+/// (as the CLI spells `per-step`); an error lists the names.
+fn choice<T: Choice>(field: &str, value: &str) -> PyResult<T> {
+    let spelled = value.replace('-', "_");
+    T::ALL
+        .iter()
+        .copied()
+        .find(|v| v.name().eq_ignore_ascii_case(&spelled))
+        .ok_or_else(|| {
+            let names: Vec<String> = T::ALL.iter().map(|v| format!("'{}'", v.name())).collect();
+            PyValueError::new_err(format!(
+                "{field}: must be one of {}, got '{value}'",
+                names.join(", ")
+            ))
+        })
 }
 
 /// What `Scene.grad` returns: the values dict, `dL_dU` and `dC_dU`.

@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use cloth::Model;
 use clothopt::output::write_json_atomic;
 use clothopt::physics_check::{plan_with_check, CheckPhysics, CheckRequest};
-use clothopt::plan::{self, SolverKind};
+use clothopt::plan::{self, Optimizer};
 use clothopt::problem::SafetyForm;
 use clothopt::request::OptimizeRequest;
 use clothopt::search::{plan_with_search, Progress, SearchMode};
@@ -53,8 +53,8 @@ pub struct OptimizeArgs {
     #[arg(long, allow_negative_numbers = true)]
     reuse_band: Option<f64>,
     /// The solver.
-    #[arg(long, value_enum, default_value_t = SolverKind::Sqp)]
-    solver: SolverKind,
+    #[arg(long, value_enum, default_value_t = Optimizer::Sqp)]
+    solver: Optimizer,
     /// Route search: `auto` plans other routes (detours over, beside or under the obstacles
     /// the first plan runs into, and seeded perturbations) only when the plan from the start
     /// does not achieve the task; `always` also when it does; `off` never.

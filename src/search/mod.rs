@@ -32,7 +32,8 @@ use std::cmp::Ordering;
 use std::time::Instant;
 
 /// When the planner searches for other routes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum SearchMode {
     /// Only when the plan from the initial guess does not achieve the task.
@@ -41,6 +42,20 @@ pub enum SearchMode {
     Always,
     /// Never: plan from the initial guess only.
     Off,
+}
+
+impl SearchMode {
+    /// Every mode, in the order their names are listed.
+    pub const ALL: [SearchMode; 3] = [SearchMode::Auto, SearchMode::Always, SearchMode::Off];
+
+    /// The name the result JSON, the CLI and Python give it (`"auto"`, `"always"`, `"off"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SearchMode::Auto => "auto",
+            SearchMode::Always => "always",
+            SearchMode::Off => "off",
+        }
+    }
 }
 
 /// What [`plan_with_search`] reports while it runs.

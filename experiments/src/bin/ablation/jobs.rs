@@ -4,7 +4,7 @@
 use super::{Args, Task, Variant};
 use anyhow::Result;
 use autodiff::Tensor;
-use clothopt::plan::{self, PlanOptions, PlanResult, SolverKind};
+use clothopt::plan::{self, Optimizer, PlanOptions, PlanResult};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -14,7 +14,7 @@ use std::sync::Mutex;
 pub(crate) struct Job {
     pub(crate) task: usize,
     pub(crate) variant: Variant,
-    pub(crate) solver: SolverKind,
+    pub(crate) solver: Optimizer,
 }
 
 /// A finished job.
@@ -99,7 +99,7 @@ pub(crate) fn run_job(job: Job, task: &Task, args: &Args, progress: &Progress) -
         "{} {}{}",
         task.name,
         job.variant.name(),
-        if job.solver == SolverKind::Lbfgs {
+        if job.solver == Optimizer::Lbfgs {
             " L-BFGS"
         } else {
             ""
