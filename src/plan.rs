@@ -1,16 +1,24 @@
-//! Running a cloth task through an optimizer and packaging the result.
+//! Running a cloth task through an optimizer and packaging the result: [`PlanOptions`], [`plan`]
+//! and [`snapshot`]. The result is [`crate::result`]'s [`PlanResult`], re-exported here with its
+//! converters for callers of [`plan`].
 
 use crate::anytime::Watch;
 use crate::error::{Error, Result};
-use crate::outcome::{row_facts, task_outcome, PlanFacts, TaskOutcome};
+use crate::outcome::{row_facts, task_outcome, PlanFacts};
 use crate::problem::{TaskOptions, TrajectoryProblem};
+// The result of a run and its converters, from `crate::result`: re-exported for this module's callers.
+pub use crate::result::{
+    controls_from_nested, controls_to_nested, gripper_positions, is_safe, mesh_triangles,
+    state_points, states_of, PlanResult, Stage, FEASIBILITY_TOLERANCE, SAFETY_TOLERANCE,
+};
 use crate::start_check::judge_start;
+// The rollout's strain and its warning, from `crate::strain`: re-exported for this module's callers.
 pub use crate::strain::{strain_report, strain_warning, StrainReport, STRAIN_WARNING_THRESHOLD};
 use crate::validate::{
     ensure_iterations, ensure_non_negative, ensure_positive, ensure_positive_or_infinite,
 };
 use autodiff::Tensor;
-use cloth::{Controls, Metrics, Model, Scene};
+use cloth::{Controls, Model, Scene};
 use optim::{IterationInfo, LbfgsSettings, LbfgsSolver, Problem, SqpSettings, SqpSolver, Status};
 use serde::Serialize;
 use std::time::Instant;
@@ -142,189 +150,6 @@ impl PlanOptions {
         }
         ensure_iterations("iterations", self.iterations)
     }
-}
-
-/// A planning run's outcome: what the result JSON holds.
-#[derive(Clone, Debug, Serialize, serde::Deserialize)]
-pub struct PlanResult {
-    /// Scene name.
-    pub scene: String,
-    /// Safety margin `δ`.
-    pub delta: f64,
-    /// Solver status (`converged`, `infeasible`, `iteration_limit`, `stalled`, …).
-    pub status: String,
-    /// The solver's one-line explanation.
-    pub message: String,
-    /// Solver iterations.
-    pub iterations: usize,
-    /// Rollouts simulated.
-    pub evaluations: usize,
-    /// Gradient evaluations (backward passes).
-    pub gradient_evaluations: usize,
-    /// Wall-clock seconds of the optimization; NaN when timing is not reported (`optimize
-    /// --no-timing`), and then left out of the JSON so that identical runs write identical bytes.
-    #[serde(skip_serializing_if = "is_nan", default = "not_timed")]
-    pub wall_s: f64,
-    /// Final KKT residual reported by the solver (∞ when its last QP gave no multipliers, NaN
-    /// when it never evaluated one; JSON writes both as `null`, which reads back as NaN).
-    #[serde(deserialize_with = "null_as_nan")]
-    pub kkt_residual: f64,
-    /// Max-norm violation of the optimizer's inequality rows (safety rows, control points against
-    /// collider planes) at the returned controls; 0 when they all hold (NaN when the start could
-    /// not be evaluated, `null` in JSON). See [`PlanResult::is_feasible`].
-    #[serde(default, deserialize_with = "null_as_nan")]
-    pub constraint_violation: f64,
-    /// The paper's metrics at the returned controls. `min_sdf` and `min_sdf_swept` are `null`
-    /// when the scene has no safety obstacle (there is no distance to measure; they read back as
-    /// ∞), so a script should test for `null` before comparing them with `δ`.
-    pub metrics: Metrics,
-    /// Edge strain of the returned plan's rollout.
-    #[serde(default)]
-    pub strain: StrainReport,
-    /// Absolute gripper (control point) positions at steps `0..=T`: `(T + 1) × controls × 3`.
-    #[serde(default)]
-    pub gripper_positions: Vec<Vec<[f64; 3]>>,
-    /// Whether the plan achieved the task (targets within tolerance and safe) and, if not, why.
-    #[serde(default)]
-    pub task: TaskOutcome,
-    /// The optimizer's stages: the smooth κ warm-up (when it ran), then the sharp stage.
-    #[serde(default)]
-    pub stages: Vec<Stage>,
-    /// Largest row violation counted as feasible ([`PlanOptions::tol_feasibility`]).
-    #[serde(default = "default_tol_feasibility")]
-    pub feasibility_tolerance: f64,
-    /// What the user should know about the plan that its status does not say (a start inside a
-    /// margin, a dip inside `δ` between steps, …).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
-    /// The route search, when it ran ([`crate::search`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub search: Option<crate::search::SearchReport>,
-    /// The plan checked under other physics, when asked ([`crate::physics_check`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub check: Option<crate::physics_check::PhysicsCheck>,
-    /// Cloth grid `[rows, cols]` (particle `r·cols + c`); `[0, 0]` for a mesh cloth.
-    pub grid: [usize; 2],
-    /// A mesh cloth's triangles (particle indices); absent for a grid, whose triangles follow
-    /// from `grid`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub triangles: Option<Vec<[usize; 3]>>,
-    /// Particle index of each control point.
-    pub control_particles: Vec<usize>,
-    /// Controls: `T × controls × 3`.
-    pub controls: Vec<Vec<[f64; 3]>>,
-    /// States `0..=T`: `(T + 1) × N × 3`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub states: Option<Vec<Vec<[f64; 3]>>>,
-    /// The solver's status, for programs.
-    #[serde(skip)]
-    pub solver_status: Option<Status>,
-}
-
-/// One optimizer stage of a plan.
-#[derive(Clone, Debug, Serialize, serde::Deserialize)]
-pub struct Stage {
-    /// Sharpness `κ` of the soft-min safety rows in this stage (`null` without them).
-    pub kappa: Option<f64>,
-    /// Iterations of this stage.
-    pub iterations: usize,
-    /// How the stage ended.
-    pub status: String,
-}
-
-fn default_tol_feasibility() -> f64 {
-    FEASIBILITY_TOLERANCE
-}
-
-pub(crate) fn not_timed() -> f64 {
-    f64::NAN
-}
-
-pub(crate) fn is_nan(v: &f64) -> bool {
-    v.is_nan()
-}
-
-/// A number that JSON may hold as `null` (how `serde_json` writes NaN and ∞): `null` reads as NaN.
-fn null_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v: Option<f64> = serde::Deserialize::deserialize(d)?;
-    Ok(v.unwrap_or(f64::NAN))
-}
-
-/// Largest constraint violation a plan may have and still count as feasible: the SQP's own
-/// feasibility tolerance (the default `SqpSettings::tol_feasibility`, unscaled constraints).
-pub const FEASIBILITY_TOLERANCE: f64 = optim::DEFAULT_TOL_FEASIBILITY;
-
-impl PlanResult {
-    /// True when the returned controls satisfy the optimizer's constraints (violation at most
-    /// [`PlanResult::feasibility_tolerance`]) and the solver did not declare the problem infeasible. Whatever
-    /// the status (`converged`, `iteration_limit`, …), a plan that is not feasible is not safe to
-    /// execute.
-    pub fn is_feasible(&self) -> bool {
-        self.status != "infeasible" && self.constraint_violation <= self.feasibility_tolerance
-    }
-
-    /// True when the plan's own rollout is [safe](is_safe) at its margin.
-    pub fn is_safe(&self) -> bool {
-        is_safe(&self.metrics)
-    }
-
-    /// Leaves every wall-clock time out (NaN, not serialized), so that identical runs write
-    /// identical bytes.
-    pub fn drop_timing(&mut self) {
-        self.wall_s = f64::NAN;
-        if let Some(search) = &mut self.search {
-            for c in &mut search.candidates {
-                c.wall_s = f64::NAN;
-            }
-        }
-    }
-
-    /// True when the solver converged and the plan [is safe](PlanResult::is_safe).
-    pub fn is_safe_and_converged(&self) -> bool {
-        self.status == "converged" && self.is_safe()
-    }
-}
-
-/// Largest total safety violation `−C` a safe rollout may have (see [`is_safe`]).
-pub const SAFETY_TOLERANCE: f64 = 1e-6;
-
-/// The safety judgement of a rollout's metrics: `C ≥ −1e−6` ([`SAFETY_TOLERANCE`]) for the
-/// margin `δ` they were computed with. `C = −Σ_t Σ_i relu(δ − SDF)` sums every particle's
-/// intrusion at every step, so no particle is more than 1e−6 inside the margin (`C = 0`
-/// without safety obstacles).
-pub fn is_safe(metrics: &Metrics) -> bool {
-    metrics.c >= -SAFETY_TOLERANCE
-}
-
-/// Controls tensor (`T × 3K`) as nested `[x, y, z]` lists.
-pub fn controls_to_nested(controls: &Controls) -> Vec<Vec<[f64; 3]>> {
-    cloth::ControlsView::to_nested(controls)
-}
-
-/// A state tensor (`N × 3`) as a list of points.
-pub fn state_points(x: &Tensor) -> Vec<[f64; 3]> {
-    x.data()
-        .chunks_exact(3)
-        .map(|c| [c[0], c[1], c[2]])
-        .collect()
-}
-
-/// Controls from nested lists, checked against the model's shape.
-pub fn controls_from_nested(
-    model: &Model,
-    u: &[Vec<[f64; 3]>],
-) -> Result<Controls, cloth::ClothError> {
-    let (t, k) = (model.task.horizon, model.n_controls());
-    if u.len() != t || u.iter().any(|row| row.len() != k) {
-        let found = u.iter().map(Vec::len).max().unwrap_or(0);
-        return Err(cloth::ClothError::Controls(format!(
-            "expected {t} steps × {k} control points, got {} steps × {found}",
-            u.len()
-        )));
-    }
-    let c = Tensor::new(t, 3 * k, u.iter().flatten().flatten().copied().collect());
-    model.check_controls(&c)?;
-    Ok(c)
 }
 
 /// The scene's initial guess as a controls tensor.
@@ -644,21 +469,6 @@ pub fn snapshot(
     })
 }
 
-/// Absolute positions of every control point at every state: `(T + 1) × controls × 3`.
-pub fn gripper_positions(model: &Model, states: &[Tensor]) -> Vec<Vec<[f64; 3]>> {
-    states
-        .iter()
-        .map(|x| {
-            model
-                .controls
-                .as_slice()
-                .iter()
-                .map(|&p| [x.get(p, 0), x.get(p, 1), x.get(p, 2)])
-                .collect()
-        })
-        .collect()
-}
-
 /// The SQP settings of a planning run, with KKT tolerance `tol`.
 fn sqp_settings(options: &PlanOptions, tol: f64) -> Result<SqpSettings> {
     Ok(SqpSettings::builder()
@@ -670,18 +480,4 @@ fn sqp_settings(options: &PlanOptions, tol: f64) -> Result<SqpSettings> {
         .progress_window(options.progress_window)
         .tol_progress(options.tol_progress)
         .build()?)
-}
-
-/// The states of a result as tensors (`N × 3` each).
-pub fn states_of(result: &PlanResult) -> Result<Vec<Tensor>> {
-    let states = result.states.as_ref().ok_or(Error::NoStates)?;
-    Ok(states
-        .iter()
-        .map(|s| Tensor::new(s.len(), 3, s.iter().flatten().copied().collect()))
-        .collect())
-}
-
-/// A mesh cloth's triangles for the result JSON; `None` for a grid.
-pub fn mesh_triangles(scene: &Scene, model: &Model) -> Option<Vec<[usize; 3]>> {
-    scene.cloth.is_mesh().then(|| model.triangles.to_vec())
 }

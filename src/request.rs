@@ -3,9 +3,10 @@
 //! [`PlanOptions`] and [`SearchOptions`]. Error messages name the setting the way the caller
 //! spells it (`--delta` on the command line, `delta` from Python).
 
-use crate::plan::{Optimizer, PlanOptions, FEASIBILITY_TOLERANCE};
+use crate::plan::{Optimizer, PlanOptions};
 use crate::problem::SafetyForm;
-use crate::search::{SearchMode, SearchOptions};
+use crate::result::{SearchMode, FEASIBILITY_TOLERANCE};
+use crate::search::SearchOptions;
 use crate::validate::{
     ensure_iterations, ensure_non_negative, ensure_positive, ensure_positive_or_infinite,
 };

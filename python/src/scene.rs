@@ -4,11 +4,12 @@ use crate::arrays::{controls_in, controls_out};
 use crate::errors::{bad_argument, to_py};
 use crate::results::{Plan, Rollout};
 use cloth::Model;
-use clothopt::physics_check::{plan_with_check, CheckPhysics, CheckRequest};
+use clothopt::physics_check::{plan_with_check, CheckRequest};
 use clothopt::plan::{initial_controls, Optimizer};
 use clothopt::problem::SafetyForm;
 use clothopt::request::{load_scene, OptimizeRequest};
-use clothopt::search::{plan_with_search, SearchMode};
+use clothopt::result::{CheckPhysics, SearchMode};
+use clothopt::search::plan_with_search;
 use clothopt::validate::ensure_non_negative;
 use numpy::{AllowTypeChange, PyArray3, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
@@ -253,7 +254,7 @@ impl Scene {
     #[pyo3(signature = (
         delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp", search="auto",
         starts=6, safety="per_step", swept=false, kappa=None, reuse_band=None, tol=1e-4,
-        feasibility_tol=clothopt::plan::FEASIBILITY_TOLERANCE, allow_unsafe_start=false,
+        feasibility_tol=clothopt::result::FEASIBILITY_TOLERANCE, allow_unsafe_start=false,
         time_limit=None, start=None, timing=true, check=None, check_rounds=3
     ))]
     #[allow(clippy::too_many_arguments)]
@@ -329,7 +330,7 @@ impl Scene {
         if !timing {
             result.drop_timing();
         }
-        if let Some(warning) = clothopt::plan::strain_warning(&self.model, &result) {
+        if let Some(warning) = clothopt::strain::strain_warning(&self.model, &result) {
             result.warnings.push(warning);
         }
         Ok(Plan::new(result))

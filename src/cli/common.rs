@@ -6,7 +6,8 @@ use clap::builder::{PossibleValuesParser, TypedValueParser};
 use cloth::scene::SolverKind;
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{self, top_view_path, RolloutFigure};
-use clothopt::plan::{controls_from_nested, initial_controls};
+use clothopt::plan::initial_controls;
+use clothopt::result::controls_from_nested;
 use clothopt::validate::{ensure_at_most, ensure_iterations, ensure_open_unit};
 use std::path::{Path, PathBuf};
 

@@ -77,7 +77,7 @@ pub struct OptimizeArgs {
     /// Largest violation (length units) of the optimizer's rows (safety rows, collider rows)
     /// at which a plan still counts as feasible; a plan violating them by more ends `no safe
     /// plan` (exit 4) and says by how much.
-    #[arg(long, default_value_t = clothopt::plan::FEASIBILITY_TOLERANCE, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = clothopt::result::FEASIBILITY_TOLERANCE, allow_negative_numbers = true)]
     feasibility_tol: f64,
     /// Plan even when the cloth starts inside an obstacle (an error otherwise): step 0 is
     /// fixed by the scene, so no plan can make it safe.
@@ -197,7 +197,7 @@ pub fn run(args: OptimizeArgs) -> Result<i32> {
     if no_timing {
         result.drop_timing();
     }
-    if let Some(warning) = plan::strain_warning(&model, &result) {
+    if let Some(warning) = clothopt::strain::strain_warning(&model, &result) {
         result.warnings.push(warning);
     }
     summary::print_summary(&result, no_timing);
@@ -206,7 +206,7 @@ pub fn run(args: OptimizeArgs) -> Result<i32> {
     }
     let watch = &args.watch;
     if args.png.is_some() || watch.html.is_some() || watch.gif.is_some() {
-        let states = plan::states_of(&result)?;
+        let states = clothopt::result::states_of(&result)?;
         let title = format!(
             "{}  δ = {}  ({})",
             result.scene, result.delta, result.status
