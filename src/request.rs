@@ -148,3 +148,63 @@ impl OptimizeRequest {
         Ok((options, search))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The names of a choice enum's values: `name()` in `ALL` order, the JSON spelling, and
+    /// under `cli` clap's (kebab-case, in declaration order), which Python's choices matched
+    /// before they used `name()` and the CLI still parses.
+    fn check_names<T>(all: &[T], name: fn(T) -> &'static str, expected: &[&str])
+    where
+        T: Copy + serde::Serialize + std::fmt::Debug,
+    {
+        let names: Vec<&str> = all.iter().map(|&v| name(v)).collect();
+        assert_eq!(names, expected);
+        for &v in all {
+            let json = serde_json::to_string(&v).expect("serializes");
+            assert_eq!(json, format!("\"{}\"", name(v)), "{v:?}");
+        }
+    }
+
+    #[test]
+    fn choice_names_are_the_json_spellings() {
+        check_names(&Optimizer::ALL, Optimizer::name, &["sqp", "lbfgs"]);
+        check_names(
+            &SafetyForm::ALL,
+            SafetyForm::name,
+            &["per_step", "aggregate", "scalar"],
+        );
+        check_names(
+            &SearchMode::ALL,
+            SearchMode::name,
+            &["auto", "always", "off"],
+        );
+    }
+
+    #[cfg(feature = "cli")]
+    #[test]
+    fn choice_names_are_the_cli_spellings() {
+        fn clap_names<T: clap::ValueEnum>() -> Vec<String> {
+            T::value_variants()
+                .iter()
+                .filter_map(|v| v.to_possible_value())
+                .map(|p| p.get_name().replace('-', "_"))
+                .collect()
+        }
+        let names = |all: Vec<&str>| all.into_iter().map(String::from).collect::<Vec<_>>();
+        assert_eq!(
+            clap_names::<Optimizer>(),
+            names(Optimizer::ALL.map(Optimizer::name).to_vec())
+        );
+        assert_eq!(
+            clap_names::<SafetyForm>(),
+            names(SafetyForm::ALL.map(SafetyForm::name).to_vec())
+        );
+        assert_eq!(
+            clap_names::<SearchMode>(),
+            names(SearchMode::ALL.map(SearchMode::name).to_vec())
+        );
+    }
+}
