@@ -19,7 +19,8 @@ use autodiff::{Real, Tensor};
 use cloth::constraint::{norm, Constraint};
 use cloth::nalgebra::Vector3;
 use cloth::{ConstraintRegistry, Controls, ControlsView, Model, Scene};
-use clothopt::plan::{controls_from_nested, plan, PlanOptions};
+use clothopt::plan::{plan, PlanOptions};
+use clothopt::result::controls_from_nested;
 use std::time::Instant;
 
 // ---- the user's constraint: this is all a new constraint type needs ------------------------

@@ -3,10 +3,10 @@
 //! `cargo run --release --example read_result -- r.json`
 //!
 //! `r.json` is written by `clothopt optimize SCENE --out r.json` (or the `plan_from_code`
-//! example). Every field is documented on [`clothopt::plan::PlanResult`].
+//! example). Every field is documented on [`clothopt::result::PlanResult`].
 
 use anyhow::{Context, Result};
-use clothopt::plan::{self, PlanResult};
+use clothopt::result::{self, PlanResult};
 
 fn main() -> Result<()> {
     let path = std::env::args_os().nth(1).context(
@@ -49,7 +49,7 @@ fn main() -> Result<()> {
     // The rollout, when the file holds it (the experiments drop it to keep their files small).
     match result.states {
         Some(_) => {
-            let states = plan::states_of(&result)?;
+            let states = result::states_of(&result)?;
             let last = &states[states.len() - 1];
             let lowest = (0..last.rows())
                 .map(|p| last.get(p, 2))

@@ -51,7 +51,7 @@ impl RolloutFigure {
         delta: Option<f64>,
         picks: &[usize],
     ) -> Self {
-        let points = crate::plan::state_points;
+        let points = crate::result::state_points;
         // Each frame's label gives its largest edge strain (|x_i − x_j|/L₀ − 1), so a figure shows
         // how far a plan stretches the cloth.
         let strain = model.max_strain_per_step(states);
@@ -157,7 +157,7 @@ pub fn draw_rollout_gif(
 /// ([`Model::triangles`]), the obstacles, targets, control particles, and per step the particle
 /// closest to the safety obstacles (none when the scene has none).
 pub fn rollout_view(model: &Model, states: &[Tensor], title: &str, delta: Option<f64>) -> Rollout {
-    let states: Vec<Vec<[f64; 3]>> = states.iter().map(crate::plan::state_points).collect();
+    let states: Vec<Vec<[f64; 3]>> = states.iter().map(crate::result::state_points).collect();
     let closest = if model.safety_obstacles.is_empty() {
         Vec::new()
     } else {
@@ -170,7 +170,7 @@ pub fn rollout_view(model: &Model, states: &[Tensor], title: &str, delta: Option
         spheres: obstacle_spheres(model),
         solids: obstacle_solids(model),
         ground_z: ground_z(model),
-        targets: crate::plan::state_points(&model.task.target_positions),
+        targets: crate::result::state_points(&model.task.target_positions),
         target_particles: model.task.targets.as_slice().to_vec(),
         safety_margin: safety_margin(model, delta),
         closest,

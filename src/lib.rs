@@ -2,7 +2,8 @@
 //!
 //! Glue between the `cloth` simulator and the `optim` solvers: [`problem::TrajectoryProblem`]
 //! casts a cloth task as an optimization problem (its rows on the controls alone, robot limits
-//! and collider planes, in `control_rows`); [`plan`] runs it and packages the result;
+//! and collider planes, in `control_rows`); [`plan`] runs it and packages the result, whose
+//! schema (the result JSON) is [`result`];
 //! `plot` (the `viz` crate, feature `figures`) draws figures and `figures` builds them from rollouts; [`export`] formats way-points
 //! and meshes for robots and viewers; [`output`] writes result files atomically.
 
@@ -18,6 +19,7 @@ pub mod physics_check;
 pub mod plan;
 pub mod problem;
 pub mod request;
+pub mod result;
 pub mod search;
 /// Plotting (the `viz` crate), for callers that draw their own figures.
 #[cfg(feature = "figures")]

@@ -8,62 +8,11 @@
 //! active, so the plan sits in a local minimum of `L`.
 
 use crate::problem::{RowLabel, TrajectoryProblem};
+// The `task` section of a result, from `crate::result`: re-exported for this module's callers.
+pub use crate::result::{Reason, TaskOutcome};
 use autodiff::Tensor;
 use cloth::Model;
 use optim::Problem;
-use serde::{Deserialize, Serialize};
-
-/// Why a task was or was not achieved.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Reason {
-    /// Every target within tolerance, and the plan is safe.
-    Achieved,
-    /// The safety rows are active at the returned plan: the margin `δ` (or a route too narrow for
-    /// the cloth) holds the cloth back.
-    SafetyActive,
-    /// Rows other than safety (control points against collider planes, robot limits) are active
-    /// at the returned plan and hold the cloth back.
-    LimitsActive,
-    /// The solver converged with no constraint active: a local minimum of `L = G + αT + βE`
-    /// (another route, or smaller `α`/`β`, may reach the targets).
-    LocalMinimum,
-    /// The solver stopped at its iteration limit before converging.
-    IterationLimit,
-    /// The solver stopped without converging (negligible step, line-search failure, QP failure,
-    /// no progress).
-    Stalled,
-    /// The run was stopped (time limit, interrupt) before the solver converged, or is still
-    /// under way (a best-so-far file).
-    Stopped,
-    /// The returned plan is not safe (it violates the safety margin or the optimizer's rows).
-    #[default]
-    NoSafePlan,
-}
-
-/// The task section of a result: how close the cloth came to its targets, and the verdict.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct TaskOutcome {
-    /// Every target reached and the plan safe.
-    pub achieved: bool,
-    /// Distance within which a target counts as reached (`task.tolerance`).
-    pub tolerance: f64,
-    /// Largest final distance of a target particle from its position.
-    pub max_target_error: f64,
-    /// Root mean square of the final target distances.
-    pub rms_target_error: f64,
-    /// Final distance of each target particle from its position, in target order.
-    pub target_errors: Vec<f64>,
-    /// How many targets are within tolerance.
-    pub targets_reached: usize,
-    /// The verdict's reason.
-    pub reason: Reason,
-    /// The verdict in words.
-    pub explanation: String,
-    /// Constraint groups active at the returned plan (e.g. `safety at steps 4–6`); empty when
-    /// none is.
-    pub active_constraints: Vec<String>,
-}
 
 /// The final distance of each target particle from its position.
 pub fn target_errors(model: &Model, final_state: &Tensor) -> Vec<f64> {

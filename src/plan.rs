@@ -1,28 +1,56 @@
-//! Running a cloth task through an optimizer and packaging the result.
+//! Running a cloth task through an optimizer: [`PlanOptions`], and [`plan`] as a list of named
+//! stages (step 0, the smooth κ stage, the sharp stage, re-scoring, the active groups, the verdict);
+//! [`snapshot`] scores a run still under way. The result it returns is [`crate::result`]'s
+//! [`PlanResult`], re-exported here with its converters for callers of [`plan`].
 
-use crate::anytime::Watch;
+use crate::anytime::{StopReason, Watch};
 use crate::error::{Error, Result};
-use crate::outcome::{row_facts, task_outcome, PlanFacts, TaskOutcome};
+use crate::outcome::{row_facts, task_outcome, PlanFacts, RowFacts, TaskOutcome};
 use crate::problem::{TaskOptions, TrajectoryProblem};
+// The result of a run and its converters, from `crate::result`: re-exported for this module's callers.
+pub use crate::result::{
+    controls_from_nested, controls_to_nested, gripper_positions, is_safe, mesh_triangles,
+    state_points, states_of, PlanResult, Stage, FEASIBILITY_TOLERANCE, SAFETY_TOLERANCE,
+};
 use crate::start_check::judge_start;
+// The rollout's strain and its warning, from `crate::strain`: re-exported for this module's callers.
 pub use crate::strain::{strain_report, strain_warning, StrainReport, STRAIN_WARNING_THRESHOLD};
 use crate::validate::{
     ensure_iterations, ensure_non_negative, ensure_positive, ensure_positive_or_infinite,
 };
 use autodiff::Tensor;
+use cloth::Evaluation;
 use cloth::{Controls, Metrics, Model, Scene};
-use optim::{IterationInfo, LbfgsSettings, LbfgsSolver, Problem, SqpSettings, SqpSolver, Status};
+use optim::{
+    DenseMatrix, IterationInfo, LbfgsSettings, LbfgsSolver, Problem, SqpSettings, SqpSolver, Status,
+};
 use serde::Serialize;
+use std::cell::RefCell;
+use std::ops::ControlFlow;
 use std::time::Instant;
 
-/// Which solver runs the problem.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+/// The optimizer that runs a planning problem (`--solver`, Python's `solver=`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
-pub enum SolverKind {
+pub enum Optimizer {
     /// SQP on Clarabel: constraints, and the trajectory term's kinks as second-order cones.
     Sqp,
     /// L-BFGS: unconstrained only; the trajectory term's kinks get the sub-gradient 0.
     Lbfgs,
+}
+
+impl Optimizer {
+    /// Every optimizer, in the order their names are listed.
+    pub const ALL: [Optimizer; 2] = [Optimizer::Sqp, Optimizer::Lbfgs];
+
+    /// The name the CLI, Python and JSON give it (`"sqp"`, `"lbfgs"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Optimizer::Sqp => "sqp",
+            Optimizer::Lbfgs => "lbfgs",
+        }
+    }
 }
 
 /// Everything a planning run needs besides the model.
@@ -33,8 +61,8 @@ pub struct PlanOptions {
     /// Iteration limit of the solver, per κ stage (see `kappa_warmup`): a warmed-up plan may take
     /// up to twice as many in all.
     pub iterations: usize,
-    /// The solver.
-    pub solver: SolverKind,
+    /// The optimizer.
+    pub solver: Optimizer,
     /// SQP step bound: `‖d‖∞ ≤ scale · max(1, ‖U‖∞)`, in control units (a control is a
     /// displacement per step; 0.5 is half a cloth width).
     pub step_bound: f64,
@@ -85,7 +113,7 @@ impl PlanOptions {
         PlanOptions {
             task: TaskOptions::for_model(model),
             iterations: 200,
-            solver: SolverKind::Sqp,
+            solver: Optimizer::Sqp,
             step_bound: 0.5,
             tol_optimality: 1e-4,
             kappa_warmup: Some(200.0),
@@ -130,189 +158,6 @@ impl PlanOptions {
     }
 }
 
-/// A planning run's outcome: what the result JSON holds.
-#[derive(Clone, Debug, Serialize, serde::Deserialize)]
-pub struct PlanResult {
-    /// Scene name.
-    pub scene: String,
-    /// Safety margin `δ`.
-    pub delta: f64,
-    /// Solver status (`converged`, `infeasible`, `iteration_limit`, `stalled`, …).
-    pub status: String,
-    /// The solver's one-line explanation.
-    pub message: String,
-    /// Solver iterations.
-    pub iterations: usize,
-    /// Rollouts simulated.
-    pub evaluations: usize,
-    /// Gradient evaluations (backward passes).
-    pub gradient_evaluations: usize,
-    /// Wall-clock seconds of the optimization; NaN when timing is not reported (`optimize
-    /// --no-timing`), and then left out of the JSON so that identical runs write identical bytes.
-    #[serde(skip_serializing_if = "is_nan", default = "not_timed")]
-    pub wall_s: f64,
-    /// Final KKT residual reported by the solver (∞ when its last QP gave no multipliers, NaN
-    /// when it never evaluated one; JSON writes both as `null`, which reads back as NaN).
-    #[serde(deserialize_with = "null_as_nan")]
-    pub kkt_residual: f64,
-    /// Max-norm violation of the optimizer's inequality rows (safety rows, control points against
-    /// collider planes) at the returned controls; 0 when they all hold (NaN when the start could
-    /// not be evaluated, `null` in JSON). See [`PlanResult::is_feasible`].
-    #[serde(default, deserialize_with = "null_as_nan")]
-    pub constraint_violation: f64,
-    /// The paper's metrics at the returned controls. `min_sdf` and `min_sdf_swept` are `null`
-    /// when the scene has no safety obstacle (there is no distance to measure; they read back as
-    /// ∞), so a script should test for `null` before comparing them with `δ`.
-    pub metrics: Metrics,
-    /// Edge strain of the returned plan's rollout.
-    #[serde(default)]
-    pub strain: StrainReport,
-    /// Absolute gripper (control point) positions at steps `0..=T`: `(T + 1) × controls × 3`.
-    #[serde(default)]
-    pub gripper_positions: Vec<Vec<[f64; 3]>>,
-    /// Whether the plan achieved the task (targets within tolerance and safe) and, if not, why.
-    #[serde(default)]
-    pub task: TaskOutcome,
-    /// The optimizer's stages: the smooth κ warm-up (when it ran), then the sharp stage.
-    #[serde(default)]
-    pub stages: Vec<Stage>,
-    /// Largest row violation counted as feasible ([`PlanOptions::tol_feasibility`]).
-    #[serde(default = "default_tol_feasibility")]
-    pub feasibility_tolerance: f64,
-    /// What the user should know about the plan that its status does not say (a start inside a
-    /// margin, a dip inside `δ` between steps, …).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
-    /// The route search, when it ran ([`crate::search`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub search: Option<crate::search::SearchReport>,
-    /// The plan checked under other physics, when asked ([`crate::physics_check`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub check: Option<crate::physics_check::PhysicsCheck>,
-    /// Cloth grid `[rows, cols]` (particle `r·cols + c`); `[0, 0]` for a mesh cloth.
-    pub grid: [usize; 2],
-    /// A mesh cloth's triangles (particle indices); absent for a grid, whose triangles follow
-    /// from `grid`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub triangles: Option<Vec<[usize; 3]>>,
-    /// Particle index of each control point.
-    pub control_particles: Vec<usize>,
-    /// Controls: `T × controls × 3`.
-    pub controls: Vec<Vec<[f64; 3]>>,
-    /// States `0..=T`: `(T + 1) × N × 3`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub states: Option<Vec<Vec<[f64; 3]>>>,
-    /// The solver's status, for programs.
-    #[serde(skip)]
-    pub solver_status: Option<Status>,
-}
-
-/// One optimizer stage of a plan.
-#[derive(Clone, Debug, Serialize, serde::Deserialize)]
-pub struct Stage {
-    /// Sharpness `κ` of the soft-min safety rows in this stage (`null` without them).
-    pub kappa: Option<f64>,
-    /// Iterations of this stage.
-    pub iterations: usize,
-    /// How the stage ended.
-    pub status: String,
-}
-
-fn default_tol_feasibility() -> f64 {
-    FEASIBILITY_TOLERANCE
-}
-
-pub(crate) fn not_timed() -> f64 {
-    f64::NAN
-}
-
-pub(crate) fn is_nan(v: &f64) -> bool {
-    v.is_nan()
-}
-
-/// A number that JSON may hold as `null` (how `serde_json` writes NaN and ∞): `null` reads as NaN.
-fn null_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v: Option<f64> = serde::Deserialize::deserialize(d)?;
-    Ok(v.unwrap_or(f64::NAN))
-}
-
-/// Largest constraint violation a plan may have and still count as feasible: the SQP's own
-/// feasibility tolerance (the default `SqpSettings::tol_feasibility`, unscaled constraints).
-pub const FEASIBILITY_TOLERANCE: f64 = optim::DEFAULT_TOL_FEASIBILITY;
-
-impl PlanResult {
-    /// True when the returned controls satisfy the optimizer's constraints (violation at most
-    /// [`PlanResult::feasibility_tolerance`]) and the solver did not declare the problem infeasible. Whatever
-    /// the status (`converged`, `iteration_limit`, …), a plan that is not feasible is not safe to
-    /// execute.
-    pub fn is_feasible(&self) -> bool {
-        self.status != "infeasible" && self.constraint_violation <= self.feasibility_tolerance
-    }
-
-    /// True when the plan's own rollout is [safe](is_safe) at its margin.
-    pub fn is_safe(&self) -> bool {
-        is_safe(&self.metrics)
-    }
-
-    /// Leaves every wall-clock time out (NaN, not serialized), so that identical runs write
-    /// identical bytes.
-    pub fn drop_timing(&mut self) {
-        self.wall_s = f64::NAN;
-        if let Some(search) = &mut self.search {
-            for c in &mut search.candidates {
-                c.wall_s = f64::NAN;
-            }
-        }
-    }
-
-    /// True when the solver converged and the plan [is safe](PlanResult::is_safe).
-    pub fn is_safe_and_converged(&self) -> bool {
-        self.status == "converged" && self.is_safe()
-    }
-}
-
-/// Largest total safety violation `−C` a safe rollout may have (see [`is_safe`]).
-pub const SAFETY_TOLERANCE: f64 = 1e-6;
-
-/// The safety judgement of a rollout's metrics: `C ≥ −1e−6` ([`SAFETY_TOLERANCE`]) for the
-/// margin `δ` they were computed with. `C = −Σ_t Σ_i relu(δ − SDF)` sums every particle's
-/// intrusion at every step, so no particle is more than 1e−6 inside the margin (`C = 0`
-/// without safety obstacles).
-pub fn is_safe(metrics: &Metrics) -> bool {
-    metrics.c >= -SAFETY_TOLERANCE
-}
-
-/// Controls tensor (`T × 3K`) as nested `[x, y, z]` lists.
-pub fn controls_to_nested(controls: &Controls) -> Vec<Vec<[f64; 3]>> {
-    cloth::ControlsView::to_nested(controls)
-}
-
-/// A state tensor (`N × 3`) as a list of points.
-pub fn state_points(x: &Tensor) -> Vec<[f64; 3]> {
-    x.data()
-        .chunks_exact(3)
-        .map(|c| [c[0], c[1], c[2]])
-        .collect()
-}
-
-/// Controls from nested lists, checked against the model's shape.
-pub fn controls_from_nested(
-    model: &Model,
-    u: &[Vec<[f64; 3]>],
-) -> Result<Controls, cloth::ClothError> {
-    let (t, k) = (model.task.horizon, model.n_controls());
-    if u.len() != t || u.iter().any(|row| row.len() != k) {
-        let found = u.iter().map(Vec::len).max().unwrap_or(0);
-        return Err(cloth::ClothError::Controls(format!(
-            "expected {t} steps × {k} control points, got {} steps × {found}",
-            u.len()
-        )));
-    }
-    let c = Tensor::new(t, 3 * k, u.iter().flatten().flatten().copied().collect());
-    model.check_controls(&c)?;
-    Ok(c)
-}
-
 /// The scene's initial guess as a controls tensor.
 pub fn initial_controls(scene: &Scene, model: &Model) -> Result<Controls, cloth::ClothError> {
     let c = scene.initial_controls();
@@ -320,7 +165,18 @@ pub fn initial_controls(scene: &Scene, model: &Model) -> Result<Controls, cloth:
     Ok(c)
 }
 
-/// Optimizes `model`'s task from `start`, calling `progress` after every iteration.
+/// Optimizes `model`'s task from `start`, calling `progress` after every iteration. The run is a
+/// list of stages, each a function of this module:
+///
+/// 1. `check_start`: the options, the start, and step 0 (the rest state against the obstacles);
+/// 2. `smooth_stage`: the κ warm-up, a smooth and conservative soft minimum (when it applies);
+/// 3. `sharp_stage`: the task's κ from the warm-up's plan and Hessian, unless the warm-up left it
+///    nothing to do ([`sharp_stage_needed`]) or the run was stopped;
+/// 4. `stopped_run`: a run stopped by its deadline or interrupt returns its best feasible iterate;
+/// 5. `rescore`: the returned controls' rollout with the run's weights and margin;
+/// 6. [`row_facts`]: the constraint groups active at the plan, and the most violated row;
+/// 7. `plan_warnings` and `verdict`: what the user should know, and whether the task is achieved;
+/// 8. `rollout_result`: the result, completed with the solver's counts.
 pub fn plan(
     model: &Model,
     scene: &Scene,
@@ -328,6 +184,82 @@ pub fn plan(
     options: &PlanOptions,
     mut progress: impl FnMut(&IterationInfo),
 ) -> Result<PlanResult> {
+    let mut warnings = check_start(model, scene, start, options)?;
+    let clock = Instant::now();
+    let watch = RefCell::new(Watch::new(
+        options.deadline,
+        options.stop.clone(),
+        options.tol_feasibility,
+    ));
+    let mut callback = |info: &IterationInfo| {
+        progress(info);
+        watch.borrow_mut().observe(info)
+    };
+    let warm = smooth_stage(model, start, options, &mut callback)?;
+    let mut problem =
+        TrajectoryProblem::new(model, options.task.clone()).with_initial_hessian(warm.hessian);
+    let stopped_early = watch.borrow().stopped.is_some();
+    let sharp_skipped = warm.settled.is_some() && !stopped_early;
+    let mut solution = sharp_stage(
+        &mut problem,
+        options,
+        &warm.x,
+        warm.settled,
+        stopped_early,
+        &mut callback,
+    )?;
+    let wall_s = clock.elapsed().as_secs_f64();
+    let mut stages: Vec<Stage> = warm.stage.into_iter().collect();
+    if !sharp_skipped {
+        let kappa = options
+            .task
+            .has_soft_min_rows(model)
+            .then_some(options.task.kappa);
+        stages.push(stage(kappa, &solution));
+    }
+    let status = stopped_run(
+        &mut problem,
+        &mut solution,
+        watch.into_inner(),
+        warm.iterations,
+    )?;
+    let controls = problem.controls(&solution.x);
+    let evaluation = rescore(model, &controls, options)?;
+    let rows = row_facts(&mut problem, &solution)?;
+    warnings.extend(plan_warnings(
+        model,
+        options,
+        &evaluation.metrics,
+        &solution,
+        &rows,
+    ));
+    let task = verdict(model, options, &solution, &status, &evaluation, rows)?;
+    Ok(PlanResult {
+        status,
+        message: solution.message.clone(),
+        iterations: warm.iterations + solution.iterations,
+        evaluations: warm.simulations + problem.simulations,
+        gradient_evaluations: warm.gradients + problem.gradient_evaluations,
+        wall_s,
+        kkt_residual: solution.kkt_residual,
+        constraint_violation: solution.constraint_violation,
+        stages,
+        warnings,
+        solver_status: Some(solution.status),
+        ..rollout_result(model, scene, options, &controls, evaluation, task)
+    })
+}
+
+/// Step 0 of a run: the options valid, something to optimize, `start` fitting the model, and the
+/// rest state judged against the obstacles ([`judge_start`]). A cloth starting inside an obstacle
+/// is an error ([`Error::UnsafeStart`]), or with [`PlanOptions::allow_unsafe_start`] the first
+/// warning; the warnings of a start inside a margin follow. Returns the warnings.
+fn check_start(
+    model: &Model,
+    scene: &Scene,
+    start: &Controls,
+    options: &PlanOptions,
+) -> Result<Vec<String>> {
     options.validate()?;
     if model.n_controls() == 0 {
         return Err(Error::NothingToOptimize {
@@ -342,73 +274,118 @@ pub fn plan(
         }
         warnings.insert(0, e);
     }
-    let clock = Instant::now();
-    let watch = std::cell::RefCell::new(Watch::new(
-        options.deadline,
-        options.stop.clone(),
-        options.tol_feasibility,
-    ));
-    let mut callback = |info: &IterationInfo| {
-        progress(info);
-        watch.borrow_mut().observe(info)
-    };
-    // Continuation in κ: a smooth, conservative soft minimum first, then the sharp one from there.
-    // (Without safety obstacles there is nothing to warm up.)
+    Ok(warnings)
+}
+
+/// What the smooth κ stage ([`smooth_stage`]) hands the sharp one.
+struct WarmUp {
+    /// Where the sharp stage starts: the warm-up's plan, or the start when it did not run.
+    x: Vec<f64>,
+    /// The warm-up's quasi-Newton Hessian, which starts the sharp stage: only the safety rows'
+    /// curvature changes with κ, and rebuilding the rest from the identity took about 30 more
+    /// iterations.
+    hessian: Option<DenseMatrix>,
+    /// The warm-up as the result lists it, when it ran.
+    stage: Option<Stage>,
+    /// Set when the warm-up leaves the sharp stage nothing to do ([`sharp_stage_needed`]): the
+    /// plan's message, saying so.
+    settled: Option<String>,
+    /// The warm-up's iterations, rollouts and gradient evaluations.
+    iterations: usize,
+    simulations: usize,
+    gradients: usize,
+}
+
+/// The κ continuation's first stage: with the SQP and soft-min safety rows
+/// ([`TaskOptions::has_soft_min_rows`]), solves at [`PlanOptions::kappa_warmup`] when it is below
+/// the task's κ — a smooth, conservative soft minimum, at 10× the KKT tolerance — so that the sharp
+/// stage starts from its plan. Otherwise (no safety obstacles, L-BFGS, no warm-up) nothing runs
+/// and the sharp stage starts at `start`.
+fn smooth_stage(
+    model: &Model,
+    start: &Controls,
+    options: &PlanOptions,
+    callback: &mut impl FnMut(&IterationInfo) -> ControlFlow<()>,
+) -> Result<WarmUp> {
     let soft_safety = options.task.has_soft_min_rows(model);
-    let mut x0 = start.data().to_vec();
-    let (mut warm_iterations, mut warm_simulations, mut warm_gradients) = (0, 0, 0);
-    // The warm-up's quasi-Newton Hessian starts the sharp stage: only the safety rows' curvature
-    // changes with κ, and rebuilding the rest from the identity took about 30 more iterations.
-    let mut warm_hessian = None;
-    let mut stages = Vec::new();
-    // Set when the warm-up leaves the sharp stage nothing to do (see `sharp_stage_needed`).
-    let mut settled = None;
-    if let (SolverKind::Sqp, Some(kappa), true) =
-        (options.solver, options.kappa_warmup, soft_safety)
-    {
-        if kappa < options.task.kappa {
-            let mut task = options.task.clone();
-            task.kappa = kappa;
-            let mut warm = TrajectoryProblem::new(model, task);
-            let settings = sqp_settings(options, 10.0 * options.tol_optimality)?;
-            let solution =
-                SqpSolver::new(settings)?.solve_with_callback(&mut warm, &x0, &mut callback)?;
-            if !sharp_stage_needed(&mut warm, &solution)? {
-                settled = Some(format!(
-                    "{}; the κ = {} stage was not run: no safety row is active at this plan, so it would start where the progress test stopped (its rows are looser there)",
-                    solution.message, options.task.kappa
-                ));
-            }
-            x0 = solution.x;
-            warm_hessian = solution.hessian;
-            warm_iterations = solution.iterations;
-            stages.push(Stage {
-                kappa: Some(kappa),
-                iterations: solution.iterations,
-                status: solution.status.name().to_string(),
-            });
-            warm_simulations = warm.simulations;
-            warm_gradients = warm.gradient_evaluations;
+    let kappa = match (options.solver, options.kappa_warmup, soft_safety) {
+        (Optimizer::Sqp, Some(kappa), true) if kappa < options.task.kappa => kappa,
+        _ => {
+            return Ok(WarmUp {
+                x: start.data().to_vec(),
+                hessian: None,
+                stage: None,
+                settled: None,
+                iterations: 0,
+                simulations: 0,
+                gradients: 0,
+            })
         }
-    }
-    let mut problem =
-        TrajectoryProblem::new(model, options.task.clone()).with_initial_hessian(warm_hessian);
-    let stopped_early = watch.borrow().stopped.is_some();
-    let sharp_skipped = settled.is_some() && !stopped_early;
-    let solution = match (options.solver, settled) {
-        // Stopped in the warm-up: no sharp stage (its first iteration would cost a gradient and a
-        // QP past the deadline); the stopped-run branch below scores the best iterate.
-        _ if stopped_early => not_run(&x0, Status::Interrupted, String::new()),
+    };
+    let mut task = options.task.clone();
+    task.kappa = kappa;
+    let mut warm = TrajectoryProblem::new(model, task);
+    let settings = sqp_settings(options, 10.0 * options.tol_optimality)?;
+    let solution =
+        SqpSolver::new(settings)?.solve_with_callback(&mut warm, start.data(), callback)?;
+    let settled = (!sharp_stage_needed(&mut warm, &solution)?).then(|| {
+        format!(
+            "{}; the κ = {} stage was not run: no safety row is active at this plan, so it would start where the progress test stopped (its rows are looser there)",
+            solution.message, options.task.kappa
+        )
+    });
+    Ok(WarmUp {
+        stage: Some(stage(Some(kappa), &solution)),
+        x: solution.x,
+        hessian: solution.hessian,
+        settled,
+        iterations: solution.iterations,
+        simulations: warm.simulations,
+        gradients: warm.gradient_evaluations,
+    })
+}
+
+/// Whether the sharp κ stage has anything to do after the warm-up ended with `warm`. Not after a
+/// warm-up the progress test stopped ([`Status::NoProgress`]) with no safety row active: the
+/// stages differ only in their safety rows, the sharp soft minimum is never below the smooth one
+/// (so those rows stay inactive), and the objective is the same, so the sharp stage would start
+/// where the progress test had just found no progress. Any other ending runs it.
+pub fn sharp_stage_needed(
+    warm: &mut TrajectoryProblem<'_>,
+    solution: &optim::Solution,
+) -> Result<bool> {
+    Ok(solution.status != Status::NoProgress
+        || !row_facts(warm, solution)?.active_safety.is_empty())
+}
+
+/// The κ continuation's second stage, or the only one: `problem` (the task's κ) solved from `x0`
+/// by the chosen [`Optimizer`]. It does not run when the warm-up `settled` the plan (the result
+/// is `x0`, status `no_progress`, with that message and its row violation) or the run was
+/// `stopped_early` in the warm-up (its first iteration would cost a gradient and a QP past the
+/// deadline; [`stopped_run`] then scores the best iterate).
+///
+/// # Errors
+/// L-BFGS on a problem with inequality rows ([`Error::LbfgsWithConstraints`]); a solver error.
+fn sharp_stage(
+    problem: &mut TrajectoryProblem<'_>,
+    options: &PlanOptions,
+    x0: &[f64],
+    settled: Option<String>,
+    stopped_early: bool,
+    callback: &mut impl FnMut(&IterationInfo) -> ControlFlow<()>,
+) -> Result<optim::Solution> {
+    Ok(match (options.solver, settled) {
+        _ if stopped_early => not_run(x0, Status::Interrupted, String::new()),
         (_, Some(message)) => {
-            let mut solution = not_run(&x0, Status::NoProgress, message);
-            solution.constraint_violation = max_violation(&mut problem, &x0)?;
+            let mut solution = not_run(x0, Status::NoProgress, message);
+            solution.constraint_violation = max_violation(problem, x0)?;
             solution
         }
-        (SolverKind::Sqp, None) => {
+        (Optimizer::Sqp, None) => {
             let settings = sqp_settings(options, options.tol_optimality)?;
-            SqpSolver::new(settings)?.solve_with_callback(&mut problem, &x0, callback)?
+            SqpSolver::new(settings)?.solve_with_callback(problem, x0, callback)?
         }
-        (SolverKind::Lbfgs, None) => {
+        (Optimizer::Lbfgs, None) => {
             if problem.num_inequalities() > 0 {
                 return Err(Error::LbfgsWithConstraints {
                     rows: problem.num_inequalities(),
@@ -417,50 +394,66 @@ pub fn plan(
             let settings = LbfgsSettings::builder()
                 .max_iterations(options.iterations)
                 .build()?;
-            LbfgsSolver::new(settings)?.solve_with_callback(&mut problem, &x0, callback)?
+            LbfgsSolver::new(settings)?.solve_with_callback(problem, x0, callback)?
         }
-    };
-    let wall_s = clock.elapsed().as_secs_f64();
-    if !sharp_skipped {
-        stages.push(Stage {
-            kappa: soft_safety.then_some(options.task.kappa),
-            iterations: solution.iterations,
-            status: solution.status.name().to_string(),
-        });
+    })
+}
+
+/// A stage as the result lists it: its κ (`None` without soft-min rows), iterations and status.
+fn stage(kappa: Option<f64>, solution: &optim::Solution) -> Stage {
+    Stage {
+        kappa,
+        iterations: solution.iterations,
+        status: solution.status.name().to_string(),
     }
-    // A stopped run returns its best feasible iterate (the last one when none was feasible).
-    let mut solution = solution;
-    let mut watch = watch.into_inner();
-    let status = match watch.stopped {
-        Some(reason) => {
-            let found = watch.best.take().map(|b| solution.x = b.x).is_some();
-            solution.constraint_violation = max_violation(&mut problem, &solution.x)?;
-            solution.kkt_residual = f64::NAN;
-            solution.multipliers = Default::default();
-            solution.message = format!(
-                "{} after {} iterations; {}",
-                match reason {
-                    crate::anytime::StopReason::TimeLimit => "time limit reached",
-                    crate::anytime::StopReason::Interrupted => "interrupted",
-                },
-                warm_iterations + solution.iterations,
-                if found {
-                    "returning the best feasible iterate seen"
-                } else {
-                    "no feasible iterate was seen, returning the last one"
-                }
-            );
-            reason.status().to_string()
-        }
-        None => solution.status.name().to_string(),
+}
+
+/// The status name of the run whose last stage ended with `solution`. A run the `watch` stopped
+/// (deadline, interrupt) returns its best feasible iterate (the last one when none was
+/// feasible): `solution` takes that point, its row violation, no KKT residual or multipliers,
+/// and a message saying so (counting `earlier_iterations` of the warm-up); the status is
+/// `time_limit` or `interrupted`.
+fn stopped_run(
+    problem: &mut TrajectoryProblem<'_>,
+    solution: &mut optim::Solution,
+    mut watch: Watch,
+    earlier_iterations: usize,
+) -> Result<String> {
+    let Some(reason) = watch.stopped else {
+        return Ok(solution.status.name().to_string());
     };
-    let controls = problem.controls(&solution.x);
-    let evaluation = rescore(model, &controls, options)?;
-    let rows = row_facts(&mut problem, &solution)?;
-    let safe = !matches!(solution.status, Status::Infeasible { .. })
-        && solution.constraint_violation <= options.tol_feasibility
-        && is_safe(&evaluation.metrics);
-    let m = &evaluation.metrics;
+    let found = watch.best.take().map(|b| solution.x = b.x).is_some();
+    solution.constraint_violation = max_violation(problem, &solution.x)?;
+    solution.kkt_residual = f64::NAN;
+    solution.multipliers = Default::default();
+    solution.message = format!(
+        "{} after {} iterations; {}",
+        match reason {
+            StopReason::TimeLimit => "time limit reached",
+            StopReason::Interrupted => "interrupted",
+        },
+        earlier_iterations + solution.iterations,
+        if found {
+            "returning the best feasible iterate seen"
+        } else {
+            "no feasible iterate was seen, returning the last one"
+        }
+    );
+    Ok(reason.status().to_string())
+}
+
+/// What the user should know about the returned plan that its status does not say: the cloth
+/// dipping inside `δ` between steps while the steps keep it (the safety rows hold at the steps
+/// only), and the optimizer's rows violated beyond the feasibility tolerance (naming the most
+/// violated row of `rows`).
+fn plan_warnings(
+    model: &Model,
+    options: &PlanOptions,
+    m: &Metrics,
+    solution: &optim::Solution,
+    rows: &RowFacts,
+) -> Vec<String> {
+    let mut warnings = Vec::new();
     let dip = options.task.delta - m.min_sdf_swept;
     if model.safety.is_some()
         && dip > SAFETY_TOLERANCE
@@ -485,57 +478,34 @@ pub fn plan(
             solution.constraint_violation, options.tol_feasibility
         ));
     }
+    warnings
+}
+
+/// The task verdict of the returned plan ([`task_outcome`]): safe when the solver did not declare
+/// it infeasible, its rows hold within the feasibility tolerance and its re-scored rollout
+/// `evaluation` is [safe](is_safe); with the run's `status` and the active groups of `rows`.
+fn verdict(
+    model: &Model,
+    options: &PlanOptions,
+    solution: &optim::Solution,
+    status: &str,
+    evaluation: &Evaluation,
+    rows: RowFacts,
+) -> Result<TaskOutcome> {
+    let safe = !matches!(solution.status, Status::Infeasible { .. })
+        && solution.constraint_violation <= options.tol_feasibility
+        && is_safe(&evaluation.metrics);
     let final_state = evaluation.states.last().ok_or(Error::EmptyRollout)?;
-    let task = task_outcome(
+    Ok(task_outcome(
         model,
         final_state,
         &PlanFacts {
             safe,
-            status: &status,
+            status,
             active_safety: rows.active_safety,
             active_other: rows.active_other,
         },
-    );
-    Ok(PlanResult {
-        scene: scene.name.clone(),
-        delta: options.task.delta,
-        status,
-        message: solution.message.clone(),
-        iterations: warm_iterations + solution.iterations,
-        evaluations: warm_simulations + problem.simulations,
-        gradient_evaluations: warm_gradients + problem.gradient_evaluations,
-        wall_s,
-        kkt_residual: solution.kkt_residual,
-        constraint_violation: solution.constraint_violation,
-        metrics: evaluation.metrics,
-        strain: strain_report(model, &evaluation.states),
-        gripper_positions: gripper_positions(model, &evaluation.states),
-        task,
-        stages,
-        feasibility_tolerance: options.tol_feasibility,
-        warnings,
-        search: None,
-        check: None,
-        grid: [scene.cloth.rows, scene.cloth.cols],
-        triangles: mesh_triangles(scene, model),
-        control_particles: model.controls.as_slice().to_vec(),
-        controls: controls_to_nested(&controls),
-        states: Some(evaluation.states.iter().map(state_points).collect()),
-        solver_status: Some(solution.status),
-    })
-}
-
-/// Whether the sharp κ stage has anything to do after the warm-up ended with `warm`. Not after a
-/// warm-up the progress test stopped ([`Status::NoProgress`]) with no safety row active: the
-/// stages differ only in their safety rows, the sharp soft minimum is never below the smooth one
-/// (so those rows stay inactive), and the objective is the same, so the sharp stage would start
-/// where the progress test had just found no progress. Any other ending runs it.
-pub fn sharp_stage_needed(
-    warm: &mut TrajectoryProblem<'_>,
-    solution: &optim::Solution,
-) -> Result<bool> {
-    Ok(solution.status != Status::NoProgress
-        || !row_facts(warm, solution)?.active_safety.is_empty())
+    ))
 }
 
 /// A stage that did not run: `x` with `status`, no iterations, no multipliers.
@@ -570,11 +540,52 @@ fn max_violation(problem: &mut TrajectoryProblem<'_>, x: &[f64]) -> Result<f64> 
 
 /// The rollout of `controls` with the run's weights and margin (not the scene's): what a result
 /// reports.
-fn rescore(model: &Model, controls: &Controls, options: &PlanOptions) -> Result<cloth::Evaluation> {
+fn rescore(model: &Model, controls: &Controls, options: &PlanOptions) -> Result<Evaluation> {
     let mut scored = model.clone();
     scored.task.alpha = options.task.alpha;
     scored.task.beta = options.task.beta;
     Ok(scored.evaluate(controls, options.task.delta, false)?)
+}
+
+/// The result of `controls`, whose re-scored rollout is `evaluation`, with the verdict `task`: the
+/// scene, margin, metrics, strain, arrays and grid. The solver's fields are left as for a run that
+/// did nothing (no status, message or stages, counts 0, NaN residual, violation and time) for
+/// [`plan`] and [`snapshot`] to fill in.
+fn rollout_result(
+    model: &Model,
+    scene: &Scene,
+    options: &PlanOptions,
+    controls: &Controls,
+    evaluation: Evaluation,
+    task: TaskOutcome,
+) -> PlanResult {
+    PlanResult {
+        scene: scene.name.clone(),
+        delta: options.task.delta,
+        status: String::new(),
+        message: String::new(),
+        iterations: 0,
+        evaluations: 0,
+        gradient_evaluations: 0,
+        wall_s: f64::NAN,
+        kkt_residual: f64::NAN,
+        constraint_violation: f64::NAN,
+        strain: strain_report(model, &evaluation.states),
+        gripper_positions: gripper_positions(model, &evaluation.states),
+        states: Some(evaluation.states.iter().map(state_points).collect()),
+        metrics: evaluation.metrics,
+        task,
+        stages: Vec::new(),
+        feasibility_tolerance: options.tol_feasibility,
+        warnings: Vec::new(),
+        search: None,
+        check: None,
+        grid: [scene.cloth.rows, scene.cloth.cols],
+        triangles: mesh_triangles(scene, model),
+        control_particles: model.controls.as_slice().to_vec(),
+        controls: controls_to_nested(controls),
+        solver_status: None,
+    }
 }
 
 /// The result of controls `x` (flattened `T × 3K`) of a run still under way: status `running`,
@@ -598,48 +609,14 @@ pub fn snapshot(
         active_safety: Vec::new(),
         active_other: Vec::new(),
     };
+    let task = task_outcome(model, final_state, &facts);
     Ok(PlanResult {
-        scene: scene.name.clone(),
-        delta: options.task.delta,
         status: "running".into(),
         message: format!("best feasible iterate after {iterations} iterations; the run goes on"),
         iterations,
-        evaluations: 0,
-        gradient_evaluations: 0,
-        wall_s: f64::NAN,
-        kkt_residual: f64::NAN,
         constraint_violation: violation,
-        task: task_outcome(model, final_state, &facts),
-        strain: strain_report(model, &evaluation.states),
-        gripper_positions: gripper_positions(model, &evaluation.states),
-        metrics: evaluation.metrics,
-        stages: Vec::new(),
-        feasibility_tolerance: options.tol_feasibility,
-        warnings: Vec::new(),
-        search: None,
-        check: None,
-        grid: [scene.cloth.rows, scene.cloth.cols],
-        triangles: mesh_triangles(scene, model),
-        control_particles: model.controls.as_slice().to_vec(),
-        controls: controls_to_nested(&controls),
-        states: Some(evaluation.states.iter().map(state_points).collect()),
-        solver_status: None,
+        ..rollout_result(model, scene, options, &controls, evaluation, task)
     })
-}
-
-/// Absolute positions of every control point at every state: `(T + 1) × controls × 3`.
-pub fn gripper_positions(model: &Model, states: &[Tensor]) -> Vec<Vec<[f64; 3]>> {
-    states
-        .iter()
-        .map(|x| {
-            model
-                .controls
-                .as_slice()
-                .iter()
-                .map(|&p| [x.get(p, 0), x.get(p, 1), x.get(p, 2)])
-                .collect()
-        })
-        .collect()
 }
 
 /// The SQP settings of a planning run, with KKT tolerance `tol`.
@@ -653,18 +630,4 @@ fn sqp_settings(options: &PlanOptions, tol: f64) -> Result<SqpSettings> {
         .progress_window(options.progress_window)
         .tol_progress(options.tol_progress)
         .build()?)
-}
-
-/// The states of a result as tensors (`N × 3` each).
-pub fn states_of(result: &PlanResult) -> Result<Vec<Tensor>> {
-    let states = result.states.as_ref().ok_or(Error::NoStates)?;
-    Ok(states
-        .iter()
-        .map(|s| Tensor::new(s.len(), 3, s.iter().flatten().copied().collect()))
-        .collect())
-}
-
-/// A mesh cloth's triangles for the result JSON; `None` for a grid.
-pub fn mesh_triangles(scene: &Scene, model: &Model) -> Option<Vec<[usize; 3]>> {
-    scene.cloth.is_mesh().then(|| model.triangles.to_vec())
 }

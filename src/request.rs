@@ -3,9 +3,10 @@
 //! [`PlanOptions`] and [`SearchOptions`]. Error messages name the setting the way the caller
 //! spells it (`--delta` on the command line, `delta` from Python).
 
-use crate::plan::{PlanOptions, SolverKind, FEASIBILITY_TOLERANCE};
+use crate::plan::{Optimizer, PlanOptions};
 use crate::problem::SafetyForm;
-use crate::search::{SearchMode, SearchOptions};
+use crate::result::{SearchMode, FEASIBILITY_TOLERANCE};
+use crate::search::SearchOptions;
 use crate::validate::{
     ensure_iterations, ensure_non_negative, ensure_positive, ensure_positive_or_infinite,
 };
@@ -49,8 +50,8 @@ pub struct OptimizeRequest {
     pub kappa: Option<f64>,
     /// Jacobian reuse band (default off).
     pub reuse_band: Option<f64>,
-    /// The solver (default SQP).
-    pub solver: SolverKind,
+    /// The optimizer (default SQP).
+    pub solver: Optimizer,
     /// Route search mode (default auto).
     pub search: SearchMode,
     /// Most candidate routes of the search (default 6).
@@ -77,7 +78,7 @@ impl Default for OptimizeRequest {
             swept: false,
             kappa: None,
             reuse_band: None,
-            solver: SolverKind::Sqp,
+            solver: Optimizer::Sqp,
             search: SearchMode::Auto,
             starts: 6,
             tol: 1e-4,
@@ -145,5 +146,65 @@ impl OptimizeRequest {
             options.deadline = Some(Instant::now() + Duration::from_secs_f64(limit));
         }
         Ok((options, search))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The names of a choice enum's values: `name()` in `ALL` order, the JSON spelling, and
+    /// under `cli` clap's (kebab-case, in declaration order), which Python's choices matched
+    /// before they used `name()` and the CLI still parses.
+    fn check_names<T>(all: &[T], name: fn(T) -> &'static str, expected: &[&str])
+    where
+        T: Copy + serde::Serialize + std::fmt::Debug,
+    {
+        let names: Vec<&str> = all.iter().map(|&v| name(v)).collect();
+        assert_eq!(names, expected);
+        for &v in all {
+            let json = serde_json::to_string(&v).expect("serializes");
+            assert_eq!(json, format!("\"{}\"", name(v)), "{v:?}");
+        }
+    }
+
+    #[test]
+    fn choice_names_are_the_json_spellings() {
+        check_names(&Optimizer::ALL, Optimizer::name, &["sqp", "lbfgs"]);
+        check_names(
+            &SafetyForm::ALL,
+            SafetyForm::name,
+            &["per_step", "aggregate", "scalar"],
+        );
+        check_names(
+            &SearchMode::ALL,
+            SearchMode::name,
+            &["auto", "always", "off"],
+        );
+    }
+
+    #[cfg(feature = "cli")]
+    #[test]
+    fn choice_names_are_the_cli_spellings() {
+        fn clap_names<T: clap::ValueEnum>() -> Vec<String> {
+            T::value_variants()
+                .iter()
+                .filter_map(|v| v.to_possible_value())
+                .map(|p| p.get_name().replace('-', "_"))
+                .collect()
+        }
+        let names = |all: Vec<&str>| all.into_iter().map(String::from).collect::<Vec<_>>();
+        assert_eq!(
+            clap_names::<Optimizer>(),
+            names(Optimizer::ALL.map(Optimizer::name).to_vec())
+        );
+        assert_eq!(
+            clap_names::<SafetyForm>(),
+            names(SafetyForm::ALL.map(SafetyForm::name).to_vec())
+        );
+        assert_eq!(
+            clap_names::<SearchMode>(),
+            names(SearchMode::ALL.map(SearchMode::name).to_vec())
+        );
     }
 }

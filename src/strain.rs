@@ -1,26 +1,11 @@
-//! How far a plan stretches the cloth: the largest edge strain per step, and the warning a plan
-//! gets when it stretches an edge beyond 10% with no `task.limits.max_strain` bounding it.
+//! The warning a plan gets when it stretches an edge beyond 10% with no `task.limits.max_strain`
+//! bounding it. The largest edge strain per step is the result's `strain` section
+//! ([`StrainReport`], in [`crate::result`]).
 
-use crate::plan::PlanResult;
-use autodiff::Tensor;
+use crate::result::PlanResult;
+// The `strain` section of a result, from `crate::result`: re-exported for this module's callers.
+pub use crate::result::{strain_report, StrainReport};
 use cloth::Model;
-use serde::Serialize;
-
-/// Edge strain `|x_i − x_j|/L₀ − 1` of a rollout (0.1 = stretched 10% beyond its rest length).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
-pub struct StrainReport {
-    /// The largest edge strain at each step `0..=T` (step 0 is the rest state: 0).
-    pub max_per_step: Vec<f64>,
-    /// The largest over every step.
-    pub max: f64,
-}
-
-/// The strain of the rollout `states` (`T + 1` states) of `model`.
-pub fn strain_report(model: &Model, states: &[Tensor]) -> StrainReport {
-    let max_per_step = model.max_strain_per_step(states);
-    let max = max_per_step.iter().copied().fold(0.0, f64::max);
-    StrainReport { max_per_step, max }
-}
 
 /// Strain above which a plan without a `task.limits.max_strain` gets a warning: 10%.
 pub const STRAIN_WARNING_THRESHOLD: f64 = 0.1;

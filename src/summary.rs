@@ -1,7 +1,7 @@
 //! The human-readable summary of a plan — the verdict line, the run's counts, the route search's
 //! candidates and the metrics table — shared by `clothopt optimize` and Python's `Plan.summary()`.
 
-use crate::plan::PlanResult;
+use crate::result::PlanResult;
 use std::fmt::Write;
 
 impl PlanResult {

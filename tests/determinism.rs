@@ -126,7 +126,7 @@ fn optimize_writes_identical_bytes_across_runs_and_thread_counts() {
     }
     assert_eq!(timed, v);
     // A result without wall_s reads back as a PlanResult (timing NaN: not measured).
-    let back: clothopt::plan::PlanResult = serde_json::from_slice(&bytes[0]).unwrap();
+    let back: clothopt::result::PlanResult = serde_json::from_slice(&bytes[0]).unwrap();
     assert!(back.wall_s.is_nan());
     assert_eq!(serde_json::to_vec_pretty(&back).unwrap(), bytes[0]);
 }
@@ -182,7 +182,7 @@ fn a_result_without_safety_obstacles_reads_back() {
         .arg(&out));
     assert!(matches!(o.status.code(), Some(0 | 3 | 4)), "{}", stderr(&o));
     let bytes = std::fs::read(&out).unwrap();
-    let back: clothopt::plan::PlanResult = serde_json::from_slice(&bytes).unwrap();
+    let back: clothopt::result::PlanResult = serde_json::from_slice(&bytes).unwrap();
     assert!(back.metrics.min_sdf.is_infinite() && back.metrics.min_sdf_swept.is_infinite());
     assert_eq!(serde_json::to_vec_pretty(&back).unwrap(), bytes);
 }

@@ -7,10 +7,9 @@
 
 use cloth::{Model, Scene};
 use clothopt::outcome::target_errors;
-use clothopt::plan::{
-    controls_from_nested, initial_controls, plan, sharp_stage_needed, PlanOptions,
-};
+use clothopt::plan::{initial_controls, plan, sharp_stage_needed, PlanOptions};
 use clothopt::problem::{TaskOptions, TrajectoryProblem};
+use clothopt::result::controls_from_nested;
 use optim::{Solution, Status};
 
 #[test]

@@ -6,10 +6,11 @@ mod common;
 
 use cloth::scene::Target;
 use cloth::{Model, Scene};
-use clothopt::outcome::{target_errors, Reason};
-use clothopt::plan::{controls_from_nested, initial_controls, PlanOptions, PlanResult};
+use clothopt::outcome::target_errors;
+use clothopt::plan::{initial_controls, PlanOptions};
 use clothopt::problem::{RowLabel, TaskOptions, TrajectoryProblem};
-use clothopt::search::{plan_with_search, SearchMode, SearchOptions};
+use clothopt::result::{controls_from_nested, PlanResult, Reason, SearchMode};
+use clothopt::search::{plan_with_search, SearchOptions};
 use common::{noise, row_derivatives, small};
 use optim::Problem;
 use proptest::prelude::*;

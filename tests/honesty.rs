@@ -16,8 +16,9 @@ mod common;
 
 use cloth::scene::{Obstacle, ObstacleRole, PlaneSpec, SphereSetSpec, Stiffness, Target};
 use cloth::{Model, Scene};
-use clothopt::plan::{self, initial_controls, PlanOptions, PlanResult};
+use clothopt::plan::{self, initial_controls, PlanOptions};
 use clothopt::problem::TrajectoryProblem;
+use clothopt::result::{self, PlanResult};
 use common::*;
 use optim::Problem;
 use serde_json::Value;
@@ -67,7 +68,7 @@ fn run_plan(scene: &Scene, iterations: usize) -> (Model, PlanResult) {
 
 /// The returned controls as a tensor.
 fn controls_of(model: &Model, result: &PlanResult) -> autodiff::Tensor {
-    plan::controls_from_nested(model, &result.controls).unwrap()
+    result::controls_from_nested(model, &result.controls).unwrap()
 }
 
 /// The reported metrics are exactly those of the returned controls.
@@ -117,7 +118,7 @@ fn a_provably_infeasible_problem_never_ends_converged() {
     assert!(violation <= at_start, "{violation} > start {at_start}");
     assert_metrics_are_the_returned_points(&model, &result);
     assert_eq!(
-        plan::FEASIBILITY_TOLERANCE,
+        result::FEASIBILITY_TOLERANCE,
         optim::SqpSettings::default().tol_feasibility
     );
 }

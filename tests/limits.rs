@@ -4,8 +4,9 @@
 mod common;
 use cloth::scene::{Limits, Target, Workspace};
 use cloth::{Model, Scene};
-use clothopt::plan::{gripper_positions, plan, PlanOptions, PlanResult};
+use clothopt::plan::{plan, PlanOptions};
 use clothopt::problem::{TaskOptions, TrajectoryProblem};
+use clothopt::result::{controls_from_nested, gripper_positions, PlanResult};
 use common::{noise, row_derivatives, small};
 use optim::{Jacobian, Problem};
 use proptest::prelude::*;
@@ -49,7 +50,7 @@ fn solve(scene: &Scene) -> (Model, PlanResult) {
 
 /// Re-simulates the plan's controls and measures every limited quantity.
 fn measure(model: &Model, result: &PlanResult) -> Measured {
-    let controls = clothopt::plan::controls_from_nested(model, &result.controls).unwrap();
+    let controls = controls_from_nested(model, &result.controls).unwrap();
     let states = model.simulate(&controls).unwrap();
     let grippers = gripper_positions(model, &states);
     let dist = |a: &[f64; 3], b: &[f64; 3]| {

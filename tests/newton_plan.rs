@@ -9,7 +9,8 @@
 use cloth::scene::SolverKind;
 use cloth::{Model, Scene};
 use cloth::{NewtonSettings, Solver};
-use clothopt::plan::{self, controls_from_nested, PlanOptions};
+use clothopt::plan::{self, PlanOptions};
+use clothopt::result::{controls_from_nested, is_safe};
 
 /// `u_obstacle` at `n × n` particles on Newton physics with the default settings.
 fn newton_scene(n: usize) -> Scene {
@@ -52,5 +53,5 @@ fn newton_plan_converges_safe_and_stays_safe_at_a_tighter_tolerance() {
         truth.metrics.min_sdf,
         result.metrics.min_sdf
     );
-    assert!(plan::is_safe(&truth.metrics), "{:?}", truth.metrics);
+    assert!(is_safe(&truth.metrics), "{:?}", truth.metrics);
 }

@@ -7,11 +7,10 @@
 //! physics' states differ); the re-plan at δ′ = 0.2366 keeps 0.2190 under Newton.
 
 use cloth::{Model, Scene};
-use clothopt::outcome::{exit_code, Reason};
-use clothopt::physics_check::{
-    check_plan, plan_with_check, CheckPhysics, CheckRequest, MARGIN_GROWTH,
-};
-use clothopt::plan::{self, controls_from_nested, PlanOptions};
+use clothopt::outcome::exit_code;
+use clothopt::physics_check::{check_plan, plan_with_check, CheckRequest, MARGIN_GROWTH};
+use clothopt::plan::{self, PlanOptions};
+use clothopt::result::{controls_from_nested, CheckPhysics, PlanResult, Reason};
 use clothopt::Error;
 
 #[test]
@@ -57,7 +56,7 @@ fn small_scene() -> (Scene, Model) {
 fn replan<'a>(
     scene: &'a Scene,
     model: &'a Model,
-) -> impl FnMut(f64, &cloth::Controls) -> clothopt::Result<plan::PlanResult> + 'a {
+) -> impl FnMut(f64, &cloth::Controls) -> clothopt::Result<PlanResult> + 'a {
     move |delta, start| {
         let mut options = PlanOptions::for_model(model);
         options.task.delta = delta;
@@ -69,7 +68,7 @@ fn replan<'a>(
 const NEWTON: CheckPhysics = CheckPhysics::Newton { tolerance: 1e-12 };
 
 /// [`small_scene`] planned on XPBD and checked under [`NEWTON`] with up to `rounds` re-plans.
-fn checked_under_newton(rounds: usize) -> (Scene, Model, plan::PlanResult) {
+fn checked_under_newton(rounds: usize) -> (Scene, Model, PlanResult) {
     let (scene, model) = small_scene();
     let start = plan::initial_controls(&scene, &model).unwrap();
     let delta = scene.task.delta;
@@ -205,6 +204,6 @@ fn a_check_without_safety_obstacles_reads_back_from_its_json() {
         check.summary()
     );
     let json = serde_json::to_string(&result).unwrap();
-    let back: plan::PlanResult = serde_json::from_str(&json).unwrap();
+    let back: PlanResult = serde_json::from_str(&json).unwrap();
     assert_eq!(back.check, result.check);
 }

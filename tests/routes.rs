@@ -6,9 +6,10 @@ mod common;
 
 use cloth::scene::{InitialControls, Obstacle, ObstacleRole, SphereSetSpec, Target};
 use cloth::{Model, Scene};
-use clothopt::outcome::{target_errors, Reason};
-use clothopt::plan::{controls_from_nested, initial_controls, PlanOptions, PlanResult};
-use clothopt::search::{plan_with_search, Progress, SearchMode, SearchOptions};
+use clothopt::outcome::target_errors;
+use clothopt::plan::{initial_controls, PlanOptions};
+use clothopt::result::{controls_from_nested, PlanResult, Reason, SearchMode};
+use clothopt::search::{plan_with_search, Progress, SearchOptions};
 use common::{bin, run, scratch, stderr, stdout, write_scene};
 
 /// A 6 × 6 cloth (0.6 m, hanging from its top corners at z = 1) carried 2 m along +y over 8 steps,

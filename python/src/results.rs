@@ -2,7 +2,7 @@
 
 use crate::arrays::{controls_out, nested_out, states_out};
 use crate::errors::to_py;
-use clothopt::plan::PlanResult;
+use clothopt::result::PlanResult;
 use numpy::PyArray3;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;

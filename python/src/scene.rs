@@ -3,13 +3,13 @@
 use crate::arrays::{controls_in, controls_out};
 use crate::errors::{bad_argument, to_py};
 use crate::results::{Plan, Rollout};
-use clap::ValueEnum;
 use cloth::Model;
-use clothopt::physics_check::{plan_with_check, CheckPhysics, CheckRequest};
-use clothopt::plan::initial_controls;
+use clothopt::physics_check::{plan_with_check, CheckRequest};
+use clothopt::plan::{initial_controls, Optimizer};
 use clothopt::problem::SafetyForm;
 use clothopt::request::{load_scene, OptimizeRequest};
-use clothopt::search::{plan_with_search, SearchMode};
+use clothopt::result::{CheckPhysics, SearchMode};
+use clothopt::search::plan_with_search;
 use clothopt::validate::ensure_non_negative;
 use numpy::{AllowTypeChange, PyArray3, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
@@ -55,20 +55,50 @@ impl Scene {
     }
 }
 
-/// A `snake_case` choice (`"per_step"`, `"sqp"`, `"auto"`) of one of the CLI's value enums.
-fn choice<T: ValueEnum>(field: &str, value: &str) -> PyResult<T> {
-    let spelled = value.replace('_', "-");
-    T::from_str(&spelled, true).map_err(|_| {
-        let names: Vec<String> = T::value_variants()
-            .iter()
-            .filter_map(|v| v.to_possible_value())
-            .map(|p| format!("'{}'", p.get_name().replace('-', "_")))
-            .collect();
-        PyValueError::new_err(format!(
-            "{field}: must be one of {}, got '{value}'",
-            names.join(", ")
-        ))
-    })
+/// One of the library's choice enums, by the names it gives its values.
+trait Choice: Copy + 'static {
+    /// Every value, in the order an error lists them.
+    const ALL: &'static [Self];
+    /// The value's `snake_case` name (`"per_step"`, `"sqp"`, `"auto"`).
+    fn name(self) -> &'static str;
+}
+
+impl Choice for SafetyForm {
+    const ALL: &'static [Self] = &SafetyForm::ALL;
+    fn name(self) -> &'static str {
+        SafetyForm::name(self)
+    }
+}
+
+impl Choice for Optimizer {
+    const ALL: &'static [Self] = &Optimizer::ALL;
+    fn name(self) -> &'static str {
+        Optimizer::name(self)
+    }
+}
+
+impl Choice for SearchMode {
+    const ALL: &'static [Self] = &SearchMode::ALL;
+    fn name(self) -> &'static str {
+        SearchMode::name(self)
+    }
+}
+
+/// A `snake_case` choice (`"per_step"`, `"sqp"`, `"auto"`), in any case and with `-` for `_`
+/// (as the CLI spells `per-step`); an error lists the names.
+fn choice<T: Choice>(field: &str, value: &str) -> PyResult<T> {
+    let spelled = value.replace('-', "_");
+    T::ALL
+        .iter()
+        .copied()
+        .find(|v| v.name().eq_ignore_ascii_case(&spelled))
+        .ok_or_else(|| {
+            let names: Vec<String> = T::ALL.iter().map(|v| format!("'{}'", v.name())).collect();
+            PyValueError::new_err(format!(
+                "{field}: must be one of {}, got '{value}'",
+                names.join(", ")
+            ))
+        })
 }
 
 /// What `Scene.grad` returns: the values dict, `dL_dU` and `dC_dU`.
@@ -224,7 +254,7 @@ impl Scene {
     #[pyo3(signature = (
         delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp", search="auto",
         starts=6, safety="per_step", swept=false, kappa=None, reuse_band=None, tol=1e-4,
-        feasibility_tol=clothopt::plan::FEASIBILITY_TOLERANCE, allow_unsafe_start=false,
+        feasibility_tol=clothopt::result::FEASIBILITY_TOLERANCE, allow_unsafe_start=false,
         time_limit=None, start=None, timing=true, check=None, check_rounds=3
     ))]
     #[allow(clippy::too_many_arguments)]
@@ -300,7 +330,7 @@ impl Scene {
         if !timing {
             result.drop_timing();
         }
-        if let Some(warning) = clothopt::plan::strain_warning(&self.model, &result) {
+        if let Some(warning) = clothopt::strain::strain_warning(&self.model, &result) {
             result.warnings.push(warning);
         }
         Ok(Plan::new(result))

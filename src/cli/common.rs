@@ -2,9 +2,12 @@
 //! controls, `--sweeps`, flag checks, and drawing a rollout.
 
 use anyhow::{Context, Result};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use cloth::scene::SolverKind;
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{self, top_view_path, RolloutFigure};
-use clothopt::plan::{controls_from_nested, initial_controls};
+use clothopt::plan::initial_controls;
+use clothopt::result::controls_from_nested;
 use clothopt::validate::{ensure_at_most, ensure_iterations, ensure_open_unit};
 use std::path::{Path, PathBuf};
 
@@ -48,8 +51,8 @@ impl WatchArgs {
 pub struct PhysicsArgs {
     /// Step solver: `xpbd` (the scene's iterations of Gauss–Seidel) or `newton` (converged;
     /// default: the scene's `physics.solver`).
-    #[arg(long, value_enum)]
-    physics: Option<PhysicsSolver>,
+    #[arg(long, value_parser = physics_solver())]
+    physics: Option<SolverKind>,
     /// Newton's relative ‖∇Φ‖ tolerance, in (0, 1) (default: the scene's, else 1e-10).
     #[arg(long)]
     physics_tolerance: Option<f64>,
@@ -63,22 +66,18 @@ pub struct PhysicsArgs {
     physics_load_halvings: Option<usize>,
 }
 
-/// `--physics` values.
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-enum PhysicsSolver {
-    Xpbd,
-    Newton,
+/// `--physics`: one of the scene format's solver names ([`SolverKind::ALL`], listed in `--help`),
+/// parsed by [`SolverKind`]'s `FromStr`.
+fn physics_solver() -> impl TypedValueParser<Value = SolverKind> {
+    PossibleValuesParser::new(SolverKind::ALL.map(SolverKind::name))
+        .try_map(|name| name.parse::<SolverKind>())
 }
 
 impl PhysicsArgs {
     /// Writes the flags into the scene's `physics` (validated with the scene).
     pub fn apply(&self, scene: &mut Scene) -> Result<()> {
-        use cloth::scene::SolverKind as Kind;
-        if let Some(p) = self.physics {
-            scene.physics.solver = match p {
-                PhysicsSolver::Xpbd => Kind::Xpbd,
-                PhysicsSolver::Newton => Kind::Newton,
-            };
+        if let Some(solver) = self.physics {
+            scene.physics.solver = solver;
         }
         if let Some(tol) = self.physics_tolerance {
             ensure_open_unit("--physics-tolerance", tol)?;

@@ -3,7 +3,7 @@
 use super::common::{load_controls, load_scene, PhysicsArgs};
 use anyhow::Result;
 use cloth::Model;
-use clothopt::plan;
+use clothopt::result::controls_to_nested;
 use clothopt::validate::{ensure_iterations, ensure_non_negative};
 use std::io::Write;
 use std::path::PathBuf;
@@ -41,7 +41,7 @@ pub fn run(args: GradArgs) -> Result<i32> {
     let delta = args.delta.unwrap_or(scene.task.delta);
     let ev = model.evaluate(&u, delta, true)?;
     let m = ev.metrics;
-    let nested = |g: Option<autodiff::Tensor>| g.map(|g| plan::controls_to_nested(&g));
+    let nested = |g: Option<autodiff::Tensor>| g.map(|g| controls_to_nested(&g));
     let out = serde_json::json!({
         "L": m.l, "G": m.g, "T": m.t, "E": m.e, "C": m.c, "min_sdf": m.min_sdf,
         "grad_L": nested(ev.grad_l), "grad_C": nested(ev.grad_c),

@@ -5,15 +5,16 @@ use super::common::{draw, load_controls, load_scene, PhysicsArgs, WatchArgs};
 use super::progress::Reporter;
 use super::summary;
 use anyhow::{Context, Result};
-use cloth::Model;
+use cloth::{Model, Scene};
 use clothopt::output::write_json_atomic;
 use clothopt::physics_check::{plan_with_check, CheckPhysics, CheckRequest};
-use clothopt::plan::{self, SolverKind};
+use clothopt::plan::{self, Optimizer};
 use clothopt::problem::SafetyForm;
 use clothopt::request::OptimizeRequest;
+use clothopt::result::{states_of, PlanResult, FEASIBILITY_TOLERANCE};
 use clothopt::search::{plan_with_search, Progress, SearchMode};
 use clothopt::validate::ensure_iterations;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -53,8 +54,8 @@ pub struct OptimizeArgs {
     #[arg(long, allow_negative_numbers = true)]
     reuse_band: Option<f64>,
     /// The solver.
-    #[arg(long, value_enum, default_value_t = SolverKind::Sqp)]
-    solver: SolverKind,
+    #[arg(long, value_enum, default_value_t = Optimizer::Sqp)]
+    solver: Optimizer,
     /// Route search: `auto` plans other routes (detours over, beside or under the obstacles
     /// the first plan runs into, and seeded perturbations) only when the plan from the start
     /// does not achieve the task; `always` also when it does; `off` never.
@@ -77,7 +78,7 @@ pub struct OptimizeArgs {
     /// Largest violation (length units) of the optimizer's rows (safety rows, collider rows)
     /// at which a plan still counts as feasible; a plan violating them by more ends `no safe
     /// plan` (exit 4) and says by how much.
-    #[arg(long, default_value_t = clothopt::plan::FEASIBILITY_TOLERANCE, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = FEASIBILITY_TOLERANCE, allow_negative_numbers = true)]
     feasibility_tol: f64,
     /// Plan even when the cloth starts inside an obstacle (an error otherwise): step 0 is
     /// fixed by the scene, so no plan can make it safe.
@@ -116,10 +117,9 @@ fn flag_name(field: &str) -> String {
     format!("--{}", field.replace('_', "-"))
 }
 
-/// Runs `optimize`: plans (with the route search), prints the summary, writes the result and
-/// figures; the exit code is the verdict's ([`summary::report_verdict`]).
-pub fn run(args: OptimizeArgs) -> Result<i32> {
-    let request = OptimizeRequest {
+/// The planning settings of the flags, as the CLI and Python share them.
+fn request(args: &OptimizeArgs) -> OptimizeRequest {
+    OptimizeRequest {
         delta: args.delta,
         alpha: args.alpha,
         beta: args.beta,
@@ -135,7 +135,13 @@ pub fn run(args: OptimizeArgs) -> Result<i32> {
         feasibility_tol: args.feasibility_tol,
         allow_unsafe_start: args.allow_unsafe_start,
         time_limit: args.time_limit,
-    };
+    }
+}
+
+/// Runs `optimize`: plans (with the route search), prints the summary, writes the result and
+/// figures; the exit code is the verdict's ([`summary::report_verdict`]).
+pub fn run(args: OptimizeArgs) -> Result<i32> {
+    let request = request(&args);
     request.check(&flag_name)?;
     if let Some(n) = args.sweeps {
         ensure_iterations("--sweeps", n)?;
@@ -197,24 +203,35 @@ pub fn run(args: OptimizeArgs) -> Result<i32> {
     if no_timing {
         result.drop_timing();
     }
-    if let Some(warning) = plan::strain_warning(&model, &result) {
+    if let Some(warning) = clothopt::strain::strain_warning(&model, &result) {
         result.warnings.push(warning);
     }
     summary::print_summary(&result, no_timing);
     if let Some(out) = &out {
         write_json_atomic(out, &result)?;
     }
-    let watch = &args.watch;
-    if args.png.is_some() || watch.html.is_some() || watch.gif.is_some() {
-        let states = plan::states_of(&result)?;
-        let title = format!(
-            "{}  δ = {}  ({})",
-            result.scene, result.delta, result.status
-        );
-        if let Some(png) = &args.png {
-            draw(&model, &scene, &states, &title, result.delta, png)?;
-        }
-        watch.write(&model, &scene, &states, &title, result.delta)?;
-    }
+    draw_result(&model, &scene, &result, args.png.as_deref(), &args.watch)?;
     Ok(summary::report_verdict(&result, out.as_deref()))
+}
+
+/// The figures of the returned plan's rollout that the flags ask for (`--png`, `--html`, `--gif`).
+fn draw_result(
+    model: &Model,
+    scene: &Scene,
+    result: &PlanResult,
+    png: Option<&Path>,
+    watch: &WatchArgs,
+) -> Result<()> {
+    if png.is_none() && watch.html.is_none() && watch.gif.is_none() {
+        return Ok(());
+    }
+    let states = states_of(result)?;
+    let title = format!(
+        "{}  δ = {}  ({})",
+        result.scene, result.delta, result.status
+    );
+    if let Some(png) = png {
+        draw(model, scene, &states, &title, result.delta, png)?;
+    }
+    watch.write(model, scene, &states, &title, result.delta)
 }

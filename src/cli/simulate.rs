@@ -4,7 +4,7 @@ use super::common::{draw, load_controls, load_scene, PhysicsArgs, WatchArgs};
 use anyhow::Result;
 use cloth::Model;
 use clothopt::output::write_json_atomic;
-use clothopt::plan;
+use clothopt::result::{controls_to_nested, mesh_triangles, state_points};
 use std::path::PathBuf;
 
 /// Simulate a control sequence and report the metrics.
@@ -47,10 +47,10 @@ pub fn run(args: SimulateArgs) -> Result<i32> {
             "scene": scene.name, "delta": scene.task.delta, "metrics": m,
             "grid": [scene.cloth.rows, scene.cloth.cols],
             "control_particles": model.controls.as_slice(),
-            "controls": plan::controls_to_nested(&u),
-            "states": ev.states.iter().map(plan::state_points).collect::<Vec<_>>(),
+            "controls": controls_to_nested(&u),
+            "states": ev.states.iter().map(state_points).collect::<Vec<_>>(),
         });
-        if let Some(t) = plan::mesh_triangles(&scene, &model) {
+        if let Some(t) = mesh_triangles(&scene, &model) {
             result["triangles"] = serde_json::json!(t);
         }
         write_json_atomic(&out, &result)?;

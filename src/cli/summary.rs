@@ -2,7 +2,7 @@
 //! warnings, and the exit code.
 
 use clothopt::outcome;
-use clothopt::plan::PlanResult;
+use clothopt::result::PlanResult;
 use std::path::Path;
 
 /// Prints the verdict line, the run's counts, the search's candidates and the metrics

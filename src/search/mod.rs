@@ -23,25 +23,15 @@
 
 pub mod routes;
 
-use crate::plan::{plan, PlanOptions, PlanResult};
+use crate::plan::{plan, PlanOptions};
+use crate::result::{controls_from_nested, PlanResult};
+// The `search` section of a result, from `crate::result`: re-exported for this module's callers.
+pub use crate::result::{CandidateReport, SearchMode, SearchReport};
 use cloth::{Controls, Model, Scene};
 use optim::IterationInfo;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 use std::cmp::Ordering;
 use std::time::Instant;
-
-/// When the planner searches for other routes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum SearchMode {
-    /// Only when the plan from the initial guess does not achieve the task.
-    Auto,
-    /// Always, even when the first plan achieves the task.
-    Always,
-    /// Never: plan from the initial guess only.
-    Off,
-}
 
 /// What [`plan_with_search`] reports while it runs.
 #[derive(Clone, Copy, Debug)]
@@ -97,70 +87,24 @@ impl SearchOptions {
     }
 }
 
-/// One planned candidate, as listed in the result.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct CandidateReport {
-    /// How the route was built (`initial guess` for the first plan).
-    pub route: String,
-    /// `first` (the plan from the given start), `cheap` or `polished`.
-    pub stage: String,
-    /// Solver status of that stage.
-    pub status: String,
-    /// Safe at the returned controls.
-    pub safe: bool,
-    /// Task achieved.
-    pub achieved: bool,
-    /// Objective `L`.
-    #[serde(rename = "L")]
-    pub l: f64,
-    /// Target error `G`.
-    #[serde(rename = "G")]
-    pub g: f64,
-    /// Smallest signed distance to the safety obstacles over the rollout (∞ without any,
-    /// `null` in JSON, which reads back as ∞).
-    #[serde(deserialize_with = "cloth::null_as_infinity")]
-    pub min_sdf: f64,
-    /// Rollouts simulated by that stage.
-    pub simulations: usize,
-    /// Wall-clock seconds of that stage (left out under `--no-timing`).
-    #[serde(
-        skip_serializing_if = "crate::plan::is_nan",
-        default = "crate::plan::not_timed"
-    )]
-    pub wall_s: f64,
-    /// This is the plan returned.
-    pub kept: bool,
-}
-
-/// The search section of a result.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct SearchReport {
-    /// The mode it ran in.
-    pub mode: SearchMode,
-    /// Every planned candidate, the first plan first.
-    pub candidates: Vec<CandidateReport>,
-    /// Rollouts simulated by the whole search (the first plan included).
-    pub simulations: usize,
-}
-
-impl CandidateReport {
-    fn of(route: &str, stage: &str, r: &PlanResult) -> Self {
-        CandidateReport {
-            route: route.to_string(),
-            stage: stage.to_string(),
-            status: r.status.clone(),
-            safe: is_safe(r),
-            achieved: r.task.achieved,
-            l: r.metrics.l,
-            g: r.metrics.g,
-            min_sdf: r.metrics.min_sdf,
-            simulations: r.evaluations,
-            wall_s: r.wall_s,
-            kept: false,
-        }
+/// The report of a plan `r` of `route` made by `stage`, not (yet) kept.
+fn candidate_report(route: &str, stage: &str, r: &PlanResult) -> CandidateReport {
+    CandidateReport {
+        route: route.to_string(),
+        stage: stage.to_string(),
+        status: r.status.clone(),
+        safe: is_safe(r),
+        achieved: r.task.achieved,
+        l: r.metrics.l,
+        g: r.metrics.g,
+        min_sdf: r.metrics.min_sdf,
+        simulations: r.evaluations,
+        wall_s: r.wall_s,
+        kept: false,
     }
 }
 
+/// Safe to execute: feasible for the optimizer's rows, and its rollout safe at its margin.
 fn is_safe(r: &PlanResult) -> bool {
     r.is_feasible() && r.is_safe()
 }
@@ -207,7 +151,7 @@ const GOAL_FRACTION: f64 = 0.98;
 
 /// Keeps `result` (reported as `route`, `stage`) when it ranks above the best plan so far.
 fn tally(route: &str, stage: &str, result: PlanResult, (best, best_report, reports): Tally<'_>) {
-    reports.push(CandidateReport::of(route, stage, &result));
+    reports.push(candidate_report(route, stage, &result));
     if rank(&result, best) == Ordering::Less {
         *best = result;
         *best_report = reports.len() - 1;
@@ -232,7 +176,7 @@ fn goal_stage(
     let mut goal = options.clone();
     goal.task.goal_radius = Some(GOAL_FRACTION * model.task.tolerance);
     goal.kappa_warmup = None;
-    let start = crate::plan::controls_from_nested(model, &best.controls)?;
+    let start = controls_from_nested(model, &best.controls)?;
     progress(Progress::Stage {
         stage: "goal",
         route,
@@ -285,7 +229,7 @@ fn route_stages(
         candidates
             .iter()
             .zip(&cheap)
-            .map(|(c, r)| CandidateReport::of(&c.route, "cheap", r)),
+            .map(|(c, r)| candidate_report(&c.route, "cheap", r)),
     );
     let mut kept = None;
     for &i in order.iter().take(search.polish) {
@@ -295,7 +239,7 @@ fn route_stages(
         if by_promise(&cheap[i], best) != Ordering::Less {
             break;
         }
-        let start = crate::plan::controls_from_nested(model, &cheap[i].controls)?;
+        let start = controls_from_nested(model, &cheap[i].controls)?;
         progress(Progress::Stage {
             stage: "polished",
             route: &candidates[i].route,
@@ -343,7 +287,7 @@ pub fn plan_with_search(
     if !run {
         return Ok(first);
     }
-    let mut reports = vec![CandidateReport::of("initial guess", "first", &first)];
+    let mut reports = vec![candidate_report("initial guess", "first", &first)];
     let mut best = first;
     let mut best_report = 0;
     // The goal stage on the first plan: a plan that misses narrowly often reaches its targets

@@ -14,8 +14,9 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use cloth::{Model, Scene};
 use clothopt::figures::RolloutFigure;
-use clothopt::plan::{self, initial_controls, PlanOptions, PlanResult};
-use clothopt::search::{plan_with_search, SearchMode, SearchOptions};
+use clothopt::plan::{initial_controls, PlanOptions};
+use clothopt::result::{states_of, PlanResult, SearchMode};
+use clothopt::search::{plan_with_search, SearchOptions};
 use experiments::child;
 use experiments::measure::proc_status_kb;
 use experiments::report::write_json;
@@ -205,7 +206,7 @@ fn plan_one(file: &Path, search: SearchMode, result_path: &Path) -> Result<()> {
 fn draw(scene: &Scene, result: &PlanResult, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let model = Model::from_scene(scene)?;
-    let states = plan::states_of(result)?;
+    let states = states_of(result)?;
     let verdict = if result.task.achieved {
         "achieved"
     } else {

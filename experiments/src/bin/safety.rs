@@ -15,7 +15,8 @@ use autodiff::Tensor;
 use clap::Parser;
 use cloth::{Model, Scene};
 use clothopt::figures::RolloutFigure;
-use clothopt::plan::{self, PlanOptions, PlanResult};
+use clothopt::plan::{self, PlanOptions};
+use clothopt::result::{controls_from_nested, states_of, PlanResult};
 use experiments::report::{pass_fail, write_json};
 use std::path::PathBuf;
 
@@ -117,7 +118,7 @@ fn main() -> Result<()> {
         // Continuation: the scene's guess, and every earlier plan with a smaller or equal δ.
         let mut starts = vec![("guess".to_string(), start.clone())];
         for prev in runs.iter().filter(|r| !r.swept && r.result.delta <= delta) {
-            let controls = plan::controls_from_nested(&model, &prev.result.controls)?;
+            let controls = controls_from_nested(&model, &prev.result.controls)?;
             starts.push((format!("plan {}", prev.label), controls));
         }
         let mut best: Option<(String, PlanResult)> = None;
@@ -137,7 +138,7 @@ fn main() -> Result<()> {
         let Some((start_name, mut result)) = best else {
             continue;
         };
-        let states = plan::states_of(&result)?;
+        let states = states_of(&result)?;
         result.states = None;
         runs.push(Run {
             label,

@@ -4,7 +4,8 @@
 use super::{Args, Task, Variant};
 use anyhow::Result;
 use autodiff::Tensor;
-use clothopt::plan::{self, PlanOptions, PlanResult, SolverKind};
+use clothopt::plan::{self, Optimizer, PlanOptions};
+use clothopt::result::{states_of, PlanResult};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -14,7 +15,7 @@ use std::sync::Mutex;
 pub(crate) struct Job {
     pub(crate) task: usize,
     pub(crate) variant: Variant,
-    pub(crate) solver: SolverKind,
+    pub(crate) solver: Optimizer,
 }
 
 /// A finished job.
@@ -99,7 +100,7 @@ pub(crate) fn run_job(job: Job, task: &Task, args: &Args, progress: &Progress) -
         "{} {}{}",
         task.name,
         job.variant.name(),
-        if job.solver == SolverKind::Lbfgs {
+        if job.solver == Optimizer::Lbfgs {
             " L-BFGS"
         } else {
             ""
@@ -122,7 +123,7 @@ pub(crate) fn run_job(job: Job, task: &Task, args: &Args, progress: &Progress) -
         "{label:<24} G {:.4}  {} after {} iterations, {:.1} s",
         result.metrics.g, result.status, result.iterations, result.wall_s
     ));
-    let states = plan::states_of(&result)?;
+    let states = states_of(&result)?;
     result.states = None;
     Ok(Run {
         job,

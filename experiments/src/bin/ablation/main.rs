@@ -22,8 +22,9 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, ValueEnum};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::RolloutFigure;
-use clothopt::plan::{self, PlanOptions, PlanResult, SolverKind};
+use clothopt::plan::{self, Optimizer, PlanOptions};
 use clothopt::plot::{self, BarChart, TrajectoryFigure, View3d};
+use clothopt::result::PlanResult;
 use experiments::report::{write_json, Verdict};
 use indicatif::MultiProgress;
 use std::path::PathBuf;
@@ -282,7 +283,7 @@ fn run(args: Args) -> Result<()> {
             jobs.push(Job {
                 task,
                 variant,
-                solver: SolverKind::Sqp,
+                solver: Optimizer::Sqp,
             });
         }
     }
@@ -290,7 +291,7 @@ fn run(args: Args) -> Result<()> {
         jobs.push(Job {
             task,
             variant: Variant::Gt,
-            solver: SolverKind::Lbfgs,
+            solver: Optimizer::Lbfgs,
         });
     }
     let progress = Progress {
@@ -301,7 +302,7 @@ fn run(args: Args) -> Result<()> {
     let wall = clock.elapsed().as_secs_f64();
     let (mut runs, lbfgs): (Vec<Run>, Vec<Run>) = all
         .into_iter()
-        .partition(|r| r.job.solver == SolverKind::Sqp);
+        .partition(|r| r.job.solver == Optimizer::Sqp);
     runs.sort_by_key(|r| {
         let v = Variant::ALL.iter().position(|&v| v == r.job.variant);
         (r.job.task, v)

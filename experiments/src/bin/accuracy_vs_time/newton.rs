@@ -16,6 +16,7 @@ use cloth::scene::SolverKind;
 use cloth::{Model, Scene};
 use clothopt::plan;
 use clothopt::plot::{draw_xy, Series, XyFigure};
+use clothopt::result::is_safe;
 use serde::Serialize;
 
 use crate::rows::{MeshRow, PlanRow};
@@ -38,7 +39,7 @@ pub struct NewtonPlan {
     /// Smallest obstacle distance of the plan re-simulated with XPBD at
     /// [`XPBD_CHECK_ITERATIONS`].
     pub xpbd_check_min_sdf: Option<f64>,
-    /// That re-simulation passes [`plan::is_safe`].
+    /// That re-simulation passes [`is_safe`].
     pub xpbd_check_safe: Option<bool>,
 }
 
@@ -159,7 +160,7 @@ fn plan_with(scene: &Scene, truth: &Model, xpbd: &Model, cfg: &Config) -> Result
     Ok(NewtonPlan {
         plan,
         xpbd_check_min_sdf: min_sdf,
-        xpbd_check_safe: min_sdf.map(|_| plan::is_safe(&check.metrics)),
+        xpbd_check_safe: min_sdf.map(|_| is_safe(&check.metrics)),
     })
 }
 

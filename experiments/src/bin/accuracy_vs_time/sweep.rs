@@ -5,6 +5,7 @@ use anyhow::{anyhow, Result};
 use autodiff::Tensor;
 use cloth::{Controls, Model, Scene};
 use clothopt::plan::{self, PlanOptions};
+use clothopt::result::{controls_from_nested, is_safe, states_of};
 use experiments::child;
 use experiments::measure::{proc_status_kb, time_runs, Timing};
 use std::time::Instant;
@@ -302,8 +303,8 @@ pub fn plan_at(
     options.iterations = cfg.plan_iterations;
     let delta = options.task.delta;
     let result = plan::plan(model, scene, start, &options, |_| {})?;
-    let planned_states = plan::states_of(&result)?;
-    let controls = plan::controls_from_nested(ref_model, &result.controls)?;
+    let planned_states = states_of(&result)?;
+    let controls = controls_from_nested(ref_model, &result.controls)?;
     let truth = ref_model.evaluate(&controls, delta, false)?;
     let true_min_sdf = finite(truth.metrics.min_sdf);
     let row = PlanRow {
@@ -320,7 +321,7 @@ pub fn plan_at(
         true_min_sdf,
         true_min_sdf_swept: finite(truth.metrics.min_sdf_swept),
         true_max_abs_c: stretch.residual(&truth.states).0,
-        safe: true_min_sdf.map(|_| plan::is_safe(&truth.metrics)),
+        safe: true_min_sdf.map(|_| is_safe(&truth.metrics)),
     };
     Ok((row, controls))
 }

@@ -20,90 +20,15 @@
 //! Row order: safety, strain, goal, control rows (step, separation), linear rows (colliders,
 //! workspace).
 
+mod options;
+
+pub use options::{SafetyForm, TaskOptions, DEFAULT_STRAIN_KAPPA, GOAL_KAPPA};
+
 use crate::control_rows::{collider_rows, control_rows, workspace_rows, ControlRow, LinearRow};
 use autodiff::{soft_min_value, soft_min_weights, Tape, Tensor, Var};
 use cloth::StepCost;
 use cloth::{ClothError, Controls, Model};
 use optim::{DenseMatrix, EvalError, Jacobian, NormTerm, Problem};
-
-/// How the obstacle-avoidance constraint reaches the optimizer.
-#[derive(
-    Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
-)]
-#[serde(rename_all = "snake_case")]
-pub enum SafetyForm {
-    /// One smooth row per step: the soft minimum of the distances of every particle to every
-    /// obstacle primitive (sphere, plane), `≥ δ`. Smooth even where the nearest sphere changes.
-    PerStep,
-    /// One smooth row: the soft minimum over every step, particle and primitive, `≥ δ`. Its
-    /// gradient costs one backward pass (the per-step soft minima weighted by their softmax).
-    Aggregate,
-    /// The paper's scalar `C = −Σ_t Σ_i relu(δ − SDF(x_i^(t))) ≥ 0`.
-    Scalar,
-}
-
-/// What a [`TrajectoryProblem`] optimizes and how.
-#[derive(Clone, Debug)]
-pub struct TaskOptions {
-    /// Safety margin `δ`.
-    pub delta: f64,
-    /// Weight of the trajectory irregularity `T`.
-    pub alpha: f64,
-    /// Weight of the elastic energy `E`.
-    pub beta: f64,
-    /// The safety constraint's form; `None` drops it (unconstrained apart from collider rows).
-    pub safety: Option<SafetyForm>,
-    /// Also constrain the straight paths between steps (per-step form only).
-    pub swept: bool,
-    /// Sharpness `κ` (1/length) of the per-step soft minimum; it lies within `ln(count)/κ` below
-    /// the true minimum, so the constraint is slightly conservative.
-    pub kappa: f64,
-    /// Sharpness of the smooth maximum over edges in the `max_strain` rows (dimensionless; default
-    /// [`DEFAULT_STRAIN_KAPPA`]). The smooth maximum lies within `ln(edges)/κ` above the true
-    /// one, so a plan meets the limit with up to that much to spare (0.011 on a 10 × 10 cloth at
-    /// 500).
-    pub strain_kappa: f64,
-    /// Require every target particle to end (step `T`) within this distance of its position: one
-    /// row `(r/2)·(1 − smax_i ‖x_i − p_i‖²/r²) ≥ 0`, with the soft maximum at sharpness
-    /// [`GOAL_KAPPA`] (it lies within `ln(targets)/GOAL_KAPPA` above the true maximum, so a plan
-    /// meeting the row has every target within `r·√(1 − ln(targets)/GOAL_KAPPA)`, 0.99 `r` for
-    /// 10 targets). Near the bound the row reads `≈ r − max distance`. Default `None`: reaching
-    /// the targets is left to the objective.
-    pub goal_radius: Option<f64>,
-}
-
-/// Sharpness of the soft maximum over the targets' squared relative distances in the goal row.
-pub const GOAL_KAPPA: f64 = 100.0;
-
-/// Default [`TaskOptions::strain_kappa`].
-pub const DEFAULT_STRAIN_KAPPA: f64 = 500.0;
-
-impl TaskOptions {
-    /// The scene's own weights and margin, the per-step safety form when the scene has safety
-    /// obstacles, κ = 3000.
-    pub fn for_model(model: &Model) -> Self {
-        TaskOptions {
-            delta: model.task.delta,
-            alpha: model.task.alpha,
-            beta: model.task.beta,
-            safety: model.safety.is_some().then_some(SafetyForm::PerStep),
-            swept: false,
-            kappa: 3000.0,
-            strain_kappa: DEFAULT_STRAIN_KAPPA,
-            goal_radius: None,
-        }
-    }
-
-    /// True when `model` gets safety rows built on the soft minimum (sharpness `kappa`): the
-    /// per-step and aggregate forms, on a model with safety obstacles.
-    pub fn has_soft_min_rows(&self, model: &Model) -> bool {
-        model.safety.is_some()
-            && matches!(
-                self.safety,
-                Some(SafetyForm::PerStep | SafetyForm::Aggregate)
-            )
-    }
-}
 
 /// What one inequality row of a [`TrajectoryProblem`] constrains.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -172,6 +97,17 @@ struct Forward {
     strain: Vec<f64>,
     /// The goal row, if any.
     goal: Vec<f64>,
+}
+
+/// The tape rows one backward pass pulls back, besides the objective.
+struct PulledRows<'r> {
+    /// Per-step safety rows (row `r` constrains step `r + 1`); the scalar and aggregate row is
+    /// always pulled back.
+    safety: &'r [usize],
+    /// Strain rows.
+    strain: &'r [usize],
+    /// The goal row.
+    goal: bool,
 }
 
 /// Gradients at one point.
@@ -429,18 +365,14 @@ impl<'a> TrajectoryProblem<'a> {
             .ok_or_else(|| EvalError::new("no forward evaluation"))
     }
 
-    /// The gradients at `x`, with at least the safety rows in `wanted` (all of them for `None`)
-    /// pulled back. Per-step rows not wanted cost no backward pass.
-    fn ensure_backward(
-        &mut self,
-        x: &[f64],
-        wanted_rows: Option<&[bool]>,
-    ) -> Result<&Backward, EvalError> {
-        let wanted = wanted_rows;
+    /// Which tape rows (safety, strain, goal) a backward pass must pull back, in that order: those
+    /// in `wanted_rows` (the optimizer's mask over every inequality row; all of them for `None`).
+    /// The scalar and aggregate safety row is built from every step, so it is always pulled back.
+    fn wanted_tape_rows(&self, wanted_rows: Option<&[bool]>) -> Vec<bool> {
         let rows = self.safety_rows();
         let strain_rows = self.strain_rows();
         let goal_rows = self.goal_rows();
-        let mut wanted: Vec<bool> = match wanted {
+        let mut wanted: Vec<bool> = match wanted_rows {
             Some(w) if self.options.safety == Some(SafetyForm::PerStep) => w[..rows].to_vec(),
             _ => vec![true; rows],
         };
@@ -453,123 +385,158 @@ impl<'a> TrajectoryProblem<'a> {
             Some(w) => w[tape_rows..tape_rows + goal_rows].to_vec(),
             None => vec![true; goal_rows],
         });
+        wanted
+    }
+
+    /// The gradients at `x`, with at least the rows in `wanted_rows` (all of them for `None`;
+    /// see [`TrajectoryProblem::wanted_tape_rows`]) pulled back: the cached ones when they cover
+    /// them, else a new backward pass ([`TrajectoryProblem::pull_back`]). Per-step rows not
+    /// wanted cost no backward pass.
+    fn ensure_backward(
+        &mut self,
+        x: &[f64],
+        wanted_rows: Option<&[bool]>,
+    ) -> Result<&Backward, EvalError> {
+        let wanted = self.wanted_tape_rows(wanted_rows);
         let cached = self
             .backward
             .as_ref()
             .is_some_and(|b| b.x == x && wanted.iter().zip(&b.computed).all(|(&w, &c)| c || !w));
         if !cached {
             self.ensure_forward(x)?;
-            let forward = self
-                .forward
-                .as_ref()
-                .ok_or_else(|| EvalError::new("no forward evaluation"))?;
-            let controls = self.controls(x);
-            let beta = self.options.beta;
-            let model = self.model;
-            let loss = move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
-                model.record_loss(tape, t, xv, beta)
-            };
-            let delta = self.options.delta;
-            let scalar = move |tape: &mut Tape, _: usize, _: Var, xv: Var| {
-                model.record_safety(tape, xv, delta)
-            };
-            let this = &*self;
-            // Per-step rows asked for; the others keep a zero row here.
-            let active: Vec<usize> = match self.options.safety {
-                Some(SafetyForm::PerStep) => (0..rows).filter(|&r| wanted[r]).collect(),
-                _ => Vec::new(),
-            };
-            let per_step: Vec<BoxedStepCost<'_>> = active
-                .iter()
-                .map(|&row| {
-                    Box::new(move |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
-                        (t == row + 1)
-                            .then(|| this.record_step_safety(tape, xp, xv))
-                            .flatten()
-                    }) as BoxedStepCost<'_>
-                })
-                .collect();
-            // Aggregate: Σ_t w_t s_t with the softmax weights w_t of the per-step rows s_t.
-            let weights = soft_min_weights(&forward.per_step, self.options.kappa);
-            let aggregate = |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
-                let w = weights.get(t - 1).copied().filter(|&w| w > 0.0)?;
-                let s = this.record_step_safety(tape, xp, xv)?;
-                Some(tape.scale(s, w))
-            };
-            let strain_active: Vec<usize> =
-                (0..strain_rows).filter(|&r| wanted[rows + r]).collect();
-            let strain_costs: Vec<BoxedStepCost<'_>> = strain_active
-                .iter()
-                .map(|&row| {
-                    Box::new(move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
-                        (t == row + 1)
-                            .then(|| this.record_step_strain(tape, xv))
-                            .flatten()
-                    }) as BoxedStepCost<'_>
-                })
-                .collect();
-            let horizon = self.model.task.horizon;
-            let want_goal = goal_rows > 0 && wanted[rows + strain_rows];
-            let goal_cost = move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
-                (t == horizon).then(|| this.record_goal(tape, xv)).flatten()
-            };
-            let mut costs: Vec<StepCost<'_>> = vec![&loss];
-            match self.options.safety {
-                Some(SafetyForm::Scalar) if self.safety_rows() == 1 => costs.push(&scalar),
-                Some(SafetyForm::Aggregate) if self.safety_rows() == 1 => costs.push(&aggregate),
-                Some(SafetyForm::PerStep) => {
-                    costs.extend(per_step.iter().map(|b| b.as_ref() as StepCost<'_>))
-                }
-                _ => {}
-            }
-            costs.extend(strain_costs.iter().map(|b| b.as_ref() as StepCost<'_>));
-            if want_goal {
-                costs.push(&goal_cost);
-            }
-            let mut grads = self
-                .model
-                .gradients(&forward.states, &controls, &costs)
-                .into_iter();
-            let objective = grads.next().map(Tensor::into_data).unwrap_or_default();
-            let mut safety = vec![vec![0.0; x.len()]; self.safety_rows()];
-            match self.options.safety {
-                Some(SafetyForm::Scalar | SafetyForm::Aggregate) => {
-                    for (row, g) in safety.iter_mut().zip(grads.by_ref()) {
-                        *row = g.into_data();
-                    }
-                }
-                Some(SafetyForm::PerStep) => {
-                    for (&r, g) in active.iter().zip(grads.by_ref()) {
-                        safety[r] = g.into_data();
-                    }
-                }
-                None => {}
-            }
-            let mut strain = vec![vec![0.0; x.len()]; strain_rows];
-            for (&r, g) in strain_active.iter().zip(grads.by_ref()) {
-                strain[r] = g.into_data();
-            }
-            let mut goal = vec![vec![0.0; x.len()]; goal_rows];
-            if want_goal {
-                if let (Some(row), Some(g)) = (goal.first_mut(), grads.next()) {
-                    *row = g.into_data();
-                }
-            }
-            drop(per_step);
-            drop(strain_costs);
+            let backward = self.pull_back(x, wanted)?;
             self.gradient_evaluations += 1;
-            self.backward = Some(Backward {
-                x: x.to_vec(),
-                objective,
-                safety,
-                strain,
-                goal,
-                computed: wanted,
-            });
+            self.backward = Some(backward);
         }
         self.backward
             .as_ref()
             .ok_or_else(|| EvalError::new("no gradient evaluation"))
+    }
+
+    /// One backward pass at `x`, whose forward pass is cached: the objective's gradient and those
+    /// of the tape rows in `wanted`, every cost pulled back through the rollout together
+    /// ([`Model::gradients`]), in the order loss, safety, strain, goal.
+    fn pull_back(&self, x: &[f64], wanted: Vec<bool>) -> Result<Backward, EvalError> {
+        let forward = self
+            .forward
+            .as_ref()
+            .ok_or_else(|| EvalError::new("no forward evaluation"))?;
+        let (rows, strain_rows, goal_rows) =
+            (self.safety_rows(), self.strain_rows(), self.goal_rows());
+        let controls = self.controls(x);
+        let beta = self.options.beta;
+        let model = self.model;
+        let loss =
+            move |tape: &mut Tape, t: usize, _: Var, xv: Var| model.record_loss(tape, t, xv, beta);
+        let delta = self.options.delta;
+        let scalar =
+            move |tape: &mut Tape, _: usize, _: Var, xv: Var| model.record_safety(tape, xv, delta);
+        // Per-step rows asked for; the others keep a zero row here.
+        let active: Vec<usize> = match self.options.safety {
+            Some(SafetyForm::PerStep) => (0..rows).filter(|&r| wanted[r]).collect(),
+            _ => Vec::new(),
+        };
+        let per_step = self.step_row_costs(&active, |this, tape, xp, xv| {
+            this.record_step_safety(tape, xp, xv)
+        });
+        // Aggregate: Σ_t w_t s_t with the softmax weights w_t of the per-step rows s_t.
+        let weights = soft_min_weights(&forward.per_step, self.options.kappa);
+        let aggregate = |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
+            let w = weights.get(t - 1).copied().filter(|&w| w > 0.0)?;
+            let s = self.record_step_safety(tape, xp, xv)?;
+            Some(tape.scale(s, w))
+        };
+        let strain_active: Vec<usize> = (0..strain_rows).filter(|&r| wanted[rows + r]).collect();
+        let strain_costs = self.step_row_costs(&strain_active, |this, tape, _, xv| {
+            this.record_step_strain(tape, xv)
+        });
+        let horizon = self.model.task.horizon;
+        let want_goal = goal_rows > 0 && wanted[rows + strain_rows];
+        let goal_cost = move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
+            (t == horizon).then(|| self.record_goal(tape, xv)).flatten()
+        };
+        let mut costs: Vec<StepCost<'_>> = vec![&loss];
+        match self.options.safety {
+            Some(SafetyForm::Scalar) if rows == 1 => costs.push(&scalar),
+            Some(SafetyForm::Aggregate) if rows == 1 => costs.push(&aggregate),
+            Some(SafetyForm::PerStep) => {
+                costs.extend(per_step.iter().map(|b| b.as_ref() as StepCost<'_>))
+            }
+            _ => {}
+        }
+        costs.extend(strain_costs.iter().map(|b| b.as_ref() as StepCost<'_>));
+        if want_goal {
+            costs.push(&goal_cost);
+        }
+        let grads = self.model.gradients(&forward.states, &controls, &costs);
+        let pulled = PulledRows {
+            safety: &active,
+            strain: &strain_active,
+            goal: want_goal,
+        };
+        Ok(self.sort_gradients(x, grads, &pulled, wanted))
+    }
+
+    /// One step cost per row in `rows` (row `r` constrains step `r + 1`): `record` at that step,
+    /// nothing at the others.
+    fn step_row_costs(
+        &self,
+        rows: &[usize],
+        record: fn(&Self, &mut Tape, Var, Var) -> Option<Var>,
+    ) -> Vec<BoxedStepCost<'_>> {
+        rows.iter()
+            .map(|&row| {
+                Box::new(move |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
+                    (t == row + 1).then(|| record(self, tape, xp, xv)).flatten()
+                }) as BoxedStepCost<'_>
+            })
+            .collect()
+    }
+
+    /// The gradients of a backward pass at `x`, in cost order (the objective's, then those of the
+    /// `pulled` rows), as a [`Backward`] whose rows not pulled back are zero; `wanted` records
+    /// which were asked for.
+    fn sort_gradients(
+        &self,
+        x: &[f64],
+        grads: Vec<Tensor>,
+        pulled: &PulledRows<'_>,
+        wanted: Vec<bool>,
+    ) -> Backward {
+        let mut grads = grads.into_iter();
+        let objective = grads.next().map(Tensor::into_data).unwrap_or_default();
+        let mut safety = vec![vec![0.0; x.len()]; self.safety_rows()];
+        match self.options.safety {
+            Some(SafetyForm::Scalar | SafetyForm::Aggregate) => {
+                for (row, g) in safety.iter_mut().zip(grads.by_ref()) {
+                    *row = g.into_data();
+                }
+            }
+            Some(SafetyForm::PerStep) => {
+                for (&r, g) in pulled.safety.iter().zip(grads.by_ref()) {
+                    safety[r] = g.into_data();
+                }
+            }
+            None => {}
+        }
+        let mut strain = vec![vec![0.0; x.len()]; self.strain_rows()];
+        for (&r, g) in pulled.strain.iter().zip(grads.by_ref()) {
+            strain[r] = g.into_data();
+        }
+        let mut goal = vec![vec![0.0; x.len()]; self.goal_rows()];
+        if pulled.goal {
+            if let (Some(row), Some(g)) = (goal.first_mut(), grads.next()) {
+                *row = g.into_data();
+            }
+        }
+        Backward {
+            x: x.to_vec(),
+            objective,
+            safety,
+            strain,
+            goal,
+            computed: wanted,
+        }
     }
 
     /// Fills the Jacobian of the inequalities at `x`: the safety rows in `wanted` (all for `None`),

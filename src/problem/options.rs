@@ -1,0 +1,101 @@
+//! What a [`super::TrajectoryProblem`] optimizes and how: the weights and margin of the task, the
+//! safety constraint's form, the sharpness of its smooth minima and maxima, the optional goal row.
+
+use cloth::Model;
+
+/// How the obstacle-avoidance constraint reaches the optimizer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[serde(rename_all = "snake_case")]
+pub enum SafetyForm {
+    /// One smooth row per step: the soft minimum of the distances of every particle to every
+    /// obstacle primitive (sphere, plane), `≥ δ`. Smooth even where the nearest sphere changes.
+    PerStep,
+    /// One smooth row: the soft minimum over every step, particle and primitive, `≥ δ`. Its
+    /// gradient costs one backward pass (the per-step soft minima weighted by their softmax).
+    Aggregate,
+    /// The paper's scalar `C = −Σ_t Σ_i relu(δ − SDF(x_i^(t))) ≥ 0`.
+    Scalar,
+}
+
+impl SafetyForm {
+    /// Every form, in the order their names are listed.
+    pub const ALL: [SafetyForm; 3] = [
+        SafetyForm::PerStep,
+        SafetyForm::Aggregate,
+        SafetyForm::Scalar,
+    ];
+
+    /// The name Python and JSON give it (`"per_step"`, `"aggregate"`, `"scalar"`; the CLI spells
+    /// `per_step` as `per-step`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SafetyForm::PerStep => "per_step",
+            SafetyForm::Aggregate => "aggregate",
+            SafetyForm::Scalar => "scalar",
+        }
+    }
+}
+
+/// What a [`TrajectoryProblem`](super::TrajectoryProblem) optimizes and how.
+#[derive(Clone, Debug)]
+pub struct TaskOptions {
+    /// Safety margin `δ`.
+    pub delta: f64,
+    /// Weight of the trajectory irregularity `T`.
+    pub alpha: f64,
+    /// Weight of the elastic energy `E`.
+    pub beta: f64,
+    /// The safety constraint's form; `None` drops it (unconstrained apart from collider rows).
+    pub safety: Option<SafetyForm>,
+    /// Also constrain the straight paths between steps (per-step form only).
+    pub swept: bool,
+    /// Sharpness `κ` (1/length) of the per-step soft minimum; it lies within `ln(count)/κ` below
+    /// the true minimum, so the constraint is slightly conservative.
+    pub kappa: f64,
+    /// Sharpness of the smooth maximum over edges in the `max_strain` rows (dimensionless; default
+    /// [`DEFAULT_STRAIN_KAPPA`]). The smooth maximum lies within `ln(edges)/κ` above the true
+    /// one, so a plan meets the limit with up to that much to spare (0.011 on a 10 × 10 cloth at
+    /// 500).
+    pub strain_kappa: f64,
+    /// Require every target particle to end (step `T`) within this distance of its position: one
+    /// row `(r/2)·(1 − smax_i ‖x_i − p_i‖²/r²) ≥ 0`, with the soft maximum at sharpness
+    /// [`GOAL_KAPPA`] (it lies within `ln(targets)/GOAL_KAPPA` above the true maximum, so a plan
+    /// meeting the row has every target within `r·√(1 − ln(targets)/GOAL_KAPPA)`, 0.99 `r` for
+    /// 10 targets). Near the bound the row reads `≈ r − max distance`. Default `None`: reaching
+    /// the targets is left to the objective.
+    pub goal_radius: Option<f64>,
+}
+
+/// Sharpness of the soft maximum over the targets' squared relative distances in the goal row.
+pub const GOAL_KAPPA: f64 = 100.0;
+
+/// Default [`TaskOptions::strain_kappa`].
+pub const DEFAULT_STRAIN_KAPPA: f64 = 500.0;
+
+impl TaskOptions {
+    /// The scene's own weights and margin, the per-step safety form when the scene has safety
+    /// obstacles, κ = 3000.
+    pub fn for_model(model: &Model) -> Self {
+        TaskOptions {
+            delta: model.task.delta,
+            alpha: model.task.alpha,
+            beta: model.task.beta,
+            safety: model.safety.is_some().then_some(SafetyForm::PerStep),
+            swept: false,
+            kappa: 3000.0,
+            strain_kappa: DEFAULT_STRAIN_KAPPA,
+            goal_radius: None,
+        }
+    }
+
+    /// True when `model` gets safety rows built on the soft minimum (sharpness `kappa`): the
+    /// per-step and aggregate forms, on a model with safety obstacles.
+    pub fn has_soft_min_rows(&self, model: &Model) -> bool {
+        model.safety.is_some()
+            && matches!(
+                self.safety,
+                Some(SafetyForm::PerStep | SafetyForm::Aggregate)
+            )
+    }
+}

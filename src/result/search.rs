@@ -1,0 +1,77 @@
+//! The `search` section of a result: the route search's mode and every candidate it planned
+//! ([`crate::search`] runs the search).
+
+use serde::{Deserialize, Serialize};
+
+/// When the planner searches for other routes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[serde(rename_all = "snake_case")]
+pub enum SearchMode {
+    /// Only when the plan from the initial guess does not achieve the task.
+    Auto,
+    /// Always, even when the first plan achieves the task.
+    Always,
+    /// Never: plan from the initial guess only.
+    Off,
+}
+
+impl SearchMode {
+    /// Every mode, in the order their names are listed.
+    pub const ALL: [SearchMode; 3] = [SearchMode::Auto, SearchMode::Always, SearchMode::Off];
+
+    /// The name the result JSON, the CLI and Python give it (`"auto"`, `"always"`, `"off"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SearchMode::Auto => "auto",
+            SearchMode::Always => "always",
+            SearchMode::Off => "off",
+        }
+    }
+}
+
+/// One planned candidate, as listed in the result.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CandidateReport {
+    /// How the route was built (`initial guess` for the first plan).
+    pub route: String,
+    /// `first` (the plan from the given start), `cheap` or `polished`.
+    pub stage: String,
+    /// Solver status of that stage.
+    pub status: String,
+    /// Safe at the returned controls.
+    pub safe: bool,
+    /// Task achieved.
+    pub achieved: bool,
+    /// Objective `L`.
+    #[serde(rename = "L")]
+    pub l: f64,
+    /// Target error `G`.
+    #[serde(rename = "G")]
+    pub g: f64,
+    /// Smallest signed distance to the safety obstacles over the rollout (∞ without any,
+    /// `null` in JSON, which reads back as ∞).
+    #[serde(deserialize_with = "cloth::null_as_infinity")]
+    pub min_sdf: f64,
+    /// Rollouts simulated by that stage.
+    pub simulations: usize,
+    /// Wall-clock seconds of that stage (left out under `--no-timing`).
+    #[serde(
+        skip_serializing_if = "super::json::is_nan",
+        default = "super::json::not_timed"
+    )]
+    pub wall_s: f64,
+    /// This is the plan returned.
+    pub kept: bool,
+}
+
+/// The search section of a result.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SearchReport {
+    /// The mode it ran in.
+    pub mode: SearchMode,
+    /// Every planned candidate, the first plan first.
+    pub candidates: Vec<CandidateReport>,
+    /// Rollouts simulated by the whole search (the first plan included).
+    pub simulations: usize,
+}
