@@ -75,4 +75,18 @@ pub enum ClothError {
         /// Why.
         reason: String,
     },
+    /// Smooth contact: a step starts with a particle on or inside a collider, where the
+    /// barrier potential is infinite.
+    #[error(
+        "step {step}: particle {particle} is on or inside a collider (signed distance {distance:e}); \
+         the smooth contact model needs every particle strictly outside"
+    )]
+    ContactPenetration {
+        /// The step (1-based).
+        step: usize,
+        /// The particle.
+        particle: usize,
+        /// Its signed distance to the colliders (≤ 0).
+        distance: f64,
+    },
 }

@@ -1,6 +1,7 @@
 //! Contact effects beyond the fixed one-sided collider rows: friction on colliders, and
 //! contacts found during the simulation rather than at model build (self-collision).
 
+pub mod barrier;
 pub mod crossings;
 pub mod edge_edge;
 pub mod friction;

@@ -4,6 +4,7 @@
 
 use super::{ConstraintGroup, Model, TaskSpec};
 use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_ARITY};
+use crate::contact::barrier::{Barrier, ColliderBarrier};
 use crate::contact::friction::FrictionalContact;
 use crate::contact::self_collision::SelfCollision;
 use crate::error::ClothError;
@@ -11,7 +12,9 @@ use crate::newton::settings::{NewtonSettings, Solver};
 use crate::newton::terms::Terms;
 use crate::registry::ConstraintRegistry;
 use crate::rollout::strain::EdgeStrain;
-use crate::scene::{BendingModel, Obstacle, Physics, Scene, SolverKind, Stiffness};
+use crate::scene::{
+    BendingModel, ContactModel, Obstacle, Physics, Scene, SceneError, SolverKind, Stiffness,
+};
 use crate::sdf::rows::{ParticleSdf, ParticleSdfComponents};
 use crate::sdf::Union;
 use crate::xpbd::coloring::{greedy_coloring, independent_sets};
@@ -109,6 +112,7 @@ impl Model {
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
             solver: scene.physics.solver(),
             self_collision: None,
+            contact_barrier: None,
         };
 
         let edges = mesh.stretch_edges();
@@ -116,6 +120,7 @@ impl Model {
             .iter()
             .map(|&[i, j]| model.rest_distance(i, j))
             .collect();
+        let mean_edge = rest.iter().sum::<f64>() / rest.len().max(1) as f64;
         let (strained, strain_rest): (Vec<[usize; 2]>, Vec<f64>) = edges
             .iter()
             .zip(&rest)
@@ -159,7 +164,12 @@ impl Model {
             }
         }
         let (colliders, safety) = split_obstacles(&scene.obstacles);
-        if !colliders.is_empty() {
+        if !colliders.is_empty() && scene.physics.contact_model() == ContactModel::Smooth {
+            model.colliders = colliders.clone();
+            let barrier = collider_barrier(scene, mean_edge, colliders);
+            check_rest_outside(&model, &barrier)?;
+            model.contact_barrier = Some(Arc::new(barrier));
+        } else if !colliders.is_empty() {
             let free: Vec<usize> = (0..n).filter(|&p| model.inv_mass[p] > 0.0).collect();
             model.colliders = colliders.clone();
             model.add_constraints(
@@ -294,6 +304,46 @@ impl Model {
 
 fn flatten<const K: usize>(rows: &[[usize; K]]) -> Vec<usize> {
     rows.iter().flatten().copied().collect()
+}
+
+/// The smooth contact potential of `colliders` with the scene's `physics.contact` settings or
+/// their defaults: `d̂` a tenth of the stretch edges' mean rest length `mean_edge`, `κ`
+/// `m·|g|/d̂` (`m/Δt²` without gravity).
+fn collider_barrier(scene: &Scene, mean_edge: f64, colliders: Union) -> ColliderBarrier {
+    let spec = scene.physics.contact.as_ref();
+    let d_hat = spec.and_then(|c| c.d_hat).unwrap_or(0.1 * mean_edge);
+    let dt = scene.physics.dt;
+    let g = scene.physics.gravity.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let m = scene.cloth.particle_mass;
+    let kappa = spec
+        .and_then(|c| c.stiffness)
+        .unwrap_or(if g > 0.0 { m * g / d_hat } else { m / (dt * dt) });
+    ColliderBarrier {
+        field: Arc::new(colliders),
+        barrier: Barrier { d_hat, kappa },
+        dt2: dt * dt,
+    }
+}
+
+/// The smooth contact model needs every free particle of the rest state strictly outside the
+/// colliders (the barrier is infinite on and inside them).
+fn check_rest_outside(model: &Model, barrier: &ColliderBarrier) -> Result<(), ClothError> {
+    for p in (0..model.n_particles()).filter(|&p| model.inv_mass[p] > 0.0) {
+        let d = barrier.distance(model.rest.row(p));
+        if d <= 0.0 {
+            return Err(SceneError::Invalid {
+                field: "physics.contact.model".into(),
+                reason: format!(
+                    "the smooth contact model needs the cloth strictly outside the colliders, \
+                     but particle {p} of the rest state is {} the collider surface (signed \
+                     distance {d:e}); move the cloth or the colliders apart",
+                    if d < 0.0 { "inside" } else { "on" }
+                ),
+            }
+            .into());
+        }
+    }
+    Ok(())
 }
 
 /// Splits a scene's obstacles into the physical colliders and the safety constraint's obstacles.

@@ -11,6 +11,7 @@ mod compile;
 
 pub use compile::DEFAULT_CHECKPOINT_BUDGET;
 
+use crate::contact::barrier::ColliderBarrier;
 use crate::contact::self_collision::SelfCollision;
 use crate::newton::settings::Solver;
 use crate::newton::terms::ConstraintTerms;
@@ -102,6 +103,9 @@ pub struct Model {
     /// Self-collision (`physics.self_collision`): contact sets found at the start of each step
     /// ([`Model::contact_sets`]); `None` when the scene does not ask for it.
     pub self_collision: Option<Arc<SelfCollision>>,
+    /// Smooth contact with the colliders (`physics.contact.model = "smooth"`): a barrier
+    /// potential in Newton's energy instead of the rigid `collider` group; `None` otherwise.
+    pub contact_barrier: Option<Arc<ColliderBarrier>>,
 }
 
 impl Model {
@@ -146,6 +150,12 @@ impl Model {
             .collect();
         if self.sets().any(|s| s.carry != Carry::Multiplier) {
             parts.push("friction".into());
+        }
+        if let Some(b) = &self.contact_barrier {
+            parts.push(format!(
+                "smooth contact (d̂ {:e}, κ {:e})",
+                b.barrier.d_hat, b.barrier.kappa
+            ));
         }
         if let Some(sc) = &self.self_collision {
             parts.push(format!("self-collision (thickness {})", sc.thickness));

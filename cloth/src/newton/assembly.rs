@@ -8,8 +8,9 @@
 
 use super::contact::is_contact;
 use super::ordering::elimination_positions;
-use super::psd::projected_local_hessian;
+use super::psd::{project_psd, projected_local_hessian};
 use super::terms::{ConstraintTerms, MAX_DOF};
+use crate::contact::barrier::ColliderBarrier;
 use crate::model::Model;
 use std::sync::Arc;
 
@@ -54,6 +55,9 @@ pub struct Pattern {
     /// row-major; a diagonal block's upper entries point at their lower mirror).
     blocks: Vec<(u32, u32, [u32; 9])>,
     groups: Vec<GroupPattern>,
+    /// Smooth contact: the barrier potential of every free particle, and the value indices of
+    /// each particle's diagonal block (lower triangle, row-major; [`NONE`] above the diagonal).
+    barrier: Option<(Arc<ColliderBarrier>, Vec<[u32; 9]>)>,
 }
 
 impl Pattern {
@@ -182,6 +186,21 @@ impl Pattern {
                 }
             })
             .collect();
+        let barrier = model.contact_barrier.clone().map(|b| {
+            let diagonal = (0..n_free as usize)
+                .map(|blk| {
+                    std::array::from_fn(|k| {
+                        let (i, j) = (3 * blk + k / 3, 3 * blk + k % 3);
+                        if i < j {
+                            NONE
+                        } else {
+                            index(i, j) as u32
+                        }
+                    })
+                })
+                .collect();
+            (b, diagonal)
+        });
         Pattern {
             dof_of,
             mass,
@@ -191,6 +210,7 @@ impl Pattern {
             diag,
             blocks: block_list,
             groups,
+            barrier,
         }
     }
 
@@ -263,6 +283,13 @@ impl Pattern {
                 }
             }
         }
+        if let Some((b, _)) = &self.barrier {
+            for (p, &d) in self.dof_of.iter().enumerate() {
+                if d != NONE {
+                    phi += b.energy(&x[3 * p..3 * p + 3]);
+                }
+            }
+        }
         phi
     }
 
@@ -329,6 +356,50 @@ impl Pattern {
                 }
             }
         }
+        if let Some((barrier, diagonal)) = &self.barrier {
+            self.assemble_barrier(barrier, diagonal, x, grad, values);
+        }
+    }
+
+    /// The smooth contact potential's gradient into `grad` and, with `values`, its Hessian
+    /// (each primitive's block projected to semidefinite for [`HessianKind::Projected`]). A
+    /// particle on or inside a collider has no derivative and adds nothing: only the predicted
+    /// state `x̃` can be there (the solver's iterates are filtered to stay outside), where the
+    /// gradient serves as the tolerance's scale.
+    fn assemble_barrier(
+        &self,
+        barrier: &ColliderBarrier,
+        diagonal: &[[u32; 9]],
+        x: &[f64],
+        grad: &mut [f64],
+        mut values: Option<(&mut [f64], HessianKind)>,
+    ) {
+        for (p, &d) in self.dof_of.iter().enumerate() {
+            if d == NONE {
+                continue;
+            }
+            let (mut g, mut h) = ([0.0; 3], [0.0; 9]);
+            let project = matches!(values, Some((_, HessianKind::Projected)));
+            let point = &x[3 * p..3 * p + 3];
+            if !barrier.derivatives(point, &mut g, &mut h, |block| {
+                if project {
+                    project_psd(block, 3);
+                }
+            }) {
+                continue;
+            }
+            let d = d as usize;
+            for k in 0..3 {
+                grad[d + k] += g[k];
+            }
+            if let Some((v, _)) = values.as_mut() {
+                for (&i, &hv) in diagonal[d / 3].iter().zip(&h) {
+                    if i != NONE {
+                        v[i as usize] += hv;
+                    }
+                }
+            }
+        }
     }
 
     /// `y −= H_cf z`: the exact Hessian's coupling of control-particle coordinates (rows of `y`,
@@ -361,6 +432,41 @@ impl Pattern {
                 }
             }
         }
+    }
+
+    /// The largest step length in `[0, 1]` along `dir` (degree-of-freedom order) from `x` that
+    /// the smooth contact potential allows ([`ColliderBarrier::max_step`]); 1 without it.
+    pub fn max_step(&self, x: &[f64], step: f64, dir: &[f64]) -> f64 {
+        let Some((barrier, _)) = &self.barrier else {
+            return 1.0;
+        };
+        let moves = self.dof_of.iter().enumerate().filter_map(|(p, &d)| {
+            (d != NONE).then(|| {
+                let d = d as usize;
+                (
+                    &x[3 * p..3 * p + 3],
+                    [step * dir[d], step * dir[d + 1], step * dir[d + 2]],
+                )
+            })
+        });
+        barrier.max_step(moves)
+    }
+
+    /// Whether the model has a smooth contact potential (its states must stay outside).
+    pub fn has_barrier(&self) -> bool {
+        self.barrier.is_some()
+    }
+
+    /// Smooth contact: the first free particle of `x` on or inside a collider, with its signed
+    /// distance; `None` when all are outside (or without the potential).
+    pub fn penetration(&self, x: &[f64]) -> Option<(usize, f64)> {
+        let (barrier, _) = self.barrier.as_ref()?;
+        self.dof_of
+            .iter()
+            .enumerate()
+            .filter(|&(_, &d)| d != NONE)
+            .map(|(p, _)| (p, barrier.distance(&x[3 * p..3 * p + 3])))
+            .find(|&(_, d)| d <= 0.0)
     }
 
     /// `M z` for the free particles, scattered into full `N × 3` data `y` (added).

@@ -126,7 +126,14 @@ impl Model {
         let xt = self.begin_step(x_prev, u);
         let mut stats = StepStats::default();
         if settings.load_steps <= 1 && settings.load_halvings == 0 {
-            let (x, s) = system.solve(&xt, step, settings)?;
+            // Smooth contact starts from the previous state, which is outside the colliders
+            // (x̃ may not be).
+            let start = if system.pattern.has_barrier() {
+                x_prev
+            } else {
+                &xt
+            };
+            let (x, s) = system.solve_from(start, &xt, step, settings)?;
             return Ok((x, StepStats { loads: 1, ..s }));
         }
         // The path of predicted states x̂(s) = (1 − s) x̂₀ + s x̃, with x̂₀ = x_prev + M⁻¹∇E(x_prev):

@@ -59,7 +59,7 @@ fn gradient_in_null_space(g: &[f64], h: &[f64]) -> bool {
 /// eigendecomposition is nalgebra's on a fixed-size matrix of the block's size (`d = 3 · arity`,
 /// arity 1 to [`crate::constraint::MAX_ARITY`]), so it allocates nothing: with heap-allocated
 /// dynamic matrices it was 14% of a 40 × 40 Newton rollout with ∇L.
-fn project_psd(h: &mut [f64], d: usize) {
+pub(super) fn project_psd(h: &mut [f64], d: usize) {
     if !is_semidefinite(h, d) {
         clamp(h, d);
     }

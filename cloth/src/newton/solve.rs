@@ -185,6 +185,9 @@ impl NewtonSystem {
             return None;
         }
         self.newton_direction();
+        if self.pattern.max_step(x.data(), 1.0, &self.dir) < 1.0 {
+            return None;
+        }
         trial.data_mut().copy_from_slice(x.data());
         self.pattern.add_scaled(trial.data_mut(), 1.0, &self.dir);
         self.contacts.project(trial.data_mut());
@@ -288,6 +291,10 @@ impl NewtonSystem {
         let mut trial = x.clone();
         let contacts = &self.contacts;
         let mut phi_at = |eta: f64| {
+            if p.max_step(x.data(), eta, &v) < 1.0 {
+                // The move would pass a collider (smooth contact).
+                return f64::INFINITY;
+            }
             trial.data_mut().copy_from_slice(x.data());
             p.add_scaled(trial.data_mut(), eta, &v);
             contacts.project(trial.data_mut());
@@ -312,6 +319,7 @@ impl NewtonSystem {
     ///
     /// # Errors
     /// [`ClothError::NewtonNotConverged`] when the tolerance is not reached.
+    #[cfg(any(test, feature = "internals"))]
     pub fn solve(
         &mut self,
         xt: &Tensor,
@@ -377,6 +385,13 @@ impl NewtonSystem {
         let xt_d = xt.data();
         let stats = StepStats::default();
         let (x, r0) = self.start_at(start, xt);
+        if let Some((particle, distance)) = self.pattern.penetration(x.data()) {
+            return Err(ClothError::ContactPenetration {
+                step,
+                particle,
+                distance,
+            });
+        }
         if r0 == 0.0 {
             // x̃ is already stationary; it must still be a minimizer for the implicit gradient.
             return if self.factorize_exact(xt_d, xt_d) {
@@ -427,6 +442,12 @@ impl NewtonSystem {
                 .assemble(projected.data(), xt_d, &mut self.grad, None);
             r0 = r0.max(norm(&self.grad));
             self.contacts.project(x.data_mut());
+        }
+        if self.pattern.has_barrier() {
+            // x̃ may be inside a collider, where the barrier adds nothing to the scale: the
+            // start's forces count too.
+            self.pattern.assemble(x.data(), xt_d, &mut self.grad, None);
+            r0 = r0.max(norm(&self.grad));
         }
         (x, r0)
     }
@@ -582,6 +603,10 @@ impl NewtonSystem {
     /// contact rows, with the active set there).
     fn full_step_residual(&self, run: &mut Run<'_>) -> f64 {
         let p = &self.pattern;
+        if p.max_step(run.x.data(), 1.0, &self.dir) < 1.0 {
+            // The full step would pass a collider (smooth contact): not a step to take.
+            return f64::INFINITY;
+        }
         let trial = &mut run.trial;
         trial.data_mut().copy_from_slice(run.x.data());
         p.add_scaled(trial.data_mut(), 1.0, &self.dir);
@@ -602,7 +627,11 @@ impl NewtonSystem {
     /// `Φ` (`None` after [`MAX_HALVINGS`] halvings) and the step length.
     fn armijo(&self, run: &mut Run<'_>, slope: f64) -> (Option<f64>, f64) {
         let p = &self.pattern;
-        let mut alpha = 1.0;
+        // Smooth contact: no trial state may pass a collider (the step filter).
+        let mut alpha = p.max_step(run.x.data(), 1.0, &self.dir);
+        if alpha == 0.0 {
+            return (None, alpha);
+        }
         for _ in 0..MAX_HALVINGS {
             run.trial.data_mut().copy_from_slice(run.x.data());
             p.add_scaled(run.trial.data_mut(), alpha, &self.dir);

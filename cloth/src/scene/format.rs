@@ -342,6 +342,45 @@ pub struct Physics {
     /// Self-collision of the cloth (absent: none), see [`crate::contact::self_collision`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub self_collision: Option<SelfCollisionSpec>,
+    /// How the cloth touches the colliders (absent: the rigid model), see [`ContactSpec`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact: Option<ContactSpec>,
+}
+
+/// `physics.contact`: the contact model between the cloth and the colliders.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// `"rigid"` (a particle is projected onto the surface: XPBD's projection, Newton's active
+    /// set) or `"smooth"` (a log-barrier potential in the signed distance keeps every particle
+    /// strictly outside, and the step is a smooth function of the controls; Newton only).
+    pub model: ContactModel,
+    /// Smooth model: the distance `d̂ > 0` below which the barrier acts (metres; default a tenth
+    /// of the cloth's mean rest edge length).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub d_hat: Option<f64>,
+    /// Smooth model: the barrier's stiffness `κ > 0` (N/m; default `m·|g|/d̂` with `m` the particle
+    /// mass, which holds a resting particle at about 0.65 `d̂`; `m/Δt²` without gravity).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness: Option<f64>,
+}
+
+/// The contact model named by `physics.contact.model`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactModel {
+    /// Projection onto the surface (the paper's collision constraint).
+    #[default]
+    Rigid,
+    /// A C² log-barrier potential in the signed distance to each collider primitive.
+    Smooth,
+}
+
+impl Physics {
+    /// The contact model these settings ask for (rigid when `contact` is absent).
+    pub fn contact_model(&self) -> ContactModel {
+        self.contact.as_ref().map_or(ContactModel::Rigid, |c| c.model)
+    }
 }
 
 /// `physics.self_collision`: vertex–triangle contacts between parts of the cloth.

@@ -54,6 +54,44 @@ fn check_non_negative(field: &str, x: f64) -> Result<(), SceneError> {
     }
 }
 
+/// `physics.contact`: a positive, bounded `d_hat` and a positive `stiffness`, both only for the
+/// smooth model, which needs Newton's method.
+fn validate_contact(c: &ContactSpec, solver: SolverKind) -> Result<(), SceneError> {
+    if let Some(d) = c.d_hat {
+        check_positive("physics.contact.d_hat", d)?;
+        check_coordinate("physics.contact.d_hat", d)?;
+    }
+    if let Some(k) = c.stiffness {
+        check_positive("physics.contact.stiffness", k)?;
+    }
+    match c.model {
+        ContactModel::Rigid => {
+            let only_smooth = |field: &str| {
+                invalid(
+                    field,
+                    "only the smooth contact model has a barrier; remove it or set \
+                     physics.contact.model to \"smooth\"",
+                )
+            };
+            if c.d_hat.is_some() {
+                return Err(only_smooth("physics.contact.d_hat"));
+            }
+            if c.stiffness.is_some() {
+                return Err(only_smooth("physics.contact.stiffness"));
+            }
+        }
+        ContactModel::Smooth if solver != SolverKind::Newton => {
+            return Err(invalid(
+                "physics.contact.model",
+                "the smooth contact model is a potential in Newton's energy: it needs \
+                 physics.solver \"newton\"",
+            ));
+        }
+        ContactModel::Smooth => {}
+    }
+    Ok(())
+}
+
 /// `friction`: finite and ≥ 0, and only on an obstacle the simulator collides with.
 fn validate_friction(base: &str, obstacle: &Obstacle) -> Result<(), SceneError> {
     let Some(mu) = obstacle.friction() else {
@@ -250,6 +288,9 @@ impl Scene {
         }
         if let Some(sc) = &p.self_collision {
             check_non_negative("physics.self_collision.thickness", sc.thickness)?;
+        }
+        if let Some(c) = &p.contact {
+            validate_contact(c, p.solver)?;
         }
         if p.solver == SolverKind::Newton {
             self.validate_newton()?;
