@@ -141,10 +141,10 @@ pub struct RowFacts {
     pub worst_violation: Option<(String, f64)>,
 }
 
-/// The constraint groups active at the solution: rows within [`ACTIVE_FRACTION`] of the task
-/// tolerance of their bound with a positive multiplier (rows alone where the solver returned
-/// no multipliers), as labels — safety groups first, then the others; and the most violated
-/// row, so a plan that misses its rows says which.
+/// The constraint groups active at the solution: rows within `ACTIVE_FRACTION` (`src/outcome.rs`)
+/// of the task tolerance of their bound with a positive multiplier (rows alone where the solver
+/// returned no multipliers), as labels — safety groups first, then the others; and the most
+/// violated row, so a plan that misses its rows says which.
 pub fn row_facts(
     problem: &mut TrajectoryProblem<'_>,
     solution: &optim::Solution,

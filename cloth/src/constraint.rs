@@ -207,7 +207,7 @@ fn hessian_vectors_n<C: Constraint, const N: usize>(
 /// Coordinates per instance of the largest arity.
 const MAX_D: usize = 3 * MAX_ARITY;
 
-/// `|v|` through [`Real::sqrt`] (re-exported from [`crate::geometry`] for constraint authors).
+/// `|v|` through [`Real::sqrt`] (re-exported from `cloth/src/geometry.rs` for constraint authors).
 pub use crate::geometry::norm;
 
 /// `C = |p₀ − p₁| − d⁰`: the paper's stretch and (distance-type) bending constraint.

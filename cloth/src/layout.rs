@@ -7,9 +7,9 @@ use crate::scene::{InitialControls, Obstacle, ParticleRef, Scene};
 use crate::sdf::{Capsule, Cuboid, Plane, SignedDistance, SphereSet, Surface, Union};
 
 impl Scene {
-    /// The cloth's topology: the grid's (`cloth.rows × cloth.cols`, [`GridMesh::topology`]) or
-    /// the triangles of `cloth.mesh` ([`ClothMesh::from_triangles`]). A mesh cloth whose file has
-    /// not been read ([`Scene::load_files`]) has no particles.
+    /// The cloth's topology: the grid's (`cloth.rows × cloth.cols`, `GridMesh::topology` in
+    /// `cloth/src/mesh.rs`) or the triangles of `cloth.mesh` ([`ClothMesh::from_triangles`]). A
+    /// mesh cloth whose file has not been read ([`Scene::load_files`]) has no particles.
     pub fn mesh(&self) -> ClothMesh {
         if self.cloth.is_mesh() {
             match &self.cloth.mesh_data {

@@ -146,10 +146,10 @@ impl GridMesh {
 /// The topology of a cloth of any shape: its particles, triangles and stretch edges in a canonical
 /// order, from which the bending stencils follow by triangle adjacency.
 ///
-/// A grid ([`GridMesh::topology`]) lists its edges in the grid order of the module docs; a mesh
-/// read from a file ([`ClothMesh::from_triangles`]) lists them in order of first use: triangles
-/// in file order, each triangle's edges `(t₀,t₁)`, `(t₁,t₂)`, `(t₂,t₀)`. Either way the order, and
-/// so the colouring, depends only on the triangle list.
+/// A grid (`GridMesh::topology` in `cloth/src/mesh.rs`) lists its edges in the grid order of the
+/// module docs; a mesh read from a file ([`ClothMesh::from_triangles`]) lists them in order of
+/// first use: triangles in file order, each triangle's edges `(t₀,t₁)`, `(t₁,t₂)`, `(t₂,t₀)`.
+/// Either way the order, and so the colouring, depends only on the triangle list.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ClothMesh {
     n_particles: usize,
@@ -185,7 +185,8 @@ impl ClothMesh {
         self.n_particles
     }
 
-    /// The triangles, as given (a grid's are consistently oriented, see [`GridMesh::triangles`]).
+    /// The triangles, as given (a grid's are consistently oriented, see `GridMesh::triangles` in
+    /// `cloth/src/mesh.rs`).
     pub fn triangles(&self) -> &[[usize; 3]] {
         &self.triangles
     }

@@ -10,7 +10,7 @@
 //!   end within a radius of its position: the route search's last resort when a safe plan misses
 //!   its targets, turning "reach the goal" from a cost into a constraint;
 //! - smooth rows on the controls alone for `max_step` and `gripper_separation`
-//!   ([`crate::control_rows`]);
+//!   (`src/control_rows.rs`);
 //! - linear rows keeping every control point on the free side of every collider plane and inside
 //!   `task.limits.workspace` at every step (the simulator pins control particles, so only this
 //!   keeps them out of the floor).

@@ -128,9 +128,9 @@ fn near_safe(r: &PlanResult, delta: f64, slack: f64) -> bool {
     r.constraint_violation <= slack && r.metrics.min_sdf >= delta - slack
 }
 
-/// The ranking that picks cheap results to polish: near safe before not ([`near_safe`]), every
-/// target within tolerance before not (the verdict's `achieved` also asks for strict safety), then
-/// lower `L` (NaN last).
+/// The ranking that picks cheap results to polish: near safe before not (`near_safe` in
+/// `src/search/mod.rs`), every target within tolerance before not (the verdict's `achieved` also
+/// asks for strict safety), then lower `L` (NaN last).
 pub fn polish_rank(a: &PlanResult, b: &PlanResult, delta: f64, slack: f64) -> Ordering {
     let reached = |r: &PlanResult| r.task.targets_reached == r.task.target_errors.len();
     near_safe(b, delta, slack)

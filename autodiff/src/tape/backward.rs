@@ -32,9 +32,9 @@ impl Tape {
             .expect("one set of seeds gives one set of gradients")
     }
 
-    /// Several independent vector–Jacobian products in one backward pass: element `k` of the
-    /// result is [`Tape::vjp`] of `seeds[k]`. Each Gauss–Seidel node pulls all of them back
-    /// together ([`DynRowFn::vjp_update_batch_seeds`]), so work a row's adjoint needs whatever the
+    /// Several independent vector–Jacobian products in one backward pass: element `k` of the result
+    /// is [`Tape::vjp`] of `seeds[k]`. Each Gauss–Seidel node pulls all of them back together
+    /// ([`crate::DynRowFn::vjp_update_batch_seeds`]), so work a row's adjoint needs whatever the
     /// seed (its constraint's value and gradient) is done once.
     ///
     /// # Panics

@@ -11,7 +11,7 @@ use nalgebra::Vector3;
 
 impl Model {
     /// The query radius of a step with controls `u` (`n_controls × 3`): `h + 2δ`, `δ` the largest
-    /// control displacement plus the gravity step (see [`crate::contact::self_collision`]).
+    /// control displacement plus the gravity step (see `cloth/src/contact/self_collision.rs`).
     pub fn contact_radius(&self, thickness: f64, u: &Tensor) -> f64 {
         let fastest = (0..u.rows())
             .map(|k| norm(&Vector3::new(u.get(k, 0), u.get(k, 1), u.get(k, 2))))

@@ -63,7 +63,7 @@ pub struct TaskSpec {
 pub struct Model {
     /// Rest (initial) positions, `N × 3`.
     pub rest: Tensor,
-    /// The cloth's triangles (particle indices; [`crate::mesh::ClothMesh::triangles`]), for
+    /// The cloth's triangles (particle indices; [`crate::ClothMesh::triangles`]), for
     /// figures and exports.
     pub triangles: Arc<[[usize; 3]]>,
     /// Inverse mass per particle (0 for control particles).

@@ -25,7 +25,7 @@ use faer::sparse::linalg::cholesky::supernodal::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
 
-/// What a [`Factor`] has done since it was made.
+/// What a `Factor` (`cloth/src/newton/factor.rs`) has done since it was made.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FactorCounts {
     /// Numeric factorizations that succeeded.

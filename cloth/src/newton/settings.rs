@@ -21,7 +21,7 @@ pub const DEFAULT_LOAD_HALVINGS: usize = 10;
 pub struct NewtonSettings {
     /// A step has converged when `‖∇Φ(x)‖ ≤ tolerance · ‖∇Φ(x̃)‖`.
     pub tolerance: f64,
-    /// Newton iterations per step before [`ClothError::NewtonNotConverged`].
+    /// Newton iterations per step before [`crate::ClothError::NewtonNotConverged`].
     pub max_iterations: usize,
     /// Load steps (continuation) per time step: the step's load (its control move and gravity)
     /// is applied along a path of predicted states from one for which the previous state is the
@@ -38,9 +38,10 @@ pub struct NewtonSettings {
     /// state, the rollout jumps only where that branch ends (`cloth/tests/newton_branches.rs`).
     /// The final state is a minimizer of the same `Φ`, so the implicit gradients are unchanged.
     pub load_halvings: usize,
-    /// Chord steps ([`solve`]): after a whole step with the exact Hessian, the next steps reuse
-    /// its factorization while the KKT residual falls by [`solve::CHORD_CONTRACTION`] per step.
-    /// The returned state is a minimizer to the same tolerance either way.
+    /// Chord steps (`cloth/src/newton/solve.rs`): after a whole step with the exact Hessian, the
+    /// next steps reuse its factorization while the KKT residual falls by `CHORD_CONTRACTION`
+    /// (`cloth/src/newton/solve.rs`) per step. The returned state is a minimizer to the same
+    /// tolerance either way.
     pub chord_steps: bool,
 }
 

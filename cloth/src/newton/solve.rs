@@ -73,7 +73,7 @@ pub struct StepStats {
     /// Iterations that were within the tolerance but not at a minimizer (the exact Hessian was
     /// not positive definite), so the solve went on.
     pub at_saddle: usize,
-    /// Saddles of `Φ` left along their unstable mode ([`super::curvature`]).
+    /// Saddles of `Φ` left along their unstable mode (`cloth/src/newton/curvature.rs`).
     pub escapes: usize,
     /// Load increments solved ([`NewtonSettings::load_steps`] or more, when halved).
     pub loads: usize,

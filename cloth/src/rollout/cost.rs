@@ -49,14 +49,14 @@ impl Model {
         Some(tape.map_rows(f, x))
     }
 
-    /// [`Model::record_sdf_components`] for a soft minimum of sharpness `kappa` over them (and
-    /// over whatever else is concatenated with them): exact wherever an entry's soft-min weight
-    /// can reach `e^−40` (within `40/κ` of this state's smallest distance, see
-    /// [`NEGLIGIBLE_WEIGHT_EXPONENT`]), elsewhere a lower bound above that, so a mesh obstacle's
-    /// search stops there. Without a mesh obstacle every entry is exact (bitwise
-    /// [`Model::record_sdf_components`]). With one, only entries of weight below `e^−40` change:
-    /// the soft minimum moves by at most `K·e^−40/κ` (`K` such entries), each weight relatively
-    /// by `K·e^−40`.
+    /// [`Model::record_sdf_components`] for a soft minimum of sharpness `kappa` over them (and over
+    /// whatever else is concatenated with them): exact wherever an entry's soft-min weight can
+    /// reach `e^−40` (within `40/κ` of this state's smallest distance, see
+    /// `NEGLIGIBLE_WEIGHT_EXPONENT` in `cloth/src/rollout/cost.rs`), elsewhere a lower bound above
+    /// that, so a mesh obstacle's search stops there. Without a mesh obstacle every entry is exact
+    /// (bitwise [`Model::record_sdf_components`]). With one, only entries of weight below `e^−40`
+    /// change: the soft minimum moves by at most `K·e^−40/κ` (`K` such entries), each weight
+    /// relatively by `K·e^−40`.
     pub fn record_sdf_components_for_soft_min(
         &self,
         tape: &mut Tape,

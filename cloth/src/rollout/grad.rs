@@ -411,7 +411,7 @@ impl RecordedRollout {
     }
 
     /// Under Newton: the steps whose factorization was kept for the gradients, and their bytes
-    /// ([`crate::newton::continuation::NewtonKept`]).
+    /// ([`crate::NewtonKept`]).
     pub fn kept_factorizations(&self) -> Option<(usize, usize)> {
         self.newton.as_ref().map(|k| (k.steps(), k.bytes()))
     }

@@ -30,7 +30,7 @@ pub struct Scene {
     pub obstacles: Vec<Obstacle>,
     /// Targets, cost weights, horizon and initial control guess.
     pub task: Task,
-    /// Constraints of user-registered types (default none); see [`crate::registry`].
+    /// Constraints of user-registered types (default none); see [`crate::ConstraintRegistry`].
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub custom_constraints: Vec<CustomConstraint>,
 }
@@ -220,11 +220,11 @@ pub struct Bending {
 #[serde(rename_all = "lowercase")]
 pub enum BendingModel {
     /// The paper's: a distance constraint between the two vertices opposite each interior edge
-    /// ([`crate::mesh::GridMesh::bending_pairs`]). JSON `"distance"`.
+    /// ([`crate::ClothMesh::bending_pairs`]). JSON `"distance"`.
     #[default]
     Distance,
-    /// Dihedral-angle constraint on each interior edge's two triangles ([`crate::mesh::GridMesh::dihedral_quads`]).
-    /// JSON `"dihedral"`.
+    /// Dihedral-angle constraint on each interior edge's two triangles
+    /// ([`crate::ClothMesh::dihedral_quads`]). JSON `"dihedral"`.
     Dihedral,
 }
 
@@ -319,27 +319,27 @@ pub struct Physics {
     /// Gauss–Seidel iterations per time step (≥ 1; XPBD only).
     pub iterations: usize,
     /// The step solver: `"xpbd"` (default) or `"newton"` (converged physics, see
-    /// [`crate::newton`]).
+    /// [`crate::Solver::Newton`]).
     #[serde(default, skip_serializing_if = "SolverKind::is_xpbd")]
     pub solver: SolverKind,
     /// Newton only: relative `‖∇Φ‖` at which a step has converged, in `(0, 1)`; default
-    /// [`crate::newton::DEFAULT_TOLERANCE`].
+    /// [`crate::DEFAULT_TOLERANCE`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance: Option<f64>,
     /// Newton only: iterations per step (≥ 1); default
-    /// [`crate::newton::DEFAULT_MAX_ITERATIONS`].
+    /// [`crate::DEFAULT_MAX_ITERATIONS`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_newton_iterations: Option<usize>,
     /// Newton only: load steps per time step (≥ 1; default 1), see
-    /// [`crate::newton::NewtonSettings::load_steps`].
+    /// [`crate::NewtonSettings::load_steps`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub load_steps: Option<usize>,
     /// Newton only: most halvings of a load increment whose solve leaves the convex
-    /// neighbourhood of a minimizer (0 to [`crate::newton::MAX_LOAD_HALVINGS`]), see
-    /// [`crate::newton::NewtonSettings::load_halvings`].
+    /// neighbourhood of a minimizer (0 to [`crate::scene::MAX_LOAD_HALVINGS`]), see
+    /// [`crate::NewtonSettings::load_halvings`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub load_halvings: Option<usize>,
-    /// Self-collision of the cloth (absent: none), see [`crate::contact::self_collision`].
+    /// Self-collision of the cloth (absent: none), see `cloth/src/contact/self_collision.rs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub self_collision: Option<SelfCollisionSpec>,
     /// How the cloth touches the colliders (absent: the rigid model), see [`ContactSpec`].
@@ -390,7 +390,7 @@ pub struct SelfCollisionSpec {
     /// The distance `h ≥ 0` every vertex keeps from the plane of a nearby triangle it faces.
     pub thickness: f64,
     /// Whether crossing edges are held apart too (edge–edge contacts, see
-    /// [`crate::contact::edge_edge`]); default `false` (vertex–triangle contacts only).
+    /// `cloth/src/contact/edge_edge.rs`); default `false` (vertex–triangle contacts only).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub edge_edge: bool,
 }
@@ -514,7 +514,7 @@ pub struct CapsuleSpec {
     /// How the obstacle is used.
     pub role: ObstacleRole,
     /// Coulomb friction coefficient `μ ≥ 0` of a collider (absent: frictionless); see
-    /// [`crate::contact::friction`].
+    /// `cloth/src/contact/friction.rs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
 }
@@ -534,7 +534,7 @@ pub struct BoxSpec {
     /// How the obstacle is used.
     pub role: ObstacleRole,
     /// Coulomb friction coefficient `μ ≥ 0` of a collider (absent: frictionless); see
-    /// [`crate::contact::friction`].
+    /// `cloth/src/contact/friction.rs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
 }
@@ -549,7 +549,7 @@ pub struct MeshSpec {
     /// How the obstacle is used.
     pub role: ObstacleRole,
     /// Coulomb friction coefficient `μ ≥ 0` of a collider (absent: frictionless); see
-    /// [`crate::contact::friction`].
+    /// `cloth/src/contact/friction.rs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
     /// The field read from `file` when the scene was loaded ([`crate::Scene::load`]); `None` until then.
@@ -568,7 +568,7 @@ pub struct SphereSetSpec {
     /// How the obstacle is used.
     pub role: ObstacleRole,
     /// Coulomb friction coefficient `μ ≥ 0` of a collider (absent: frictionless); see
-    /// [`crate::contact::friction`].
+    /// `cloth/src/contact/friction.rs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
 }
@@ -585,7 +585,7 @@ pub struct PlaneSpec {
     /// How the obstacle is used.
     pub role: ObstacleRole,
     /// Coulomb friction coefficient `μ ≥ 0` of a collider (absent: frictionless); see
-    /// [`crate::contact::friction`].
+    /// `cloth/src/contact/friction.rs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
 }

@@ -47,7 +47,7 @@ struct MeshData {
 
 impl MeshSdf {
     /// The field of a closed, consistently oriented mesh (checked by the caller, see
-    /// [`crate::obj::ObjMesh::check_closed`]) of non-degenerate triangles. Triangles wound
+    /// [`crate::ObjMesh::check_closed`]) of non-degenerate triangles. Triangles wound
     /// inwards (negative enclosed volume) are reversed.
     pub fn new(vertices: Vec<[f64; 3]>, mut triangles: Vec<[usize; 3]>) -> MeshSdf {
         let v = |i: usize| Vector3::from(vertices[i]);

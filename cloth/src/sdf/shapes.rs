@@ -50,7 +50,8 @@ impl SignedDistance for Capsule {
 }
 
 impl Capsule {
-    /// A closed tessellation: a cylinder of [`SEGMENTS`] sides capped by two hemispheres.
+    /// A closed tessellation: a cylinder of `SEGMENTS` (`cloth/src/sdf/shapes.rs`) sides capped by
+    /// two hemispheres.
     pub fn surface_triangles(&self) -> Surface {
         let a = Vector3::from(self.a);
         let b = Vector3::from(self.b);

@@ -22,7 +22,7 @@ pub enum Carry {
     /// One XPBD multiplier `λ`, zero at each step's start.
     Multiplier,
     /// The row's (single) particle's position at the step's start, copied from the previous
-    /// state, then `width − 3` values starting at zero ([`crate::contact::friction`]).
+    /// state, then `width − 3` values starting at zero (`cloth/src/contact/friction.rs`).
     StartPosition {
         /// Carried values per row (≥ 3).
         width: usize,

@@ -39,7 +39,8 @@ pub struct AccuracyRow {
     pub grad_rel_err: f64,
     /// `evaluate(.., false)`: the rollout and its metrics.
     pub forward: Timing,
-    /// The rollout, its metrics and ∇L ([`forward_grad_l`]; what JAX's benchmark times).
+    /// The rollout, its metrics and ∇L ([`cloth::Model::evaluate_loss_gradient`]; what JAX's
+    /// benchmark times).
     pub forward_grad_l: Timing,
     /// `evaluate(.., true)`: also dC/dU, a second backward pass (scenes with safety obstacles).
     pub evaluate_gradients: Option<Timing>,
@@ -67,7 +68,8 @@ pub struct PlanRow {
     pub true_min_sdf: Option<f64>,
     pub true_min_sdf_swept: Option<f64>,
     pub true_max_abs_c: f64,
-    /// The re-simulated rollout passes [`plan::is_safe`] (None without safety obstacles).
+    /// The re-simulated rollout passes [`clothopt::result::is_safe`] (None without safety
+    /// obstacles).
     pub safe: Option<bool>,
 }
 
@@ -80,7 +82,7 @@ pub struct MeshRow {
     pub n_iter: usize,
     pub threads: usize,
     pub forward: Timing,
-    /// The rollout, its metrics and ∇L ([`forward_grad_l`]).
+    /// The rollout, its metrics and ∇L ([`cloth::Model::evaluate_loss_gradient`]).
     pub forward_grad_l: Timing,
     pub l: f64,
     /// Process peak RSS (VmHWM) after the forward+∇L runs, MB.
