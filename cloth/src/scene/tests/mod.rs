@@ -727,3 +727,54 @@ fn solver_kind_names_round_trip_through_json_and_from_str() {
         "{err}"
     );
 }
+
+/// `physics.contact`: each bad setting names its field.
+#[test]
+fn contact_settings_out_of_range_name_their_field() {
+    fn with_contact(solver: &'static str, contact: Value) -> impl FnOnce(&mut Value) {
+        move |v: &mut Value| {
+            v["physics"]["solver"] = json!(solver);
+            v["physics"]["contact"] = contact;
+        }
+    }
+    let cases = [
+        (
+            with_contact("xpbd", json!({"model": "smooth"})),
+            "physics.contact.model",
+            "needs physics.solver \"newton\"",
+        ),
+        (
+            with_contact("newton", json!({"model": "smooth", "d_hat": -0.01})),
+            "physics.contact.d_hat",
+            "must be positive",
+        ),
+        (
+            with_contact("newton", json!({"model": "smooth", "d_hat": 1e12})),
+            "physics.contact.d_hat",
+            "exceeds the limit",
+        ),
+        (
+            with_contact("newton", json!({"model": "smooth", "stiffness": 0.0})),
+            "physics.contact.stiffness",
+            "must be positive",
+        ),
+        (
+            with_contact("newton", json!({"model": "rigid", "d_hat": 0.01})),
+            "physics.contact.d_hat",
+            "only the smooth contact model",
+        ),
+        (
+            with_contact("xpbd", json!({"model": "rigid", "stiffness": 10.0})),
+            "physics.contact.stiffness",
+            "only the smooth contact model",
+        ),
+    ];
+    for (edit, expected, reason) in cases {
+        let (field, msg) = invalid_after(edit);
+        assert_names_field(&field, &msg, expected, reason);
+    }
+    // A valid smooth setting passes validation.
+    let mut v = base_value();
+    with_contact("newton", json!({"model": "smooth", "d_hat": 0.02, "stiffness": 50.0}))(&mut v);
+    Scene::from_json_str(&v.to_string()).expect("valid smooth contact");
+}
