@@ -31,6 +31,7 @@ fn scene(obstacles: Vec<Obstacle>, flat: bool) -> Scene {
         model: ContactModel::Smooth,
         d_hat: None,
         stiffness: None,
+        friction_epsilon: None,
     });
     s.validate().unwrap();
     s
@@ -109,9 +110,11 @@ fn clearance(model: &Model, states: &[Tensor]) -> f64 {
     for x in &states[1..] {
         for p in (0..model.n_particles()).filter(|&p| model.inv_mass[p] > 0.0) {
             let r = x.row(p);
-            min = min.min(model.colliders.distance(&cloth::nalgebra::Vector3::new(
-                r[0], r[1], r[2],
-            )));
+            min = min.min(
+                model
+                    .colliders
+                    .distance(&cloth::nalgebra::Vector3::new(r[0], r[1], r[2])),
+            );
         }
     }
     min
@@ -125,14 +128,23 @@ fn every_collider_kind_holds_the_cloth_strictly_outside() {
         let s = scene(vec![obstacle], flat);
         let m = newton_model(&s);
         let d_hat = m.contact_barrier.as_ref().unwrap().barrier.d_hat;
-        assert!((0.025..0.036).contains(&d_hat), "a tenth of the mean edge length: {d_hat}");
+        assert!(
+            (0.025..0.036).contains(&d_hat),
+            "a tenth of the mean edge length: {d_hat}"
+        );
         assert!(m.group("collider").is_none(), "no rigid collider rows");
         let u = controls(&m, motion);
         let states = m.simulate(&u).unwrap();
         let min = clearance(&m, &states);
         eprintln!("{name}: smallest distance {min:e} (d̂ {d_hat})");
-        assert!(min > 0.0, "{name}: a particle reached the surface ({min:e})");
-        assert!(min < 0.5 * d_hat, "{name}: the contact is not pressed ({min:e})");
+        assert!(
+            min > 0.0,
+            "{name}: a particle reached the surface ({min:e})"
+        );
+        assert!(
+            min < 0.5 * d_hat,
+            "{name}: the contact is not pressed ({min:e})"
+        );
         common::assert_minimizers(&m, &states, &u);
     }
 }
@@ -177,6 +189,7 @@ fn the_rigid_model_named_is_bitwise_the_default() {
             model: ContactModel::Rigid,
             d_hat: None,
             stiffness: None,
+            friction_epsilon: None,
         });
         let named = Model::from_scene(&s).unwrap();
         let u = controls(&plain, PUSH);
@@ -203,7 +216,10 @@ fn the_loss_is_smooth_in_the_controls() {
             let fd = common::central(&l, &u, &d, h);
             let rel = (fd - slope).abs() / slope.abs();
             eprintln!("{name}: h {h:e}: slope {slope:e}, central difference {fd:e}, {rel:.1e}");
-            assert!(rel <= 1e-3, "{name}: h {h:e}: {fd:e} vs {slope:e} ({rel:e})");
+            assert!(
+                rel <= 1e-3,
+                "{name}: h {h:e}: {fd:e} vs {slope:e} ({rel:e})"
+            );
         }
     }
 }
@@ -236,7 +252,110 @@ fn a_rest_state_on_a_collider_is_rejected_by_name() {
     s.cloth.top_left[2] = 0.0;
     let err = Model::from_scene(&s).err().expect("rejected").to_string();
     assert!(
-        err.starts_with("physics.contact.model: ") && err.contains("particle 1 of the rest state is on"),
+        err.starts_with("physics.contact.model: ")
+            && err.contains("particle 1 of the rest state is on"),
         "{err}"
     );
+}
+
+/// `½gΔt²` of the scenes (`g = 9.8`, `Δt = 0.1`).
+const HALF_G_DT2: f64 = 0.5 * 9.8 * 0.01;
+
+/// A `5 × 5` cloth (side 0.4, no grippers) lying `gap` above a plane through the origin tilted by
+/// `theta` about the y axis, with friction `mu`, smooth contact, `horizon` steps.
+fn tilted(theta: f64, mu: f64, horizon: usize) -> Scene {
+    let mut s = scene(vec![], false);
+    s.cloth.rows = 5;
+    s.cloth.cols = 5;
+    s.task.horizon = horizon;
+    let (downhill, normal) = (
+        [theta.cos(), 0.0, -theta.sin()],
+        [theta.sin(), 0.0, theta.cos()],
+    );
+    let gap = 0.005;
+    s.cloth.top_left = normal.map(|v| gap * v);
+    s.cloth.right = downhill.map(|v| 0.4 * v);
+    s.cloth.down = [0.0, 0.4, 0.0];
+    s.controls.clear();
+    s.task.targets.truncate(1);
+    s.task.targets[0].particle = [0, 0].into();
+    s.obstacles = vec![Obstacle::Plane(cloth::scene::PlaneSpec {
+        point: [0.0; 3],
+        normal,
+        role: ObstacleRole::Collider,
+        friction: Some(mu),
+    })];
+    s.validate().unwrap();
+    s
+}
+
+/// The mean downhill displacement of the cloth's particles per step after the first two (the
+/// first step lifts the cloth from its initial gap to where the barrier holds its weight, and the
+/// second lags the friction's normal force there).
+fn steady_slide(s: &Scene, theta: f64) -> f64 {
+    let m = newton_model(s);
+    let states = m.simulate(&m.zero_controls()).unwrap();
+    let (first, last) = (&states[2], states.last().unwrap());
+    let downhill = [theta.cos(), 0.0, -theta.sin()];
+    let n = first.rows();
+    (0..n)
+        .map(|p| {
+            (0..3)
+                .map(|k| (last.get(p, k) - first.get(p, k)) * downhill[k])
+                .sum::<f64>()
+        })
+        .sum::<f64>()
+        / (n * (states.len() - 3)) as f64
+}
+
+/// On a plane tilted by θ = 0.3 (tan θ = 0.31) with μ = 0.6 the cloth holds: it creeps by less
+/// than half the smoothing displacement ε per step (measured 0.3 ε; `ε tan θ/(2μ)` in theory),
+/// where frictionless it slides `½gΔt² sin θ` = 17 ε per step. At θ = 30° with μ = 0.2 it slides
+/// by `½gΔt²(sin θ − μ cos θ)` per step within 0.1% (measured: 0.016013 against 0.016013).
+#[test]
+fn friction_holds_below_tan_theta_and_slides_by_the_coulomb_amount_above() {
+    let steps = 10;
+    let theta = 0.3;
+    let s = tilted(theta, 0.6, steps);
+    let held = steady_slide(&s, theta);
+    let eps = newton_model(&s)
+        .contact_barrier
+        .as_ref()
+        .unwrap()
+        .friction
+        .as_ref()
+        .unwrap()
+        .epsilon;
+    let free_slide = HALF_G_DT2 * theta.sin();
+    eprintln!("held: {held:e} per step (ε {eps:e}, frictionless {free_slide:e})");
+    assert!(held.abs() <= 0.5 * eps, "{held} vs ε {eps}");
+
+    let theta = std::f64::consts::FRAC_PI_6;
+    let mu = 0.2;
+    let slid = steady_slide(&tilted(theta, mu, steps), theta);
+    let expected = HALF_G_DT2 * (theta.sin() - mu * theta.cos());
+    eprintln!("slid: {slid:e} per step, Coulomb {expected:e}");
+    assert!(
+        (slid - expected).abs() <= 1e-3 * expected,
+        "{slid} vs {expected}"
+    );
+}
+
+/// With friction on the floor, a dragged cloth's gradients match central differences (the
+/// friction's dependence on the step's start included).
+#[test]
+fn smooth_friction_gradients_match_central_differences() {
+    for (mu, seed) in [(0.3, 1u64), (1.5, 2)] {
+        let mut s = scene(vec![behind("plane")], true);
+        let cloth::scene::Obstacle::Plane(p) = &mut s.obstacles[0] else {
+            unreachable!()
+        };
+        p.friction = Some(mu);
+        s.validate().unwrap();
+        let m = newton_model(&s);
+        assert!(m.contact_barrier.as_ref().unwrap().friction.is_some());
+        let u = controls(&m, DRAG);
+        common::check_gradients_along_a_direction(&m, &u, seed, 0.0, 1e-5)
+            .unwrap_or_else(|e| panic!("μ {mu}: {e}"));
+    }
 }

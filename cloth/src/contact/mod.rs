@@ -8,3 +8,4 @@ pub mod friction;
 pub(crate) mod grid;
 pub mod self_collision;
 mod sets;
+pub mod smooth_friction;

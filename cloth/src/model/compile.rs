@@ -7,6 +7,7 @@ use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_AR
 use crate::contact::barrier::{Barrier, ColliderBarrier};
 use crate::contact::friction::FrictionalContact;
 use crate::contact::self_collision::SelfCollision;
+use crate::contact::smooth_friction::FrictionParams;
 use crate::error::ClothError;
 use crate::newton::settings::{NewtonSettings, Solver};
 use crate::newton::terms::Terms;
@@ -313,16 +314,53 @@ fn collider_barrier(scene: &Scene, mean_edge: f64, colliders: Union) -> Collider
     let spec = scene.physics.contact.as_ref();
     let d_hat = spec.and_then(|c| c.d_hat).unwrap_or(0.1 * mean_edge);
     let dt = scene.physics.dt;
-    let g = scene.physics.gravity.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let g = scene
+        .physics
+        .gravity
+        .iter()
+        .map(|v| v * v)
+        .sum::<f64>()
+        .sqrt();
     let m = scene.cloth.particle_mass;
-    let kappa = spec
-        .and_then(|c| c.stiffness)
-        .unwrap_or(if g > 0.0 { m * g / d_hat } else { m / (dt * dt) });
+    let kappa = spec.and_then(|c| c.stiffness).unwrap_or(if g > 0.0 {
+        m * g / d_hat
+    } else {
+        m / (dt * dt)
+    });
+    let mu = component_friction(&scene.obstacles);
+    assert_eq!(
+        mu.len(),
+        colliders.component_count(),
+        "a coefficient per primitive"
+    );
+    let friction = mu.iter().any(|&m| m > 0.0).then(|| FrictionParams {
+        mu,
+        epsilon: spec.and_then(|c| c.friction_epsilon).unwrap_or(0.1 * d_hat),
+    });
     ColliderBarrier {
         field: Arc::new(colliders),
         barrier: Barrier { d_hat, kappa },
         dt2: dt * dt,
+        friction,
     }
+}
+
+/// The friction coefficient of every primitive of the colliders' union, in its component order
+/// (each sphere of every sphere set, then planes, capsules, boxes and meshes, each in obstacle
+/// order, as [`Union::extend`] appends them); 0 where an obstacle names none.
+fn component_friction(obstacles: &[Obstacle]) -> Vec<f64> {
+    let mut buckets: [Vec<f64>; 5] = Default::default();
+    for o in obstacles.iter().filter(|o| o.role().is_collider()) {
+        let mu = o.friction().unwrap_or(0.0);
+        match o {
+            Obstacle::Spheres(s) => buckets[0].extend(std::iter::repeat_n(mu, s.radii.len())),
+            Obstacle::Plane(_) => buckets[1].push(mu),
+            Obstacle::Capsule(_) => buckets[2].push(mu),
+            Obstacle::Box(_) => buckets[3].push(mu),
+            Obstacle::Mesh(_) => buckets[4].push(mu),
+        }
+    }
+    buckets.concat()
 }
 
 /// The smooth contact model needs every free particle of the rest state strictly outside the

@@ -11,6 +11,7 @@ use super::ordering::elimination_positions;
 use super::psd::{project_psd, projected_local_hessian};
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::contact::barrier::ColliderBarrier;
+use crate::contact::smooth_friction::LaggedContact;
 use crate::model::Model;
 use std::sync::Arc;
 
@@ -58,6 +59,9 @@ pub struct Pattern {
     /// Smooth contact: the barrier potential of every free particle, and the value indices of
     /// each particle's diagonal block (lower triangle, row-major; [`NONE`] above the diagonal).
     barrier: Option<(Arc<ColliderBarrier>, Vec<[u32; 9]>)>,
+    /// Smooth contact with friction: the step's start (full `N × 3` data) and each particle's
+    /// frictional contacts there ([`Pattern::begin_step`]).
+    friction: Option<(Vec<f64>, Vec<Vec<LaggedContact>>)>,
 }
 
 impl Pattern {
@@ -211,6 +215,7 @@ impl Pattern {
             blocks: block_list,
             groups,
             barrier,
+            friction: None,
         }
     }
 
@@ -289,8 +294,61 @@ impl Pattern {
                     phi += b.energy(&x[3 * p..3 * p + 3]);
                 }
             }
+            if let Some((start, lagged)) = &self.friction {
+                for (p, contacts) in lagged.iter().enumerate() {
+                    if !contacts.is_empty() {
+                        let r = 3 * p..3 * p + 3;
+                        phi += b.friction_energy(&x[r.clone()], &start[r], contacts);
+                    }
+                }
+            }
         }
         phi
+    }
+
+    /// Smooth contact with friction: lags the frictional contacts at the step's start `y` (the
+    /// previous state, full `N × 3` data); every energy and assembly until the next call is the
+    /// step's from `y`. Nothing without friction.
+    pub fn begin_step(&mut self, y: &[f64]) {
+        let Some((b, _)) = &self.barrier else {
+            return;
+        };
+        if b.friction.is_none() {
+            return;
+        }
+        let lagged = self
+            .dof_of
+            .iter()
+            .enumerate()
+            .map(|(p, &d)| {
+                if d == NONE {
+                    Vec::new()
+                } else {
+                    b.lagged(&y[3 * p..3 * p + 3])
+                }
+            })
+            .collect();
+        self.friction = Some((y.to_vec(), lagged));
+    }
+
+    /// `y −= D_xyᵀ z` on the free particles' rows of full `N × 3` data: the friction potential's
+    /// coupling of the state to the step's start ([`ColliderBarrier::friction_cross`]), at `x`,
+    /// for the implicit gradient (`z` in degree-of-freedom order). Nothing without friction.
+    pub fn sub_start_coupling(&self, x: &[f64], z: &[f64], y: &mut [f64]) {
+        let (Some((b, _)), Some((start, lagged))) = (&self.barrier, &self.friction) else {
+            return;
+        };
+        for (p, contacts) in lagged.iter().enumerate() {
+            let Some(d) = self.dof(p).filter(|_| !contacts.is_empty()) else {
+                continue;
+            };
+            let r = 3 * p..3 * p + 3;
+            let cross = b.friction_cross(&x[r.clone()], &start[r]);
+            for bcol in 0..3 {
+                let v: f64 = (0..3).map(|a| cross[3 * a + bcol] * z[d + a]).sum();
+                y[3 * p + bcol] -= v;
+            }
+        }
     }
 
     /// `∇Φ(x)` into `grad` (degree-of-freedom order) and, with `values`, the Hessian of `kind`
@@ -387,6 +445,13 @@ impl Pattern {
                 }
             }) {
                 continue;
+            }
+            if let Some((start, lagged)) = &self.friction {
+                let contacts = &lagged[p];
+                if !contacts.is_empty() {
+                    let y = &start[3 * p..3 * p + 3];
+                    barrier.friction_derivatives(point, y, contacts, &mut g, &mut h);
+                }
             }
             let d = d as usize;
             for k in 0..3 {

@@ -124,6 +124,7 @@ impl Model {
         settings: &NewtonSettings,
     ) -> Result<(Tensor, StepStats), ClothError> {
         let xt = self.begin_step(x_prev, u);
+        system.begin_step(x_prev);
         let mut stats = StepStats::default();
         if settings.load_steps <= 1 && settings.load_halvings == 0 {
             // Smooth contact starts from the previous state, which is outside the colliders

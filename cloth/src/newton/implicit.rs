@@ -86,6 +86,7 @@ impl Model {
             // The step's pull-back with one factorization.
             let u_t = self.step_controls(controls, t - 1);
             let xt = self.begin_step(&states[t - 1], &u_t);
+            system.begin_step(&states[t - 1]);
             if let Some(f) = factors.get_mut(t - 1).and_then(Option::take) {
                 system.factor.insert(f);
             }
@@ -120,6 +121,9 @@ impl Model {
                     }
                 }
                 system.pattern.add_mass_times(z, prev.data_mut());
+                system
+                    .pattern
+                    .sub_start_coupling(states[t].data(), z, prev.data_mut());
                 prev.add_assign(&control);
                 adjoints[j] = prev;
             }

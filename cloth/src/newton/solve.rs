@@ -131,6 +131,12 @@ impl NewtonSystem {
         })
     }
 
+    /// Starts a step from `y` (the previous state): lags the smooth contact's friction there
+    /// ([`Pattern::begin_step`]).
+    pub fn begin_step(&mut self, y: &Tensor) {
+        self.pattern.begin_step(y.data());
+    }
+
     /// Assembles `∇Φ` and the Hessian of `kind` at `x`; with contact rows, the active set at `x`
     /// and the reduced matrix `K` ([`Contacts::reduce`]; `curvature` for the exact Lagrangian).
     fn assemble_at(&mut self, x: &[f64], xt: &[f64], kind: HessianKind) {

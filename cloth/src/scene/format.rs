@@ -363,6 +363,11 @@ pub struct ContactSpec {
     /// mass, which holds a resting particle at about 0.65 `d̂`; `m/Δt²` without gravity).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stiffness: Option<f64>,
+    /// Smooth model with friction: the tangential displacement `ε > 0` below which friction is
+    /// smoothed (metres; default a tenth of `d̂`): a particle held by static friction creeps by a
+    /// fraction of it per step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction_epsilon: Option<f64>,
 }
 
 /// The contact model named by `physics.contact.model`.
@@ -379,7 +384,9 @@ pub enum ContactModel {
 impl Physics {
     /// The contact model these settings ask for (rigid when `contact` is absent).
     pub fn contact_model(&self) -> ContactModel {
-        self.contact.as_ref().map_or(ContactModel::Rigid, |c| c.model)
+        self.contact
+            .as_ref()
+            .map_or(ContactModel::Rigid, |c| c.model)
     }
 }
 

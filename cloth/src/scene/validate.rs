@@ -64,6 +64,10 @@ fn validate_contact(c: &ContactSpec, solver: SolverKind) -> Result<(), SceneErro
     if let Some(k) = c.stiffness {
         check_positive("physics.contact.stiffness", k)?;
     }
+    if let Some(e) = c.friction_epsilon {
+        check_positive("physics.contact.friction_epsilon", e)?;
+        check_coordinate("physics.contact.friction_epsilon", e)?;
+    }
     match c.model {
         ContactModel::Rigid => {
             let only_smooth = |field: &str| {
@@ -78,6 +82,9 @@ fn validate_contact(c: &ContactSpec, solver: SolverKind) -> Result<(), SceneErro
             }
             if c.stiffness.is_some() {
                 return Err(only_smooth("physics.contact.stiffness"));
+            }
+            if c.friction_epsilon.is_some() {
+                return Err(only_smooth("physics.contact.friction_epsilon"));
             }
         }
         ContactModel::Smooth if solver != SolverKind::Newton => {
@@ -336,11 +343,16 @@ impl Scene {
                 return Err(invalid("material.bending.stiffness", rigid));
             }
         }
-        if let Some(i) = self.obstacles.iter().position(|o| o.friction().is_some()) {
+        let smooth = self.physics.contact_model() == ContactModel::Smooth;
+        if let Some(i) = (!smooth)
+            .then(|| self.obstacles.iter().position(|o| o.friction().is_some()))
+            .flatten()
+        {
             return Err(invalid(
                 format!("obstacles[{i}].friction"),
-                "friction is a position-based XPBD contact effect, which physics.solver \
-                 \"newton\" does not support; remove it or use physics.solver \"xpbd\"",
+                "friction under physics.solver \"newton\" needs the smooth contact model \
+                 (physics.contact.model \"smooth\"); remove it, use that model, or use \
+                 physics.solver \"xpbd\"",
             ));
         }
         Ok(())

@@ -775,6 +775,40 @@ fn contact_settings_out_of_range_name_their_field() {
     }
     // A valid smooth setting passes validation.
     let mut v = base_value();
-    with_contact("newton", json!({"model": "smooth", "d_hat": 0.02, "stiffness": 50.0}))(&mut v);
+    with_contact(
+        "newton",
+        json!({"model": "smooth", "d_hat": 0.02, "stiffness": 50.0}),
+    )(&mut v);
     Scene::from_json_str(&v.to_string()).expect("valid smooth contact");
+}
+
+/// Friction under Newton needs the smooth contact model; its smoothing displacement is checked.
+#[test]
+fn newton_friction_needs_the_smooth_model() {
+    let frictional_floor = |v: &mut Value| {
+        v["physics"]["solver"] = json!("newton");
+        v["obstacles"] = json!([{"type": "plane", "point": [0, 0, -5], "normal": [0, 0, 1],
+                                 "role": "collider", "friction": 0.4}]);
+    };
+    let (field, msg) = invalid_after(frictional_floor);
+    assert_names_field(
+        &field,
+        &msg,
+        "obstacles[0].friction",
+        "needs the smooth contact model",
+    );
+    let (field, msg) = invalid_after(|v| {
+        frictional_floor(v);
+        v["physics"]["contact"] = json!({"model": "smooth", "friction_epsilon": -1.0});
+    });
+    assert_names_field(
+        &field,
+        &msg,
+        "physics.contact.friction_epsilon",
+        "must be positive",
+    );
+    let mut v = base_value();
+    frictional_floor(&mut v);
+    v["physics"]["contact"] = json!({"model": "smooth"});
+    Scene::from_json_str(&v.to_string()).expect("friction under the smooth model");
 }
