@@ -146,8 +146,8 @@ proptest! {
         let cuboid = Cuboid::new([0.1, 0.0, 0.0], [0.3, 0.5, 0.2], Some([0.9, 0.1, 0.3, -0.2]));
         let union = Union { meshes: vec![mesh.clone()], capsules: vec![cap.clone()], ..Default::default() };
         let sampled = |f: &dyn Fn(&Vector3<f64>) -> f64| (0..=64).map(|k| f(&(a + (b - a) * (k as f64 / 64.0)))).fold(f64::INFINITY, f64::min);
-        // The unbounded minimum is the 65 samples' (as before the bound existed).
-        prop_assert_eq!(mesh.min_along_segment(&a, &b).to_bits(), sampled(&|p| mesh.distance(p)).to_bits());
+        // The unbounded minimum is a lower bound: never above a sample.
+        prop_assert!(mesh.min_along_segment(&a, &b) <= sampled(&|p| mesh.distance(p)) + 1e-12);
         check_bounded(mesh.min_along_segment(&a, &b), mesh.min_along_segment_within(&a, &b, bound), bound, "mesh")?;
         check_bounded(cap.min_along_segment(&a, &b), cap.min_along_segment_within(&a, &b, bound), bound, "capsule")?;
         check_bounded(cuboid.min_along_segment(&a, &b), cuboid.min_along_segment_within(&a, &b, bound), bound, "box")?;

@@ -31,10 +31,42 @@ pub fn min_along_segments(field: &Union, a: &Tensor, b: &Tensor) -> f64 {
     })
 }
 
+/// [`min_along_segments`] and the particle whose path attains it (the first on a tie); `None`
+/// for a state without particles.
+pub fn deepest_along_segments(field: &Union, a: &Tensor, b: &Tensor) -> Option<(f64, usize)> {
+    deepest(a.rows(), |p, bound| {
+        field.min_along_segment_within(&point(a, p), &point(b, p), bound)
+    })
+}
+
+/// Every particle's smallest signed distance to `field` along its straight path from `a` to `b`,
+/// exact (bitwise [`SignedDistance::min_along_segment`]) wherever it is within `band` of the
+/// smallest one (which is exact); elsewhere a lower bound above the smallest one plus `band`.
+pub fn segment_distances_near_min(field: &Union, a: &Tensor, b: &Tensor, band: f64) -> Vec<f64> {
+    let query =
+        |p: usize, bound: f64| field.min_along_segment_within(&point(a, p), &point(b, p), bound);
+    let mut values = refined(a.rows(), f64::NEG_INFINITY, query);
+    let near = values.iter().copied().fold(f64::INFINITY, f64::min) + band;
+    for (p, v) in values.iter_mut().enumerate() {
+        if *v <= near {
+            *v = query(p, near);
+        }
+    }
+    values
+}
+
 /// The smallest signed distance of any particle of `x` to `field`: bitwise the minimum of
 /// [`SignedDistance::distance`] over the particles.
 pub fn min_distance(field: &Union, x: &Tensor) -> f64 {
     smallest(x.rows(), |p, bound| {
+        field.distance_within(&point(x, p), bound)
+    })
+}
+
+/// [`min_distance`] and the particle attaining it (the first on a tie); `None` for a state
+/// without particles.
+pub fn deepest_particle(field: &Union, x: &Tensor) -> Option<(f64, usize)> {
+    deepest(x.rows(), |p, bound| {
         field.distance_within(&point(x, p), bound)
     })
 }
@@ -45,6 +77,13 @@ pub fn min_distance(field: &Union, x: &Tensor) -> f64 {
 fn smallest(n: usize, query: impl Fn(usize, f64) -> f64) -> f64 {
     let values = refined(n, f64::NEG_INFINITY, query);
     values.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+/// [`smallest`] and the first index attaining it; `None` when `n = 0`.
+fn deepest(n: usize, query: impl Fn(usize, f64) -> f64) -> Option<(f64, usize)> {
+    let values = refined(n, f64::NEG_INFINITY, query);
+    let min = values.iter().copied().fold(f64::INFINITY, f64::min);
+    values.iter().position(|&v| v == min).map(|p| (min, p))
 }
 
 /// `n` values from a bounded query at `bound` (exact where at most `bound`), the smallest then

@@ -155,35 +155,60 @@ impl Bvh {
     /// [`Bvh::nearest`]); otherwise `Err` with a lower bound, above `bound_squared`, of every
     /// triangle's squared distance (the smallest box distance of the subtrees it skipped and
     /// triangle distance of the leaves it read).
-    ///
-    /// Depth first, nearer child first; a subtree is skipped as soon as its box is farther than
-    /// the best triangle so far (or the bound). No allocation: the stack is an array, as deep
-    /// as the tree.
     pub fn nearest_within(
         &self,
         p: &Vector3<f64>,
         bound_squared: f64,
         distance_squared: impl Fn(usize) -> f64,
     ) -> Result<(usize, f64), f64> {
+        self.nearest_by(
+            bound_squared,
+            |min, max| {
+                Aabb {
+                    min: *min,
+                    max: *max,
+                }
+                .distance_squared(p)
+            },
+            distance_squared,
+        )
+    }
+
+    /// The triangle with the smallest `measure(triangle)` (the smaller index on a tie), given a
+    /// lower bound `box_lower(min, max)` of the measure of every triangle in a box: `Ok` with it
+    /// and its measure when that is at most `bound`; otherwise `Err` with a lower bound, above
+    /// `bound`, of every triangle's measure (the smallest box bound of the subtrees it skipped
+    /// and measure of the leaves it read). A point's squared distance is one such measure
+    /// ([`Bvh::nearest_within`]); a segment's is another.
+    ///
+    /// Depth first, nearer child first; a subtree is skipped as soon as its box bound exceeds
+    /// the best measure so far (or the bound). No allocation: the stack is an array, as deep
+    /// as the tree.
+    pub fn nearest_by(
+        &self,
+        bound: f64,
+        box_lower: impl Fn(&[f64; 3], &[f64; 3]) -> f64,
+        measure: impl Fn(usize) -> f64,
+    ) -> Result<(usize, f64), f64> {
+        let lower = |id: usize| {
+            let b = self.nodes[id].bounds();
+            box_lower(&b.min, &b.max)
+        };
         // `best.0 == usize::MAX` until a triangle within the bound is found; `best.1` is the
-        // pruning radius (squared).
-        let mut best = (usize::MAX, bound_squared);
+        // pruning radius.
+        let mut best = (usize::MAX, bound);
         let mut beyond = f64::INFINITY;
         let mut stack = Stack::default();
-        stack.push_within(
-            (self.nodes[0].bounds().distance_squared(p), 0),
-            best.1,
-            &mut beyond,
-        );
-        while let Some((lower, id)) = stack.pop() {
-            if lower > best.1 {
-                beyond = beyond.min(lower);
+        stack.push_within((lower(0), 0), best.1, &mut beyond);
+        while let Some((low, id)) = stack.pop() {
+            if low > best.1 {
+                beyond = beyond.min(low);
                 continue;
             }
             match &self.nodes[id] {
                 Node::Leaf { start, end, .. } => {
                     for &t in &self.order[*start..*end] {
-                        let d = distance_squared(t);
+                        let d = measure(t);
                         if d < best.1 || (d == best.1 && t < best.0) {
                             best = (t, d);
                         } else {
@@ -192,7 +217,7 @@ impl Bvh {
                     }
                 }
                 Node::Inner { children, .. } => {
-                    let [a, b] = children.map(|c| (self.nodes[c].bounds().distance_squared(p), c));
+                    let [a, b] = children.map(|c| (lower(c), c));
                     // Push the farther child first, so the nearer one is visited first.
                     let (near, far) = if b.0 < a.0 { (b, a) } else { (a, b) };
                     stack.push_within(far, best.1, &mut beyond);

@@ -9,8 +9,8 @@
 //! consistently oriented mesh.
 
 use super::bvh::Bvh;
-use super::shapes::Surface;
-use super::SignedDistance;
+use super::shapes::{closest_between_segments, Surface};
+use super::{lipschitz_segment_min, SegmentMin, SignedDistance, SEGMENT_TOLERANCE};
 use crate::geometry::{constant, norm};
 use autodiff::Real;
 use nalgebra::Vector3;
@@ -164,6 +164,65 @@ impl MeshSdf {
         Ok((t, self.closest(t, p).1))
     }
 
+    /// The smallest distance (unsigned) between the segment `a → b` and triangle `t`, and the
+    /// segment's parameter where it is attained: 0 where the segment crosses the triangle;
+    /// otherwise the smallest of an end against the triangle and the segment against an edge.
+    fn segment_triangle(&self, t: usize, a: &Vector3<f64>, b: &Vector3<f64>) -> (f64, f64) {
+        let corners = [self.corner(t, 0), self.corner(t, 1), self.corner(t, 2)];
+        let d = b - a;
+        let n = (corners[1] - corners[0]).cross(&(corners[2] - corners[0]));
+        let across = d.dot(&n);
+        if across != 0.0 {
+            let s = (corners[0] - a).dot(&n) / across;
+            if (0.0..=1.0).contains(&s) {
+                let x = a + d * s;
+                if (self.closest(t, &x).0 - x).norm() <= 1e-12 * (1.0 + x.norm()) {
+                    return (0.0, s);
+                }
+            }
+        }
+        let mut best = ((self.closest(t, a).0 - a).norm(), 0.0);
+        let end = (self.closest(t, b).0 - b).norm();
+        if end < best.0 {
+            best = (end, 1.0);
+        }
+        for k in 0..3 {
+            let (p, q) = (corners[k], corners[(k + 1) % 3]);
+            let (s, u) = closest_between_segments(a, b, &p, &q);
+            let dist = (a + d * s - (p + (q - p) * u)).norm();
+            if dist < best.0 {
+                best = (dist, s);
+            }
+        }
+        best
+    }
+
+    /// The smallest distance (unsigned) between the segment `a → b` and the mesh's surface, and
+    /// the segment's parameter where it is attained: a BVH search whose boxes are bounded below
+    /// by the distance between the box and the segment's bounding box, and by the midpoint's
+    /// box distance less half the segment's length.
+    fn segment_surface_distance(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> (f64, f64) {
+        let (mid, half) = ((a + b) * 0.5, 0.5 * (b - a).norm());
+        let box_lower = |min: &[f64; 3], max: &[f64; 3]| {
+            let gap = |k: usize| {
+                let (lo, hi) = (a[k].min(b[k]), a[k].max(b[k]));
+                (min[k] - hi).max(lo - max[k]).max(0.0)
+            };
+            let boxes = (0..3).map(|k| gap(k).powi(2)).sum::<f64>().sqrt();
+            let centre = (0..3)
+                .map(|k| (min[k] - mid[k]).max(mid[k] - max[k]).max(0.0).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            boxes.max(centre - half)
+        };
+        match self.inner.bvh.nearest_by(f64::INFINITY, box_lower, |t| {
+            self.segment_triangle(t, a, b).0
+        }) {
+            Ok((t, _)) => self.segment_triangle(t, a, b),
+            Err(_) => (f64::INFINITY, 0.0),
+        }
+    }
+
     /// The signed distance of `p` to `feature` of triangle `t` (module docs).
     fn signed_distance_to<R: Real>(&self, p: &Vector3<R>, t: usize, feature: Feature) -> R {
         let m = &*self.inner;
@@ -215,6 +274,25 @@ impl SignedDistance for MeshSdf {
             }
             Err(_) => self.distance(p),
         }
+    }
+
+    /// A path that stays outside the mesh is answered exactly (to rounding): its smallest
+    /// distance to the surface, from a BVH search over the triangles
+    /// (`segment_surface_distance`). A path that starts inside or touches the surface is
+    /// searched by [`lipschitz_segment_min`]: a lower bound within [`SEGMENT_TOLERANCE`], or
+    /// after its 4096 evaluations (a path running parallel to a face inside) a looser one, its
+    /// `gap` saying by how much at most.
+    fn segment_min(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> SegmentMin {
+        let (surface, s) = self.segment_surface_distance(a, b);
+        if surface > 0.0 && self.distance(a) > 0.0 {
+            let attained = self.distance(&(a + (b - a) * s));
+            return SegmentMin {
+                value: surface.min(attained),
+                at: s,
+                attained,
+            };
+        }
+        lipschitz_segment_min(|p| self.distance(p), a, b, SEGMENT_TOLERANCE)
     }
 
     /// Forward duals on [`MeshSdf::distance_within`] (as the default

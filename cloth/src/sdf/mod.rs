@@ -9,9 +9,11 @@ pub(crate) mod batch;
 pub(crate) mod bvh;
 mod mesh;
 pub(crate) mod rows;
+mod segment;
 mod shapes;
 
 pub use mesh::MeshSdf;
+pub use segment::{lipschitz_segment_min, SegmentMin, SEGMENT_TOLERANCE};
 pub use shapes::{sphere_surface, Capsule, Cuboid, Surface};
 
 use crate::geometry::norm;
@@ -61,12 +63,21 @@ pub trait SignedDistance: Send + Sync + 'static {
         self.distance_gradient(p)
     }
 
-    /// The smallest signed distance along the straight segment `a → b` (`f64` only).
+    /// The smallest signed distance along the straight segment `a → b` and where it is
+    /// attained (`f64` only): exact (to rounding) for sphere sets, planes, capsules and boxes.
     ///
-    /// The default samples 65 points ([`SignedDistance::min_along_segment_within`] without a
-    /// bound); sphere sets and planes answer exactly.
+    /// The default is [`lipschitz_segment_min`]: a branch and bound on the 1-Lipschitz
+    /// distance whose `value` is a lower bound of the minimum, never above it and within
+    /// [`SEGMENT_TOLERANCE`] of it (what meshes answer).
+    fn segment_min(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> SegmentMin {
+        lipschitz_segment_min(|p| self.distance(p), a, b, SEGMENT_TOLERANCE)
+    }
+
+    /// The smallest signed distance along the straight segment `a → b` (`f64` only):
+    /// [`SignedDistance::segment_min`]'s value, a lower bound that is exact for every
+    /// primitive but meshes.
     fn min_along_segment(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
-        self.min_along_segment_within(a, b, f64::INFINITY)
+        self.segment_min(a, b).value
     }
 
     /// [`SignedDistance::min_along_segment`] (bitwise) wherever that is at most `bound`;
@@ -74,21 +85,32 @@ pub trait SignedDistance: Send + Sync + 'static {
     ///
     /// The default first bounds the whole segment from its midpoint `m` (half-length `h`):
     /// `min ≥ d(m) − h` (1-Lipschitz), less a rounding slack of `1e-12·(1 + |d(m)| + h)`; when
-    /// that exceeds `bound`, it is the answer. Otherwise it samples 65 points with
-    /// [`SignedDistance::distance_within`].
+    /// that exceeds `bound`, it is the answer. Otherwise it is
+    /// [`SignedDistance::min_along_segment`].
     fn min_along_segment_within(&self, a: &Vector3<f64>, b: &Vector3<f64>, bound: f64) -> f64 {
-        if bound < f64::INFINITY {
-            let half = 0.5 * (b - a).norm();
-            let centre = self.distance_within(&(a + (b - a) * 0.5), bound + half);
-            let lower = centre - half - 1e-12 * (1.0 + centre.abs() + half);
-            if lower > bound {
-                return lower;
-            }
+        match midpoint_lower_bound(self, a, b, bound) {
+            Some(lower) if lower > bound => lower,
+            _ => self.min_along_segment(a, b),
         }
-        (0..=64)
-            .map(|k| self.distance_within(&(a + (b - a) * (k as f64 / 64.0)), bound))
-            .fold(f64::INFINITY, f64::min)
     }
+}
+
+/// A cheap lower bound of `field`'s smallest value along `a → b` from its midpoint `m`
+/// (half-length `h`): `d(m) − h` (1-Lipschitz), less a rounding slack of
+/// `1e-12·(1 + |d(m)| + h)`, with `d(m)` queried within `bound + h`. `None` for an unbounded
+/// query (`bound = ∞`), which wants the exact minimum anyway.
+pub(crate) fn midpoint_lower_bound<S: SignedDistance + ?Sized>(
+    field: &S,
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    bound: f64,
+) -> Option<f64> {
+    if bound == f64::INFINITY {
+        return None;
+    }
+    let half = 0.5 * (b - a).norm();
+    let centre = field.distance_within(&(a + (b - a) * 0.5), bound + half);
+    Some(centre - half - 1e-12 * (1.0 + centre.abs() + half))
 }
 
 /// A union of spheres: `min_s (|p − c_s| − r_s)`.
@@ -144,12 +166,7 @@ impl SignedDistance for SphereSet {
             .zip(&self.radii)
             .map(|(c, &r)| {
                 let c = Vector3::new(c[0], c[1], c[2]);
-                let s = if len2 > 0.0 {
-                    ((c - a).dot(&ab) / len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                (a + ab * s - c).norm() - r
+                (a + ab * sphere_segment_param(a, &ab, len2, &c) - c).norm() - r
             })
             .fold(f64::INFINITY, f64::min)
     }
@@ -157,6 +174,38 @@ impl SignedDistance for SphereSet {
     /// Exact: [`SignedDistance::min_along_segment`].
     fn min_along_segment_within(&self, a: &Vector3<f64>, b: &Vector3<f64>, _: f64) -> f64 {
         self.min_along_segment(a, b)
+    }
+
+    /// Exact: the nearest sphere's [`sphere_segment_param`] (the first sphere on a tie).
+    fn segment_min(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> SegmentMin {
+        let ab = b - a;
+        let len2 = ab.norm_squared();
+        let mut best = SegmentMin::exact(f64::INFINITY, 0.0);
+        for (c, &r) in self.centers.iter().zip(&self.radii) {
+            let c = Vector3::new(c[0], c[1], c[2]);
+            let s = sphere_segment_param(a, &ab, len2, &c);
+            let d = (a + ab * s - c).norm() - r;
+            if d < best.value {
+                best = SegmentMin::exact(d, s);
+            }
+        }
+        best
+    }
+}
+
+/// The parameter `s ∈ [0, 1]` of the point of the segment `a → a + ab` nearest to the centre `c`
+/// (`len2 = |ab|²`; 0 for a segment of zero length): where the distance to a sphere around `c`
+/// is smallest along the segment.
+pub(crate) fn sphere_segment_param(
+    a: &Vector3<f64>,
+    ab: &Vector3<f64>,
+    len2: f64,
+    c: &Vector3<f64>,
+) -> f64 {
+    if len2 > 0.0 {
+        ((c - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
     }
 }
 
@@ -194,6 +243,17 @@ impl SignedDistance for Plane {
     /// Exact: [`SignedDistance::min_along_segment`].
     fn min_along_segment_within(&self, a: &Vector3<f64>, b: &Vector3<f64>, _: f64) -> f64 {
         self.min_along_segment(a, b)
+    }
+
+    /// Exact: the distance is linear along the segment, so its minimum is at an end (`a` on a
+    /// tie).
+    fn segment_min(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> SegmentMin {
+        let (da, db) = (self.distance(a), self.distance(b));
+        if db < da {
+            SegmentMin::exact(db, 1.0)
+        } else {
+            SegmentMin::exact(da, 0.0)
+        }
     }
 }
 

@@ -1,7 +1,7 @@
-//! Capsules and (optionally rotated) boxes, generic over [`Real`]; and the surface tessellations
-//! figures draw obstacles with.
+//! Capsules and (optionally rotated) boxes, generic over [`Real`], with their exact minima along
+//! segments; and the surface tessellations figures draw obstacles with.
 
-use super::SignedDistance;
+use super::{SegmentMin, SignedDistance};
 use crate::geometry::{constant, norm};
 use autodiff::Real;
 use nalgebra::Vector3;
@@ -46,6 +46,51 @@ impl SignedDistance for Capsule {
         };
         let closest = a + constant::<R>(&ab) * t;
         norm(&(p - closest)) - self.radius
+    }
+
+    /// Exact: the distance grows with the distance to the axis, so its minimum is at the
+    /// segment's point nearest to the axis segment ([`closest_between_segments`]).
+    fn segment_min(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> SegmentMin {
+        let (s, _) = closest_between_segments(a, b, &Vector3::from(self.a), &Vector3::from(self.b));
+        SegmentMin::exact(self.distance(&(a + (b - a) * s)), s)
+    }
+}
+
+/// The parameters `(s, t) ∈ [0, 1]²` of the closest points `p₁ + s(q₁ − p₁)` and
+/// `p₂ + t(q₂ − p₂)` of two segments (Ericson, *Real-Time Collision Detection*, 5.1.9); a segment
+/// of zero length is a point (parameter 0), parallel segments get one closest pair of many.
+pub fn closest_between_segments(
+    p1: &Vector3<f64>,
+    q1: &Vector3<f64>,
+    p2: &Vector3<f64>,
+    q2: &Vector3<f64>,
+) -> (f64, f64) {
+    let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
+    let (a, e, f) = (d1.dot(&d1), d2.dot(&d2), d2.dot(&r));
+    if a == 0.0 && e == 0.0 {
+        return (0.0, 0.0);
+    }
+    if a == 0.0 {
+        return (0.0, (f / e).clamp(0.0, 1.0));
+    }
+    let c = d1.dot(&r);
+    if e == 0.0 {
+        return ((-c / a).clamp(0.0, 1.0), 0.0);
+    }
+    let b = d1.dot(&d2);
+    let denom = a * e - b * b;
+    let s = if denom > 0.0 {
+        ((b * f - c * e) / denom).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let t = (b * s + f) / e;
+    if t < 0.0 {
+        ((-c / a).clamp(0.0, 1.0), 0.0)
+    } else if t > 1.0 {
+        (((b - c) / a).clamp(0.0, 1.0), 1.0)
+    } else {
+        (s, t)
     }
 }
 
@@ -183,6 +228,12 @@ impl Cuboid {
         }
     }
 
+    /// The world point `p` in body coordinates, `Rᵀ(p − c)`.
+    fn to_body(&self, p: &Vector3<f64>) -> [f64; 3] {
+        let rel: [f64; 3] = std::array::from_fn(|i| p[i] - self.center[i]);
+        std::array::from_fn(|k| (0..3).map(|i| rel[i] * self.rotation[i][k]).sum::<f64>())
+    }
+
     /// The body-frame point `q` in world coordinates, `c + R q`.
     fn to_world(&self, q: [f64; 3]) -> [f64; 3] {
         std::array::from_fn(|i| {
@@ -232,6 +283,88 @@ impl SignedDistance for Cuboid {
             d[0].max(d[1]).max(d[2])
         }
     }
+
+    /// Exact: the distance is convex along the segment and, between the parameters where a
+    /// body coordinate crosses `−h`, `0` or `h`, either `√(quadratic)` (outside: the axes
+    /// beyond their faces are fixed there) or a maximum of three linear functions (inside).
+    /// The minimum is at a piece's end, a quadratic's vertex or two linear functions'
+    /// crossing; the distance is evaluated at each candidate and the smallest kept (the
+    /// smallest parameter on a tie).
+    fn segment_min(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> SegmentMin {
+        let (qa, qb) = (self.to_body(a), self.to_body(b));
+        let e: [f64; 3] = std::array::from_fn(|k| qb[k] - qa[k]);
+        let h = self.half_extents;
+        let mut cuts = vec![0.0, 1.0];
+        for k in 0..3 {
+            if e[k] != 0.0 {
+                for level in [-h[k], 0.0, h[k]] {
+                    let s = (level - qa[k]) / e[k];
+                    if s > 0.0 && s < 1.0 {
+                        cuts.push(s);
+                    }
+                }
+            }
+        }
+        cuts.sort_by(f64::total_cmp);
+        cuts.dedup();
+        let mut candidates = cuts.clone();
+        for w in cuts.windows(2) {
+            candidates.extend(box_piece_candidates(&qa, &e, &h, w[0], w[1]));
+        }
+        candidates.sort_by(f64::total_cmp);
+        let value = |s: f64| self.distance(&(a + (b - a) * s));
+        candidates.into_iter().map(|s| (value(s), s)).fold(
+            SegmentMin::exact(f64::INFINITY, 0.0),
+            |best, (v, s)| {
+                if v < best.value {
+                    SegmentMin::exact(v, s)
+                } else {
+                    best
+                }
+            },
+        )
+    }
+}
+
+/// The candidate minimizers of a box's distance inside the piece `[s0, s1]` of the body-frame
+/// segment `q(s) = qa + s·e` (half extents `h`), on which no coordinate crosses `−h`, `0` or `h`:
+/// outside, the vertex of `Σ (|q_k| − h_k)²` over the axes beyond their faces, clamped to the
+/// piece; inside, the crossings of two of the linear `|q_k| − h_k`.
+fn box_piece_candidates(qa: &[f64; 3], e: &[f64; 3], h: &[f64; 3], s0: f64, s1: f64) -> Vec<f64> {
+    let mid = 0.5 * (s0 + s1);
+    // On the piece, |q_k| − h_k = α_k + β_k s.
+    let line: [(f64, f64); 3] = std::array::from_fn(|k| {
+        let sign = if qa[k] + mid * e[k] < 0.0 { -1.0 } else { 1.0 };
+        (sign * qa[k] - h[k], sign * e[k])
+    });
+    let outside: Vec<(f64, f64)> = line
+        .iter()
+        .copied()
+        .filter(|(al, be)| al + be * mid > 0.0)
+        .collect();
+    if !outside.is_empty() {
+        let a2: f64 = outside.iter().map(|(_, be)| be * be).sum();
+        let b1: f64 = outside.iter().map(|(al, be)| al * be).sum();
+        return if a2 > 0.0 {
+            vec![(-b1 / a2).clamp(s0, s1)]
+        } else {
+            Vec::new()
+        };
+    }
+    let mut out = Vec::new();
+    for i in 0..3 {
+        for j in i + 1..3 {
+            let (ai, bi) = line[i];
+            let (aj, bj) = line[j];
+            if bi != bj {
+                let s = (aj - ai) / (bi - bj);
+                if s > s0 && s < s1 {
+                    out.push(s);
+                }
+            }
+        }
+    }
+    out
 }
 
 #[cfg(test)]
