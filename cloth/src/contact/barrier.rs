@@ -280,4 +280,26 @@ mod tests {
         // Sideways: no approach, the whole step.
         assert_eq!(c.max_step(std::iter::once((&p[..], [1.0, 0.0, 0.0]))), 1.0);
     }
+
+    #[test]
+    fn a_thin_plate_stops_a_crossing_move() {
+        let mut field = Union::default();
+        field.boxes.push(crate::sdf::Cuboid::new(
+            [0.0, -1.4, 1.5],
+            [0.3, 0.001, 0.3],
+            None,
+        ));
+        let c = ColliderBarrier {
+            field: Arc::new(field),
+            barrier: Barrier {
+                d_hat: 0.03,
+                kappa: 1.0,
+            },
+            dt2: 0.01,
+            friction: None,
+        };
+        let p = [-0.25, -1.5, 1.75];
+        let alpha = c.max_step(std::iter::once((&p[..], [0.0, 0.25, 0.0])));
+        assert!(alpha * 0.25 <= 0.099 - 0.0099 + 1e-12, "{alpha}");
+    }
 }
