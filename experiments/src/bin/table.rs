@@ -13,7 +13,8 @@
 //! is run unchanged for `rigid` when it names no model (rigid is the default). A model the
 //! simulator rejects for a scene (the scene does not load, validate or compile with it) is a row
 //! `unsupported: <its error>`; a plan whose child fails is a row `error: <its error>`. Neither is
-//! skipped.
+//! skipped. That check runs in this program, on the `cloth` it was built with: build both
+//! binaries from the same commit (a stale `clothopt` beside it plans with other code).
 
 use anyhow::{ensure, Context, Result};
 use clap::{Parser, ValueEnum};
@@ -81,6 +82,7 @@ impl ContactModel {
 #[derive(Serialize)]
 struct Settings {
     dir: PathBuf,
+    clothopt: PathBuf,
     time_limit_s: f64,
     search: SearchMode,
     models: Vec<ContactModel>,
@@ -107,6 +109,9 @@ struct Plan {
     reason: Reason,
     /// The solver's status (`converged`, `no_progress`, `time_limit`, …).
     status: String,
+    /// The first plan's status (from the initial guess; the route search, when it ran, planned
+    /// others after it).
+    first_status: String,
     /// `optimize`'s exit code (0 achieved, 3 safe but not achieved, 4 no safe plan).
     exit_code: i32,
     max_target_error: f64,
@@ -148,6 +153,7 @@ fn main() -> Result<()> {
     ensure!(!cli.models.is_empty(), "--models: name at least one model");
     let clothopt = clothopt_binary(cli.clothopt.as_deref())?;
     let scenes = scene_files(&cli.dir, &cli.scenes)?;
+    eprintln!("planning with {}", clothopt.display());
     if let Some(dir) = &cli.results_dir {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("--results-dir: cannot create {}", dir.display()))?;
@@ -180,6 +186,7 @@ fn main() -> Result<()> {
     if let Some(out) = &cli.out {
         let settings = Settings {
             dir: cli.dir.clone(),
+            clothopt: clothopt.clone(),
             time_limit_s: cli.time_limit,
             search: cli.search,
             models: cli.models.clone(),
@@ -282,6 +289,11 @@ fn run_one(
         safe: result.is_feasible() && result.is_safe(),
         reason: result.task.reason,
         status: result.status.clone(),
+        first_status: result
+            .search
+            .as_ref()
+            .and_then(|s| s.candidates.first())
+            .map_or(result.status.clone(), |c| c.status.clone()),
         exit_code,
         max_target_error: result.task.max_target_error,
         targets_reached: result.task.targets_reached,
@@ -376,11 +388,11 @@ fn last_line(text: &str) -> String {
 }
 
 /// One line of the table: the scene and model, then the plan's cells.
-fn line(scene: &str, model: &str, cells: [&str; 9]) -> String {
-    let [verdict, safe, reason, status, error, targets, iters, sims, wall] = cells;
+fn line(scene: &str, model: &str, cells: [&str; 10]) -> String {
+    let [verdict, safe, reason, status, first, error, targets, iters, sims, wall] = cells;
     format!(
-        "{scene:<14} {model:<7} {verdict:<9} {safe:<5} {reason:<15} {status:<14} {error:>13} \
-         {targets:>7} {iters:>6} {sims:>12} {wall:>8}"
+        "{scene:<14} {model:<7} {verdict:<9} {safe:<5} {reason:<15} {status:<14} {first:<16} \
+         {error:>13} {targets:>7} {iters:>6} {sims:>12} {wall:>8}"
     )
 }
 
@@ -390,6 +402,7 @@ fn print_table(rows: &[Row]) {
         "safe",
         "reason",
         "status",
+        "first plan",
         "largest error",
         "targets",
         "iters",
@@ -410,6 +423,7 @@ fn print_table(rows: &[Row]) {
                     if p.safe { "yes" } else { "no" }.to_string(),
                     reason,
                     p.status.clone(),
+                    p.first_status.clone(),
                     fmt_opt(Some(p.max_target_error), 4),
                     format!("{}/{}", p.targets_reached, p.targets),
                     p.iterations.to_string(),
