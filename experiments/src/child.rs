@@ -15,15 +15,24 @@ pub fn this_program() -> Result<Command> {
 /// Runs `command` and returns its standard output; `what` names it in the errors (start failure,
 /// or a non-zero exit with the child's standard error).
 pub fn run(command: &mut Command, what: &str) -> Result<String> {
+    run_accepting(command, what, &[0]).map(|(_, stdout)| stdout)
+}
+
+/// Runs `command` and returns its exit code and standard output when the code is one of `ok`
+/// (a program whose non-zero codes carry a verdict, like `clothopt optimize`'s 3 and 4); any
+/// other exit, or a signal, is an error with the child's standard error.
+pub fn run_accepting(command: &mut Command, what: &str, ok: &[i32]) -> Result<(i32, String)> {
     let out = command
         .output()
         .with_context(|| format!("cannot start {what}"))?;
+    let code = out.status.code().filter(|c| ok.contains(c));
     ensure!(
-        out.status.success(),
+        code.is_some(),
         "{what} failed: {}",
         String::from_utf8_lossy(&out.stderr).trim()
     );
-    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    Ok((code.unwrap_or_default(), stdout))
 }
 
 /// The last line of `text` that starts with `{`, parsed as JSON (children may print progress
@@ -95,5 +104,15 @@ mod tests {
         let mut ok = Command::new("sh");
         ok.args(["-c", "echo 42"]);
         assert_eq!(run(&mut ok, "the child").unwrap().trim(), "42");
+    }
+
+    #[test]
+    fn accepted_exit_codes_are_results() {
+        let mut c = Command::new("sh");
+        c.args(["-c", "echo plan; exit 3"]);
+        let (code, out) = run_accepting(&mut c, "the child", &[0, 3, 4]).unwrap();
+        assert_eq!((code, out.trim()), (3, "plan"));
+        let e = run_accepting(&mut c, "the child", &[0, 4]).unwrap_err();
+        assert_eq!(e.to_string(), "the child failed: ");
     }
 }

@@ -1,10 +1,12 @@
 //! What the experiment binaries (`src/bin/`) share: timing and memory measurement
 //! ([`measure`]), running child processes and the JAX reference ([`child`]), and report output
-//! — verdicts, table cells, JSON files ([`report`]).
+//! — verdicts, table cells, JSON files ([`report`]) — and the scene files of a benchmark set
+//! ([`scene_set`]).
 //!
 //! Run an experiment with `cargo run --release -p experiments --bin NAME -- ARGS`; the binaries
-//! are `safety`, `ablation`, `accuracy_vs_time`, `routes` and `speed_vs_jax`.
+//! are `safety`, `ablation`, `accuracy_vs_time`, `routes`, `roughness`, `speed_vs_jax` and `table`.
 
 pub mod child;
 pub mod measure;
 pub mod report;
+pub mod scene_set;

@@ -39,6 +39,13 @@ pub fn median(v: &mut [f64]) -> f64 {
     }
 }
 
+/// Runs `f` once and returns its result with the wall-clock seconds it took.
+pub fn timed<T>(f: impl FnOnce() -> Result<T>) -> Result<(T, f64)> {
+    let t = Instant::now();
+    let value = f()?;
+    Ok((value, t.elapsed().as_secs_f64()))
+}
+
 /// Times `f` over `reps` runs, stopping early once `budget_s` is spent (always at least one run).
 /// Each result goes through `std::hint::black_box`, so the work is not optimized away.
 pub fn time_runs<T>(
@@ -103,6 +110,14 @@ mod tests {
         assert_eq!(t.runs, 1);
         // Zero repetitions still time one run.
         assert_eq!(time_runs(0, f64::INFINITY, || Ok(())).unwrap().runs, 1);
+    }
+
+    #[test]
+    fn timed_returns_the_value_and_its_time() {
+        let (v, s) = timed(|| Ok(7)).unwrap();
+        assert_eq!(v, 7);
+        assert!(s >= 0.0);
+        assert!(timed(|| -> Result<()> { anyhow::bail!("boom") }).is_err());
     }
 
     #[test]

@@ -8,11 +8,14 @@
 //! A smooth objective gives deviations that shrink with `h`; a rough one (a rollout whose contact
 //! set, stick/slip state or buckling changes between nearby controls) does not. With
 //! `--sensitivity`, also the rollout's per-step sensitivity `max |x_t(u + hd) − x_t(u)| / h`.
+//! With `--controls FILE` (a controls file or a result, e.g. a stalled plan) it measures there
+//! instead of at the initial guess.
 //!
 //! ```sh
 //! cargo run --release -p experiments --bin roughness -- fold
 //! cargo run --release -p experiments --bin roughness -- fold --no-self-collision --friction 0
 //! cargo run --release -p experiments --bin roughness -- fold --sweeps 2000 --sensitivity
+//! cargo run --release -p experiments --bin roughness -- fold --controls plan.json
 //! ```
 //!
 //! A measurement, not a test: it changes nothing and writes nothing but its table (and `--out`).
@@ -24,12 +27,15 @@ use cloth::Model;
 use clothopt::plan::initial_controls;
 use clothopt::problem::{TaskOptions, TrajectoryProblem};
 use clothopt::request::load_scene;
+use clothopt::result::controls_from_nested;
 use experiments::report::write_json;
 use optim::Problem;
 use std::path::PathBuf;
 
 #[derive(Parser)]
-#[command(about = "Roughness of a scene's objective along −∇f from its initial guess")]
+#[command(
+    about = "Roughness of a scene's objective along −∇f from its initial guess or given controls"
+)]
 struct Args {
     /// A built-in scene name or a scene JSON file.
     scene: String,
@@ -48,6 +54,10 @@ struct Args {
     /// Set every collider's friction coefficient to this value (0: frictionless).
     #[arg(long)]
     friction: Option<f64>,
+    /// Measure at these controls instead of the scene's initial guess: a controls file
+    /// `{"controls": [[[x, y, z], …], …]}` or any result file (such as a plan's end).
+    #[arg(long)]
+    controls: Option<PathBuf>,
     /// Also print the rollout's per-step sensitivity to a step of each size along `d`.
     #[arg(long)]
     sensitivity: bool,
@@ -98,7 +108,11 @@ fn main() -> Result<()> {
         }
     }
     let model = Model::from_scene(&scene).context("building the model")?;
-    let x0 = initial_controls(&scene, &model)?.data().to_vec();
+    let x0 = match &args.controls {
+        None => initial_controls(&scene, &model)?,
+        Some(path) => read_controls(path, &model)?,
+    };
+    let x0 = x0.data().to_vec();
     let mut problem = TrajectoryProblem::new(&model, TaskOptions::for_model(&model));
     let f0 = problem.objective(&x0)?;
     let mut g = vec![0.0; x0.len()];
@@ -107,8 +121,12 @@ fn main() -> Result<()> {
     anyhow::ensure!(norm > 0.0, "the gradient is zero at the guess");
     let d: Vec<f64> = g.iter().map(|v| -v / norm).collect();
     let along = |s: f64| -> Vec<f64> { x0.iter().zip(&d).map(|(x, di)| x + s * di).collect() };
+    let at = args
+        .controls
+        .as_ref()
+        .map_or("the guess".to_string(), |p| p.display().to_string());
     println!(
-        "{}: sweeps {}, self-collision {}, f = G + βE = {f0:.10} at the guess, ‖∇f‖ = {norm:.4e}",
+        "{}: sweeps {}, self-collision {}, f = G + βE = {f0:.10} at {at}, ‖∇f‖ = {norm:.4e}",
         scene.name,
         scene.physics.iterations,
         if scene.physics.self_collision.is_some() {
@@ -179,8 +197,30 @@ fn main() -> Result<()> {
     if let Some(path) = &args.out {
         write_json(
             path,
-            &serde_json::json!({ "scene": scene.name, "rows": rows }),
+            &serde_json::json!({
+                "scene": scene.name,
+                "controls": args.controls,
+                "f": f0,
+                "rows": rows
+            }),
         )?;
     }
     Ok(())
+}
+
+/// The controls of `path`: the `controls` of a controls file or a result, checked against the
+/// model's horizon and control points. Errors name `--controls` and the file.
+fn read_controls(path: &std::path::Path, model: &Model) -> Result<cloth::Controls> {
+    let name = || format!("--controls {}", path.display());
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", name()))?;
+    let value: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", name()))?;
+    let nested: Vec<Vec<[f64; 3]>> = value
+        .get("controls")
+        .cloned()
+        .map(serde_json::from_value)
+        .transpose()
+        .with_context(|| format!("{}: `controls` is not a T × K × 3 array", name()))?
+        .with_context(|| format!("{}: no `controls`", name()))?;
+    controls_from_nested(model, &nested).with_context(name)
 }

@@ -20,6 +20,7 @@ use clothopt::search::{plan_with_search, SearchOptions};
 use experiments::child;
 use experiments::measure::proc_status_kb;
 use experiments::report::write_json;
+use experiments::scene_set::load_set;
 use std::path::{Path, PathBuf};
 
 #[derive(Parser)]
@@ -87,18 +88,8 @@ fn main() -> Result<()> {
     {
         return plan_one(&scene, search, &result);
     }
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&cli.dir)
-        .with_context(|| format!("cannot read {}", cli.dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "json"))
-        .collect();
-    files.sort();
     let mut rows = Vec::new();
-    for file in files {
-        let scene = Scene::load(&file)?;
-        if !cli.scenes.is_empty() && !cli.scenes.contains(&scene.name) {
-            continue;
-        }
+    for (file, scene) in load_set(&cli.dir, &cli.scenes, "--dir")? {
         eprintln!("{}: planning with search off, then on …", scene.name);
         let off = spawn(&file, SearchMode::Off)?;
         let on = spawn(&file, SearchMode::Auto)?;

@@ -1,0 +1,495 @@
+//! The table set: every scene of `examples/scenes/table/` (cloth laid, placed, draped and folded
+//! on a table) planned with each contact model, one row per scene and model.
+//!
+//! ```sh
+//! cargo build --release --bin clothopt && cargo build --release -p experiments --bin table
+//! target/release/table --models rigid --time-limit 300 --out table.json --results-dir results
+//! target/release/table lay_flat fold_towel --models rigid,smooth   # a subset
+//! ```
+//!
+//! Each plan is one `clothopt optimize SCENE --time-limit S --search M --out RESULT` child process
+//! (the binary beside this one, or `--clothopt PATH`), so a row is exactly what a user of the
+//! command line gets. A model is set as the scene's `physics.contact.model`; the scene as written
+//! is run unchanged for `rigid` when it names no model (rigid is the default). A model the
+//! simulator rejects for a scene (the scene does not load, validate or compile with it) is a row
+//! `unsupported: <its error>`; a plan whose child fails is a row `error: <its error>`. Neither is
+//! skipped. That check runs in this program, on the `cloth` it was built with: build both
+//! binaries from the same commit (a stale `clothopt` beside it plans with other code).
+
+use anyhow::{ensure, Context, Result};
+use clap::{Parser, ValueEnum};
+use cloth::{Model, Scene};
+use clothopt::result::{PlanResult, Reason, SearchMode};
+use clothopt::validate::ensure_positive;
+use experiments::child;
+use experiments::measure::timed;
+use experiments::report::{fmt_opt, write_json};
+use experiments::scene_set::load_set;
+use serde::Serialize;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+#[derive(Parser)]
+#[command(about = "The table set: every scene planned with each contact model")]
+struct Cli {
+    /// Only these scenes (names as in the scene files; default every scene of `--dir`).
+    scenes: Vec<String>,
+    /// Directory of scene files.
+    #[arg(long, default_value = "examples/scenes/table")]
+    dir: PathBuf,
+    /// Contact models, comma-separated: each scene is planned once with each.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [ContactModel::Rigid, ContactModel::Smooth])]
+    models: Vec<ContactModel>,
+    /// Seconds each plan may take (`optimize --time-limit`).
+    #[arg(long, default_value_t = 300.0, allow_negative_numbers = true)]
+    time_limit: f64,
+    /// Route search of each plan (`optimize --search`).
+    #[arg(long, value_enum, default_value_t = SearchMode::Auto)]
+    search: SearchMode,
+    /// The `clothopt` binary (default: the one beside this program).
+    #[arg(long)]
+    clothopt: Option<PathBuf>,
+    /// Keep each plan's result JSON here, as `<scene>.<model>.json` (a controls file for
+    /// `clothopt simulate --controls` and `roughness --controls`).
+    #[arg(long)]
+    results_dir: Option<PathBuf>,
+    /// Write the settings and every row as JSON here (atomically).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// How the cloth touches the colliders: the scene's `physics.contact.model`.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum, Serialize)]
+#[serde(rename_all = "snake_case")]
+enum ContactModel {
+    /// Projection onto the collider's surface (the default when a scene names no model).
+    Rigid,
+    /// A barrier potential in the signed distance (Newton only).
+    Smooth,
+}
+
+impl ContactModel {
+    /// The scene's spelling of the model.
+    fn name(self) -> &'static str {
+        match self {
+            ContactModel::Rigid => "rigid",
+            ContactModel::Smooth => "smooth",
+        }
+    }
+}
+
+/// The settings of a run, written with its rows.
+#[derive(Serialize)]
+struct Settings {
+    dir: PathBuf,
+    clothopt: PathBuf,
+    time_limit_s: f64,
+    search: SearchMode,
+    models: Vec<ContactModel>,
+}
+
+/// What happened to one scene under one model.
+#[derive(Serialize)]
+#[serde(tag = "outcome", rename_all = "snake_case")]
+enum Outcome {
+    /// The plan ran; its verdict and costs.
+    Planned(Box<Plan>),
+    /// The simulator rejected the model for this scene.
+    Unsupported { message: String },
+    /// The planning child failed.
+    Error { message: String },
+}
+
+/// One plan's verdict and costs, as its result JSON spells them.
+#[derive(Serialize)]
+struct Plan {
+    achieved: bool,
+    /// Feasible and safe at its margin (`PlanResult::is_feasible` and `is_safe`).
+    safe: bool,
+    reason: Reason,
+    /// The solver's status (`converged`, `no_progress`, `time_limit`, …).
+    status: String,
+    /// The first plan's status (from the initial guess; the route search, when it ran, planned
+    /// others after it).
+    first_status: String,
+    /// `optimize`'s exit code (0 achieved, 3 safe but not achieved, 4 no safe plan).
+    exit_code: i32,
+    max_target_error: f64,
+    targets_reached: usize,
+    targets: usize,
+    tolerance: f64,
+    /// Optimizer iterations of the returned plan (every κ stage).
+    iterations: usize,
+    /// Rollouts simulated by the whole run (the route search included).
+    simulations: usize,
+    /// Wall-clock seconds of the child process (load, plan, write).
+    wall_s: f64,
+    /// The optimization's own wall-clock seconds (the result's `wall_s`).
+    plan_wall_s: f64,
+    /// Where the result was kept (`--results-dir`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    result_file: Option<PathBuf>,
+}
+
+/// One row of the table.
+#[derive(Serialize)]
+struct Row {
+    scene: String,
+    model: ContactModel,
+    #[serde(flatten)]
+    outcome: Outcome,
+}
+
+/// A scene file of the set: its path, name and text.
+struct SceneFile {
+    path: PathBuf,
+    name: String,
+    text: String,
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    ensure_positive("--time-limit", cli.time_limit)?;
+    ensure!(!cli.models.is_empty(), "--models: name at least one model");
+    let clothopt = clothopt_binary(cli.clothopt.as_deref())?;
+    let scenes = scene_files(&cli.dir, &cli.scenes)?;
+    eprintln!("planning with {}", clothopt.display());
+    if let Some(dir) = &cli.results_dir {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--results-dir: cannot create {}", dir.display()))?;
+    }
+    let scratch = std::env::temp_dir().join(format!("clothopt-table-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch)
+        .with_context(|| format!("cannot create {}", scratch.display()))?;
+    let mut rows = Vec::new();
+    for scene in &scenes {
+        for &model in &cli.models {
+            eprintln!(
+                "{} ({}): planning, at most {} s …",
+                scene.name,
+                model.name(),
+                cli.time_limit
+            );
+            let outcome = run_one(&cli, &clothopt, &scratch, scene, model);
+            let outcome = outcome.unwrap_or_else(|e| Outcome::Error {
+                message: last_line(&format!("{e:#}")),
+            });
+            rows.push(Row {
+                scene: scene.name.clone(),
+                model,
+                outcome,
+            });
+        }
+    }
+    let _ = std::fs::remove_dir_all(&scratch);
+    print_table(&rows);
+    if let Some(out) = &cli.out {
+        let settings = Settings {
+            dir: cli.dir.clone(),
+            clothopt: clothopt.clone(),
+            time_limit_s: cli.time_limit,
+            search: cli.search,
+            models: cli.models.clone(),
+        };
+        write_json(
+            out,
+            &serde_json::json!({ "settings": settings, "rows": rows }),
+        )?;
+    }
+    Ok(())
+}
+
+/// `--clothopt`, or `clothopt` in this program's folder; an error says how to build it.
+fn clothopt_binary(given: Option<&Path>) -> Result<PathBuf> {
+    let path = match given {
+        Some(p) => p.to_path_buf(),
+        None => {
+            let exe = std::env::current_exe().context("cannot locate this program")?;
+            exe.with_file_name(format!("clothopt{}", std::env::consts::EXE_SUFFIX))
+        }
+    };
+    ensure!(
+        path.is_file(),
+        "--clothopt: no clothopt binary at {} (build it with `cargo build --release --bin clothopt`, \
+         or pass --clothopt PATH)",
+        path.display()
+    );
+    Ok(path)
+}
+
+/// The scenes of the set (`--dir`, only `names` when given), each with its file's text.
+fn scene_files(dir: &Path, names: &[String]) -> Result<Vec<SceneFile>> {
+    let mut files = Vec::new();
+    for (path, scene) in load_set(dir, names, "--dir")? {
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        files.push(SceneFile {
+            path,
+            name: scene.name,
+            text,
+        });
+    }
+    Ok(files)
+}
+
+/// Plans `scene` under `model` in a `clothopt optimize` child, or says why the model is
+/// unsupported.
+fn run_one(
+    cli: &Cli,
+    clothopt: &Path,
+    scratch: &Path,
+    scene: &SceneFile,
+    model: ContactModel,
+) -> Result<Outcome> {
+    let base = scene.path.parent().unwrap_or(Path::new("."));
+    let variant = with_contact_model(&scene.text, model)?;
+    let text = match &variant {
+        Some(value) => serde_json::to_string_pretty(value)?,
+        None => scene.text.clone(),
+    };
+    if let Err(e) = supported(&text, base) {
+        return Ok(Outcome::Unsupported {
+            message: one_line(&e),
+        });
+    }
+    let file = match variant {
+        None => scene.path.clone(),
+        Some(mut value) => {
+            absolute_files(&mut value, base)?;
+            let path = scratch.join(format!("{}.{}.json", scene.name, model.name()));
+            clothopt::output::write_json_atomic(&path, &value)?;
+            path
+        }
+    };
+    let result_path = match &cli.results_dir {
+        Some(dir) => dir.join(format!("{}.{}.json", scene.name, model.name())),
+        None => scratch.join(format!("{}.{}.result.json", scene.name, model.name())),
+    };
+    let what = format!("clothopt optimize {} ({})", scene.name, model.name());
+    let mut command = std::process::Command::new(clothopt);
+    command
+        .arg("optimize")
+        .arg(&file)
+        .arg("--time-limit")
+        .arg(cli.time_limit.to_string())
+        .args(["--search", cli.search.name(), "--out"])
+        .arg(&result_path);
+    // `optimize` exits 3 (safe, not achieved) and 4 (no safe plan) with a result written.
+    let ((exit_code, _), wall_s) = timed(|| child::run_accepting(&mut command, &what, &[0, 3, 4]))?;
+    let text = std::fs::read_to_string(&result_path)
+        .with_context(|| format!("{what}: no result at {}", result_path.display()))?;
+    let result: PlanResult = serde_json::from_str(&text)
+        .with_context(|| format!("{what}: unreadable result {}", result_path.display()))?;
+    let kept = cli.results_dir.is_some();
+    if !kept {
+        let _ = std::fs::remove_file(&result_path);
+    }
+    Ok(Outcome::Planned(Box::new(Plan {
+        achieved: result.task.achieved,
+        safe: result.is_feasible() && result.is_safe(),
+        reason: result.task.reason,
+        status: result.status.clone(),
+        first_status: result
+            .search
+            .as_ref()
+            .and_then(|s| s.candidates.first())
+            .map_or(result.status.clone(), |c| c.status.clone()),
+        exit_code,
+        max_target_error: result.task.max_target_error,
+        targets_reached: result.task.targets_reached,
+        targets: result.task.target_errors.len(),
+        tolerance: result.task.tolerance,
+        iterations: result.iterations,
+        simulations: result
+            .search
+            .as_ref()
+            .map_or(result.evaluations, |s| s.simulations),
+        wall_s,
+        plan_wall_s: result.wall_s,
+        result_file: kept.then_some(result_path),
+    })))
+}
+
+/// The scene's JSON with `physics.contact.model` set to `model`, or `None` where the scene as
+/// written already means it (rigid, the default, when the scene names no model).
+fn with_contact_model(text: &str, model: ContactModel) -> Result<Option<Value>> {
+    let mut value: Value = serde_json::from_str(text)?;
+    let physics = value
+        .get_mut("physics")
+        .and_then(Value::as_object_mut)
+        .context("the scene has no `physics` object")?;
+    let named = physics
+        .get("contact")
+        .and_then(|c| c.get("model"))
+        .and_then(Value::as_str);
+    if named == Some(model.name()) || (named.is_none() && model == ContactModel::Rigid) {
+        return Ok(None);
+    }
+    let contact = physics
+        .entry("contact")
+        .or_insert_with(|| Value::Object(Default::default()));
+    let contact = contact
+        .as_object_mut()
+        .context("the scene's `physics.contact` is not an object")?;
+    contact.insert("model".into(), Value::String(model.name().into()));
+    Ok(Some(value))
+}
+
+/// Whether the simulator takes the scene `text` (files relative to `base`): it loads, validates
+/// and compiles into a model.
+fn supported(text: &str, base: &Path) -> Result<()> {
+    let scene = Scene::from_json_str_in(text, base)?;
+    Model::from_scene(&scene)?;
+    Ok(())
+}
+
+/// Makes the files a scene names (`cloth.mesh`, `task.target_mesh`, `obstacles[i].file`; see
+/// docs/scene-format.md) absolute, so that the scene reads them from anywhere.
+fn absolute_files(scene: &mut Value, base: &Path) -> Result<()> {
+    let base = base
+        .canonicalize()
+        .with_context(|| format!("cannot resolve {}", base.display()))?;
+    for pointer in ["/cloth/mesh", "/task/target_mesh"] {
+        if let Some(v) = scene.pointer_mut(pointer) {
+            absolutize(v, &base);
+        }
+    }
+    if let Some(obstacles) = scene.get_mut("obstacles").and_then(Value::as_array_mut) {
+        for o in obstacles {
+            if let Some(v) = o.get_mut("file") {
+                absolutize(v, &base);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A relative path string `v` joined to `base`.
+fn absolutize(v: &mut Value, base: &Path) {
+    if let Some(s) = v.as_str() {
+        if Path::new(s).is_relative() {
+            *v = Value::String(base.join(s).to_string_lossy().into_owned());
+        }
+    }
+}
+
+/// An error on one line (serde's parse errors quote the source line below the message).
+fn one_line(e: &impl std::fmt::Display) -> String {
+    e.to_string()
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The last non-empty line of a child's error (its progress lines come first).
+fn last_line(text: &str) -> String {
+    let line = text.lines().rev().find(|l| !l.trim().is_empty());
+    line.unwrap_or(text).trim().to_string()
+}
+
+/// One line of the table: the scene and model, then the plan's cells.
+fn line(scene: &str, model: &str, cells: [&str; 10]) -> String {
+    let [verdict, safe, reason, status, first, error, targets, iters, sims, wall] = cells;
+    format!(
+        "{scene:<14} {model:<7} {verdict:<9} {safe:<5} {reason:<15} {status:<14} {first:<16} \
+         {error:>13} {targets:>7} {iters:>6} {sims:>12} {wall:>8}"
+    )
+}
+
+fn print_table(rows: &[Row]) {
+    let header = [
+        "verdict",
+        "safe",
+        "reason",
+        "status",
+        "first plan",
+        "largest error",
+        "targets",
+        "iters",
+        "simulations",
+        "wall s",
+    ];
+    println!("{}", line("scene", "model", header));
+    for r in rows {
+        let (scene, model) = (r.scene.as_str(), r.model.name());
+        match &r.outcome {
+            Outcome::Planned(p) => {
+                let reason = serde_json::to_value(p.reason)
+                    .ok()
+                    .and_then(|v| v.as_str().map(String::from))
+                    .unwrap_or_default();
+                let cells = [
+                    if p.achieved { "achieved" } else { "missed" }.to_string(),
+                    if p.safe { "yes" } else { "no" }.to_string(),
+                    reason,
+                    p.status.clone(),
+                    p.first_status.clone(),
+                    fmt_opt(Some(p.max_target_error), 4),
+                    format!("{}/{}", p.targets_reached, p.targets),
+                    p.iterations.to_string(),
+                    p.simulations.to_string(),
+                    fmt_opt(Some(p.wall_s), 1),
+                ];
+                println!(
+                    "{}",
+                    line(scene, model, cells.each_ref().map(String::as_str))
+                );
+            }
+            Outcome::Unsupported { message } => {
+                println!("{scene:<14} {model:<7} unsupported: {message}")
+            }
+            Outcome::Error { message } => println!("{scene:<14} {model:<7} error: {message}"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SCENE: &str = r#"{"name": "s", "physics": {"dt": 0.1},
+        "cloth": {"mesh": "towel.obj"}, "task": {"target_mesh": "/abs/t.obj"},
+        "obstacles": [{"type": "mesh", "file": "vase.obj"}, {"type": "plane"}]}"#;
+
+    #[test]
+    fn the_rigid_model_runs_the_scene_as_written() {
+        let variant = |text, model| with_contact_model(text, model).unwrap();
+        assert!(variant(SCENE, ContactModel::Rigid).is_none());
+        let smooth = variant(SCENE, ContactModel::Smooth).unwrap();
+        assert_eq!(smooth["physics"]["contact"]["model"], "smooth");
+        assert_eq!(smooth["physics"]["dt"], 0.1);
+        // A scene that names a model keeps its other contact settings.
+        let named = r#"{"physics": {"contact": {"model": "smooth", "d_hat": 0.01}}}"#;
+        assert!(variant(named, ContactModel::Smooth).is_none());
+        let rigid = variant(named, ContactModel::Rigid).unwrap();
+        assert_eq!(rigid["physics"]["contact"]["model"], "rigid");
+        assert_eq!(rigid["physics"]["contact"]["d_hat"], 0.01);
+    }
+
+    #[test]
+    fn relative_files_become_absolute() {
+        let mut v: Value = serde_json::from_str(SCENE).unwrap();
+        let dir = std::env::temp_dir();
+        absolute_files(&mut v, &dir).unwrap();
+        let base = dir.canonicalize().unwrap();
+        assert_eq!(
+            v["cloth"]["mesh"],
+            base.join("towel.obj").to_string_lossy().as_ref()
+        );
+        assert_eq!(v["task"]["target_mesh"], "/abs/t.obj");
+        assert_eq!(
+            v["obstacles"][0]["file"],
+            base.join("vase.obj").to_string_lossy().as_ref()
+        );
+        assert!(v["obstacles"][1].get("file").is_none());
+    }
+
+    #[test]
+    fn errors_print_on_one_line() {
+        assert_eq!(one_line(&"a\n  12 | b\n"), "a 12 | b");
+        assert_eq!(
+            last_line("x failed: [ 5 s] iteration 0\nerror: bad\n\n"),
+            "error: bad"
+        );
+    }
+}
