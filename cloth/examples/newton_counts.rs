@@ -1,4 +1,5 @@
-//! Where Newton's time goes: forward + ∇L on a built-in scene (u_obstacle unless `--scene NAME`)
+//! Where Newton's time goes: forward + ∇L on a built-in scene (u_obstacle unless `--scene NAME`,
+//! or a scene file `--scene FILE.json`)
 //! refined to n × n (0 keeps the scene's grid), per-step iteration and factorization counts, then
 //! `reps` timings interleaved with XPBD at the scene's iterations.
 //! `RAYON_NUM_THREADS=1 cargo run --release -p cloth --example newton_counts -- 40 3 [flags]`
@@ -22,7 +23,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .map(|i| args[i + 1].clone())
     };
     let scene_name = value("--scene").unwrap_or("u_obstacle".into());
-    let base = Scene::builtin(&scene_name)?;
+    let base = if scene_name.ends_with(".json") {
+        Scene::load(&scene_name)?
+    } else {
+        Scene::builtin(&scene_name)?
+    };
     let base = if n > 0 { base.refined(n, n)? } else { base };
     let mut ns = base.clone();
     ns.physics.solver = SolverKind::Newton;

@@ -400,17 +400,25 @@ fn split_obstacles(obstacles: &[Obstacle]) -> (Union, Union) {
 }
 
 impl Physics {
-    /// The solver these settings describe, with Newton's defaults filled in.
+    /// The solver these settings describe, with Newton's defaults filled in. Under smooth
+    /// contact a step is one solve from the previous state unless the scene asks for branch
+    /// following (`load_halvings` defaults to 0): the step filter keeps that descent from
+    /// crossing a surface, as IPC's incremental potential does, and the halvings multiplied the
+    /// work by ~60 where the cloth settles on a table (docs/physics.md "Smooth contact").
     pub fn solver(&self) -> Solver {
         match self.solver {
             SolverKind::Xpbd => Solver::Xpbd,
             SolverKind::Newton => {
                 let d = NewtonSettings::default();
+                let halvings = match self.contact_model() {
+                    ContactModel::Smooth => 0,
+                    ContactModel::Rigid => d.load_halvings,
+                };
                 Solver::Newton(NewtonSettings {
                     tolerance: self.tolerance.unwrap_or(d.tolerance),
                     max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),
                     load_steps: self.load_steps.unwrap_or(d.load_steps),
-                    load_halvings: self.load_halvings.unwrap_or(d.load_halvings),
+                    load_halvings: self.load_halvings.unwrap_or(halvings),
                     ..d
                 })
             }

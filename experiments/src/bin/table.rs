@@ -9,7 +9,8 @@
 //!
 //! Each plan is one `clothopt optimize SCENE --time-limit S --search M --out RESULT` child process
 //! (the binary beside this one, or `--clothopt PATH`), so a row is exactly what a user of the
-//! command line gets. A model is set as the scene's `physics.contact.model`; the scene as written
+//! command line gets. A model is set as the scene's `physics.contact.model` (smooth with
+//! `physics.solver` `newton`, the only solver it has); the scene as written
 //! is run unchanged for `rigid` when it names no model (rigid is the default). A model the
 //! simulator rejects for a scene (the scene does not load, validate or compile with it) is a row
 //! `unsupported: <its error>`; a plan whose child fails is a row `error: <its error>`. Neither is
@@ -332,6 +333,10 @@ fn with_contact_model(text: &str, model: ContactModel) -> Result<Option<Value>> 
         .as_object_mut()
         .context("the scene's `physics.contact` is not an object")?;
     contact.insert("model".into(), Value::String(model.name().into()));
+    if model == ContactModel::Smooth {
+        // Smooth contact is a potential in Newton's energy: it has no XPBD form.
+        physics.insert("solver".into(), Value::String("newton".into()));
+    }
     Ok(Some(value))
 }
 
@@ -457,6 +462,7 @@ mod tests {
         assert!(variant(SCENE, ContactModel::Rigid).is_none());
         let smooth = variant(SCENE, ContactModel::Smooth).unwrap();
         assert_eq!(smooth["physics"]["contact"]["model"], "smooth");
+        assert_eq!(smooth["physics"]["solver"], "newton");
         assert_eq!(smooth["physics"]["dt"], 0.1);
         // A scene that names a model keeps its other contact settings.
         let named = r#"{"physics": {"contact": {"model": "smooth", "d_hat": 0.01}}}"#;
