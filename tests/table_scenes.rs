@@ -3,9 +3,10 @@
 //! rests strictly outside every collider with a gap (a smooth contact model needs every particle
 //! outside) and outside its safety margins, and simulates its initial guess. No planning.
 
-use cloth::scene::InitialControls;
+use cloth::scene::{ContactModel, ContactSpec, InitialControls};
 use cloth::{Model, Scene};
-use clothopt::plan::initial_controls;
+use clothopt::plan::{self, initial_controls, PlanOptions};
+use clothopt::result;
 use std::path::{Path, PathBuf};
 
 /// The scenes of the set, by file name.
@@ -79,4 +80,44 @@ fn every_scene_loads_starts_clear_of_the_obstacles_and_simulates_its_guess() {
             "{name}"
         );
     }
+}
+
+/// With smooth contact, `lay_flat` is planned from its plain guess to an achieved, safe plan whose
+/// rollout keeps every particle strictly outside the table (the rigid model with Newton's branch
+/// following stopped at its time limit after 6 SQP iterations: docs/experiments.md "The table
+/// set").
+#[test]
+fn lay_flat_with_smooth_contact_is_achieved_from_its_plain_guess() {
+    let mut scene = Scene::load(set_dir().join("lay_flat.json")).unwrap();
+    scene.physics.contact = Some(ContactSpec {
+        model: ContactModel::Smooth,
+        d_hat: None,
+        stiffness: None,
+        friction_epsilon: None,
+    });
+    scene.validate().unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    let options = PlanOptions::for_model(&model);
+    let start = initial_controls(&scene, &model).unwrap();
+    let result = plan::plan(&model, &scene, &start, &options, |_| {}).unwrap();
+    assert!(result.task.achieved, "{:?}", result.task);
+    assert!(result.is_feasible() && result.is_safe());
+    assert!(
+        result.task.max_target_error < 0.01,
+        "{}",
+        result.task.max_target_error
+    );
+    let u = result::controls_from_nested(&model, &result.controls).unwrap();
+    let states = model.simulate(&u).unwrap();
+    let table = &scene.obstacles[0];
+    assert!(table.role().is_collider());
+    let closest = states
+        .iter()
+        .flat_map(|x| {
+            x.data()
+                .chunks(3)
+                .map(|p| table.signed_distance([p[0], p[1], p[2]]))
+        })
+        .fold(f64::INFINITY, f64::min);
+    assert!(closest > 0.0, "a particle reached the table: {closest}");
 }

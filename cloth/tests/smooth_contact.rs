@@ -362,3 +362,27 @@ fn smooth_friction_gradients_match_central_differences() {
             .unwrap_or_else(|e| panic!("μ {mu}: {e}"));
     }
 }
+
+/// Under smooth contact a Newton step is one solve from the previous state unless the scene names
+/// `physics.load_halvings`; the rigid model keeps branch following by default.
+#[test]
+fn smooth_contact_steps_are_one_solve_unless_the_scene_names_halvings() {
+    let halvings = |s: &Scene| match Model::from_scene(s).unwrap().solver {
+        Solver::Newton(settings) => settings.load_halvings,
+        Solver::Xpbd => unreachable!(),
+    };
+    let mut s = scene(
+        vec![plane(
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+            ObstacleRole::Collider,
+        )],
+        true,
+    );
+    assert_eq!(halvings(&s), 0);
+    s.physics.load_halvings = Some(3);
+    assert_eq!(halvings(&s), 3);
+    s.physics.load_halvings = None;
+    s.physics.contact = None;
+    assert_eq!(halvings(&s), NewtonSettings::default().load_halvings);
+}
