@@ -48,6 +48,30 @@ pub struct Metrics {
     /// `L = G + αT + βE`.
     #[serde(rename = "L")]
     pub l: f64,
+    /// The deepest penetration of any particle (grippers included) into the colliders at steps
+    /// 1..T; `None` without colliders (and then left out of the JSON).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_penetration: Option<Penetration>,
+}
+
+/// The particle of a rollout that comes nearest to (or deepest into) the colliders.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Penetration {
+    /// How far it is inside them (length units): minus its signed distance, so 0 on a
+    /// collider's surface and negative (a clearance) when no particle touches one.
+    pub depth: f64,
+    /// The step `1..=T`.
+    pub step: usize,
+    /// The particle (flat index).
+    pub particle: usize,
+}
+
+/// The deeper of two penetrations (the earlier one on a tie).
+fn deeper(a: Option<Penetration>, b: Option<Penetration>) -> Option<Penetration> {
+    match (a, b) {
+        (Some(a), Some(b)) if b.depth > a.depth => Some(b),
+        (a, b) => a.or(b),
+    }
 }
 
 /// Reads a number that JSON may hold as `null` (how `serde_json` writes ∞): `null` reads as ∞.
@@ -114,6 +138,7 @@ impl Model {
                 let g = self.record_target_error(&mut tape, xv);
                 m.g = tape.value(g).item();
             }
+            m.max_penetration = deeper(m.max_penetration, self.penetration(x, t));
         }
         let (t_cost, _) = trajectory_irregularity(controls);
         m.t = t_cost;
@@ -217,6 +242,19 @@ impl Model {
             (Some(e), Some(g)) => Some(tape.add(e, g)),
             (e, g) => e.or(g),
         }
+    }
+
+    /// The particle of state `x` (step `t`) deepest into the colliders (`None` without any).
+    fn penetration(&self, x: &Tensor, step: usize) -> Option<Penetration> {
+        if self.colliders.is_empty() {
+            return None;
+        }
+        let (distance, particle) = crate::sdf::batch::deepest_particle(&self.colliders, x)?;
+        Some(Penetration {
+            depth: -distance,
+            step,
+            particle,
+        })
     }
 
     /// The smallest signed distance to the safety obstacles along every particle's straight path
