@@ -6,7 +6,6 @@
 //! `p_k(t) = p_k⁰ + Σ_{s<t} u_{s,k}`: linear in the controls. Every row reads `≥ 0`. No collider
 //! moves a gripper (it has infinite mass), so only these rows keep it out of them.
 
-use crate::problem::RowLabel;
 use autodiff::{soft_min_value, soft_min_weights};
 use cloth::nalgebra::Vector3;
 use cloth::sdf::{SignedDistance, Union};
@@ -230,27 +229,6 @@ fn norm_sq(v: &[f64; 3]) -> f64 {
 }
 
 impl ControlRow {
-    /// What the row constrains: a limit (its `task.limits` field) or the colliders, and the step
-    /// `1..=T`.
-    pub fn label(&self) -> RowLabel {
-        match *self {
-            ControlRow::Step { t, .. } => RowLabel::Limit {
-                limit: "max_step",
-                step: t + 1,
-            },
-            ControlRow::MinSeparation { t, .. } | ControlRow::MaxSeparation { t, .. } => {
-                RowLabel::Limit {
-                    limit: "gripper_separation",
-                    step: t,
-                }
-            }
-            ControlRow::Collider { t, k, .. } => RowLabel::Collider {
-                control: k,
-                step: t,
-            },
-        }
-    }
-
     /// The row's value at the flat controls `x`.
     pub fn value(&self, model: &Model, x: &[f64]) -> f64 {
         match *self {

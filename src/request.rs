@@ -154,6 +154,7 @@ impl OptimizeRequest {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::result::MotionCheck;
 
     /// The names of a choice enum's values: `name()` in `ALL` order, the JSON spelling, and
     /// under `cli` clap's (kebab-case, in declaration order), which Python's choices matched
@@ -182,6 +183,26 @@ mod tests {
             &SearchMode::ALL,
             SearchMode::name,
             &["auto", "always", "off"],
+        );
+        // The verdict's reasons, which the summary's first line prints by these names.
+        check_names(
+            &crate::result::Reason::ALL,
+            crate::result::Reason::name,
+            &[
+                "achieved",
+                "no_safe_plan",
+                "iteration_limit",
+                "stopped",
+                "stalled",
+                "safety_active",
+                "limits_active",
+                "local_minimum",
+            ],
+        );
+        check_names(
+            &[MotionCheck::Continuous, MotionCheck::StepOnly],
+            MotionCheck::name,
+            &["continuous", "step_only"],
         );
     }
 

@@ -15,24 +15,12 @@
 //!
 //! Each failure is a sentence in [`SafetyReport::failures`]; a plan with any is not safe.
 
-use crate::problem::TaskOptions;
+use crate::problem::{start_inside_margin, TaskOptions};
 use crate::result::{GripperClearance, MotionCheck, PathMinimum, SafetyReport, SAFETY_TOLERANCE};
 use autodiff::Tensor;
 use cloth::nalgebra::Vector3;
 use cloth::sdf::SignedDistance;
 use cloth::{Metrics, Model};
-
-/// The particles whose rest state lies within `delta` of `model`'s safety obstacles (none
-/// without safety obstacles).
-pub fn start_inside_margin(model: &Model, delta: f64) -> Vec<usize> {
-    let mut tape = autodiff::Tape::new();
-    let rest = tape.leaf(model.rest.clone());
-    let Some(d) = model.record_sdf(&mut tape, rest) else {
-        return Vec::new();
-    };
-    let d = tape.value(d).data();
-    (0..d.len()).filter(|&p| d[p] < delta).collect()
-}
 
 /// The safety report of a rollout `states` (with its `metrics`) planned with `task`: the checks
 /// of the module docs, failures beyond `tol_feasibility` for the colliders and

@@ -78,7 +78,7 @@ impl TrajectoryProblem<'_> {
             step,
         }));
         labels.extend((0..self.goal_rows()).map(|_| RowLabel::Goal));
-        labels.extend(self.control.iter().map(ControlRow::label));
+        labels.extend(self.control.iter().map(control_label));
         let (planes, k, horizon) = (
             self.model.colliders.planes.len(),
             self.model.n_controls(),
@@ -100,5 +100,26 @@ impl TrajectoryProblem<'_> {
             step: 1 + (r / 6) % horizon,
         }));
         labels
+    }
+}
+
+/// What a row on the controls constrains: a limit (its `task.limits` field) or the colliders, and
+/// the step `1..=T`.
+fn control_label(row: &ControlRow) -> RowLabel {
+    match *row {
+        ControlRow::Step { t, .. } => RowLabel::Limit {
+            limit: "max_step",
+            step: t + 1,
+        },
+        ControlRow::MinSeparation { t, .. } | ControlRow::MaxSeparation { t, .. } => {
+            RowLabel::Limit {
+                limit: "gripper_separation",
+                step: t,
+            }
+        }
+        ControlRow::Collider { t, k, .. } => RowLabel::Collider {
+            control: k,
+            step: t,
+        },
     }
 }

@@ -29,6 +29,7 @@ mod safety;
 
 pub use labels::RowLabel;
 pub use options::{SafetyForm, TaskOptions, DEFAULT_STRAIN_KAPPA, GOAL_KAPPA};
+pub use safety::start_inside_margin;
 
 use crate::control_rows::{
     collider_rows, control_rows, gripper_collider_rows, workspace_rows, ControlRow, LinearRow,
@@ -109,7 +110,7 @@ impl<'a> TrajectoryProblem<'a> {
         linear.extend(workspace_rows(model));
         let mut control = control_rows(model);
         control.extend(gripper_collider_rows(model, options.kappa, options.swept));
-        let start_inside_margin = safety::start_inside_margin(model, options.delta);
+        let start_inside_margin = safety::start_inside_margin_index(model, options.delta);
         TrajectoryProblem {
             model,
             options,

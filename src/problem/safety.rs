@@ -77,9 +77,20 @@ impl TrajectoryProblem<'_> {
     }
 }
 
-/// The particles whose rest state lies within `delta` of `model`'s safety obstacles
-/// ([`crate::safety_check::start_inside_margin`]) as a row index, `None` when there are none.
-pub(super) fn start_inside_margin(model: &Model, delta: f64) -> Option<Arc<RowIndex>> {
-    let inside = crate::safety_check::start_inside_margin(model, delta);
+/// The particles whose rest state lies within `delta` of `model`'s safety obstacles (none
+/// without safety obstacles).
+pub fn start_inside_margin(model: &Model, delta: f64) -> Vec<usize> {
+    let mut tape = autodiff::Tape::new();
+    let rest = tape.leaf(model.rest.clone());
+    let Some(d) = model.record_sdf(&mut tape, rest) else {
+        return Vec::new();
+    };
+    let d = tape.value(d).data();
+    (0..d.len()).filter(|&p| d[p] < delta).collect()
+}
+
+/// [`start_inside_margin`] as a row index, `None` when there are none.
+pub(super) fn start_inside_margin_index(model: &Model, delta: f64) -> Option<Arc<RowIndex>> {
+    let inside = start_inside_margin(model, delta);
     (!inside.is_empty()).then(|| Arc::new(RowIndex::single(inside)))
 }

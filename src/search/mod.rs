@@ -306,7 +306,7 @@ pub fn plan_with_search(
         let candidates = routes::propose(
             model,
             start,
-            options.task.delta,
+            (options.task.delta, options.task.swept),
             search.random_starts,
             search.seed,
             search.max_candidates,

@@ -8,6 +8,7 @@ use crate::controls::Controls;
 use crate::error::ClothError;
 use crate::model::Model;
 use crate::rollout::cost::trajectory_irregularity;
+use crate::rollout::penetration::{deeper, Penetration};
 use crate::xpbd::sim::{check_finite, control_entry, StepScratch};
 use autodiff::{in_pool, Gradients, Tape, Tensor, Var};
 use rayon::prelude::*;
@@ -52,26 +53,6 @@ pub struct Metrics {
     /// 1..T; `None` without colliders (and then left out of the JSON).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_penetration: Option<Penetration>,
-}
-
-/// The particle of a rollout that comes nearest to (or deepest into) the colliders.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Penetration {
-    /// How far it is inside them (length units): minus its signed distance, so 0 on a
-    /// collider's surface and negative (a clearance) when no particle touches one.
-    pub depth: f64,
-    /// The step `1..=T`.
-    pub step: usize,
-    /// The particle (flat index).
-    pub particle: usize,
-}
-
-/// The deeper of two penetrations (the earlier one on a tie).
-fn deeper(a: Option<Penetration>, b: Option<Penetration>) -> Option<Penetration> {
-    match (a, b) {
-        (Some(a), Some(b)) if b.depth > a.depth => Some(b),
-        (a, b) => a.or(b),
-    }
 }
 
 /// Reads a number that JSON may hold as `null` (how `serde_json` writes ∞): `null` reads as ∞.
@@ -242,19 +223,6 @@ impl Model {
             (Some(e), Some(g)) => Some(tape.add(e, g)),
             (e, g) => e.or(g),
         }
-    }
-
-    /// The particle of state `x` (step `t`) deepest into the colliders (`None` without any).
-    fn penetration(&self, x: &Tensor, step: usize) -> Option<Penetration> {
-        if self.colliders.is_empty() {
-            return None;
-        }
-        let (distance, particle) = crate::sdf::batch::deepest_particle(&self.colliders, x)?;
-        Some(Penetration {
-            depth: -distance,
-            step,
-            particle,
-        })
     }
 
     /// The smallest signed distance to the safety obstacles along every particle's straight path
