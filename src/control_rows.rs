@@ -229,6 +229,29 @@ fn norm_sq(v: &[f64; 3]) -> f64 {
 }
 
 impl ControlRow {
+    /// A collider row's entries at `x` ([`collider_entries`]) and their values (empty for other
+    /// rows).
+    #[allow(clippy::type_complexity)]
+    fn collider_values(
+        &self,
+        model: &Model,
+        x: &[f64],
+    ) -> (Vec<(f64, [f64; 3], [f64; 3])>, Vec<f64>) {
+        let ControlRow::Collider {
+            t,
+            k,
+            ref field,
+            swept,
+            ..
+        } = *self
+        else {
+            return (Vec::new(), Vec::new());
+        };
+        let entries = collider_entries(model, x, (t, k), field, swept);
+        let values = entries.iter().map(|e| e.0).collect();
+        (entries, values)
+    }
+
     /// The row's value at the flat controls `x`.
     pub fn value(&self, model: &Model, x: &[f64]) -> f64 {
         match *self {
@@ -242,15 +265,8 @@ impl ControlRow {
             ControlRow::MaxSeparation { t, a, b, max } => {
                 (max * max - norm_sq(&separation(model, x, t, a, b))) / (2.0 * max)
             }
-            ControlRow::Collider {
-                t,
-                k,
-                ref field,
-                kappa,
-                swept,
-            } => {
-                let entries = collider_entries(model, x, (t, k), field, swept);
-                let values: Vec<f64> = entries.iter().map(|e| e.0).collect();
+            ControlRow::Collider { kappa, .. } => {
+                let (_, values) = self.collider_values(model, x);
                 soft_min_value(&values, kappa)
             }
         }
@@ -280,15 +296,8 @@ impl ControlRow {
                     }
                 }
             }
-            ControlRow::Collider {
-                t,
-                k,
-                ref field,
-                kappa,
-                swept,
-            } => {
-                let entries = collider_entries(model, x, (t, k), field, swept);
-                let values: Vec<f64> = entries.iter().map(|e| e.0).collect();
+            ControlRow::Collider { t, k, kappa, .. } => {
+                let (entries, values) = self.collider_values(model, x);
                 let weights = soft_min_weights(&values, kappa);
                 for ((_, early, last), w) in entries.iter().zip(weights) {
                     for j in 0..3 {

@@ -307,7 +307,9 @@ fn step_only_is_named_on_the_first_line_and_the_counts_are_the_whole_runs() {
     assert!(matches!(o.status.code(), Some(0 | 3 | 4)), "{}", stderr(&o));
     let first = stdout(&o).lines().next().unwrap().to_string();
     assert!(
-        first.contains("(step-only check: safety judged at the steps, not on the motion between them)"),
+        first.contains(
+            "(step-only check: safety judged at the steps, not on the motion between them)"
+        ),
         "{first}"
     );
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
@@ -322,7 +324,10 @@ fn step_only_is_named_on_the_first_line_and_the_counts_are_the_whole_runs() {
         .arg(&out));
     assert!(matches!(o.status.code(), Some(0 | 3 | 4)), "{}", stderr(&o));
     let text = stdout(&o);
-    assert!(!text.lines().next().unwrap().contains("step-only"), "{text}");
+    assert!(
+        !text.lines().next().unwrap().contains("step-only"),
+        "{text}"
+    );
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert_eq!(v["safety"]["check"], "continuous");
     assert!(v["safety"]["between_steps"]["distance"].is_f64());
@@ -357,7 +362,10 @@ fn step_only_is_named_on_the_first_line_and_the_counts_are_the_whole_runs() {
         .args(["--step-only", "--swept"]));
     assert_eq!(o.status.code(), Some(2), "clap's usage error");
     let err = stderr(&o);
-    assert!(err.contains("--step-only") && err.contains("--swept"), "{err}");
+    assert!(
+        err.contains("--step-only") && err.contains("--swept"),
+        "{err}"
+    );
 }
 
 /// A `--controls` file may hold the bare nested array the scene format describes; a file that is

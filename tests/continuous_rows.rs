@@ -56,8 +56,12 @@ fn gripper_scene() -> Scene {
                "initial_controls": {"constant": [[0.0, 0.3, 0.0], [0.0, 0.3, 0.0]]}}
     }"#;
     let mut scene = Scene::from_json_str(text).unwrap();
-    let (v, t) = Cuboid::new([0.3, 0.4, 0.5], [0.06, 0.04, 0.08], Some([0.9, -0.2, 0.1, 0.3]))
-        .surface_triangles();
+    let (v, t) = Cuboid::new(
+        [0.3, 0.4, 0.5],
+        [0.06, 0.04, 0.08],
+        Some([0.9, -0.2, 0.1, 0.3]),
+    )
+    .surface_triangles();
     scene.obstacles.push(Obstacle::Mesh(MeshSpec {
         file: "cube.obj".into(),
         role: cloth::scene::ObstacleRole::Collider,
@@ -100,7 +104,9 @@ fn check_rows(
 fn gripper_at(model: &Model, x: &[f64], t: usize, k: usize) -> Vector3<f64> {
     let p = model.controls.as_slice()[k];
     let w = 3 * model.n_controls();
-    Vector3::from_fn(|j, _| model.rest.get(p, j) + (0..t).map(|s| x[s * w + 3 * k + j]).sum::<f64>())
+    Vector3::from_fn(|j, _| {
+        model.rest.get(p, j) + (0..t).map(|s| x[s * w + 3 * k + j]).sum::<f64>()
+    })
 }
 
 /// The smallest distance to the safety obstacles along any particle's straight path of step

@@ -286,9 +286,8 @@ impl<'a> Geometry<'a> {
         if !self.swept {
             return at;
         }
-        let moved = |p: &[f64]| {
-            nalgebra::Vector3::new(p[0] + shift[0], p[1] + shift[1], p[2] + shift[2])
-        };
+        let moved =
+            |p: &[f64]| nalgebra::Vector3::new(p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]);
         states[t - 1]
             .data()
             .chunks_exact(3)

@@ -381,8 +381,7 @@ fn box_piece_candidates(
     let signs: [f64; 3] =
         std::array::from_fn(|k| if qa[k] + mid * e[k] < 0.0 { -1.0 } else { 1.0 });
     // On the piece, |q_k| − h_k = α_k + β_k s.
-    let line: [(f64, f64); 3] =
-        std::array::from_fn(|k| (signs[k] * qa[k] - h[k], signs[k] * e[k]));
+    let line: [(f64, f64); 3] = std::array::from_fn(|k| (signs[k] * qa[k] - h[k], signs[k] * e[k]));
     let outside: Vec<(f64, f64)> = line
         .iter()
         .copied()
