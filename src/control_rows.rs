@@ -1,11 +1,16 @@
-//! Inequality rows on the controls alone (no simulation): control points against collider
-//! planes, and the robot limits `task.limits` other than strain (workspace, step size, gripper
-//! separation).
+//! Inequality rows on the controls alone (no simulation): control points against the colliders
+//! (linear rows for planes, smooth rows for every other kind), and the robot limits
+//! `task.limits` other than strain (workspace, step size, gripper separation).
 //!
 //! The controls are per-step displacements, so gripper `k`'s absolute position at step `t` is
-//! `p_k(t) = p_k⁰ + Σ_{s<t} u_{s,k}`: linear in the controls. Every row reads `≥ 0`.
+//! `p_k(t) = p_k⁰ + Σ_{s<t} u_{s,k}`: linear in the controls. Every row reads `≥ 0`. No collider
+//! moves a gripper (it has infinite mass), so only these rows keep it out of them.
 
+use autodiff::{soft_min_value, soft_min_weights};
+use cloth::nalgebra::Vector3;
+use cloth::sdf::{SignedDistance, Union};
 use cloth::Model;
+use std::sync::Arc;
 
 /// A linear inequality `offset + Σ coeff·x ≥ 0`.
 #[derive(Clone, Debug)]
@@ -101,6 +106,73 @@ pub(crate) enum ControlRow {
         b: usize,
         max: f64,
     },
+    /// Gripper `k` out of the colliders `field` (planes left to the linear rows) at step `t`
+    /// (1-based) and, when `swept`, on its straight motion from step `t − 1`: the soft minimum
+    /// (sharpness `kappa`) over the primitives of their distance at `p_k(t)` and of their
+    /// smallest distance along the motion ([`Union::segment_components`]) `≥ 0`. Smooth, never
+    /// above the smallest distance, with the minima's exact gradients.
+    Collider {
+        t: usize,
+        k: usize,
+        field: Arc<Union>,
+        kappa: f64,
+        swept: bool,
+    },
+}
+
+/// One row per gripper and step keeping the gripper out of `model`'s colliders other than planes
+/// (whose linear rows are exact along a straight motion too): on the motion from the step before
+/// when `swept`, except a gripper's first step when it starts inside a collider (no plan can
+/// move its rest position).
+pub(crate) fn gripper_collider_rows(model: &Model, kappa: f64, swept: bool) -> Vec<ControlRow> {
+    let field = model.colliders_without_planes();
+    if field.is_empty() {
+        return Vec::new();
+    }
+    let field = Arc::new(field);
+    let mut rows = Vec::new();
+    for k in 0..model.n_controls() {
+        let starts_inside = field.distance(&Vector3::from(rest_of(model, k))) < 0.0;
+        for t in 1..=model.task.horizon {
+            rows.push(ControlRow::Collider {
+                t,
+                k,
+                field: field.clone(),
+                kappa,
+                swept: swept && !(t == 1 && starts_inside),
+            });
+        }
+    }
+    rows
+}
+
+/// The entries of a [`ControlRow::Collider`] row at the flat controls `x`: per entry its value,
+/// its gradient with respect to a displacement of steps before `t − 1` (which moves both ends of
+/// the motion) and with respect to the displacement of step `t − 1` (which moves its end).
+fn collider_entries(
+    model: &Model,
+    x: &[f64],
+    (t, k): (usize, usize),
+    field: &Union,
+    swept: bool,
+) -> Vec<(f64, [f64; 3], [f64; 3])> {
+    let point = |t: usize| Vector3::from(gripper_position(model, x, t, k));
+    let (a, b) = (point(t - 1), point(t));
+    let sum = |g: &[f64; 6]| [0, 1, 2].map(|j| g[j] + g[3 + j]);
+    let mut entries: Vec<(f64, [f64; 3], [f64; 3])> = field
+        .segment_components_with_gradients(&b, &b)
+        .iter()
+        .map(|(v, g)| (*v, sum(g), sum(g)))
+        .collect();
+    if swept {
+        entries.extend(
+            field
+                .segment_components_with_gradients(&a, &b)
+                .iter()
+                .map(|(v, g)| (*v, sum(g), [g[3], g[4], g[5]])),
+        );
+    }
+    entries
 }
 
 /// The smooth rows of `model`'s step and separation limits. Squared norms keep every row smooth
@@ -157,14 +229,27 @@ fn norm_sq(v: &[f64; 3]) -> f64 {
 }
 
 impl ControlRow {
-    /// The limit this row enforces (its `task.limits` field) and the step `1..=T` it constrains.
-    pub fn label(&self) -> (&'static str, usize) {
-        match *self {
-            ControlRow::Step { t, .. } => ("max_step", t + 1),
-            ControlRow::MinSeparation { t, .. } | ControlRow::MaxSeparation { t, .. } => {
-                ("gripper_separation", t)
-            }
-        }
+    /// A collider row's entries at `x` ([`collider_entries`]) and their values (empty for other
+    /// rows).
+    #[allow(clippy::type_complexity)]
+    fn collider_values(
+        &self,
+        model: &Model,
+        x: &[f64],
+    ) -> (Vec<(f64, [f64; 3], [f64; 3])>, Vec<f64>) {
+        let ControlRow::Collider {
+            t,
+            k,
+            ref field,
+            swept,
+            ..
+        } = *self
+        else {
+            return (Vec::new(), Vec::new());
+        };
+        let entries = collider_entries(model, x, (t, k), field, swept);
+        let values = entries.iter().map(|e| e.0).collect();
+        (entries, values)
     }
 
     /// The row's value at the flat controls `x`.
@@ -179,6 +264,10 @@ impl ControlRow {
             }
             ControlRow::MaxSeparation { t, a, b, max } => {
                 (max * max - norm_sq(&separation(model, x, t, a, b))) / (2.0 * max)
+            }
+            ControlRow::Collider { kappa, .. } => {
+                let (_, values) = self.collider_values(model, x);
+                soft_min_value(&values, kappa)
             }
         }
     }
@@ -204,6 +293,18 @@ impl ControlRow {
                     for j in 0..3 {
                         out[entry(model, s, a, j)] += sign * d[j] / m;
                         out[entry(model, s, b, j)] -= sign * d[j] / m;
+                    }
+                }
+            }
+            ControlRow::Collider { t, k, kappa, .. } => {
+                let (entries, values) = self.collider_values(model, x);
+                let weights = soft_min_weights(&values, kappa);
+                for ((_, early, last), w) in entries.iter().zip(weights) {
+                    for j in 0..3 {
+                        for s in 0..t - 1 {
+                            out[entry(model, s, k, j)] += w * early[j];
+                        }
+                        out[entry(model, t - 1, k, j)] += w * last[j];
                     }
                 }
             }

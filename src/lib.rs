@@ -2,8 +2,9 @@
 //!
 //! Glue between the `cloth` simulator and the `optim` solvers: [`problem::TrajectoryProblem`]
 //! casts a cloth task as an optimization problem (its rows on the controls alone, robot limits
-//! and collider planes, in `control_rows`); [`plan`] runs it and packages the result, whose
-//! schema (the result JSON) is [`result`];
+//! and grippers against the colliders, in `control_rows`); [`plan`] runs it and packages the
+//! result, whose schema (the result JSON) is [`result`]; [`safety_check`] is the verdict's check
+//! of the motion between the steps, the grippers and the colliders;
 //! `plot` (the `viz` crate, feature `figures`) draws figures and `figures` builds them from rollouts; [`export`] formats way-points
 //! and meshes for robots and viewers; [`output`] writes result files atomically.
 
@@ -20,6 +21,7 @@ pub mod plan;
 pub mod problem;
 pub mod request;
 pub mod result;
+pub mod safety_check;
 pub mod search;
 /// Plotting (the `viz` crate), for callers that draw their own figures.
 #[cfg(feature = "figures")]

@@ -43,6 +43,9 @@ pub struct PlanFacts<'a> {
     pub active_safety: Vec<String>,
     /// Labels of the other active groups.
     pub active_other: Vec<String>,
+    /// Why the plan is not safe beyond its rows and margin at the steps (the motion between the
+    /// steps, the grippers, the colliders: [`crate::result::SafetyReport::failures`]).
+    pub failures: Vec<String>,
 }
 
 /// The task outcome of a plan whose re-simulated rollout ends in `final_state`.
@@ -59,10 +62,12 @@ pub fn task_outcome(model: &Model, final_state: &Tensor, facts: &PlanFacts<'_>) 
         errors.len()
     );
     let (reason, explanation) = if !facts.safe {
-        (
-            Reason::NoSafePlan,
-            format!("no safe plan: the returned plan violates the safety margin or the optimizer's rows; {missed}"),
-        )
+        let why = if facts.failures.is_empty() {
+            "the returned plan violates the safety margin or the optimizer's rows".to_string()
+        } else {
+            facts.failures.join("; ")
+        };
+        (Reason::NoSafePlan, format!("no safe plan: {why}; {missed}"))
     } else if all_reached {
         (
             Reason::Achieved,
@@ -183,6 +188,8 @@ pub fn row_facts(
     // Per collider plane: active steps, control points.
     let mut planes: std::collections::BTreeMap<usize, (Vec<usize>, Vec<usize>)> =
         Default::default();
+    // Gripper rows against the other colliders: active steps, control points.
+    let mut grippers: (Vec<usize>, Vec<usize>) = Default::default();
     // Per robot limit: active steps.
     let mut limits: std::collections::BTreeMap<&str, Vec<usize>> = Default::default();
     for (_, label) in labels.iter().enumerate().filter(|&(r, _)| active(r)) {
@@ -197,6 +204,10 @@ pub fn row_facts(
                 let entry = planes.entry(plane).or_default();
                 entry.0.push(step);
                 entry.1.push(control);
+            }
+            RowLabel::Collider { control, step } => {
+                grippers.0.push(step);
+                grippers.1.push(control);
             }
             RowLabel::Limit { limit, step } => limits.entry(limit).or_default().push(step),
             // The goal row asks the cloth to reach its targets: it never holds it back.
@@ -224,6 +235,18 @@ pub fn row_facts(
             )
         })
         .collect();
+    if !grippers.0.is_empty() {
+        let (mut steps, mut controls) = grippers;
+        steps.sort_unstable();
+        steps.dedup();
+        controls.sort_unstable();
+        controls.dedup();
+        other.push(format!(
+            "colliders around control points {:?} at steps {}",
+            controls,
+            step_ranges(&steps)
+        ));
+    }
     other.extend(limits.into_iter().map(|(limit, mut steps)| {
         steps.sort_unstable();
         steps.dedup();

@@ -8,10 +8,12 @@ use crate::error::{Error, Result};
 use crate::outcome::{row_facts, task_outcome, PlanFacts, RowFacts, TaskOutcome};
 use crate::problem::{TaskOptions, TrajectoryProblem};
 // The result of a run and its converters, from `crate::result`: re-exported for this module's callers.
+use crate::result::SafetyReport;
 pub use crate::result::{
     controls_from_nested, controls_to_nested, gripper_positions, is_safe, mesh_triangles,
     state_points, states_of, PlanResult, Stage, FEASIBILITY_TOLERANCE, SAFETY_TOLERANCE,
 };
+use crate::safety_check::check_safety;
 use crate::start_check::judge_start;
 // The rollout's strain and its warning, from `crate::strain`: re-exported for this module's callers.
 pub use crate::strain::{strain_report, strain_warning, StrainReport, STRAIN_WARNING_THRESHOLD};
@@ -173,7 +175,8 @@ pub fn initial_controls(scene: &Scene, model: &Model) -> Result<Controls, cloth:
 /// 3. `sharp_stage`: the task's κ from the warm-up's plan and Hessian, unless the warm-up left it
 ///    nothing to do ([`sharp_stage_needed`]) or the run was stopped;
 /// 4. `stopped_run`: a run stopped by its deadline or interrupt returns its best feasible iterate;
-/// 5. `rescore`: the returned controls' rollout with the run's weights and margin;
+/// 5. `rescore`: the returned controls' rollout with the run's weights and margin, and its
+///    safety report ([`check_safety`]: the motion between the steps, the grippers, the colliders);
 /// 6. [`row_facts`]: the constraint groups active at the plan, and the most violated row;
 /// 7. `plan_warnings` and `verdict`: what the user should know, and whether the task is achieved;
 /// 8. `rollout_result`: the result, completed with the solver's counts.
@@ -225,6 +228,7 @@ pub fn plan(
     )?;
     let controls = problem.controls(&solution.x);
     let evaluation = rescore(model, &controls, options)?;
+    let safety = safety_report(model, options, &evaluation);
     let rows = row_facts(&mut problem, &solution)?;
     warnings.extend(plan_warnings(
         model,
@@ -233,7 +237,15 @@ pub fn plan(
         &solution,
         &rows,
     ));
-    let task = verdict(model, options, &solution, &status, &evaluation, rows)?;
+    let task = verdict(
+        model,
+        options,
+        &solution,
+        &status,
+        &evaluation,
+        &safety,
+        rows,
+    )?;
     Ok(PlanResult {
         status,
         message: solution.message.clone(),
@@ -246,7 +258,7 @@ pub fn plan(
         stages,
         warnings,
         solver_status: Some(solution.status),
-        ..rollout_result(model, scene, options, &controls, evaluation, task)
+        ..rollout_result(model, scene, options, &controls, evaluation, (task, safety))
     })
 }
 
@@ -442,10 +454,10 @@ fn stopped_run(
     Ok(reason.status().to_string())
 }
 
-/// What the user should know about the returned plan that its status does not say: the cloth
-/// dipping inside `δ` between steps while the steps keep it (the safety rows hold at the steps
-/// only), and the optimizer's rows violated beyond the feasibility tolerance (naming the most
-/// violated row of `rows`).
+/// What the user should know about the returned plan that its status does not say: under the
+/// step-only check, the cloth dipping inside `δ` between steps while the steps keep it (the
+/// continuous check makes that a failure instead), and the optimizer's rows violated beyond the
+/// feasibility tolerance (naming the most violated row of `rows`).
 fn plan_warnings(
     model: &Model,
     options: &PlanOptions,
@@ -456,6 +468,7 @@ fn plan_warnings(
     let mut warnings = Vec::new();
     let dip = options.task.delta - m.min_sdf_swept;
     if model.safety.is_some()
+        && !options.task.swept
         && dip > SAFETY_TOLERANCE
         && m.min_sdf >= options.task.delta - SAFETY_TOLERANCE
     {
@@ -463,7 +476,7 @@ fn plan_warnings(
             "between steps the cloth comes to {:.4} of the safety obstacles, {dip:.4} inside δ = {}: the safety rows hold at the steps, not on the straight motion between them{}",
             m.min_sdf_swept,
             options.task.delta,
-            if options.task.swept { " (--swept samples 3 points per step; the rest lies between the samples)" } else { " (--swept also constrains 3 points per step)" }
+            " (the continuous check, the default, constrains it; this plan was made with --step-only)"
         ));
     }
     if solution.constraint_violation > options.tol_feasibility
@@ -482,19 +495,22 @@ fn plan_warnings(
 }
 
 /// The task verdict of the returned plan ([`task_outcome`]): safe when the solver did not declare
-/// it infeasible, its rows hold within the feasibility tolerance and its re-scored rollout
-/// `evaluation` is [safe](is_safe); with the run's `status` and the active groups of `rows`.
+/// it infeasible, its rows hold within the feasibility tolerance, its re-scored rollout
+/// `evaluation` is [safe](is_safe) and passes the checks of `safety`; with the run's `status`
+/// and the active groups of `rows`.
 fn verdict(
     model: &Model,
     options: &PlanOptions,
     solution: &optim::Solution,
     status: &str,
     evaluation: &Evaluation,
+    safety: &SafetyReport,
     rows: RowFacts,
 ) -> Result<TaskOutcome> {
     let safe = !matches!(solution.status, Status::Infeasible { .. })
         && solution.constraint_violation <= options.tol_feasibility
-        && is_safe(&evaluation.metrics);
+        && is_safe(&evaluation.metrics)
+        && safety.failures.is_empty();
     let final_state = evaluation.states.last().ok_or(Error::EmptyRollout)?;
     Ok(task_outcome(
         model,
@@ -504,8 +520,21 @@ fn verdict(
             status,
             active_safety: rows.active_safety,
             active_other: rows.active_other,
+            failures: safety.failures.clone(),
         },
     ))
+}
+
+/// The safety report ([`check_safety`]) of the re-scored rollout `evaluation` under the run's
+/// options.
+fn safety_report(model: &Model, options: &PlanOptions, evaluation: &Evaluation) -> SafetyReport {
+    check_safety(
+        model,
+        &evaluation.states,
+        &evaluation.metrics,
+        &options.task,
+        options.tol_feasibility,
+    )
 }
 
 /// A stage that did not run: `x` with `status`, no iterations, no multipliers.
@@ -547,8 +576,8 @@ fn rescore(model: &Model, controls: &Controls, options: &PlanOptions) -> Result<
     Ok(scored.evaluate(controls, options.task.delta, false)?)
 }
 
-/// The result of `controls`, whose re-scored rollout is `evaluation`, with the verdict `task`: the
-/// scene, margin, metrics, strain, arrays and grid. The solver's fields are left as for a run that
+/// The result of `controls`, whose re-scored rollout is `evaluation`, with the verdict `task` and
+/// its safety report: the scene, margin, metrics, strain, arrays and grid. The solver's fields are left as for a run that
 /// did nothing (no status, message or stages, counts 0, NaN residual, violation and time) for
 /// [`plan`] and [`snapshot`] to fill in.
 fn rollout_result(
@@ -557,7 +586,7 @@ fn rollout_result(
     options: &PlanOptions,
     controls: &Controls,
     evaluation: Evaluation,
-    task: TaskOutcome,
+    (task, safety): (TaskOutcome, SafetyReport),
 ) -> PlanResult {
     PlanResult {
         scene: scene.name.clone(),
@@ -575,6 +604,7 @@ fn rollout_result(
         states: Some(evaluation.states.iter().map(state_points).collect()),
         metrics: evaluation.metrics,
         task,
+        safety,
         stages: Vec::new(),
         feasibility_tolerance: options.tol_feasibility,
         warnings: Vec::new(),
@@ -601,13 +631,17 @@ pub fn snapshot(
 ) -> Result<PlanResult> {
     let controls = Tensor::new(model.task.horizon, 3 * model.n_controls(), x.to_vec());
     let evaluation = rescore(model, &controls, options)?;
-    let safe = violation <= options.tol_feasibility && is_safe(&evaluation.metrics);
+    let safety = safety_report(model, options, &evaluation);
+    let safe = violation <= options.tol_feasibility
+        && is_safe(&evaluation.metrics)
+        && safety.failures.is_empty();
     let final_state = evaluation.states.last().ok_or(Error::EmptyRollout)?;
     let facts = PlanFacts {
         safe,
         status: "running",
         active_safety: Vec::new(),
         active_other: Vec::new(),
+        failures: safety.failures.clone(),
     };
     let task = task_outcome(model, final_state, &facts);
     Ok(PlanResult {
@@ -615,7 +649,7 @@ pub fn snapshot(
         message: format!("best feasible iterate after {iterations} iterations; the run goes on"),
         iterations,
         constraint_violation: violation,
-        ..rollout_result(model, scene, options, &controls, evaluation, task)
+        ..rollout_result(model, scene, options, &controls, evaluation, (task, safety))
     })
 }
 

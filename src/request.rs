@@ -44,8 +44,10 @@ pub struct OptimizeRequest {
     pub iterations: usize,
     /// Form of the safety constraint (default per step).
     pub safety: SafetyForm,
-    /// Also keep the straight paths between steps δ away.
-    pub swept: bool,
+    /// Judge safety at the steps only (default false: the continuous check, which also keeps
+    /// the straight motion between the steps δ away and the grippers' motion out of the
+    /// colliders).
+    pub step_only: bool,
     /// Sharpness κ of the soft minimum (default the planner's, 3000).
     pub kappa: Option<f64>,
     /// Jacobian reuse band (default off).
@@ -75,7 +77,7 @@ impl Default for OptimizeRequest {
             beta: None,
             iterations: 200,
             safety: SafetyForm::PerStep,
-            swept: false,
+            step_only: false,
             kappa: None,
             reuse_band: None,
             solver: Optimizer::Sqp,
@@ -129,7 +131,7 @@ impl OptimizeRequest {
         options.task.alpha = self.alpha.unwrap_or(options.task.alpha);
         options.task.beta = self.beta.unwrap_or(options.task.beta);
         options.task.safety = model.safety.is_some().then_some(self.safety);
-        options.task.swept = self.swept;
+        options.task.swept = !self.step_only;
         options.tol_optimality = self.tol;
         options.tol_feasibility = self.feasibility_tol;
         options.allow_unsafe_start = self.allow_unsafe_start;
@@ -152,6 +154,7 @@ impl OptimizeRequest {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::result::MotionCheck;
 
     /// The names of a choice enum's values: `name()` in `ALL` order, the JSON spelling, and
     /// under `cli` clap's (kebab-case, in declaration order), which Python's choices matched
@@ -180,6 +183,26 @@ mod tests {
             &SearchMode::ALL,
             SearchMode::name,
             &["auto", "always", "off"],
+        );
+        // The verdict's reasons, which the summary's first line prints by these names.
+        check_names(
+            &crate::result::Reason::ALL,
+            crate::result::Reason::name,
+            &[
+                "achieved",
+                "no_safe_plan",
+                "iteration_limit",
+                "stopped",
+                "stalled",
+                "safety_active",
+                "limits_active",
+                "local_minimum",
+            ],
+        );
+        check_names(
+            &[MotionCheck::Continuous, MotionCheck::StepOnly],
+            MotionCheck::name,
+            &["continuous", "step_only"],
         );
     }
 

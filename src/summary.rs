@@ -1,7 +1,7 @@
 //! The human-readable summary of a plan — the verdict line, the run's counts, the route search's
 //! candidates and the metrics table — shared by `clothopt optimize` and Python's `Plan.summary()`.
 
-use crate::result::PlanResult;
+use crate::result::{MotionCheck, PlanResult};
 use std::fmt::Write;
 
 impl PlanResult {
@@ -19,9 +19,15 @@ impl PlanResult {
         let verdict = if self.task.achieved {
             "task achieved".to_string()
         } else {
-            format!("task NOT achieved ({:?})", self.task.reason)
+            format!("task NOT achieved ({})", self.task.reason.name())
         };
-        writeln!(s, "{verdict}: {}", self.task.explanation)?;
+        let checked = match self.safety.check {
+            MotionCheck::Continuous => "",
+            MotionCheck::StepOnly => {
+                " (step-only check: safety judged at the steps, not on the motion between them)"
+            }
+        };
+        writeln!(s, "{verdict}{checked}: {}", self.task.explanation)?;
         writeln!(
             s,
             "scene {}  δ = {}  status {}  ({})",
@@ -41,11 +47,23 @@ impl PlanResult {
             })
             .collect::<Vec<_>>()
             .join(", ");
-        writeln!(
-            s,
-            "iterations {} ({per_stage})  simulations {}  gradients {}{wall}",
-            self.iterations, self.evaluations, self.gradient_evaluations
-        )?;
+        match &self.search {
+            // The whole run's counts: the kept plan may be a stage that did little (one the
+            // deadline stopped at once), while the search ran many.
+            Some(search) if search.iterations > 0 => writeln!(
+                s,
+                "iterations {} in all, the kept plan's {} ({per_stage})  simulations {}  gradients {}{wall}",
+                search.iterations,
+                self.iterations,
+                search.simulations,
+                search.gradient_evaluations
+            )?,
+            _ => writeln!(
+                s,
+                "iterations {} ({per_stage})  simulations {}  gradients {}{wall}",
+                self.iterations, self.evaluations, self.gradient_evaluations
+            )?,
+        }
         if let Some(check) = &self.check {
             writeln!(s, "{}", check.summary())?;
         }
@@ -83,6 +101,13 @@ impl PlanResult {
             ("max strain", self.strain.max),
         ] {
             writeln!(s, "{k:>10} {v:>12.6}")?;
+        }
+        if let Some(p) = m.max_penetration {
+            writeln!(
+                s,
+                "{:>10} {:>12.6}  (particle {} at step {}; negative: clearance)",
+                "penetration", p.depth, p.particle, p.step
+            )?;
         }
         Ok(())
     }

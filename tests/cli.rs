@@ -288,3 +288,122 @@ fn optimize_check_reports_the_plan_under_other_physics_and_rejects_bad_values() 
         assert!(stderr(&o).contains("--check"), "{}", stderr(&o));
     }
 }
+
+/// The continuous check is the default and `--step-only` turns it off: the first line says so and
+/// the result records which check judged it; `--swept` (the default) beside `--step-only` is
+/// rejected naming both. With a route search the counts line is the whole run's.
+#[test]
+fn step_only_is_named_on_the_first_line_and_the_counts_are_the_whole_runs() {
+    let dir = scratch("step-only");
+    let scene = small_obstacle_scene(&dir);
+    let out = dir.join("r.json");
+    let quick = ["--iterations", "3", "--no-timing", "--out"];
+    let o = run(bin()
+        .arg("optimize")
+        .arg(&scene)
+        .args(["--step-only", "--search", "off"])
+        .args(quick)
+        .arg(&out));
+    assert!(matches!(o.status.code(), Some(0 | 3 | 4)), "{}", stderr(&o));
+    let first = stdout(&o).lines().next().unwrap().to_string();
+    assert!(
+        first.contains(
+            "(step-only check: safety judged at the steps, not on the motion between them)"
+        ),
+        "{first}"
+    );
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(v["safety"]["check"], "step_only");
+    assert!(v["safety"]["between_steps"].is_null());
+
+    let o = run(bin()
+        .arg("optimize")
+        .arg(&scene)
+        .args(["--search", "always", "--starts", "2"])
+        .args(quick)
+        .arg(&out));
+    assert!(matches!(o.status.code(), Some(0 | 3 | 4)), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        !text.lines().next().unwrap().contains("step-only"),
+        "{text}"
+    );
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(v["safety"]["check"], "continuous");
+    assert!(v["safety"]["between_steps"]["distance"].is_f64());
+    let search = &v["search"];
+    let sum = |key: &str| -> u64 {
+        search["candidates"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c[key].as_u64().unwrap())
+            .sum()
+    };
+    assert!(search["candidates"].as_array().unwrap().len() > 1);
+    assert_eq!(search["iterations"].as_u64().unwrap(), sum("iterations"));
+    assert_eq!(search["simulations"].as_u64().unwrap(), sum("simulations"));
+    let counts = format!(
+        "iterations {} in all, the kept plan's {} (",
+        search["iterations"], v["iterations"]
+    );
+    assert!(text.contains(&counts), "{counts} in\n{text}");
+    assert!(
+        text.contains(&format!(
+            "simulations {}  gradients {}",
+            search["simulations"], search["gradient_evaluations"]
+        )),
+        "{text}"
+    );
+
+    let o = run(bin()
+        .arg("optimize")
+        .arg(&scene)
+        .args(["--step-only", "--swept"]));
+    assert_eq!(o.status.code(), Some(2), "clap's usage error");
+    let err = stderr(&o);
+    assert!(
+        err.contains("--step-only") && err.contains("--swept"),
+        "{err}"
+    );
+}
+
+/// A `--controls` file may hold the bare nested array the scene format describes; a file that is
+/// neither that nor an object with a `controls` key says what is expected.
+#[test]
+fn a_bare_nested_controls_array_is_accepted() {
+    let dir = scratch("bare-controls");
+    let scene = small_obstacle_scene(&dir);
+    let step = "[[0.0, 0.1, 0.0], [0.0, 0.1, 0.0]]";
+    let bare = dir.join("bare.json");
+    std::fs::write(&bare, format!("[{}]", vec![step; 10].join(", "))).unwrap();
+    let wrapped = dir.join("wrapped.json");
+    std::fs::write(
+        &wrapped,
+        format!("{{\"controls\": [{}]}}", vec![step; 10].join(", ")),
+    )
+    .unwrap();
+    let sim = |controls: &Path| {
+        let o = run(bin()
+            .arg("simulate")
+            .arg(&scene)
+            .arg("--controls")
+            .arg(controls));
+        assert!(o.status.success(), "{}", stderr(&o));
+        stdout(&o)
+    };
+    assert_eq!(sim(&bare), sim(&wrapped));
+    let neither = dir.join("neither.json");
+    std::fs::write(&neither, r#"{"u": []}"#).unwrap();
+    let o = run(bin()
+        .arg("simulate")
+        .arg(&scene)
+        .arg("--controls")
+        .arg(&neither));
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("an object with a `controls` key") && err.contains("[[[dx, dy, dz], …], …]"),
+        "{err}"
+    );
+}

@@ -159,7 +159,7 @@ fn the_cli_exits_4_with_one_verdict_line_on_an_infeasible_plan_and_keeps_the_bes
         "{err}"
     );
     assert!(
-        stdout(&o).starts_with("task NOT achieved (NoSafePlan)"),
+        stdout(&o).starts_with("task NOT achieved (no_safe_plan)"),
         "{}",
         stdout(&o)
     );

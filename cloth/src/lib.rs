@@ -47,6 +47,7 @@ pub use newton::{
 pub use obj::{ObjError, ObjMesh};
 pub use registry::{ConstraintRegistry, CustomInput};
 pub use rollout::grad::{null_as_infinity, Evaluation, Metrics, RecordedRollout, StepCost};
+pub use rollout::penetration::Penetration;
 pub use scene::Scene;
 pub use xpbd::set::{Carry, ProjectionSet};
 

@@ -63,7 +63,8 @@ class Scene:
         search: str = "auto",
         starts: int = 6,
         safety: str = "per_step",
-        swept: bool = False,
+        step_only: bool = False,
+        swept: Optional[bool] = None,
         kappa: Optional[float] = None,
         reuse_band: Optional[float] = None,
         tol: float = 1e-4,
@@ -89,8 +90,9 @@ class Rollout:
     @property
     def delta(self) -> float: ...
     @property
-    def metrics(self) -> dict[str, float]:
-        """G, T, E, alpha_t, beta_e, C, min_sdf, min_sdf_swept, L."""
+    def metrics(self) -> dict[str, Any]:
+        """G, T, E, alpha_t, beta_e, C, min_sdf, min_sdf_swept, L (floats) and, with colliders,
+        max_penetration (a dict of depth, step and particle)."""
 
 class Plan:
     """An optimizer's result (the record `clothopt optimize --out` writes)."""
@@ -116,7 +118,7 @@ class Plan:
     def states(self) -> Optional[F64Array]:
         """`(T+1, N, 3)`."""
     @property
-    def metrics(self) -> dict[str, float]: ...
+    def metrics(self) -> dict[str, Any]: ...
     @property
     def warnings(self) -> list[str]: ...
     def summary(self, timing: bool = True) -> str:

@@ -8,7 +8,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 /// The paper's metrics as a dict: `G`, `T`, `E`, `alpha_t`, `beta_e`, `C`, `min_sdf`,
-/// `min_sdf_swept`, `L` (floats; `min_sdf` is `inf` without safety obstacles).
+/// `min_sdf_swept`, `L` (floats; `min_sdf` is `inf` without safety obstacles), and with colliders
+/// `max_penetration`, a dict of `depth` (float), `step` and `particle` (ints), as in the JSON.
 pub fn metrics_dict<'py>(py: Python<'py>, m: &cloth::Metrics) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     for (k, v) in [
@@ -23,6 +24,13 @@ pub fn metrics_dict<'py>(py: Python<'py>, m: &cloth::Metrics) -> PyResult<Bound<
         ("L", m.l),
     ] {
         d.set_item(k, v)?;
+    }
+    if let Some(p) = m.max_penetration {
+        let pen = PyDict::new(py);
+        pen.set_item("depth", p.depth)?;
+        pen.set_item("step", p.step)?;
+        pen.set_item("particle", p.particle)?;
+        d.set_item("max_penetration", pen)?;
     }
     Ok(d)
 }

@@ -101,6 +101,30 @@ fn choice<T: Choice>(field: &str, value: &str) -> PyResult<T> {
         })
 }
 
+/// `step_only`, or the old `swept` saying the opposite (`swept=False` is `step_only=True`); both
+/// given and contradicting each other is an error naming them.
+fn step_only_choice(step_only: bool, swept: Option<bool>) -> PyResult<bool> {
+    match swept {
+        Some(swept) if swept == step_only => Err(PyValueError::new_err(format!(
+            "step_only={} and swept={} contradict each other: swept=True is the default \
+             (the motion between the steps is checked), step_only=True turns it off",
+            py_bool(step_only),
+            py_bool(swept)
+        ))),
+        Some(swept) => Ok(!swept),
+        None => Ok(step_only),
+    }
+}
+
+/// `True` or `False`, as Python spells them.
+fn py_bool(b: bool) -> &'static str {
+    if b {
+        "True"
+    } else {
+        "False"
+    }
+}
+
 /// What `Scene.grad` returns: the values dict, `dL_dU` and `dC_dU`.
 type GradTuple<'py> = (
     Bound<'py, PyDict>,
@@ -238,13 +262,16 @@ impl Scene {
     }
 
     /// optimize(delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp",
-    /// search="auto", starts=6, safety="per_step", swept=False, kappa=None, reuse_band=None,
-    /// tol=1e-4, feasibility_tol=1e-8, allow_unsafe_start=False, time_limit=None, start=None,
-    /// timing=True, check=None, check_rounds=3) -> Plan
+    /// search="auto", starts=6, safety="per_step", step_only=False, swept=None, kappa=None,
+    /// reuse_band=None, tol=1e-4, feasibility_tol=1e-8, allow_unsafe_start=False,
+    /// time_limit=None, start=None, timing=True, check=None, check_rounds=3) -> Plan
     ///
     /// Plans the scene's task exactly as `clothopt optimize` does (same defaults; `None` takes
     /// the scene's value): `solver` is "sqp" or "lbfgs", `search` "auto", "always" or "off",
-    /// `safety` "per_step", "aggregate" or "scalar"; `start` the starting controls
+    /// `safety` "per_step", "aggregate" or "scalar"; `step_only=True` judges safety at the steps
+    /// only (as `--step-only`; by default the motion between the steps is checked too, and
+    /// `swept=True`, the old way to ask for that, is accepted; `swept=False` means
+    /// `step_only=True`); `start` the starting controls
     /// `(T, K, 3)` (default the initial guess); `time_limit` in seconds; `timing=False` leaves the
     /// wall-clock time out of the result (as `--no-timing`); `check` ("xpbd:N", "newton" or
     /// "newton:TOL") re-simulates the plan under that physics and re-plans with a raised margin
@@ -253,7 +280,8 @@ impl Scene {
     /// while it runs.
     #[pyo3(signature = (
         delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp", search="auto",
-        starts=6, safety="per_step", swept=false, kappa=None, reuse_band=None, tol=1e-4,
+        starts=6, safety="per_step", step_only=false, swept=None, kappa=None, reuse_band=None,
+        tol=1e-4,
         feasibility_tol=clothopt::result::FEASIBILITY_TOLERANCE, allow_unsafe_start=false,
         time_limit=None, start=None, timing=true, check=None, check_rounds=3
     ))]
@@ -269,7 +297,8 @@ impl Scene {
         search: &str,
         starts: usize,
         safety: &str,
-        swept: bool,
+        step_only: bool,
+        swept: Option<bool>,
         kappa: Option<f64>,
         reuse_band: Option<f64>,
         tol: f64,
@@ -287,7 +316,7 @@ impl Scene {
             beta,
             iterations,
             safety: choice::<SafetyForm>("safety", safety)?,
-            swept,
+            step_only: step_only_choice(step_only, swept)?,
             kappa,
             reuse_band,
             solver: choice("solver", solver)?,

@@ -118,3 +118,19 @@ def test_checked_optimize_equals_cli(cli, quick_scene_file, tmp_path):
     check = plan.to_dict()["check"]
     assert check["physics"] == {"solver": "xpbd", "iterations": 50}
     assert 1 <= len(check["rounds"]) <= 2
+
+
+def test_step_only_optimize_equals_cli(cli, quick_scene_file, tmp_path):
+    scene = clothopt.Scene.load(str(quick_scene_file))
+    plan = scene.optimize(iterations=3, search="off", timing=False, step_only=True)
+    out = tmp_path / "step_only.json"
+    done = run_cli(cli, "optimize", str(quick_scene_file), "--iterations", "3", "--search", "off",
+                   "--no-timing", "--step-only", "--out", str(out), ok=(0, 3, 4))
+    assert plan.to_json() == out.read_text()
+    assert plan.summary(timing=False) == done.stdout
+    assert "(step-only check" in done.stdout.splitlines()[0]
+    assert plan.to_dict()["safety"]["check"] == "step_only"
+    # The old keyword: swept=False is step_only=True; the default checks the motion between steps.
+    assert scene.optimize(iterations=3, search="off", timing=False, swept=False).to_json() == plan.to_json()
+    continuous = scene.optimize(iterations=3, search="off", timing=False)
+    assert continuous.to_dict()["safety"]["check"] == "continuous"

@@ -71,3 +71,9 @@ def test_bad_optimize_settings(kwargs, pattern):
 def test_bad_delta_of_grad():
     with pytest.raises(ValueError, match="delta"):
         clothopt.Scene.load("u_obstacle").grad(delta=float("nan"))
+
+
+def test_step_only_and_swept_that_contradict_are_value_error():
+    scene = clothopt.Scene.load("u_obstacle")
+    with pytest.raises(ValueError, match=r"step_only=True and swept=True contradict"):
+        scene.optimize(iterations=1, search="off", step_only=True, swept=True)

@@ -116,17 +116,33 @@ struct ControlsFile {
     controls: Vec<Vec<[f64; 3]>>,
 }
 
-/// The controls in `file` (a controls file or a result), or the scene's initial guess.
+/// The controls as a file may hold them: the nested array `controls[t][k] = [dx, dy, dz]` itself
+/// (a text starting with `[`), or an object with a `controls` key (a controls file, a result).
+fn parse_controls(text: &str) -> serde_json::Result<Vec<Vec<[f64; 3]>>> {
+    if text.trim_start().starts_with('[') {
+        serde_json::from_str(text)
+    } else {
+        serde_json::from_str::<ControlsFile>(text).map(|f| f.controls)
+    }
+}
+
+/// The controls in `file` (a controls file, a result, or the bare nested array), or the scene's
+/// initial guess.
 pub fn load_controls(scene: &Scene, model: &Model, file: Option<&Path>) -> Result<Controls> {
     match file {
         None => Ok(initial_controls(scene, model)?),
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read {}", path.display()))?;
-            let parsed: ControlsFile = serde_json::from_str(&text)
-                .with_context(|| format!("{}: not a controls file", path.display()))?;
-            controls_from_nested(model, &parsed.controls)
-                .with_context(|| path.display().to_string())
+            let parsed = parse_controls(&text).with_context(|| {
+                format!(
+                    "{}: not a controls file (expected the nested array [[[dx, dy, dz], …], …] with one \
+                     entry per step and one [dx, dy, dz] per control point, or an object with a \
+                     `controls` key holding it, such as a result)",
+                    path.display()
+                )
+            })?;
+            controls_from_nested(model, &parsed).with_context(|| path.display().to_string())
         }
     }
 }

@@ -42,7 +42,13 @@ pub struct OptimizeArgs {
     /// Form of the safety constraint.
     #[arg(long, value_enum, default_value_t = SafetyForm::PerStep)]
     safety: SafetyForm,
-    /// Also keep the straight paths between steps at least δ away.
+    /// Judge safety at the steps only: the rows and the verdict leave the straight motion
+    /// between the steps (and the grippers' motion between them) unchecked. By default the
+    /// motion between the steps keeps δ from the safety obstacles and the grippers out of the
+    /// colliders too.
+    #[arg(long, conflicts_with = "swept")]
+    step_only: bool,
+    /// The default (kept for scripts that ask for it): the motion between the steps is checked.
     #[arg(long)]
     swept: bool,
     /// Sharpness κ (1/length) of the soft minimum in the per-step and aggregate forms (default
@@ -125,7 +131,8 @@ fn request(args: &OptimizeArgs) -> OptimizeRequest {
         beta: args.beta,
         iterations: args.iterations,
         safety: args.safety,
-        swept: args.swept,
+        // `--swept` asks for the default; clap rejects it beside `--step-only`.
+        step_only: args.step_only && !args.swept,
         kappa: args.kappa,
         reuse_band: args.reuse_band,
         solver: args.solver,

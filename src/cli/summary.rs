@@ -31,6 +31,11 @@ pub fn report_verdict(result: &PlanResult, out: Option<&Path>) -> i32 {
         );
     } else if code == 4 && result.check.as_ref().is_some_and(|c| !c.last().safe) {
         eprintln!("no safe plan: {}{written}", result.task.explanation);
+    } else if code == 4 && !result.safety.failures.is_empty() {
+        eprintln!(
+            "no safe plan: {}{written}",
+            result.safety.failures.join("; ")
+        );
     } else if code == 4 {
         eprintln!(
             "no safe plan: the returned plan violates the safety margin (C = {:.3e}){written}",

@@ -9,80 +9,39 @@
 //! - optionally ([`TaskOptions::goal_radius`]) one smooth row requiring every target particle to
 //!   end within a radius of its position: the route search's last resort when a safe plan misses
 //!   its targets, turning "reach the goal" from a cost into a constraint;
-//! - smooth rows on the controls alone for `max_step` and `gripper_separation`
+//! - smooth rows on the controls alone for `max_step` and `gripper_separation`, and one per
+//!   control point and step keeping it out of the colliders other than planes
 //!   (`src/control_rows.rs`);
 //! - linear rows keeping every control point on the free side of every collider plane and inside
-//!   `task.limits.workspace` at every step (the simulator pins control particles, so only this
-//!   keeps them out of the floor).
+//!   `task.limits.workspace` at every step (the simulator pins control particles, so only these
+//!   rows keep them out of the floor and the table).
 //!
-//! Grippers are cloth particles, so the safety rows keep them `δ` from the safety obstacles too.
+//! The safety rows (and the gripper rows) hold at the steps and, by default, on the straight
+//! motion between them ([`TaskOptions::swept`], `safety.rs`). Grippers are cloth particles, so
+//! the safety rows keep them `δ` from the safety obstacles too.
 //!
-//! Row order: safety, strain, goal, control rows (step, separation), linear rows (colliders,
-//! workspace).
+//! Row order ([`RowLabel`]): safety, strain, goal, control rows (step, separation, colliders),
+//! linear rows (collider planes, workspace).
 
+mod labels;
 mod options;
+mod safety;
 
+pub use labels::RowLabel;
 pub use options::{SafetyForm, TaskOptions, DEFAULT_STRAIN_KAPPA, GOAL_KAPPA};
+pub use safety::start_inside_margin;
 
-use crate::control_rows::{collider_rows, control_rows, workspace_rows, ControlRow, LinearRow};
-use autodiff::{soft_min_value, soft_min_weights, Tape, Tensor, Var};
+use crate::control_rows::{
+    collider_rows, control_rows, gripper_collider_rows, workspace_rows, ControlRow, LinearRow,
+};
+use autodiff::{soft_min_value, soft_min_weights, RowIndex, Tape, Tensor, Var};
 use cloth::StepCost;
 use cloth::{ClothError, Controls, Model};
 use optim::{DenseMatrix, EvalError, Jacobian, NormTerm, Problem};
-
-/// What one inequality row of a [`TrajectoryProblem`] constrains.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RowLabel {
-    /// A safety row: of one step (per-step form), or of the whole rollout (`None`).
-    Safety {
-        /// The step `1..=T` the row constrains, `None` for the scalar and aggregate forms.
-        step: Option<usize>,
-    },
-    /// The goal row: every target within [`TaskOptions::goal_radius`] at step `T`.
-    Goal,
-    /// A control point kept on the free side of a collider plane at one step.
-    ColliderPlane {
-        /// Index of the plane among the colliders.
-        plane: usize,
-        /// Index of the control point.
-        control: usize,
-        /// The step `1..=T`.
-        step: usize,
-    },
-    /// A robot limit (`task.limits`) at one step.
-    Limit {
-        /// The limit: `max_strain`, `max_step`, `gripper_separation` or `workspace`.
-        limit: &'static str,
-        /// The step `1..=T` (for `max_step`, the step the move ends at).
-        step: usize,
-    },
-}
-
-impl std::fmt::Display for RowLabel {
-    /// The row as a reader would name it: `safety at step 3`, `limit max_strain at step 4`, …
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match *self {
-            RowLabel::Safety { step: Some(t) } => write!(f, "safety at step {t}"),
-            RowLabel::Safety { step: None } => write!(f, "safety (whole rollout)"),
-            RowLabel::Goal => write!(f, "goal (every target within the goal radius)"),
-            RowLabel::ColliderPlane {
-                plane,
-                control,
-                step,
-            } => write!(
-                f,
-                "collider plane {plane} under control point {control} at step {step}"
-            ),
-            RowLabel::Limit { limit, step } => write!(f, "limit {limit} at step {step}"),
-        }
-    }
-}
+use std::sync::Arc;
 
 /// An owned per-step cost (see [`StepCost`]).
 type BoxedStepCost<'a> = Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + 'a>;
-
-/// Interpolation parameters of the swept-path samples between two steps.
-const SWEPT_SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
 
 /// Forward results at one point.
 struct Forward {
@@ -128,8 +87,11 @@ struct Backward {
 pub struct TrajectoryProblem<'a> {
     model: &'a Model,
     options: TaskOptions,
-    /// Smooth rows on the controls alone (step size, gripper separation).
+    /// Smooth rows on the controls alone (step size, gripper separation, grippers against the
+    /// colliders).
     control: Vec<ControlRow>,
+    /// The particles whose rest state lies within `δ` of the safety obstacles (`safety.rs`).
+    start_inside_margin: Option<Arc<RowIndex>>,
     linear: Vec<LinearRow>,
     forward: Option<Forward>,
     backward: Option<Backward>,
@@ -146,10 +108,14 @@ impl<'a> TrajectoryProblem<'a> {
     pub fn new(model: &'a Model, options: TaskOptions) -> Self {
         let mut linear = collider_rows(model);
         linear.extend(workspace_rows(model));
+        let mut control = control_rows(model);
+        control.extend(gripper_collider_rows(model, options.kappa, options.swept));
+        let start_inside_margin = safety::start_inside_margin_index(model, options.delta);
         TrajectoryProblem {
             model,
             options,
-            control: control_rows(model),
+            control,
+            start_inside_margin,
             linear,
             forward: None,
             backward: None,
@@ -175,15 +141,6 @@ impl<'a> TrajectoryProblem<'a> {
     /// The options.
     pub fn options(&self) -> &TaskOptions {
         &self.options
-    }
-
-    /// Number of safety rows (0, 1 or `T`).
-    fn safety_rows(&self) -> usize {
-        match (self.options.safety, self.model.safety.is_some()) {
-            (Some(SafetyForm::PerStep), true) => self.model.task.horizon,
-            (Some(SafetyForm::Scalar | SafetyForm::Aggregate), true) => 1,
-            _ => 0,
-        }
     }
 
     /// Number of strain rows (`T` with a `max_strain` limit on a cloth with stretch edges, else 0).
@@ -226,47 +183,6 @@ impl<'a> TrajectoryProblem<'a> {
         Some(tape.add_scalar(negated, limit))
     }
 
-    /// What each inequality row constrains, in row order (safety rows, strain rows, the goal row,
-    /// step and separation rows, collider rows, workspace rows).
-    pub fn row_labels(&self) -> Vec<RowLabel> {
-        let mut labels: Vec<RowLabel> = match self.options.safety {
-            Some(SafetyForm::PerStep) => (1..=self.safety_rows())
-                .map(|t| RowLabel::Safety { step: Some(t) })
-                .collect(),
-            _ => vec![RowLabel::Safety { step: None }; self.safety_rows()],
-        };
-        labels.extend((1..=self.strain_rows()).map(|step| RowLabel::Limit {
-            limit: "max_strain",
-            step,
-        }));
-        labels.extend((0..self.goal_rows()).map(|_| RowLabel::Goal));
-        labels.extend(self.control.iter().map(|row| {
-            let (limit, step) = row.label();
-            RowLabel::Limit { limit, step }
-        }));
-        let (planes, k, horizon) = (
-            self.model.colliders.planes.len(),
-            self.model.n_controls(),
-            self.model.task.horizon,
-        );
-        for plane in 0..planes {
-            for control in 0..k {
-                labels.extend((1..=horizon).map(|step| RowLabel::ColliderPlane {
-                    plane,
-                    control,
-                    step,
-                }));
-            }
-        }
-        // Workspace rows: per control point, step, axis, the lower then the upper bound.
-        let workspace = self.linear.len() - planes * k * horizon;
-        labels.extend((0..workspace).map(|r| RowLabel::Limit {
-            limit: "workspace",
-            step: 1 + (r / 6) % horizon,
-        }));
-        labels
-    }
-
     /// Controls tensor of a variable vector.
     pub fn controls(&self, x: &[f64]) -> Controls {
         Tensor::new(
@@ -274,28 +190,6 @@ impl<'a> TrajectoryProblem<'a> {
             3 * self.model.n_controls(),
             x.to_vec(),
         )
-    }
-
-    /// Records the per-step safety term of step `t` (row `t − 1`): soft-min signed distance − δ.
-    fn record_step_safety(&self, tape: &mut Tape, x_prev: Var, x: Var) -> Option<Var> {
-        let kappa = self.options.kappa;
-        let mut parts = vec![self
-            .model
-            .record_sdf_components_for_soft_min(tape, x, kappa)?];
-        if self.options.swept {
-            for s in SWEPT_SAMPLES {
-                let a = tape.scale(x_prev, 1.0 - s);
-                let b = tape.scale(x, s);
-                let mid = tape.add(a, b);
-                parts.push(
-                    self.model
-                        .record_sdf_components_for_soft_min(tape, mid, kappa)?,
-                );
-            }
-        }
-        let all = tape.concat_rows(&parts);
-        let soft = tape.soft_min(all, kappa);
-        Some(tape.add_scalar(soft, -self.options.delta))
     }
 
     fn ensure_forward(&mut self, x: &[f64]) -> Result<&Forward, EvalError> {
@@ -318,13 +212,12 @@ impl<'a> TrajectoryProblem<'a> {
                 }
                 match self.options.safety {
                     Some(SafetyForm::PerStep | SafetyForm::Aggregate) if !safety.is_empty() => {
-                        if let Some(c) = self.record_step_safety(&mut tape, xp, xv) {
+                        if let Some(c) = self.record_step_safety(&mut tape, t, xp, xv) {
                             per_step.push(tape.value(c).item());
                         }
                     }
                     Some(SafetyForm::Scalar) if !safety.is_empty() => {
-                        if let Some(c) = self.model.record_safety(&mut tape, xv, self.options.delta)
-                        {
+                        if let Some(c) = self.record_scalar_safety(&mut tape, t, xp, xv) {
                             safety[0] += tape.value(c).item();
                         }
                     }
@@ -428,26 +321,26 @@ impl<'a> TrajectoryProblem<'a> {
         let model = self.model;
         let loss =
             move |tape: &mut Tape, t: usize, _: Var, xv: Var| model.record_loss(tape, t, xv, beta);
-        let delta = self.options.delta;
-        let scalar =
-            move |tape: &mut Tape, _: usize, _: Var, xv: Var| model.record_safety(tape, xv, delta);
+        let scalar = |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
+            self.record_scalar_safety(tape, t, xp, xv)
+        };
         // Per-step rows asked for; the others keep a zero row here.
         let active: Vec<usize> = match self.options.safety {
             Some(SafetyForm::PerStep) => (0..rows).filter(|&r| wanted[r]).collect(),
             _ => Vec::new(),
         };
-        let per_step = self.step_row_costs(&active, |this, tape, xp, xv| {
-            this.record_step_safety(tape, xp, xv)
+        let per_step = self.step_row_costs(&active, |this, tape, t, xp, xv| {
+            this.record_step_safety(tape, t, xp, xv)
         });
         // Aggregate: Σ_t w_t s_t with the softmax weights w_t of the per-step rows s_t.
         let weights = soft_min_weights(&forward.per_step, self.options.kappa);
         let aggregate = |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
             let w = weights.get(t - 1).copied().filter(|&w| w > 0.0)?;
-            let s = self.record_step_safety(tape, xp, xv)?;
+            let s = self.record_step_safety(tape, t, xp, xv)?;
             Some(tape.scale(s, w))
         };
         let strain_active: Vec<usize> = (0..strain_rows).filter(|&r| wanted[rows + r]).collect();
-        let strain_costs = self.step_row_costs(&strain_active, |this, tape, _, xv| {
+        let strain_costs = self.step_row_costs(&strain_active, |this, tape, _, _, xv| {
             this.record_step_strain(tape, xv)
         });
         let horizon = self.model.task.horizon;
@@ -482,12 +375,14 @@ impl<'a> TrajectoryProblem<'a> {
     fn step_row_costs(
         &self,
         rows: &[usize],
-        record: fn(&Self, &mut Tape, Var, Var) -> Option<Var>,
+        record: fn(&Self, &mut Tape, usize, Var, Var) -> Option<Var>,
     ) -> Vec<BoxedStepCost<'_>> {
         rows.iter()
             .map(|&row| {
                 Box::new(move |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
-                    (t == row + 1).then(|| record(self, tape, xp, xv)).flatten()
+                    (t == row + 1)
+                        .then(|| record(self, tape, t, xp, xv))
+                        .flatten()
                 }) as BoxedStepCost<'_>
             })
             .collect()

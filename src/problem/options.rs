@@ -48,7 +48,11 @@ pub struct TaskOptions {
     pub beta: f64,
     /// The safety constraint's form; `None` drops it (unconstrained apart from collider rows).
     pub safety: Option<SafetyForm>,
-    /// Also constrain the straight paths between steps (per-step form only).
+    /// Continuous safety (default `true`): the safety rows (every form) also keep the straight
+    /// motion of every particle between consecutive steps `δ` away, each path at its exact
+    /// minimizing point, and the gripper rows keep the grippers' motion out of the colliders;
+    /// the verdict then checks the same. `false` is the step-only check (`--step-only`): rows
+    /// and verdict at the `T` steps only.
     pub swept: bool,
     /// Sharpness `κ` (1/length) of the per-step soft minimum; it lies within `ln(count)/κ` below
     /// the true minimum, so the constraint is slightly conservative.
@@ -75,14 +79,14 @@ pub const DEFAULT_STRAIN_KAPPA: f64 = 500.0;
 
 impl TaskOptions {
     /// The scene's own weights and margin, the per-step safety form when the scene has safety
-    /// obstacles, κ = 3000.
+    /// obstacles, continuous safety, κ = 3000.
     pub fn for_model(model: &Model) -> Self {
         TaskOptions {
             delta: model.task.delta,
             alpha: model.task.alpha,
             beta: model.task.beta,
             safety: model.safety.is_some().then_some(SafetyForm::PerStep),
-            swept: false,
+            swept: true,
             kappa: 3000.0,
             strain_kappa: DEFAULT_STRAIN_KAPPA,
             goal_radius: None,

@@ -2,8 +2,9 @@
 //! writes, Python's `Plan` wraps and `--start` reads back — and the pure functions on it.
 //!
 //! [`PlanResult`] holds the run's counts, metrics and arrays and one section per concern:
-//! `stages` ([`Stage`]), `task` (the verdict, [`task`]), `strain` ([`strain`]), `search` (the route
-//! search, [`search`]) and `check` (other physics, [`check`]). [`convert`] turns the JSON's nested
+//! `stages` ([`Stage`]), `task` (the verdict, [`task`]), `safety` (the verdict's checks of the
+//! motion between steps, the grippers and the colliders, [`safety`]), `strain` ([`strain`]),
+//! `search` (the route search, [`search`]) and `check` (other physics, [`check`]). [`convert`] turns the JSON's nested
 //! lists into the library's tensors and back; `json` reads `null` numbers and leaves untimed runs'
 //! times out. Nothing here plans: [`crate::plan`], [`crate::search`] and
 //! [`crate::physics_check`] fill these types in, and this module depends on none of them.
@@ -11,6 +12,7 @@
 pub mod check;
 pub mod convert;
 mod json;
+pub mod safety;
 pub mod search;
 pub mod strain;
 pub mod task;
@@ -19,6 +21,7 @@ pub use check::{CheckPhysics, CheckRound, PhysicsCheck};
 pub use convert::{
     controls_from_nested, controls_to_nested, gripper_positions, mesh_triangles, state_points,
 };
+pub use safety::{GripperClearance, MotionCheck, PathMinimum, SafetyReport};
 pub use search::{CandidateReport, SearchMode, SearchReport};
 pub use strain::{strain_report, StrainReport};
 pub use task::{Reason, TaskOutcome};
@@ -73,6 +76,9 @@ pub struct PlanResult {
     /// Whether the plan achieved the task (targets within tolerance and safe) and, if not, why.
     #[serde(default)]
     pub task: TaskOutcome,
+    /// The verdict's checks of the motion between the steps, the grippers and the colliders.
+    #[serde(default)]
+    pub safety: SafetyReport,
     /// The optimizer's stages: the smooth κ warm-up (when it ran), then the sharp stage.
     #[serde(default)]
     pub stages: Vec<Stage>,
@@ -136,9 +142,11 @@ impl PlanResult {
         self.status != "infeasible" && self.constraint_violation <= self.feasibility_tolerance
     }
 
-    /// True when the plan's own rollout is [safe](is_safe) at its margin.
+    /// True when the plan's own rollout is [safe](is_safe) at its margin and passes the
+    /// verdict's other checks ([`PlanResult::safety`]: the motion between the steps, the grippers
+    /// and the colliders).
     pub fn is_safe(&self) -> bool {
-        is_safe(&self.metrics)
+        is_safe(&self.metrics) && self.safety.failures.is_empty()
     }
 
     /// Leaves every wall-clock time out (NaN, not serialized), so that identical runs write

@@ -55,6 +55,12 @@ pub struct CandidateReport {
     pub min_sdf: f64,
     /// Rollouts simulated by that stage.
     pub simulations: usize,
+    /// Optimizer iterations of that stage.
+    #[serde(default)]
+    pub iterations: usize,
+    /// Gradient evaluations (backward passes) of that stage.
+    #[serde(default)]
+    pub gradient_evaluations: usize,
     /// Wall-clock seconds of that stage (left out under `--no-timing`).
     #[serde(
         skip_serializing_if = "super::json::is_nan",
@@ -74,4 +80,11 @@ pub struct SearchReport {
     pub candidates: Vec<CandidateReport>,
     /// Rollouts simulated by the whole search (the first plan included).
     pub simulations: usize,
+    /// Optimizer iterations of the whole search (the first plan included; 0 in results
+    /// written before it was recorded).
+    #[serde(default)]
+    pub iterations: usize,
+    /// Gradient evaluations of the whole search (the first plan included).
+    #[serde(default)]
+    pub gradient_evaluations: usize,
 }

@@ -31,6 +31,36 @@ pub enum Reason {
     NoSafePlan,
 }
 
+impl Reason {
+    /// Every reason, in the order the verdict checks them (achieved first).
+    pub const ALL: [Reason; 8] = [
+        Reason::Achieved,
+        Reason::NoSafePlan,
+        Reason::IterationLimit,
+        Reason::Stopped,
+        Reason::Stalled,
+        Reason::SafetyActive,
+        Reason::LimitsActive,
+        Reason::LocalMinimum,
+    ];
+
+    /// The name the result JSON and the summary give it: `achieved`, `no_safe_plan`,
+    /// `iteration_limit`, `stopped`, `stalled`, `safety_active`, `limits_active`,
+    /// `local_minimum`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Reason::Achieved => "achieved",
+            Reason::SafetyActive => "safety_active",
+            Reason::LimitsActive => "limits_active",
+            Reason::LocalMinimum => "local_minimum",
+            Reason::IterationLimit => "iteration_limit",
+            Reason::Stalled => "stalled",
+            Reason::Stopped => "stopped",
+            Reason::NoSafePlan => "no_safe_plan",
+        }
+    }
+}
+
 /// The task section of a result: how close the cloth came to its targets, and the verdict.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct TaskOutcome {

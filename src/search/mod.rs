@@ -99,6 +99,8 @@ fn candidate_report(route: &str, stage: &str, r: &PlanResult) -> CandidateReport
         g: r.metrics.g,
         min_sdf: r.metrics.min_sdf,
         simulations: r.evaluations,
+        iterations: r.iterations,
+        gradient_evaluations: r.gradient_evaluations,
         wall_s: r.wall_s,
         kept: false,
     }
@@ -304,7 +306,7 @@ pub fn plan_with_search(
         let candidates = routes::propose(
             model,
             start,
-            options.task.delta,
+            (options.task.delta, options.task.swept),
             search.random_starts,
             search.seed,
             search.max_candidates,
@@ -331,10 +333,14 @@ pub fn plan_with_search(
     }
     reports[best_report].kept = true;
     let simulations = reports.iter().map(|r| r.simulations).sum();
+    let iterations = reports.iter().map(|r| r.iterations).sum();
+    let gradient_evaluations = reports.iter().map(|r| r.gradient_evaluations).sum();
     best.search = Some(SearchReport {
         mode: search.mode,
         candidates: reports,
         simulations,
+        iterations,
+        gradient_evaluations,
     });
     best.wall_s = clock.elapsed().as_secs_f64();
     Ok(best)

@@ -5,9 +5,10 @@
 //! cloth by the targets' mean displacement — and from detours around the safety obstacles that a
 //! base path's rollout runs into:
 //!
-//! 1. simulate the base path and mark the steps where the cloth comes closer than `δ + clearance`
-//!    to a safety obstacle (`clearance` = the task tolerance); consecutive marked steps form a
-//!    *blocked segment*;
+//! 1. simulate the base path and mark the steps where the cloth (and, under the continuous check,
+//!    its straight motion from the step before) comes closer than `δ + clearance` to a safety
+//!    obstacle (`clearance` = the task tolerance); consecutive marked steps form a *blocked
+//!    segment*;
 //! 2. for each segment and each of 8 directions perpendicular to the travel (over, under, left,
 //!    right and the diagonals; "up" is against gravity), find the smallest offset `s` such that the
 //!    cloth of every step of the segment, translated by `s·n`, keeps `δ + clearance` from every
@@ -55,16 +56,18 @@ const OFFSET_STEPS: usize = 400;
 
 /// Proposes routes for `model`'s task at margin `delta` (see the module docs): detours of the
 /// initial guess `initial` and of the straight path, and `random` seeded perturbations, at most
-/// `limit` in all (detours first, by base path and then by the size of their offsets).
+/// `limit` in all (detours first, by base path and then by the size of their offsets). With
+/// `swept` (the continuous check) the motion between the steps counts as running into an
+/// obstacle too.
 pub fn propose(
     model: &Model,
     initial: &Controls,
-    delta: f64,
+    (delta, swept): (f64, bool),
     random: usize,
     seed: u64,
     limit: usize,
 ) -> Vec<Candidate> {
-    let geometry = Geometry::new(model, delta);
+    let geometry = Geometry::new(model, delta, swept);
     let straight = geometry.straight_paths();
     // The initial guess and the straight path; one of them when they coincide (to rounding).
     let guess = paths_of(model, initial);
@@ -116,6 +119,8 @@ pub fn propose(
 struct Geometry<'a> {
     model: &'a Model,
     delta: f64,
+    /// The motion between the steps counts too (the continuous check).
+    swept: bool,
     clearance: f64,
     /// Unit "up" and "left", perpendicular to the travel direction.
     up: [f64; 3],
@@ -129,7 +134,7 @@ struct Geometry<'a> {
 }
 
 impl<'a> Geometry<'a> {
-    fn new(model: &'a Model, delta: f64) -> Self {
+    fn new(model: &'a Model, delta: f64, swept: bool) -> Self {
         let displacement = mean_target_displacement(model);
         let gravity = model.gravity_step.unwrap_or([0.0, 0.0, -1.0]);
         let world_up = normalized(scale(gravity, -1.0)).unwrap_or([0.0, 0.0, 1.0]);
@@ -146,6 +151,7 @@ impl<'a> Geometry<'a> {
         Geometry {
             model,
             delta,
+            swept,
             clearance,
             up,
             left,
@@ -176,7 +182,7 @@ impl<'a> Geometry<'a> {
         }
         let limit = self.delta + self.clearance;
         let blocked: Vec<usize> = (1..states.len())
-            .filter(|&t| min_distance(safety, &states[t], [0.0; 3]) < limit)
+            .filter(|&t| self.step_distance(states, t, [0.0; 3]) < limit)
             .collect();
         let segments = runs(&blocked);
         if segments.is_empty() {
@@ -252,7 +258,6 @@ impl<'a> Geometry<'a> {
         n: [f64; 3],
     ) -> Option<f64> {
         let limit = self.delta + self.clearance;
-        let safety = &self.model.safety_obstacles;
         let planes = &self.model.colliders.planes;
         let mut s = self.increment;
         while s <= self.reach {
@@ -264,12 +269,31 @@ impl<'a> Geometry<'a> {
                     planes.iter().all(|pl| pl.distance(&v) >= 0.0)
                 })
             });
-            if grippers_free && (a..=b).all(|t| min_distance(safety, &states[t], shift) >= limit) {
+            if grippers_free && (a..=b).all(|t| self.step_distance(states, t, shift) >= limit) {
                 return Some(s);
             }
             s += self.increment;
         }
         None
+    }
+
+    /// The smallest signed distance to the safety obstacles of the cloth of step `t` translated
+    /// by `shift` and, with [`Geometry::swept`], of its straight motion from step `t − 1`
+    /// translated alike.
+    fn step_distance(&self, states: &[Tensor], t: usize, shift: [f64; 3]) -> f64 {
+        let safety = &self.model.safety_obstacles;
+        let at = min_distance(safety, &states[t], shift);
+        if !self.swept {
+            return at;
+        }
+        let moved =
+            |p: &[f64]| nalgebra::Vector3::new(p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]);
+        states[t - 1]
+            .data()
+            .chunks_exact(3)
+            .zip(states[t].data().chunks_exact(3))
+            .map(|(a, b)| safety.min_along_segment(&moved(a), &moved(b)))
+            .fold(at, f64::min)
     }
 
     /// `count` seeded perturbations of `base`: one via-point at a random interior step, offset

@@ -8,6 +8,7 @@ use crate::controls::Controls;
 use crate::error::ClothError;
 use crate::model::Model;
 use crate::rollout::cost::trajectory_irregularity;
+use crate::rollout::penetration::{deeper, Penetration};
 use crate::xpbd::sim::{check_finite, control_entry, StepScratch};
 use autodiff::{in_pool, Gradients, Tape, Tensor, Var};
 use rayon::prelude::*;
@@ -48,6 +49,10 @@ pub struct Metrics {
     /// `L = G + αT + βE`.
     #[serde(rename = "L")]
     pub l: f64,
+    /// The deepest penetration of any particle (grippers included) into the colliders at steps
+    /// 1..T; `None` without colliders (and then left out of the JSON).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_penetration: Option<Penetration>,
 }
 
 /// Reads a number that JSON may hold as `null` (how `serde_json` writes ∞): `null` reads as ∞.
@@ -114,6 +119,7 @@ impl Model {
                 let g = self.record_target_error(&mut tape, xv);
                 m.g = tape.value(g).item();
             }
+            m.max_penetration = deeper(m.max_penetration, self.penetration(x, t));
         }
         let (t_cost, _) = trajectory_irregularity(controls);
         m.t = t_cost;

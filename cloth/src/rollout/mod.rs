@@ -2,9 +2,14 @@
 //!
 //! - [`cost`]: the paper's costs (`G`, `E`, the safety term, `T`) recorded on a tape;
 //! - [`strain`]: edge strain and its smooth maximum (the `max_strain` rows);
+//! - [`swept`]: the safety field along each particle's straight motion between two states (the
+//!   continuous safety rows);
+//! - [`penetration`]: how deep the particles go into the colliders;
 //! - [`grad`]: metrics of a rollout, and gradients of any per-step costs by reverse mode
 //!   (checkpointed per step or per block of iterations).
 
 pub mod cost;
 pub mod grad;
+pub mod penetration;
 pub mod strain;
+pub mod swept;

@@ -222,7 +222,7 @@ impl Union {
             put(capsule.distance(&point(capsule.segment_min(&av, &bv).at)));
         }
         for cuboid in &self.boxes {
-            put(cuboid.distance(&point(cuboid.segment_min(&av, &bv).at)));
+            put(cuboid.distance(&(a + (b - a) * cuboid.segment_param(a, b))));
         }
         for mesh in &self.meshes {
             put(match midpoint_lower_bound(mesh, &av, &bv, mesh_bound) {

@@ -228,12 +228,6 @@ impl Cuboid {
         }
     }
 
-    /// The world point `p` in body coordinates, `Rᵀ(p − c)`.
-    fn to_body(&self, p: &Vector3<f64>) -> [f64; 3] {
-        let rel: [f64; 3] = std::array::from_fn(|i| p[i] - self.center[i]);
-        std::array::from_fn(|k| (0..3).map(|i| rel[i] * self.rotation[i][k]).sum::<f64>())
-    }
-
     /// The body-frame point `q` in world coordinates, `c + R q`.
     fn to_world(&self, q: [f64; 3]) -> [f64; 3] {
         std::array::from_fn(|i| {
@@ -269,13 +263,8 @@ impl Cuboid {
 
 impl SignedDistance for Cuboid {
     fn distance<R: Real>(&self, p: &Vector3<R>) -> R {
-        let rel = p - constant::<R>(&self.center);
-        let d: [R; 3] = std::array::from_fn(|k| {
-            let q = rel[0] * self.rotation[0][k]
-                + rel[1] * self.rotation[1][k]
-                + rel[2] * self.rotation[2][k];
-            q.abs() - self.half_extents[k]
-        });
+        let q = self.body(p);
+        let d: [R; 3] = std::array::from_fn(|k| q[k].abs() - self.half_extents[k]);
         if d.iter().any(|x| x.value() > 0.0) {
             let o = Vector3::new(d[0].relu(), d[1].relu(), d[2].relu());
             norm(&o)
@@ -291,38 +280,90 @@ impl SignedDistance for Cuboid {
     /// crossing; the distance is evaluated at each candidate and the smallest kept (the
     /// smallest parameter on a tie).
     fn segment_min(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> SegmentMin {
-        let (qa, qb) = (self.to_body(a), self.to_body(b));
+        let (s, _) = self.segment_minimizer(a, b);
+        SegmentMin::exact(self.distance(&(a + (b - a) * s)), s)
+    }
+}
+
+/// How a box's minimizing parameter along a segment is defined (`Cuboid::segment_param`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum BoxCandidate {
+    /// A fixed parameter: an end of the segment, or the vertex of a smooth piece (where the
+    /// distance is stationary along the segment, so the parameter's own motion does not count).
+    Fixed,
+    /// Where body coordinate `axis` reaches `level` (`−h`, `0` or `h`).
+    Level { axis: usize, level: f64 },
+    /// Where the inside terms `σᵢqᵢ − hᵢ` and `σⱼqⱼ − hⱼ` cross.
+    Crossing { i: usize, j: usize, signs: [f64; 3] },
+}
+
+impl Cuboid {
+    /// The body coordinates `Rᵀ(p − c)` of a point of any scalar.
+    fn body<R: Real>(&self, p: &Vector3<R>) -> [R; 3] {
+        let rel = p - constant::<R>(&self.center);
+        std::array::from_fn(|k| {
+            rel[0] * self.rotation[0][k]
+                + rel[1] * self.rotation[1][k]
+                + rel[2] * self.rotation[2][k]
+        })
+    }
+
+    /// The parameter in `[0, 1]` where the distance is smallest along `a → b`
+    /// ([`SignedDistance::segment_min`]) and how it is defined.
+    fn segment_minimizer(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> (f64, BoxCandidate) {
+        let (qa, qb) = (self.body(a), self.body(b));
         let e: [f64; 3] = std::array::from_fn(|k| qb[k] - qa[k]);
         let h = self.half_extents;
-        let mut cuts = vec![0.0, 1.0];
-        for k in 0..3 {
-            if e[k] != 0.0 {
-                for level in [-h[k], 0.0, h[k]] {
-                    let s = (level - qa[k]) / e[k];
+        let mut cuts = vec![(0.0, BoxCandidate::Fixed), (1.0, BoxCandidate::Fixed)];
+        for axis in 0..3 {
+            if e[axis] != 0.0 {
+                for level in [-h[axis], 0.0, h[axis]] {
+                    let s = (level - qa[axis]) / e[axis];
                     if s > 0.0 && s < 1.0 {
-                        cuts.push(s);
+                        cuts.push((s, BoxCandidate::Level { axis, level }));
                     }
                 }
             }
         }
-        cuts.sort_by(f64::total_cmp);
-        cuts.dedup();
+        cuts.sort_by(|x, y| x.0.total_cmp(&y.0));
+        cuts.dedup_by(|x, y| x.0 == y.0);
         let mut candidates = cuts.clone();
         for w in cuts.windows(2) {
-            candidates.extend(box_piece_candidates(&qa, &e, &h, w[0], w[1]));
+            candidates.extend(box_piece_candidates(&qa, &e, &h, w[0].0, w[1].0));
         }
-        candidates.sort_by(f64::total_cmp);
+        candidates.sort_by(|x, y| x.0.total_cmp(&y.0));
         let value = |s: f64| self.distance(&(a + (b - a) * s));
-        candidates.into_iter().map(|s| (value(s), s)).fold(
-            SegmentMin::exact(f64::INFINITY, 0.0),
-            |best, (v, s)| {
-                if v < best.value {
-                    SegmentMin::exact(v, s)
-                } else {
-                    best
-                }
-            },
-        )
+        let mut best = (f64::INFINITY, (0.0, BoxCandidate::Fixed));
+        for c in candidates {
+            let v = value(c.0);
+            if v < best.0 {
+                best = (v, c);
+            }
+        }
+        best.1
+    }
+
+    /// The minimizing parameter of [`SignedDistance::segment_min`] as a function of the segment's
+    /// ends, for any scalar: found on the values, then recomputed from `a` and `b` by its
+    /// definition (where a coordinate reaches a level, where two inside terms cross), so that
+    /// where the minimum sits on a crease of the box's field its motion with the ends is
+    /// differentiated too; a fixed parameter (an end, a smooth piece's vertex) is a constant.
+    /// The distance at `a + s(b − a)` then has the minimum's exact derivative.
+    pub fn segment_param<R: Real>(&self, a: &Vector3<R>, b: &Vector3<R>) -> R {
+        let value = |p: &Vector3<R>| Vector3::new(p[0].value(), p[1].value(), p[2].value());
+        let (s, how) = self.segment_minimizer(&value(a), &value(b));
+        let (qa, qb) = (self.body(a), self.body(b));
+        let e: [R; 3] = std::array::from_fn(|k| qb[k] - qa[k]);
+        match how {
+            BoxCandidate::Fixed => R::cst(s),
+            BoxCandidate::Level { axis, level } => (R::cst(level) - qa[axis]) / e[axis],
+            BoxCandidate::Crossing { i, j, signs } => {
+                let h = self.half_extents;
+                let alpha = |k: usize| qa[k] * signs[k] - h[k];
+                let beta = |k: usize| e[k] * signs[k];
+                (alpha(j) - alpha(i)) / (beta(i) - beta(j))
+            }
+        }
     }
 }
 
@@ -330,13 +371,18 @@ impl SignedDistance for Cuboid {
 /// segment `q(s) = qa + s·e` (half extents `h`), on which no coordinate crosses `−h`, `0` or `h`:
 /// outside, the vertex of `Σ (|q_k| − h_k)²` over the axes beyond their faces, clamped to the
 /// piece; inside, the crossings of two of the linear `|q_k| − h_k`.
-fn box_piece_candidates(qa: &[f64; 3], e: &[f64; 3], h: &[f64; 3], s0: f64, s1: f64) -> Vec<f64> {
+fn box_piece_candidates(
+    qa: &[f64; 3],
+    e: &[f64; 3],
+    h: &[f64; 3],
+    s0: f64,
+    s1: f64,
+) -> Vec<(f64, BoxCandidate)> {
     let mid = 0.5 * (s0 + s1);
+    let signs: [f64; 3] =
+        std::array::from_fn(|k| if qa[k] + mid * e[k] < 0.0 { -1.0 } else { 1.0 });
     // On the piece, |q_k| − h_k = α_k + β_k s.
-    let line: [(f64, f64); 3] = std::array::from_fn(|k| {
-        let sign = if qa[k] + mid * e[k] < 0.0 { -1.0 } else { 1.0 };
-        (sign * qa[k] - h[k], sign * e[k])
-    });
+    let line: [(f64, f64); 3] = std::array::from_fn(|k| (signs[k] * qa[k] - h[k], signs[k] * e[k]));
     let outside: Vec<(f64, f64)> = line
         .iter()
         .copied()
@@ -346,7 +392,7 @@ fn box_piece_candidates(qa: &[f64; 3], e: &[f64; 3], h: &[f64; 3], s0: f64, s1: 
         let a2: f64 = outside.iter().map(|(_, be)| be * be).sum();
         let b1: f64 = outside.iter().map(|(al, be)| al * be).sum();
         return if a2 > 0.0 {
-            vec![(-b1 / a2).clamp(s0, s1)]
+            vec![((-b1 / a2).clamp(s0, s1), BoxCandidate::Fixed)]
         } else {
             Vec::new()
         };
@@ -359,7 +405,7 @@ fn box_piece_candidates(qa: &[f64; 3], e: &[f64; 3], h: &[f64; 3], s0: f64, s1: 
             if bi != bj {
                 let s = (aj - ai) / (bi - bj);
                 if s > s0 && s < s1 {
-                    out.push(s);
+                    out.push((s, BoxCandidate::Crossing { i, j, signs }));
                 }
             }
         }

@@ -1,0 +1,144 @@
+//! The verdict's safety checks beyond the optimizer's rows, on the re-simulated rollout of a
+//! plan: what a robot executing it would sweep through.
+//!
+//! - *Continuous check* (the default; [`TaskOptions::swept`]): the straight motion of every
+//!   particle between consecutive steps keeps `δ` from the safety obstacles, within
+//!   [`SAFETY_TOLERANCE`]; each path's minimum is exact for spheres, planes, capsules and boxes
+//!   and a lower bound for meshes ([`cloth::sdf::SignedDistance::segment_min`]). A particle whose
+//!   rest state already lies within `δ` ([`start_inside_margin`]) counts from its step-1 state:
+//!   no plan can move where the cloth starts, and step 0 is judged on its own.
+//! - *Grippers*: no gripper inside a collider (by more than the feasibility tolerance), at the
+//!   steps and, under the continuous check, on its motion between them. Grippers have infinite
+//!   mass, so no collider pushes them out.
+//! - *Penetration*: no particle inside a collider at a step by more than the feasibility
+//!   tolerance (`metrics.max_penetration`).
+//!
+//! Each failure is a sentence in [`SafetyReport::failures`]; a plan with any is not safe.
+
+use crate::problem::{start_inside_margin, TaskOptions};
+use crate::result::{GripperClearance, MotionCheck, PathMinimum, SafetyReport, SAFETY_TOLERANCE};
+use autodiff::Tensor;
+use cloth::nalgebra::Vector3;
+use cloth::sdf::SignedDistance;
+use cloth::{Metrics, Model};
+
+/// The safety report of a rollout `states` (with its `metrics`) planned with `task`: the checks
+/// of the module docs, failures beyond `tol_feasibility` for the colliders and
+/// [`SAFETY_TOLERANCE`] for the margin.
+pub fn check_safety(
+    model: &Model,
+    states: &[Tensor],
+    metrics: &Metrics,
+    task: &TaskOptions,
+    tol_feasibility: f64,
+) -> SafetyReport {
+    let check = if task.swept {
+        MotionCheck::Continuous
+    } else {
+        MotionCheck::StepOnly
+    };
+    let mut failures = Vec::new();
+    let between_steps = task
+        .swept
+        .then(|| between_steps(model, states, task.delta))
+        .flatten();
+    if let Some(m) = between_steps {
+        if m.distance < task.delta - SAFETY_TOLERANCE {
+            failures.push(format!(
+                "between steps {} and {} particle {} comes to {:.4} of the safety obstacles{}, inside δ = {}",
+                m.step - 1,
+                m.step,
+                m.particle,
+                m.distance,
+                if m.distance < 0.0 { " (inside one)" } else { "" },
+                task.delta
+            ));
+        }
+    }
+    let grippers = grippers(model, states, task.swept);
+    if let Some(g) = grippers {
+        if g.distance < -tol_feasibility {
+            let when = if task.swept {
+                format!("between steps {} and {}", g.step - 1, g.step)
+            } else {
+                format!("at step {}", g.step)
+            };
+            failures.push(format!(
+                "gripper {} goes {:.4} inside the colliders {when}",
+                g.gripper, -g.distance
+            ));
+        }
+    }
+    if let Some(p) = metrics.max_penetration {
+        let gripper = model.controls.as_slice().contains(&p.particle);
+        if p.depth > tol_feasibility && !gripper {
+            failures.push(format!(
+                "particle {} is {:.4} inside the colliders at step {}",
+                p.particle, p.depth, p.step
+            ));
+        }
+    }
+    SafetyReport {
+        check,
+        between_steps,
+        grippers,
+        failures,
+    }
+}
+
+/// The smallest signed distance to the safety obstacles along every particle's straight motion
+/// between consecutive states (module docs); `None` without safety obstacles.
+fn between_steps(model: &Model, states: &[Tensor], delta: f64) -> Option<PathMinimum> {
+    let inside = start_inside_margin(model, delta);
+    let mut best: Option<PathMinimum> = None;
+    for t in 1..states.len() {
+        let start = if t == 1 && !inside.is_empty() {
+            let mut a = states[0].clone();
+            for &p in &inside {
+                a.row_mut(p).copy_from_slice(states[1].row(p));
+            }
+            a
+        } else {
+            states[t - 1].clone()
+        };
+        let (distance, particle) = model.deepest_between(&start, &states[t])?;
+        if best.is_none_or(|b| distance < b.distance) {
+            best = Some(PathMinimum {
+                distance,
+                step: t,
+                particle,
+            });
+        }
+    }
+    best
+}
+
+/// The gripper nearest to the colliders (all of them, planes included) at the steps and, when
+/// `swept`, on its straight motion from the step before (from its step-1 position for a gripper
+/// that starts inside one); `None` without colliders.
+fn grippers(model: &Model, states: &[Tensor], swept: bool) -> Option<GripperClearance> {
+    let field = &model.colliders;
+    if field.is_empty() {
+        return None;
+    }
+    let mut best: Option<GripperClearance> = None;
+    for (gripper, &p) in model.controls.as_slice().iter().enumerate() {
+        let at = |t: usize| Vector3::from_fn(|j, _| states[t].get(p, j));
+        let starts_inside = field.distance(&at(0)) < 0.0;
+        for t in 1..states.len() {
+            let distance = if swept && !(t == 1 && starts_inside) {
+                field.min_along_segment(&at(t - 1), &at(t))
+            } else {
+                field.distance(&at(t))
+            };
+            if best.is_none_or(|b| distance < b.distance) {
+                best = Some(GripperClearance {
+                    distance,
+                    step: t,
+                    gripper,
+                });
+            }
+        }
+    }
+    best
+}
