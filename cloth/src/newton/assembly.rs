@@ -505,15 +505,18 @@ impl Pattern {
         let Some((barrier, _)) = &self.barrier else {
             return 1.0;
         };
-        let moves = self.dof_of.iter().enumerate().filter_map(|(p, &d)| {
-            (d != NONE).then(|| {
+        let moves = self
+            .dof_of
+            .iter()
+            .enumerate()
+            .filter(|&(_, &d)| d != NONE)
+            .map(|(p, &d)| {
                 let d = d as usize;
                 (
                     &x[3 * p..3 * p + 3],
                     [step * dir[d], step * dir[d + 1], step * dir[d + 2]],
                 )
-            })
-        });
+            });
         barrier.max_step(moves)
     }
 
