@@ -19,6 +19,7 @@
 
 use anyhow::{ensure, Context, Result};
 use clap::{Parser, ValueEnum};
+use cloth::scene::SolverKind;
 use cloth::{Model, Scene};
 use clothopt::result::{PlanResult, Reason, SearchMode};
 use clothopt::validate::ensure_positive;
@@ -104,6 +105,8 @@ enum Outcome {
 /// One plan's verdict and costs, as its result JSON spells them.
 #[derive(Serialize)]
 struct Plan {
+    /// The step solver the plan ran on (`xpbd` or `newton`).
+    solver: String,
     achieved: bool,
     /// Feasible and safe at its margin (`PlanResult::is_feasible` and `is_safe`).
     safe: bool,
@@ -248,11 +251,14 @@ fn run_one(
         Some(value) => serde_json::to_string_pretty(value)?,
         None => scene.text.clone(),
     };
-    if let Err(e) = supported(&text, base) {
-        return Ok(Outcome::Unsupported {
-            message: one_line(&e),
-        });
-    }
+    let solver = match supported(&text, base) {
+        Ok(solver) => solver,
+        Err(e) => {
+            return Ok(Outcome::Unsupported {
+                message: one_line(&e),
+            })
+        }
+    };
     let file = match variant {
         None => scene.path.clone(),
         Some(mut value) => {
@@ -286,6 +292,7 @@ fn run_one(
         let _ = std::fs::remove_file(&result_path);
     }
     Ok(Outcome::Planned(Box::new(Plan {
+        solver: solver.to_string(),
         achieved: result.task.achieved,
         safe: result.is_feasible() && result.is_safe(),
         reason: result.task.reason,
@@ -342,10 +349,10 @@ fn with_contact_model(text: &str, model: ContactModel) -> Result<Option<Value>> 
 
 /// Whether the simulator takes the scene `text` (files relative to `base`): it loads, validates
 /// and compiles into a model.
-fn supported(text: &str, base: &Path) -> Result<()> {
+fn supported(text: &str, base: &Path) -> Result<SolverKind> {
     let scene = Scene::from_json_str_in(text, base)?;
     Model::from_scene(&scene)?;
-    Ok(())
+    Ok(scene.physics.solver)
 }
 
 /// Makes the files a scene names (`cloth.mesh`, `task.target_mesh`, `obstacles[i].file`; see
@@ -393,16 +400,17 @@ fn last_line(text: &str) -> String {
 }
 
 /// One line of the table: the scene and model, then the plan's cells.
-fn line(scene: &str, model: &str, cells: [&str; 10]) -> String {
-    let [verdict, safe, reason, status, first, error, targets, iters, sims, wall] = cells;
+fn line(scene: &str, model: &str, cells: [&str; 11]) -> String {
+    let [solver, verdict, safe, reason, status, first, error, targets, iters, sims, wall] = cells;
     format!(
-        "{scene:<14} {model:<7} {verdict:<9} {safe:<5} {reason:<15} {status:<14} {first:<16} \
-         {error:>13} {targets:>7} {iters:>6} {sims:>12} {wall:>8}"
+        "{scene:<14} {model:<7} {solver:<7} {verdict:<9} {safe:<5} {reason:<15} {status:<14} \
+         {first:<16} {error:>13} {targets:>7} {iters:>6} {sims:>12} {wall:>8}"
     )
 }
 
 fn print_table(rows: &[Row]) {
     let header = [
+        "solver",
         "verdict",
         "safe",
         "reason",
@@ -424,6 +432,7 @@ fn print_table(rows: &[Row]) {
                     .and_then(|v| v.as_str().map(String::from))
                     .unwrap_or_default();
                 let cells = [
+                    p.solver.clone(),
                     if p.achieved { "achieved" } else { "missed" }.to_string(),
                     if p.safe { "yes" } else { "no" }.to_string(),
                     reason,
