@@ -376,11 +376,11 @@ fn a_bare_nested_controls_array_is_accepted() {
     let scene = small_obstacle_scene(&dir);
     let step = "[[0.0, 0.1, 0.0], [0.0, 0.1, 0.0]]";
     let bare = dir.join("bare.json");
-    std::fs::write(&bare, format!("[{}]", vec![step; 10].join(", "))).unwrap();
+    std::fs::write(&bare, format!("[{}]", [step; 10].join(", "))).unwrap();
     let wrapped = dir.join("wrapped.json");
     std::fs::write(
         &wrapped,
-        format!("{{\"controls\": [{}]}}", vec![step; 10].join(", ")),
+        format!("{{\"controls\": [{}]}}", [step; 10].join(", ")),
     )
     .unwrap();
     let sim = |controls: &Path| {

@@ -46,9 +46,9 @@ fn independent_check(model: &Model, result: &PlanResult) -> (Vec<String>, f64) {
         .map(|p| !safety.is_empty() && safety.distance(&at(&states[0], p)) < delta)
         .collect();
     for t in 1..states.len() {
-        for p in 0..model.n_particles() {
+        for (p, &inside) in starts_inside.iter().enumerate() {
             let b = at(&states[t], p);
-            let a = if t == 1 && starts_inside[p] {
+            let a = if t == 1 && inside {
                 b
             } else {
                 at(&states[t - 1], p)

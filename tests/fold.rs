@@ -1,6 +1,7 @@
 //! The `fold` built-in through the planner, cheaply: a κ warm-up stopped by the progress test after
 //! its first iteration (a window of one iteration, any decrease below 100%) with no safety row
-//! active is the plan — the sharp stage is not run — and that plan is achieved and safe, and its
+//! active is the plan — the sharp stage is not run — and that plan reaches every target but is not
+//! called safe (the cloth sinks 0.3 mm into the table, more than the feasibility tolerance), and its
 //! rollout, simulated again, gives the same errors. (The full `optimize fold` run and its numbers
 //! are in docs/performance.md, "The towel and the fold".) Also: when the planner skips the sharp
 //! stage, and that the progress options are checked.
@@ -35,7 +36,26 @@ fn a_warm_up_without_progress_and_far_from_the_mug_is_the_fold_plan() {
     assert_eq!(result.stages.len(), 1, "the sharp stage did not run");
     assert_eq!(result.stages[0].kappa, Some(200.0));
     assert_eq!(result.stages[0].status, "no_progress");
-    assert!(result.task.achieved, "{}", result.task.explanation);
+    // Every target is reached, but the plan is not called safe: XPBD (150 sweeps) leaves the cloth
+    // 0.3 mm inside the table at step 14, beyond the feasibility tolerance (1e-8) that the deepest
+    // penetration is held to; that is the only failure the verdict names.
+    assert!(!result.task.achieved);
+    assert_eq!(result.task.reason, clothopt::result::Reason::NoSafePlan);
+    let deepest = result.metrics.max_penetration.unwrap();
+    assert!(
+        deepest.depth > options.tol_feasibility && deepest.depth < 1e-3,
+        "{deepest:?}"
+    );
+    assert!(
+        !result.safety.failures.is_empty()
+            && result
+                .safety
+                .failures
+                .iter()
+                .all(|f| f.contains("inside the colliders")),
+        "{:?}",
+        result.safety.failures
+    );
     assert!(
         result.task.max_target_error <= model.task.tolerance,
         "{}",

@@ -111,8 +111,16 @@ fn a_blocked_straight_path_is_achieved_with_the_search_and_not_without() {
     assert_outcome_matches_the_rollout(&model, &on);
     // The search lists the first plan and every candidate, and marks exactly one kept.
     let search = on.search.as_ref().unwrap();
+    let stages: Vec<_> = search
+        .candidates
+        .iter()
+        .map(|c| (&c.stage, &c.route, c.achieved))
+        .collect();
+    println!("candidates: {stages:?}");
     assert_eq!(search.candidates[0].stage, "first");
-    assert!(search.candidates.iter().any(|c| c.stage == "cheap"));
+    // The plan kept is a later stage's: under the continuous check (the default) the goal stage
+    // from the initial guess (measured); step-only, one of the cheap candidates.
+    assert!(!search.candidates[0].kept && search.candidates.len() > 1);
     assert_eq!(search.candidates.iter().filter(|c| c.kept).count(), 1);
     let kept = search.candidates.iter().find(|c| c.kept).unwrap();
     assert_eq!(kept.l, on.metrics.l);

@@ -63,7 +63,7 @@ class Scene:
         search: str = "auto",
         starts: int = 6,
         safety: str = "per_step",
-        step_only: bool = False,
+        step_only: Optional[bool] = None,
         swept: Optional[bool] = None,
         kappa: Optional[float] = None,
         reuse_band: Optional[float] = None,

@@ -101,18 +101,22 @@ fn choice<T: Choice>(field: &str, value: &str) -> PyResult<T> {
         })
 }
 
-/// `step_only`, or the old `swept` saying the opposite (`swept=False` is `step_only=True`); both
-/// given and contradicting each other is an error naming them.
-fn step_only_choice(step_only: bool, swept: Option<bool>) -> PyResult<bool> {
-    match swept {
-        Some(swept) if swept == step_only => Err(PyValueError::new_err(format!(
-            "step_only={} and swept={} contradict each other: swept=True is the default \
-             (the motion between the steps is checked), step_only=True turns it off",
-            py_bool(step_only),
-            py_bool(swept)
-        ))),
-        Some(swept) => Ok(!swept),
-        None => Ok(step_only),
+/// `step_only`, or the old `swept` saying the opposite (`swept=False` is `step_only=True`); neither
+/// given is the default, the continuous check; both given and contradicting each other is an
+/// error naming them.
+fn step_only_choice(step_only: Option<bool>, swept: Option<bool>) -> PyResult<bool> {
+    match (step_only, swept) {
+        (Some(step_only), Some(swept)) if swept == step_only => {
+            Err(PyValueError::new_err(format!(
+                "step_only={} and swept={} contradict each other: swept=True is the default \
+                 (the motion between the steps is checked), step_only=True turns it off",
+                py_bool(step_only),
+                py_bool(swept)
+            )))
+        }
+        (Some(step_only), _) => Ok(step_only),
+        (None, Some(swept)) => Ok(!swept),
+        (None, None) => Ok(false),
     }
 }
 
@@ -262,14 +266,14 @@ impl Scene {
     }
 
     /// optimize(delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp",
-    /// search="auto", starts=6, safety="per_step", step_only=False, swept=None, kappa=None,
+    /// search="auto", starts=6, safety="per_step", step_only=None, swept=None, kappa=None,
     /// reuse_band=None, tol=1e-4, feasibility_tol=1e-8, allow_unsafe_start=False,
     /// time_limit=None, start=None, timing=True, check=None, check_rounds=3) -> Plan
     ///
     /// Plans the scene's task exactly as `clothopt optimize` does (same defaults; `None` takes
     /// the scene's value): `solver` is "sqp" or "lbfgs", `search` "auto", "always" or "off",
     /// `safety` "per_step", "aggregate" or "scalar"; `step_only=True` judges safety at the steps
-    /// only (as `--step-only`; by default the motion between the steps is checked too, and
+    /// only (as `--step-only`; by default (`None`, `False`) the motion between the steps is checked too, and
     /// `swept=True`, the old way to ask for that, is accepted; `swept=False` means
     /// `step_only=True`); `start` the starting controls
     /// `(T, K, 3)` (default the initial guess); `time_limit` in seconds; `timing=False` leaves the
@@ -280,7 +284,7 @@ impl Scene {
     /// while it runs.
     #[pyo3(signature = (
         delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp", search="auto",
-        starts=6, safety="per_step", step_only=false, swept=None, kappa=None, reuse_band=None,
+        starts=6, safety="per_step", step_only=None, swept=None, kappa=None, reuse_band=None,
         tol=1e-4,
         feasibility_tol=clothopt::result::FEASIBILITY_TOLERANCE, allow_unsafe_start=false,
         time_limit=None, start=None, timing=true, check=None, check_rounds=3
@@ -297,7 +301,7 @@ impl Scene {
         search: &str,
         starts: usize,
         safety: &str,
-        step_only: bool,
+        step_only: Option<bool>,
         swept: Option<bool>,
         kappa: Option<f64>,
         reuse_band: Option<f64>,
