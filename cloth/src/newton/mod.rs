@@ -35,6 +35,7 @@ pub mod ordering;
 pub mod psd;
 pub mod settings;
 pub mod solve;
+pub mod stats;
 pub mod terms;
 
 pub use settings::{

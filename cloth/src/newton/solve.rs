@@ -23,6 +23,7 @@ use super::contact::Contacts;
 use super::curvature;
 use super::factor::Factor;
 use super::factor::FactorCounts;
+pub use super::stats::StepStats;
 use super::{check_supported, NewtonSettings};
 use crate::error::ClothError;
 use crate::model::Model;
@@ -49,53 +50,6 @@ pub const CHORD_CONTRACTION: f64 = 0.25;
 /// 1e-5: 142, 101; 1e-3: 142, 125; everywhere: 165, 165 (and 22 rejected load increments
 /// instead of 16).
 pub const CHORD_RESIDUAL: f64 = 1e-5;
-
-/// What one step's Newton solve did.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StepStats {
-    /// Newton iterations: steps with a factorization of the exact or projected Hessian at the
-    /// iterate, and chord steps ([`StepStats::chord_steps`]).
-    pub iterations: usize,
-    /// Iterations that reused an earlier iterate's factorization (chord steps).
-    pub chord_steps: usize,
-    /// Numeric factorizations that succeeded (the Newton matrices, the convergence tests at the
-    /// final states, saddle escapes).
-    pub factorizations: usize,
-    /// Numeric factorizations that found the exact Hessian not positive definite.
-    pub failed_factorizations: usize,
-    /// Iterations that fell back to the projected Hessian.
-    pub projected: usize,
-    /// Final `‖∇Φ‖` relative to its value at `x̃`.
-    pub residual: f64,
-    /// The tolerance was not reached, but the Newton step had shrunk to the coordinates'
-    /// round-off (the residual is the floor `f64` allows).
-    pub at_roundoff: bool,
-    /// Iterations that were within the tolerance but not at a minimizer (the exact Hessian was
-    /// not positive definite), so the solve went on.
-    pub at_saddle: usize,
-    /// Saddles of `Φ` left along their unstable mode (`cloth/src/newton/curvature.rs`).
-    pub escapes: usize,
-    /// Load increments solved ([`NewtonSettings::load_steps`] or more, when halved).
-    pub loads: usize,
-    /// Load increments abandoned and halved because a solve left the region where the exact
-    /// Hessian is positive definite.
-    pub rejected_loads: usize,
-}
-
-impl StepStats {
-    /// Adds `other`'s work counts (iterations, chord steps, factorizations, failed
-    /// factorizations, projected iterations, saddles, escapes) to these; the residual, the
-    /// round-off flag and the load counts stay.
-    pub fn add_work(&mut self, other: &StepStats) {
-        self.iterations += other.iterations;
-        self.chord_steps += other.chord_steps;
-        self.factorizations += other.factorizations;
-        self.failed_factorizations += other.failed_factorizations;
-        self.projected += other.projected;
-        self.at_saddle += other.at_saddle;
-        self.escapes += other.escapes;
-    }
-}
 
 /// A model's Newton system with its buffers: built once per rollout.
 pub struct NewtonSystem {

@@ -21,6 +21,7 @@ mod builtin;
 mod files;
 mod format;
 mod json;
+mod obstacles;
 mod validate;
 
 #[cfg(test)]
@@ -30,6 +31,7 @@ use std::path::{Path, PathBuf};
 
 pub use format::*;
 pub use json::to_json_pretty_compact;
+pub use obstacles::*;
 
 use builtin::{builtin_list, BUILTIN_NAMES, BUILTIN_SOURCES};
 use json::{one_line, parse_error};

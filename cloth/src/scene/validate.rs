@@ -1,6 +1,7 @@
 //! Scene validation: every bad value is rejected with the path of its field.
 
 use super::format::*;
+use super::obstacles::*;
 use super::{invalid, Scene, SceneError, MAX_COORDINATE, MAX_HORIZON, MAX_PARTICLES};
 use crate::geometry::{cross, norm3, unit};
 

@@ -176,7 +176,7 @@ impl SignedDistance for SphereSet {
         self.min_along_segment(a, b)
     }
 
-    /// Exact: the nearest sphere's [`sphere_segment_param`] (the first sphere on a tie).
+    /// Exact: the nearest sphere's `sphere_segment_param` (the first sphere on a tie).
     fn segment_min(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> SegmentMin {
         let ab = b - a;
         let len2 = ab.norm_squared();

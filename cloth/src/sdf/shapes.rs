@@ -49,7 +49,7 @@ impl SignedDistance for Capsule {
     }
 
     /// Exact: the distance grows with the distance to the axis, so its minimum is at the
-    /// segment's point nearest to the axis segment ([`closest_between_segments`]).
+    /// segment's point nearest to the axis segment (`closest_between_segments`).
     fn segment_min(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> SegmentMin {
         let (s, _) = closest_between_segments(a, b, &Vector3::from(self.a), &Vector3::from(self.b));
         SegmentMin::exact(self.distance(&(a + (b - a) * s)), s)
