@@ -7,11 +7,11 @@ mod common;
 
 use autodiff::Tensor;
 use cloth::internals::NewtonSystem;
-use cloth::scene::{BoxSpec, CapsuleSpec, MeshSpec, Obstacle, ObstacleRole, SolverKind};
-use cloth::sdf::{Cuboid, MeshSdf, SignedDistance};
+use cloth::scene::{Obstacle, ObstacleRole, SolverKind};
+use cloth::sdf::SignedDistance;
 use cloth::{Model, Scene};
 use cloth::{NewtonSettings, Solver};
-use common::{plane, small_scene, spheres, BendKind};
+use common::{behind, plane, small_scene, BendKind};
 use proptest::prelude::*;
 
 /// A 5 × 5 cloth of side 1, T = 3, with `obstacles`: hanging (x ∈ [−0.5, 0.5], y = −1.5,
@@ -77,37 +77,6 @@ const DRAG: [f64; 3] = [0.05, 0.03, 0.0];
 const LIFT: [f64; 3] = [0.05, 0.03, 0.05];
 /// Push the hanging cloth towards +y into an obstacle behind it.
 const PUSH: [f64; 3] = [0.0, 0.2, 0.0];
-
-/// An obstacle of each kind 0.02 behind the hanging cloth (+y), reached by [`PUSH`].
-fn behind(kind: &str, role: ObstacleRole) -> Obstacle {
-    let (y, z) = (-1.18, 1.4);
-    match kind {
-        "sphere" => spheres(vec![[0.05, y, z]], vec![0.3], role),
-        "capsule" => Obstacle::Capsule(CapsuleSpec {
-            a: [-0.7, y, z],
-            b: [0.7, y, z - 0.1],
-            radius: 0.3,
-            role,
-            friction: None,
-        }),
-        "box" => Obstacle::Box(BoxSpec {
-            center: [0.0, y, 1.3],
-            half_extents: [0.6, 0.3, 0.3],
-            rotation: None,
-            role,
-            friction: None,
-        }),
-        _ => {
-            let (v, t) = Cuboid::new([0.0, y, 1.3], [0.6, 0.3, 0.3], None).surface_triangles();
-            Obstacle::Mesh(MeshSpec {
-                file: "cube.obj".into(),
-                role,
-                friction: None,
-                surface: Some(MeshSdf::new(v, t)),
-            })
-        }
-    }
-}
 
 /// Every collider kind, pressed on by the cloth, keeps it outside to 1e-12 with contacts active,
 /// and every step converges.

@@ -7,13 +7,11 @@
 mod common;
 
 use autodiff::Tensor;
-use cloth::scene::{
-    BoxSpec, CapsuleSpec, ContactModel, ContactSpec, MeshSpec, Obstacle, ObstacleRole, SolverKind,
-};
-use cloth::sdf::{Cuboid, MeshSdf, SignedDistance};
+use cloth::scene::{BoxSpec, ContactModel, ContactSpec, Obstacle, ObstacleRole, SolverKind};
+use cloth::sdf::SignedDistance;
 use cloth::{Model, Scene};
 use cloth::{NewtonSettings, Solver};
-use common::{plane, small_scene, spheres, BendKind};
+use common::{behind, plane, small_scene, BendKind};
 use proptest::prelude::*;
 
 /// A 5 × 5 cloth of side 1 (edges 0.25, so the default `d̂` is 0.025), T = 3, smooth contact with
@@ -62,44 +60,11 @@ const DRAG: [f64; 3] = [0.05, 0.03, -0.02];
 /// Push the hanging cloth towards +y into an obstacle behind it.
 const PUSH: [f64; 3] = [0.0, 0.2, 0.0];
 
-/// An obstacle of each kind 0.02 behind the hanging cloth (+y), reached by [`PUSH`].
-fn behind(kind: &str) -> Obstacle {
-    let role = ObstacleRole::Collider;
-    let (y, z) = (-1.18, 1.4);
-    match kind {
-        "plane" => plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], role),
-        "sphere" => spheres(vec![[0.05, y, z]], vec![0.3], role),
-        "capsule" => Obstacle::Capsule(CapsuleSpec {
-            a: [-0.7, y, z],
-            b: [0.7, y, z - 0.1],
-            radius: 0.3,
-            role,
-            friction: None,
-        }),
-        "box" => Obstacle::Box(BoxSpec {
-            center: [0.0, y, 1.3],
-            half_extents: [0.6, 0.3, 0.3],
-            rotation: None,
-            role,
-            friction: None,
-        }),
-        _ => {
-            let (v, t) = Cuboid::new([0.0, y, 1.3], [0.6, 0.3, 0.3], None).surface_triangles();
-            Obstacle::Mesh(MeshSpec {
-                file: "cube.obj".into(),
-                role,
-                friction: None,
-                surface: Some(MeshSdf::new(v, t)),
-            })
-        }
-    }
-}
-
 /// Every case: (name, obstacle, flat, motion).
 fn cases() -> Vec<(&'static str, Obstacle, bool, [f64; 3])> {
-    let mut cases = vec![("plane", behind("plane"), true, DRAG)];
+    let mut cases = vec![("plane", behind("plane", ObstacleRole::Collider), true, DRAG)];
     for kind in ["sphere", "capsule", "box", "mesh"] {
-        cases.push((kind, behind(kind), false, PUSH));
+        cases.push((kind, behind(kind, ObstacleRole::Collider), false, PUSH));
     }
     cases
 }
@@ -184,7 +149,7 @@ fn a_thin_plate_is_not_tunnelled_through() {
 #[test]
 fn the_rigid_model_named_is_bitwise_the_default() {
     for solver in [SolverKind::Xpbd, SolverKind::Newton] {
-        let mut s = scene(vec![behind("box")], false);
+        let mut s = scene(vec![behind("box", ObstacleRole::Collider)], false);
         s.physics.solver = solver;
         s.physics.contact = None;
         let plain = Model::from_scene(&s).unwrap();
@@ -251,7 +216,7 @@ proptest! {
 /// A rest state touching a collider is rejected with the field and the particle named.
 #[test]
 fn a_rest_state_on_a_collider_is_rejected_by_name() {
-    let mut s = scene(vec![behind("plane")], true);
+    let mut s = scene(vec![behind("plane", ObstacleRole::Collider)], true);
     s.cloth.top_left[2] = 0.0;
     let err = Model::from_scene(&s).err().expect("rejected").to_string();
     assert!(
@@ -349,7 +314,7 @@ fn friction_holds_below_tan_theta_and_slides_by_the_coulomb_amount_above() {
 #[test]
 fn smooth_friction_gradients_match_central_differences() {
     for (mu, seed) in [(0.3, 1u64), (1.5, 2)] {
-        let mut s = scene(vec![behind("plane")], true);
+        let mut s = scene(vec![behind("plane", ObstacleRole::Collider)], true);
         let cloth::scene::Obstacle::Plane(p) = &mut s.obstacles[0] else {
             unreachable!()
         };

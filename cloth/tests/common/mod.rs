@@ -5,9 +5,10 @@
 
 use autodiff::Tensor;
 use cloth::scene::{
-    Bending, BendingModel, InitialControls, Obstacle, ObstacleRole, PlaneSpec, SphereSetSpec,
-    Stiffness, Target,
+    Bending, BendingModel, BoxSpec, CapsuleSpec, InitialControls, MeshSpec, Obstacle, ObstacleRole,
+    PlaneSpec, SphereSetSpec, Stiffness, Target,
 };
+use cloth::sdf::{Cuboid, MeshSdf};
 use cloth::{Model, Scene};
 
 /// xorshift64*: deterministic pseudo-random numbers without an RNG crate.
@@ -268,5 +269,38 @@ pub fn assert_minimizers(model: &Model, states: &[Tensor], u: &Tensor) {
             system.factorize_exact(states[t].data(), xt.data()),
             "step {t} is not a minimizer"
         );
+    }
+}
+
+/// An obstacle of each kind (`plane`, `sphere`, `capsule`, `box`, else a mesh cube) 0.02 behind
+/// the hanging cloth of the contact tests (+y; the plane is the floor z = 0).
+pub fn behind(kind: &str, role: ObstacleRole) -> Obstacle {
+    let (y, z) = (-1.18, 1.4);
+    match kind {
+        "plane" => plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], role),
+        "sphere" => spheres(vec![[0.05, y, z]], vec![0.3], role),
+        "capsule" => Obstacle::Capsule(CapsuleSpec {
+            a: [-0.7, y, z],
+            b: [0.7, y, z - 0.1],
+            radius: 0.3,
+            role,
+            friction: None,
+        }),
+        "box" => Obstacle::Box(BoxSpec {
+            center: [0.0, y, 1.3],
+            half_extents: [0.6, 0.3, 0.3],
+            rotation: None,
+            role,
+            friction: None,
+        }),
+        _ => {
+            let (v, t) = Cuboid::new([0.0, y, 1.3], [0.6, 0.3, 0.3], None).surface_triangles();
+            Obstacle::Mesh(MeshSpec {
+                file: "cube.obj".into(),
+                role,
+                friction: None,
+                surface: Some(MeshSdf::new(v, t)),
+            })
+        }
     }
 }
