@@ -17,6 +17,7 @@
 //! displacement, `λ` and `n`) enters the implicit gradient through [`ColliderBarrier::friction_cross`].
 
 use super::barrier::ColliderBarrier;
+use crate::geometry::{norm3, unit};
 use crate::sdf::SignedDistance;
 use autodiff::{Dual, Real};
 use nalgebra::Vector3;
@@ -58,9 +59,12 @@ impl ColliderBarrier {
         d.iter()
             .zip(&f.mu)
             .filter(|(dj, &mu)| mu > 0.0 && dj.re > 0.0 && dj.re < d_hat)
-            .map(|(dj, &mu)| LaggedContact {
-                mu_lambda: -mu * s * self.barrier.shape(dj.re).1,
-                normal: unit(dj.eps),
+            // A contact whose normal is undefined (a zero SDF gradient) has no tangent plane.
+            .filter_map(|(dj, &mu)| {
+                unit(&dj.eps).map(|normal| LaggedContact {
+                    mu_lambda: -mu * s * self.barrier.shape(dj.re).1,
+                    normal,
+                })
             })
             .collect()
     }
@@ -71,7 +75,7 @@ impl ColliderBarrier {
         contacts
             .iter()
             .map(|c| {
-                let r = norm(&tangential(c.normal, x, y));
+                let r = norm3(&tangential(c.normal, x, y));
                 c.mu_lambda
                     * if r < eps {
                         r * r / eps - r * r * r / (3.0 * eps * eps) + eps / 3.0
@@ -95,7 +99,7 @@ impl ColliderBarrier {
         let eps = self.epsilon();
         for c in contacts {
             let u = tangential(c.normal, x, y);
-            let r = norm(&u);
+            let r = norm3(&u);
             // ∇D = μλ φ(r) u with φ = f₁(r)/r; ∇²D = μλ (φ P + φ′/r u uᵀ).
             let (phi, dphi_over_r) = if r < eps {
                 (
@@ -175,17 +179,6 @@ fn tangential(n: [f64; 3], x: &[f64], y: &[f64]) -> [f64; 3] {
     let d = [x[0] - y[0], x[1] - y[1], x[2] - y[2]];
     let dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
     std::array::from_fn(|k| d[k] - n[k] * dn)
-}
-
-fn norm(v: &[f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
-
-/// `v/|v|` (the SDF's gradient is a unit vector up to round-off; normalizing keeps `P` a
-/// projector).
-fn unit(v: [f64; 3]) -> [f64; 3] {
-    let l = norm(&v);
-    v.map(|c| c / l)
 }
 
 #[cfg(test)]
