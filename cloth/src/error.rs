@@ -89,4 +89,21 @@ pub enum ClothError {
         /// Its signed distance to the colliders (≤ 0).
         distance: f64,
     },
+    /// Self-contact under Newton: a step starts with two parts of the cloth at or within the
+    /// thickness (the control particles' move can bring them there), where the barrier is
+    /// infinite.
+    #[error(
+        "step {step}: particles {particles:?} (a vertex and a triangle, or two edges) are within \
+         the self-collision thickness (gap {gap:e}); the self-contact barrier needs every part of \
+         the cloth apart by physics.self_collision.thickness (a gripper moved too far in one \
+         step?)"
+    )]
+    SelfContactPenetration {
+        /// The step (1-based).
+        step: usize,
+        /// The pair's particles: vertex then triangle, or edge then edge.
+        particles: [usize; 4],
+        /// Its distance less the thickness (≤ 0).
+        gap: f64,
+    },
 }

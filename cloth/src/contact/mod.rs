@@ -3,9 +3,11 @@
 
 pub mod barrier;
 pub mod crossings;
+pub mod distance;
 pub mod edge_edge;
 pub mod friction;
 pub(crate) mod grid;
+pub mod self_barrier;
 pub mod self_collision;
 mod sets;
 pub mod smooth_friction;

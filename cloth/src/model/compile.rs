@@ -6,6 +6,7 @@ use super::{ConstraintGroup, Model, TaskSpec};
 use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_ARITY};
 use crate::contact::barrier::{Barrier, ColliderBarrier};
 use crate::contact::friction::FrictionalContact;
+use crate::contact::self_barrier::{PairKind, SelfBarrier};
 use crate::contact::self_collision::SelfCollision;
 use crate::contact::smooth_friction::FrictionParams;
 use crate::error::ClothError;
@@ -114,6 +115,7 @@ impl Model {
             solver: scene.physics.solver(),
             self_collision: None,
             contact_barrier: None,
+            self_barrier: None,
         };
 
         let edges = mesh.stretch_edges();
@@ -188,6 +190,18 @@ impl Model {
             let triangles = model.triangles.clone();
             let contacts = SelfCollision::new(sc.thickness, triangles, n);
             model.self_collision = Some(Arc::new(contacts.with_edge_edge(sc.edge_edge)));
+            if scene.physics.solver == SolverKind::Newton {
+                let barrier = SelfBarrier::new(
+                    sc.thickness,
+                    barrier_shape(scene, mean_edge),
+                    scene.physics.dt * scene.physics.dt,
+                    model.triangles.clone(),
+                    model.rest.data(),
+                    &model.inv_mass,
+                );
+                check_rest_apart(&model, &barrier)?;
+                model.self_barrier = Some(Arc::new(barrier));
+            }
         }
         if !safety.is_empty() {
             let field = Arc::new(safety);
@@ -307,10 +321,10 @@ fn flatten<const K: usize>(rows: &[[usize; K]]) -> Vec<usize> {
     rows.iter().flatten().copied().collect()
 }
 
-/// The smooth contact potential of `colliders` with the scene's `physics.contact` settings or
-/// their defaults: `d̂` a tenth of the stretch edges' mean rest length `mean_edge`, `κ`
-/// `m·|g|/d̂` (`m/Δt²` without gravity).
-fn collider_barrier(scene: &Scene, mean_edge: f64, colliders: Union) -> ColliderBarrier {
+/// The barrier's shape with the scene's `physics.contact` settings or their defaults: `d̂` a
+/// tenth of the stretch edges' mean rest length `mean_edge`, `κ` `m·|g|/d̂` (`m/Δt²` without
+/// gravity).
+fn barrier_shape(scene: &Scene, mean_edge: f64) -> Barrier {
     let spec = scene.physics.contact.as_ref();
     let d_hat = spec.and_then(|c| c.d_hat).unwrap_or(0.1 * mean_edge);
     let dt = scene.physics.dt;
@@ -327,6 +341,15 @@ fn collider_barrier(scene: &Scene, mean_edge: f64, colliders: Union) -> Collider
     } else {
         m / (dt * dt)
     });
+    Barrier { d_hat, kappa }
+}
+
+/// The smooth contact potential of `colliders` with the scene's `physics.contact` settings or
+/// their defaults ([`barrier_shape`]).
+fn collider_barrier(scene: &Scene, mean_edge: f64, colliders: Union) -> ColliderBarrier {
+    let spec = scene.physics.contact.as_ref();
+    let barrier = barrier_shape(scene, mean_edge);
+    let dt = scene.physics.dt;
     let mu = component_friction(&scene.obstacles);
     assert_eq!(
         mu.len(),
@@ -335,11 +358,13 @@ fn collider_barrier(scene: &Scene, mean_edge: f64, colliders: Union) -> Collider
     );
     let friction = mu.iter().any(|&m| m > 0.0).then(|| FrictionParams {
         mu,
-        epsilon: spec.and_then(|c| c.friction_epsilon).unwrap_or(0.1 * d_hat),
+        epsilon: spec
+            .and_then(|c| c.friction_epsilon)
+            .unwrap_or(0.1 * barrier.d_hat),
     });
     ColliderBarrier {
         field: Arc::new(colliders),
-        barrier: Barrier { d_hat, kappa },
+        barrier,
         dt2: dt * dt,
         friction,
     }
@@ -384,6 +409,30 @@ fn check_rest_outside(model: &Model, barrier: &ColliderBarrier) -> Result<(), Cl
     Ok(())
 }
 
+/// Self-contact under Newton: the rest state must hold every part of the cloth farther than the
+/// thickness from every other (the barrier is infinite within it).
+fn check_rest_apart(model: &Model, barrier: &SelfBarrier) -> Result<(), ClothError> {
+    match barrier.penetration(model.rest.data()) {
+        None => Ok(()),
+        Some((pair, gap)) => Err(SceneError::Invalid {
+            field: "physics.self_collision.thickness".into(),
+            reason: format!(
+                "the rest state has particles {:?} {:e} closer than the thickness {} (a \
+                 {} pair); Newton's self-contact barrier needs them apart: choose a thickness \
+                 below the cloth's edge length",
+                pair.particles,
+                -gap,
+                barrier.thickness,
+                match pair.kind {
+                    PairKind::PointTriangle => "vertex–triangle",
+                    PairKind::EdgeEdge(_) => "edge–edge",
+                }
+            ),
+        }
+        .into()),
+    }
+}
+
 /// Splits a scene's obstacles into the physical colliders and the safety constraint's obstacles.
 fn split_obstacles(obstacles: &[Obstacle]) -> (Union, Union) {
     let (mut colliders, mut safety) = (Union::default(), Union::default());
@@ -401,7 +450,7 @@ fn split_obstacles(obstacles: &[Obstacle]) -> (Union, Union) {
 
 impl Physics {
     /// The solver these settings describe, with Newton's defaults filled in. Under smooth
-    /// contact a step is one solve from the previous state unless the scene asks for branch
+    /// contact (and with self-contact, always smooth under Newton) a step is one solve from the previous state unless the scene asks for branch
     /// following (`load_halvings` defaults to 0): the step filter keeps that descent from
     /// crossing a surface, as IPC's incremental potential does, and the halvings multiplied the
     /// work by ~60 where the cloth settles on a table (docs/physics.md "Smooth contact").
@@ -410,10 +459,10 @@ impl Physics {
             SolverKind::Xpbd => Solver::Xpbd,
             SolverKind::Newton => {
                 let d = NewtonSettings::default();
-                let halvings = match self.contact_model() {
-                    ContactModel::Smooth => 0,
-                    ContactModel::Rigid => d.load_halvings,
-                };
+                // Self-contact under Newton is a barrier too (`contact::self_barrier`).
+                let smooth = self.contact_model() == ContactModel::Smooth
+                    || self.self_collision.is_some();
+                let halvings = if smooth { 0 } else { d.load_halvings };
                 Solver::Newton(NewtonSettings {
                     tolerance: self.tolerance.unwrap_or(d.tolerance),
                     max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),

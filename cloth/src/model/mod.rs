@@ -12,6 +12,7 @@ mod compile;
 pub use compile::DEFAULT_CHECKPOINT_BUDGET;
 
 use crate::contact::barrier::ColliderBarrier;
+use crate::contact::self_barrier::SelfBarrier;
 use crate::contact::self_collision::SelfCollision;
 use crate::newton::settings::Solver;
 use crate::newton::terms::ConstraintTerms;
@@ -106,6 +107,9 @@ pub struct Model {
     /// Smooth contact with the colliders (`physics.contact.model = "smooth"`): a barrier
     /// potential in Newton's energy instead of the rigid `collider` group; `None` otherwise.
     pub contact_barrier: Option<Arc<ColliderBarrier>>,
+    /// Self-collision under Newton's method: the barrier potential between parts of the cloth
+    /// (`contact::self_barrier`); `None` otherwise.
+    pub self_barrier: Option<Arc<SelfBarrier>>,
 }
 
 impl Model {

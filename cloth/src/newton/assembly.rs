@@ -11,6 +11,7 @@ use super::ordering::elimination_positions;
 use super::psd::{project_psd, projected_local_hessian};
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::contact::barrier::ColliderBarrier;
+use crate::contact::self_barrier::SelfBarrier;
 use crate::contact::smooth_friction::LaggedContact;
 use crate::model::Model;
 use std::sync::Arc;
@@ -41,7 +42,7 @@ pub enum HessianKind {
 /// The sparse structure of a model's Newton system.
 pub struct Pattern {
     /// Degree of freedom of each particle's first coordinate ([`NONE`] for control particles).
-    dof_of: Vec<u32>,
+    pub(super) dof_of: Vec<u32>,
     /// Mass `1/w` of each particle (0 for control particles).
     mass: Vec<f64>,
     /// Number of degrees of freedom (3 × free particles).
@@ -62,6 +63,12 @@ pub struct Pattern {
     /// Smooth contact with friction: the step's start (full `N × 3` data) and each particle's
     /// frictional contacts there ([`Pattern::begin_step`]).
     friction: Option<(Vec<f64>, Vec<Vec<LaggedContact>>)>,
+    /// Self-contact under Newton ([`super::self_contact`]): the barrier between parts of the
+    /// cloth.
+    pub(super) self_barrier: Option<Arc<SelfBarrier>>,
+    /// The particle blocks (row ≥ column) the self-contact pairs of the last
+    /// [`Pattern::with_self_blocks`] added to the constraints' (sorted).
+    pub(super) self_blocks: Vec<(u32, u32)>,
 }
 
 impl Pattern {
@@ -114,6 +121,41 @@ impl Pattern {
             .iter()
             .map(|&w| if w > 0.0 { 1.0 / w } else { 0.0 })
             .collect();
+        Pattern::structured(
+            dof_of,
+            mass,
+            groups,
+            model.contact_barrier.clone(),
+            (model.self_barrier.clone(), Vec::new()),
+            None,
+        )
+    }
+
+    /// This pattern with the particle blocks `self_blocks` (row ≥ column, sorted, without
+    /// duplicates) as its self-contact blocks instead of its own: the same degrees of freedom,
+    /// energy and lagged friction.
+    pub(super) fn with_self_blocks(&self, self_blocks: Vec<(u32, u32)>) -> Pattern {
+        Pattern::structured(
+            self.dof_of.clone(),
+            self.mass.clone(),
+            self.groups.iter().map(|g| g.terms.clone()).collect(),
+            self.barrier.as_ref().map(|(b, _)| b.clone()),
+            (self.self_barrier.clone(), self_blocks),
+            self.friction.clone(),
+        )
+    }
+
+    /// The pattern over the degrees of freedom `dof_of` of the constraint `groups` and the
+    /// extra particle blocks of self-contact.
+    fn structured(
+        dof_of: Vec<u32>,
+        mass: Vec<f64>,
+        groups: Vec<Arc<dyn ConstraintTerms>>,
+        barrier: Option<Arc<ColliderBarrier>>,
+        (self_barrier, self_blocks): (Option<Arc<SelfBarrier>>, Vec<(u32, u32)>),
+        friction: Option<(Vec<f64>, Vec<Vec<LaggedContact>>)>,
+    ) -> Pattern {
+        let n_free = dof_of.iter().filter(|&&d| d != NONE).count() as u32;
         let n_dof = 3 * n_free as usize;
         // Particle blocks (row ≥ column) touched by a mass or a constraint.
         let mut blocks: Vec<Vec<u32>> = vec![Vec::new(); n_free as usize];
@@ -132,6 +174,9 @@ impl Pattern {
                     }
                 }
             }
+        }
+        for &(r, c) in &self_blocks {
+            blocks[c as usize].push(r);
         }
         let mut col_ptr = Vec::with_capacity(n_dof + 1);
         let mut row_idx = Vec::new();
@@ -190,7 +235,7 @@ impl Pattern {
                 }
             })
             .collect();
-        let barrier = model.contact_barrier.clone().map(|b| {
+        let barrier = barrier.map(|b| {
             let diagonal = (0..n_free as usize)
                 .map(|blk| {
                     std::array::from_fn(|k| {
@@ -215,7 +260,9 @@ impl Pattern {
             blocks: block_list,
             groups,
             barrier,
-            friction: None,
+            friction,
+            self_barrier,
+            self_blocks,
         }
     }
 
@@ -225,6 +272,13 @@ impl Pattern {
         self.blocks
             .iter()
             .map(|(r, c, idx)| (*r as usize, *c as usize, idx))
+    }
+
+    /// The value index of the stored entry `(r, c)`, `r ≥ c` (degrees of freedom); `None` when
+    /// the pattern does not hold it.
+    pub(super) fn value_index(&self, r: usize, c: usize) -> Option<usize> {
+        let rows = &self.row_idx[self.col_ptr[c]..self.col_ptr[c + 1]];
+        rows.binary_search(&r).ok().map(|i| self.col_ptr[c] + i)
     }
 
     /// Number of stored (lower-triangle) entries.
@@ -302,6 +356,9 @@ impl Pattern {
                     }
                 }
             }
+        }
+        if let Some(b) = &self.self_barrier {
+            phi += b.energy(x);
         }
         phi
     }
@@ -415,8 +472,9 @@ impl Pattern {
             }
         }
         if let Some((barrier, diagonal)) = &self.barrier {
-            self.assemble_barrier(barrier, diagonal, x, grad, values);
+            self.assemble_barrier(barrier, diagonal, x, grad, values.as_mut().map(|(v, k)| (&mut **v, *k)));
         }
+        self.assemble_self(x, grad, values);
     }
 
     /// The smooth contact potential's gradient into `grad` and, with `values`, its Hessian
@@ -497,13 +555,15 @@ impl Pattern {
                 }
             }
         }
+        self.sub_self_control_coupling(x, z, y);
     }
 
     /// The largest step length in `[0, 1]` along `dir` (degree-of-freedom order) from `x` that
     /// the smooth contact potential allows ([`ColliderBarrier::max_step`]); 1 without it.
     pub fn max_step(&self, x: &[f64], step: f64, dir: &[f64]) -> f64 {
+        let alpha = self.self_max_step(x, step, dir);
         let Some((barrier, _)) = &self.barrier else {
-            return 1.0;
+            return alpha;
         };
         let moves = self
             .dof_of
@@ -517,16 +577,19 @@ impl Pattern {
                     [step * dir[d], step * dir[d + 1], step * dir[d + 2]],
                 )
             });
-        barrier.max_step(moves)
+        // A step the self-contact filter shortens is scaled down for the colliders too.
+        alpha * barrier.max_step(moves.map(|(p, m)| (p, m.map(|v| v * alpha))))
     }
 
-    /// Whether the model has a smooth contact potential (its states must stay outside).
+    /// Whether the model has a barrier potential, of the colliders or of self-contact (its
+    /// states must stay outside the colliders and apart by the thickness).
     pub fn has_barrier(&self) -> bool {
-        self.barrier.is_some()
+        self.barrier.is_some() || self.self_barrier.is_some()
     }
 
     /// Smooth contact: the first free particle of `x` on or inside a collider, with its signed
-    /// distance; `None` when all are outside (or without the potential).
+    /// distance; `None` when all are outside (or without the potential). Self-contact has its
+    /// own test ([`Pattern::self_penetration`]).
     pub fn penetration(&self, x: &[f64]) -> Option<(usize, f64)> {
         let (barrier, _) = self.barrier.as_ref()?;
         self.dof_of

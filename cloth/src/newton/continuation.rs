@@ -129,6 +129,9 @@ impl Model {
         if settings.load_steps <= 1 && settings.load_halvings == 0 {
             // Smooth contact starts from the previous state, which is outside the colliders
             // (x̃ may not be).
+            if system.pattern.self_barrier.is_some() {
+                return system.solve_moving_controls(x_prev, &xt, step, settings);
+            }
             let start = if system.pattern.has_barrier() {
                 x_prev
             } else {

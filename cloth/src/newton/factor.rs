@@ -75,6 +75,14 @@ pub struct Factor {
 }
 
 impl Factor {
+    /// Redoes the symbolic analysis for `pattern` (a pattern of the same degrees of freedom
+    /// with other entries: self-contact's), keeping the counts; no factorization is valid after.
+    pub fn reanalyze(&mut self, pattern: &Pattern) {
+        let counts = self.counts;
+        *self = Factor::new(pattern);
+        self.counts = counts;
+    }
+
     /// The symbolic analysis of `pattern`'s matrix (its lower triangle in its own order).
     pub fn new(pattern: &Pattern) -> Factor {
         let n = pattern.n_dof;

@@ -19,6 +19,7 @@
 //! - [`implicit`]: adjoints through `∂x_t/∂(x_{t−1}, u_t)`, one factorization per step for every
 //!   cost (the forward's own, where it was kept).
 //!
+//! - `self_contact`: the self-contact barrier's terms, and the pattern that follows its pairs;
 //! - [`contact`]: rigid one-sided rows on one particle (colliders) by an active-set projected
 //!   Newton, whose converged state is XPBD's rigid (compliance 0) answer.
 //!
@@ -33,6 +34,7 @@ pub mod factor;
 pub mod implicit;
 pub mod ordering;
 pub mod psd;
+mod self_contact;
 pub mod settings;
 pub mod solve;
 pub mod stats;

@@ -94,6 +94,7 @@ impl NewtonSystem {
     /// Assembles `∇Φ` and the Hessian of `kind` at `x`; with contact rows, the active set at `x`
     /// and the reduced matrix `K` ([`Contacts::reduce`]; `curvature` for the exact Lagrangian).
     fn assemble_at(&mut self, x: &[f64], xt: &[f64], kind: HessianKind) {
+        self.fit_self_contact(x);
         let values = Some((&mut self.values[..], kind));
         self.pattern.assemble(x, xt, &mut self.grad, values);
         if self.contacts.any() {
@@ -101,6 +102,21 @@ impl NewtonSystem {
             let curvature = kind == HessianKind::Exact;
             self.contacts
                 .reduce(&self.pattern, &mut self.values, curvature);
+        }
+    }
+
+    /// Self-contact: rebuilds the pattern (and the factorization's symbolic analysis) when the
+    /// pairs at `x` couple other particle blocks than it holds ([`super::self_contact`]).
+    fn fit_self_contact(&mut self, x: &[f64]) {
+        if self.pattern.self_barrier.is_none() {
+            return;
+        }
+        let pairs = self.pattern.self_pairs(x);
+        let blocks = self.pattern.self_blocks_for(&pairs);
+        if blocks != self.pattern.self_blocks {
+            self.pattern = self.pattern.with_self_blocks(blocks);
+            self.factor.reanalyze(&self.pattern);
+            self.values.resize(self.pattern.nnz(), 0.0);
         }
     }
 
@@ -350,6 +366,13 @@ impl NewtonSystem {
                 step,
                 particle,
                 distance,
+            });
+        }
+        if let Some((particles, gap)) = self.pattern.self_penetration(x.data()) {
+            return Err(ClothError::SelfContactPenetration {
+                step,
+                particles,
+                gap,
             });
         }
         if r0 == 0.0 {

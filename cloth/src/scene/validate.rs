@@ -325,17 +325,10 @@ impl Scene {
     }
 
     /// Newton's method needs a finite energy: no rigid material (colliders are contact rows,
-    /// solved by its active set).
+    /// solved by its active set, or a barrier; self-collision is a barrier).
     fn validate_newton(&self) -> Result<(), SceneError> {
         let rigid = "is rigid (infinite stiffness), which physics.solver \"newton\" does not \
                      support; give it a finite stiffness or use \"xpbd\"";
-        if self.physics.self_collision.is_some() {
-            return Err(invalid(
-                "physics.self_collision",
-                "self-collision is a rigid contact, which physics.solver \"newton\" does not \
-                 support; remove it or use physics.solver \"xpbd\"",
-            ));
-        }
         if self.material.stretch == Stiffness::Infinite {
             return Err(invalid("material.stretch", rigid));
         }

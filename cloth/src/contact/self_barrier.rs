@@ -1,0 +1,360 @@
+//! Smooth self-contact under Newton's method (`physics.self_collision` with `physics.solver
+//! "newton"`): IPC's log barrier on the distance between parts of the cloth, less its thickness.
+//!
+//! Every vertex–triangle pair and every edge–edge pair that shares no particle, is nearer than
+//! `h + d̂` (thickness `h`, the barrier's reach `d̂`, [`super::barrier::Barrier`]) and has a particle
+//! that can move carries
+//!
+//! ```text
+//! Δt² κ m(c) b(d − h),   b(s) = −(s − d̂)² ln(s / d̂)  for 0 < s < d̂,
+//! ```
+//!
+//! with `d` the pair's unsigned distance ([`super::distance`]). `m` is 1 for a vertex–triangle
+//! pair; for two edges it is IPC's mollifier `m(c) = (2 − c/ε) c/ε` below `ε` (1 above) in
+//! `c = |e₁ × e₂|²`, `ε = 10⁻³ |e₁|²|e₂|²` at rest, which fades the pair out as the edges turn
+//! parallel (where their distance's curvature is unbounded and the vertex–triangle pairs of
+//! their ends hold them instead). The potential is C¹ in the state (the distance's kind changes
+//! with a continuous gradient) and smooth within each kind; its gradient and Hessian come from
+//! nested forward duals on the pair's 12 coordinates.
+//!
+//! The pairs are found anew at every state ([`SelfBarrier::pairs`], a uniform grid of the
+//! vertices and one of the edges' boxes), so the potential is a function of the state alone.
+//! Each step of the solver is filtered ([`SelfBarrier::max_step`]) so that no pair comes closer
+//! than [`APPROACH`] of its gap `d − h` at the step's start: additive continuous collision
+//! detection (Li et al. 2021, "Codimensional IPC", §5), which advances each pair by the length
+//! its relative motion cannot close, so the states the solver visits are never in contact.
+
+use super::barrier::{Barrier, APPROACH};
+use super::distance::{EdgeEdge, PointTriangle};
+use super::grid::{Aabb, BoxGrid};
+use autodiff::{Dual, Real};
+use nalgebra::Vector3;
+use std::sync::Arc;
+
+/// Relative mollifier threshold `ε / (|e₁|²|e₂|²)` of an edge–edge pair (IPC's 10⁻³).
+const MOLLIFIER: f64 = 1e-3;
+/// Advances one pair's time-of-impact search makes at most before it stops where it is.
+const MAX_ADVANCES: usize = 200;
+
+/// Which kind of pair, with its nearest features at the state it was found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PairKind {
+    /// Particle 0 and the triangle of particles 1, 2, 3.
+    PointTriangle,
+    /// The edge of particles 0, 1 and the edge of particles 2, 3, with the mollifier's `ε`.
+    EdgeEdge(f64),
+}
+
+/// One self-contact pair: four particles and their kind.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SelfPair {
+    /// Vertex then triangle, or first edge then second edge.
+    pub particles: [usize; 4],
+    /// The kind of pair.
+    pub kind: PairKind,
+}
+
+/// The smooth self-contact potential of a cloth.
+#[derive(Clone, Debug)]
+pub struct SelfBarrier {
+    /// The thickness `h ≥ 0`: the distance the barrier keeps between parts of the cloth.
+    pub thickness: f64,
+    /// The barrier's reach and stiffness.
+    pub barrier: Barrier,
+    /// `Δt²`: the potential's scale in Newton's `Φ`.
+    pub dt2: f64,
+    triangles: Arc<[[usize; 3]]>,
+    /// Every edge of the triangles once, with its squared rest length.
+    edges: Vec<([usize; 2], f64)>,
+    /// Which particles can move (inverse mass > 0).
+    movable: Vec<bool>,
+    /// The broad phase's cell: the edges' mean rest length.
+    cell: f64,
+}
+
+impl SelfBarrier {
+    /// The potential of a cloth with `triangles`, rest state `rest` (`N × 3` data) and inverse
+    /// masses `inv_mass`.
+    pub fn new(
+        thickness: f64,
+        barrier: Barrier,
+        dt2: f64,
+        triangles: Arc<[[usize; 3]]>,
+        rest: &[f64],
+        inv_mass: &[f64],
+    ) -> SelfBarrier {
+        let mut edges: Vec<[usize; 2]> = triangles
+            .iter()
+            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+            .map(|[a, b]| [a.min(b), a.max(b)])
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let edges: Vec<([usize; 2], f64)> = edges
+            .into_iter()
+            .map(|[a, b]| ([a, b], (at(rest, a) - at(rest, b)).norm_squared()))
+            .collect();
+        let cell = edges.iter().map(|e| e.1.sqrt()).sum::<f64>() / edges.len().max(1) as f64;
+        SelfBarrier {
+            thickness,
+            barrier,
+            dt2,
+            triangles,
+            edges,
+            movable: inv_mass.iter().map(|&w| w > 0.0).collect(),
+            cell: if cell > 0.0 { cell } else { 1.0 },
+        }
+    }
+
+    /// The pairs of state `x` (`N × 3` data) nearer than `h + d̂`, vertex–triangle pairs first
+    /// (by vertex, then triangle), then edge–edge pairs (by first edge, then second).
+    pub fn pairs(&self, x: &[f64]) -> Vec<SelfPair> {
+        let reach = self.thickness + self.barrier.d_hat;
+        let still = vec![0.0; x.len()];
+        let mut out = Vec::new();
+        self.for_candidates(x, &still, reach, |pair| {
+            if self.distance(x, &pair) < reach {
+                out.push(pair);
+            }
+        });
+        out
+    }
+
+    /// Calls `f` with every pair whose particles' boxes, swept from `x` along `delta` (both
+    /// `N × 3` data), come within `margin` of each other, in [`SelfBarrier::pairs`]' order.
+    fn for_candidates(&self, x: &[f64], delta: &[f64], margin: f64, mut f: impl FnMut(SelfPair)) {
+        let n = x.len() / 3;
+        let swept = |p: usize| -> Aabb {
+            let (a, b) = (at(x, p), at(x, p) + at(delta, p));
+            (a.inf(&b), a.sup(&b))
+        };
+        let points: Vec<Aabb> = (0..n).map(swept).collect();
+        let grow = |(lo, hi): Aabb| -> Aabb {
+            let m = Vector3::repeat(margin);
+            (lo - m, hi + m)
+        };
+        let union = |ps: &[usize]| -> Aabb {
+            ps.iter().map(|&p| points[p]).fold(
+                (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)),
+                |(lo, hi), (a, b)| (lo.inf(&a), hi.sup(&b)),
+            )
+        };
+        // Vertex–triangle pairs: the vertices' grid, queried with each triangle's box.
+        let grid = BoxGrid::new(&points, self.cell);
+        let mut found: Vec<(usize, usize)> = Vec::new();
+        let mut cand = Vec::new();
+        for (ti, t) in self.triangles.iter().enumerate() {
+            let (lo, hi) = grow(union(t));
+            cand.clear();
+            grid.candidates(&lo, &hi, &mut cand);
+            cand.sort_unstable();
+            cand.dedup();
+            for &v in &cand {
+                if t.contains(&v) || !(self.movable[v] || t.iter().any(|&p| self.movable[p])) {
+                    continue;
+                }
+                let (a, b) = points[v];
+                if (0..3).all(|k| a[k] <= hi[k] && b[k] >= lo[k]) {
+                    found.push((v, ti));
+                }
+            }
+        }
+        found.sort_unstable();
+        for (v, ti) in found {
+            let t = self.triangles[ti];
+            f(SelfPair {
+                particles: [v, t[0], t[1], t[2]],
+                kind: PairKind::PointTriangle,
+            });
+        }
+        // Edge–edge pairs: the edges' grid, queried with each edge's box.
+        let boxes: Vec<Aabb> = self.edges.iter().map(|(e, _)| union(e)).collect();
+        let grid = BoxGrid::new(&boxes, self.cell);
+        for (i, (e, l1)) in self.edges.iter().enumerate() {
+            let (lo, hi) = grow(boxes[i]);
+            cand.clear();
+            grid.candidates(&lo, &hi, &mut cand);
+            cand.sort_unstable();
+            cand.dedup();
+            for &j in cand.iter().filter(|&&j| j > i) {
+                let (g, l2) = &self.edges[j];
+                if e.iter().any(|p| g.contains(p))
+                    || !e.iter().chain(g).any(|&p| self.movable[p])
+                {
+                    continue;
+                }
+                let (a, b) = boxes[j];
+                if (0..3).all(|k| a[k] <= hi[k] && b[k] >= lo[k]) {
+                    f(SelfPair {
+                        particles: [e[0], e[1], g[0], g[1]],
+                        kind: PairKind::EdgeEdge(MOLLIFIER * l1 * l2),
+                    });
+                }
+            }
+        }
+    }
+
+    /// The pair's unsigned distance at `x` (`f64`).
+    pub fn distance(&self, x: &[f64], pair: &SelfPair) -> f64 {
+        let [p, a, b, c] = pair.particles.map(|q| at(x, q));
+        match pair.kind {
+            PairKind::PointTriangle => PointTriangle::distance(&p, [&a, &b, &c]),
+            PairKind::EdgeEdge(_) => EdgeEdge::distance([&p, &a], [&b, &c]),
+        }
+    }
+
+    /// `Φ`'s self-contact term at `x`: `Δt² κ Σ m b(d − h)` over [`SelfBarrier::pairs`]; `+∞`
+    /// when a pair is at or within the thickness.
+    pub fn energy(&self, x: &[f64]) -> f64 {
+        let mut sum = 0.0;
+        for pair in self.pairs(x) {
+            let pts = pair.particles.map(|q| at(x, q));
+            sum += self.potential(&pair, &pts);
+        }
+        sum
+    }
+
+    /// The pair's term `Δt² κ m b(d − h)` at its four points, written once for every scalar
+    /// type (`+∞` at or within the thickness, which only `f64` evaluations reach).
+    fn potential<R: Real>(&self, pair: &SelfPair, pts: &[Vector3<R>; 4]) -> R {
+        let plain = pts.map(|v| v.map(|c| c.value()));
+        let (squared, mollifier) = match pair.kind {
+            PairKind::PointTriangle => {
+                let kind = PointTriangle::classify(&plain[0], [&plain[1], &plain[2], &plain[3]]);
+                (kind.squared(&pts[0], [&pts[1], &pts[2], &pts[3]]), R::one())
+            }
+            PairKind::EdgeEdge(eps) => {
+                let kind = EdgeEdge::classify([&plain[0], &plain[1]], [&plain[2], &plain[3]]);
+                let squared = kind.squared([&pts[0], &pts[1]], [&pts[2], &pts[3]]);
+                let n = (pts[1] - pts[0]).cross(&(pts[3] - pts[2]));
+                let c = n.dot(&n);
+                let m = if c.value() < eps {
+                    let r = c / eps;
+                    (R::cst(2.0) - r) * r
+                } else {
+                    R::one()
+                };
+                (squared, m)
+            }
+        };
+        let s = squared.sqrt() - self.thickness;
+        let d_hat = self.barrier.d_hat;
+        if s.value() >= d_hat {
+            return R::zero();
+        }
+        if s.value() <= 0.0 {
+            return R::cst(f64::INFINITY);
+        }
+        let e = s - d_hat;
+        let b = -(e * e) * (s / d_hat).ln();
+        mollifier * b * (self.dt2 * self.barrier.kappa)
+    }
+
+    /// The pair's gradient (12 coordinates: its four particles in order) and Hessian (row-major
+    /// 12 × 12) at `x`, by nested forward duals; false (nothing written) at or within the
+    /// thickness.
+    pub fn pair_derivatives(
+        &self,
+        x: &[f64],
+        pair: &SelfPair,
+        g: &mut [f64; 12],
+        h: &mut [f64; 144],
+    ) -> bool {
+        type D2 = Dual<Dual<f64, 12>, 12>;
+        let plain = pair.particles.map(|q| at(x, q));
+        let pts: [Vector3<D2>; 4] = std::array::from_fn(|i| {
+            Vector3::from_fn(|k, _| {
+                let j = 3 * i + k;
+                D2 {
+                    re: Dual::variable(plain[i][k], j),
+                    eps: std::array::from_fn(|l| Dual::constant(if l == j { 1.0 } else { 0.0 })),
+                }
+            })
+        });
+        let v = self.potential(pair, &pts);
+        if !v.re.re.is_finite() {
+            return false;
+        }
+        for a in 0..12 {
+            g[a] = v.re.eps[a];
+            for b in 0..12 {
+                h[12 * a + b] = v.eps[a].eps[b];
+            }
+        }
+        true
+    }
+
+    /// The pair of `x` with the smallest gap `d − h` when some gap is at most 0 (a part of the
+    /// cloth at or within the thickness of another), with that gap; else `None`.
+    pub fn penetration(&self, x: &[f64]) -> Option<(SelfPair, f64)> {
+        self.pairs(x)
+            .into_iter()
+            .map(|p| (p, self.distance(x, &p) - self.thickness))
+            .filter(|&(_, s)| s <= 0.0)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    /// The largest step length `α ≤ alpha` such that moving every particle in a straight line
+    /// from `x` to `x + α δ` (both `N × 3` data) keeps every pair's gap `d − h` at least
+    /// [`APPROACH`] times its gap at `x`: additive continuous collision detection per pair that
+    /// the swept boxes cannot rule out, each advancing by the length its relative motion cannot
+    /// close. 0 when a pair is already at or within the thickness.
+    pub fn max_step(&self, x: &[f64], delta: &[f64], alpha: f64) -> f64 {
+        let mut alpha = alpha;
+        let scaled: Vec<f64> = delta.iter().map(|v| v * alpha).collect();
+        let mut trial = vec![0.0; 12];
+        self.for_candidates(x, &scaled, self.thickness, |pair| {
+            if alpha == 0.0 {
+                return;
+            }
+            let ps = pair.particles;
+            // The relative motion's bound: each particle's move less the pair's mean move.
+            let moves = ps.map(|q| at(delta, q));
+            let mean = (moves[0] + moves[1] + moves[2] + moves[3]) / 4.0;
+            let len = moves.map(|m| (m - mean).norm());
+            let bound = match pair.kind {
+                PairKind::PointTriangle => len[0] + len[1].max(len[2]).max(len[3]),
+                PairKind::EdgeEdge(_) => len[0].max(len[1]) + len[2].max(len[3]),
+            };
+            let gap0 = self.distance(x, &pair) - self.thickness;
+            if gap0 <= 0.0 {
+                alpha = 0.0;
+                return;
+            }
+            let floor = APPROACH * gap0;
+            if bound * alpha <= gap0 - floor {
+                return;
+            }
+            // Advance from t = 0 by (gap − floor)/bound: the gap cannot fall below the floor.
+            let (mut t, mut gap) = (0.0, gap0);
+            for _ in 0..MAX_ADVANCES {
+                let dt = (gap - floor) / bound;
+                if t + dt >= alpha {
+                    return;
+                }
+                if dt <= 1e-9 * alpha {
+                    break;
+                }
+                t += dt;
+                for (i, &q) in ps.iter().enumerate() {
+                    for k in 0..3 {
+                        trial[3 * i + k] = x[3 * q + k] + t * delta[3 * q + k];
+                    }
+                }
+                let local = SelfPair {
+                    particles: [0, 1, 2, 3],
+                    kind: pair.kind,
+                };
+                gap = self.distance(&trial, &local) - self.thickness;
+            }
+            alpha = t;
+        });
+        alpha
+    }
+}
+
+/// Particle `p` of `N × 3` data.
+#[inline]
+fn at(x: &[f64], p: usize) -> Vector3<f64> {
+    Vector3::new(x[3 * p], x[3 * p + 1], x[3 * p + 2])
+}

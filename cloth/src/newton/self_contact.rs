@@ -1,0 +1,203 @@
+//! Self-contact in Newton's system: the barrier between parts of the cloth
+//! ([`crate::contact::self_barrier`]) in `Φ`, its gradient, Hessian and step filter.
+//!
+//! A pair couples particles that no constraint does, so the Hessian's pattern depends on the
+//! state: [`NewtonSystem`](super::solve::NewtonSystem) rebuilds it (and the factorization's
+//! symbolic analysis) whenever the pairs at the state it assembles need other blocks than the
+//! pattern holds ([`Pattern::self_blocks_for`]). The pattern is then a function of the state
+//! alone (the constraints' blocks and those of the state's pairs), so the gradient pass, which
+//! assembles at the same converged states, factorizes the same matrices as the forward.
+
+use super::assembly::{HessianKind, Pattern};
+use super::psd::project_psd;
+use super::solve::{NewtonSystem, StepStats};
+use super::NewtonSettings;
+use crate::contact::self_barrier::SelfPair;
+use crate::error::ClothError;
+use autodiff::Tensor;
+
+/// Solves one step takes at most while the control particles move to their places.
+const MAX_CONTROL_STAGES: usize = 64;
+
+impl NewtonSystem {
+    /// One step under self-contact, from the previous state `x_prev` to the minimizer of `Φ` for
+    /// the predicted state `xt`. The control particles are not put at their new places at once
+    /// (a gripper's move could bring the cloth it holds within the thickness of another part):
+    /// they move there in stages, each as far as the step filter allows with the cloth where
+    /// the last stage's solve left it, and each stage is solved, so that the cloth makes way.
+    /// The last stage is the step's `Φ`, solved from there; the statistics sum the stages
+    /// ([`StepStats::loads`] counts them).
+    ///
+    /// # Errors
+    /// As [`NewtonSystem::solve_from`]; [`ClothError::SelfContactPenetration`] when the controls
+    /// cannot reach their places in [`MAX_CONTROL_STAGES`] stages.
+    pub(super) fn solve_moving_controls(
+        &mut self,
+        x_prev: &Tensor,
+        xt: &Tensor,
+        step: usize,
+        settings: &NewtonSettings,
+    ) -> Result<(Tensor, StepStats), ClothError> {
+        let mut stats = StepStats::default();
+        let mut x = x_prev.clone();
+        for _ in 0..MAX_CONTROL_STAGES {
+            // The control particles' remaining move.
+            let mut delta = vec![0.0; x.data().len()];
+            for p in (0..delta.len() / 3).filter(|&p| self.pattern.dof(p).is_none()) {
+                for k in 0..3 {
+                    delta[3 * p + k] = xt.data()[3 * p + k] - x.data()[3 * p + k];
+                }
+            }
+            let barrier = self.pattern.self_barrier.clone().expect("self-contact");
+            let alpha = barrier.max_step(x.data(), &delta, 1.0);
+            let mut target = xt.clone();
+            if alpha < 1.0 {
+                let (t, d) = (target.data_mut(), x.data());
+                for (i, m) in delta.iter().enumerate().filter(|(_, m)| **m != 0.0) {
+                    t[i] = d[i] + alpha * m;
+                }
+            }
+            let (xj, sj) = self.solve_from(&x, &target, step, settings)?;
+            stats.add_work(&sj);
+            stats.loads += 1;
+            stats.residual = sj.residual;
+            stats.at_roundoff = sj.at_roundoff;
+            x = xj;
+            if alpha == 1.0 {
+                return Ok((x, stats));
+            }
+        }
+        let mut at_target = x.clone();
+        self.pattern.hold_fixed(xt.data(), at_target.data_mut());
+        let (particles, gap) = self
+            .pattern
+            .self_penetration(at_target.data())
+            .unwrap_or(([0; 4], 0.0));
+        Err(ClothError::SelfContactPenetration {
+            step,
+            particles,
+            gap,
+        })
+    }
+}
+
+impl Pattern {
+    /// The self-contact pairs at `x` (`N × 3` data); none without self-contact.
+    pub(super) fn self_pairs(&self, x: &[f64]) -> Vec<SelfPair> {
+        self.self_barrier
+            .as_ref()
+            .map_or_else(Vec::new, |b| b.pairs(x))
+    }
+
+    /// The particle blocks (row ≥ column, sorted, without duplicates) that `pairs` couple.
+    pub(super) fn self_blocks_for(&self, pairs: &[SelfPair]) -> Vec<(u32, u32)> {
+        let mut blocks = Vec::new();
+        for pair in pairs {
+            let dofs = pair.particles.map(|p| self.dof(p));
+            for a in dofs.iter().flatten() {
+                for b in dofs.iter().flatten() {
+                    if a > b {
+                        blocks.push(((a / 3) as u32, (b / 3) as u32));
+                    }
+                }
+            }
+        }
+        blocks.sort_unstable();
+        blocks.dedup();
+        blocks
+    }
+
+    /// The self-contact term's gradient into `grad` (degree-of-freedom order) and, with `values`,
+    /// its Hessian (each pair's 12 × 12 block projected to semidefinite for
+    /// [`HessianKind::Projected`]). The pattern must hold the pairs' blocks at `x`.
+    pub(super) fn assemble_self(
+        &self,
+        x: &[f64],
+        grad: &mut [f64],
+        mut values: Option<(&mut [f64], HessianKind)>,
+    ) {
+        let Some(barrier) = &self.self_barrier else {
+            return;
+        };
+        let (mut g, mut h) = ([0.0; 12], [0.0; 144]);
+        for pair in barrier.pairs(x) {
+            if !barrier.pair_derivatives(x, &pair, &mut g, &mut h) {
+                // At or within the thickness: only a predicted state can be there.
+                continue;
+            }
+            let dofs = pair.particles.map(|p| self.dof(p));
+            for a in 0..12 {
+                if let Some(da) = dofs[a / 3] {
+                    grad[da + a % 3] += g[a];
+                }
+            }
+            let Some((v, kind)) = values.as_mut() else {
+                continue;
+            };
+            if *kind == HessianKind::Projected {
+                project_psd(&mut h, 12);
+            }
+            for a in 0..12 {
+                let Some(da) = dofs[a / 3] else { continue };
+                for b in 0..12 {
+                    let Some(db) = dofs[b / 3] else { continue };
+                    let (r, c) = (da + a % 3, db + b % 3);
+                    if r >= c {
+                        let i = self
+                            .value_index(r, c)
+                            .expect("the pattern holds the self-contact pairs' blocks");
+                        v[i] += h[12 * a + b];
+                    }
+                }
+            }
+        }
+    }
+
+    /// `y −= H_cf z` for the self-contact pairs at `x` that hold a control particle (rows of `y`,
+    /// `N × 3` data) and a free one (`z`, degree-of-freedom order).
+    pub(super) fn sub_self_control_coupling(&self, x: &[f64], z: &[f64], y: &mut [f64]) {
+        let Some(barrier) = &self.self_barrier else {
+            return;
+        };
+        let (mut g, mut h) = ([0.0; 12], [0.0; 144]);
+        for pair in barrier.pairs(x) {
+            let dofs = pair.particles.map(|p| self.dof(p));
+            if dofs.iter().all(Option::is_some) || !barrier.pair_derivatives(x, &pair, &mut g, &mut h)
+            {
+                continue;
+            }
+            for a in (0..12).filter(|a| dofs[a / 3].is_none()) {
+                for b in 0..12 {
+                    if let Some(db) = dofs[b / 3] {
+                        y[3 * pair.particles[a / 3] + a % 3] -= h[12 * a + b] * z[db + b % 3];
+                    }
+                }
+            }
+        }
+    }
+
+    /// The largest step length in `[0, 1]` along `dir` (degree-of-freedom order, scaled by
+    /// `step`) from `x` that keeps every self-contact pair's gap above the filter's floor
+    /// ([`crate::contact::self_barrier::SelfBarrier::max_step`]); 1 without self-contact.
+    pub(super) fn self_max_step(&self, x: &[f64], step: f64, dir: &[f64]) -> f64 {
+        let Some(barrier) = &self.self_barrier else {
+            return 1.0;
+        };
+        let mut delta = vec![0.0; x.len()];
+        for p in 0..x.len() / 3 {
+            if let Some(d) = self.dof(p) {
+                for k in 0..3 {
+                    delta[3 * p + k] = step * dir[d + k];
+                }
+            }
+        }
+        barrier.max_step(x, &delta, 1.0)
+    }
+
+    /// Self-contact: the pair of `x` nearest within the thickness, its particles and gap
+    /// `d − h ≤ 0`; `None` when every pair is apart (or without self-contact).
+    pub fn self_penetration(&self, x: &[f64]) -> Option<([usize; 4], f64)> {
+        let barrier = self.self_barrier.as_ref()?;
+        barrier.penetration(x).map(|(p, gap)| (p.particles, gap))
+    }
+}
