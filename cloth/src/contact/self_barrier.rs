@@ -139,18 +139,22 @@ impl SelfBarrier {
                 |(lo, hi), (a, b)| (lo.inf(&a), hi.sup(&b)),
             )
         };
-        // Vertex–triangle pairs: the vertices' grid, queried with each triangle's box.
+        // Vertex–triangle pairs: the vertices' grid, queried with each triangle's box. `seen`
+        // stamps the candidates of one query (a vertex appears once per cell of the query).
         let grid = BoxGrid::new(&points, self.cell);
         let mut found: Vec<(usize, usize)> = Vec::new();
         let mut cand = Vec::new();
+        let mut seen = vec![usize::MAX; n.max(self.edges.len())];
         for (ti, t) in self.triangles.iter().enumerate() {
             let (lo, hi) = grow(union(t));
             cand.clear();
             grid.candidates(&lo, &hi, &mut cand);
-            cand.sort_unstable();
-            cand.dedup();
+            let any_movable = t.iter().any(|&p| self.movable[p]);
             for &v in &cand {
-                if t.contains(&v) || !(self.movable[v] || t.iter().any(|&p| self.movable[p])) {
+                if std::mem::replace(&mut seen[v], ti) == ti
+                    || t.contains(&v)
+                    || !(any_movable || self.movable[v])
+                {
                     continue;
                 }
                 let (a, b) = points[v];
@@ -170,13 +174,15 @@ impl SelfBarrier {
         // Edge–edge pairs: the edges' grid, queried with each edge's box.
         let boxes: Vec<Aabb> = self.edges.iter().map(|(e, _)| union(e)).collect();
         let grid = BoxGrid::new(&boxes, self.cell);
+        seen.fill(usize::MAX);
         for (i, (e, l1)) in self.edges.iter().enumerate() {
             let (lo, hi) = grow(boxes[i]);
             cand.clear();
             grid.candidates(&lo, &hi, &mut cand);
+            // Each edge after `i` once (stamped), in increasing order.
+            cand.retain(|&j| j > i && std::mem::replace(&mut seen[j], i) != i);
             cand.sort_unstable();
-            cand.dedup();
-            for &j in cand.iter().filter(|&&j| j > i) {
+            for &j in &cand {
                 let (g, l2) = &self.edges[j];
                 if e.iter().any(|p| g.contains(p))
                     || !e.iter().chain(g).any(|&p| self.movable[p])
@@ -206,10 +212,15 @@ impl SelfBarrier {
     /// `Φ`'s self-contact term at `x`: `Δt² κ Σ m b(d − h)` over [`SelfBarrier::pairs`]; `+∞`
     /// when a pair is at or within the thickness.
     pub fn energy(&self, x: &[f64]) -> f64 {
+        self.energy_of(x, &self.pairs(x))
+    }
+
+    /// [`SelfBarrier::energy`] over `pairs`, the pairs of `x`.
+    pub fn energy_of(&self, x: &[f64], pairs: &[SelfPair]) -> f64 {
         let mut sum = 0.0;
-        for pair in self.pairs(x) {
+        for pair in pairs {
             let pts = pair.particles.map(|q| at(x, q));
-            sum += self.potential(&pair, &pts);
+            sum += self.potential(pair, &pts);
         }
         sum
     }
@@ -357,4 +368,96 @@ impl SelfBarrier {
 #[inline]
 fn at(x: &[f64], p: usize) -> Vector3<f64> {
     Vector3::new(x[3 * p], x[3 * p + 1], x[3 * p + 2])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{PairKind, SelfBarrier, SelfPair};
+    use crate::contact::barrier::Barrier;
+    use std::sync::Arc;
+
+    /// A `k × k` grid cloth of spacing 1 folded over itself along the middle column, with a
+    /// little noise: layers about `gap` apart.
+    pub(super) fn folded(k: usize, gap: f64) -> (Vec<[usize; 3]>, Vec<f64>) {
+        let mut x = Vec::new();
+        let half = (k - 1) as f64 / 2.0;
+        for r in 0..k {
+            for c in 0..k {
+                let u = c as f64;
+                let (px, pz) = if u <= half {
+                    (u, 0.0)
+                } else {
+                    (2.0 * half - u, gap)
+                };
+                let noise = ((r * 31 + c * 17) % 7) as f64 * 1e-3;
+                x.extend([px + noise, r as f64, pz + noise]);
+            }
+        }
+        let mut tris = Vec::new();
+        for r in 0..k - 1 {
+            for c in 0..k - 1 {
+                let p = r * k + c;
+                tris.push([p, p + 1, p + k]);
+                tris.push([p + 1, p + k + 1, p + k]);
+            }
+        }
+        (tris, x)
+    }
+
+    fn barrier(tris: Vec<[usize; 3]>, x: &[f64], h: f64) -> SelfBarrier {
+        SelfBarrier::new(
+            h,
+            Barrier {
+                d_hat: 0.2,
+                kappa: 1.0,
+            },
+            1.0,
+            Arc::from(tris),
+            x,
+            &vec![1.0; x.len() / 3],
+        )
+    }
+
+    #[test]
+    fn the_pairs_are_those_of_a_brute_force_search() {
+        let (tris, x) = folded(9, 0.2);
+        let b = barrier(tris.clone(), &x, 0.05);
+        let reach = 0.25;
+        let pairs = b.pairs(&x);
+        let mut brute = Vec::new();
+        for v in 0..x.len() / 3 {
+            for t in &tris {
+                let pair = SelfPair {
+                    particles: [v, t[0], t[1], t[2]],
+                    kind: PairKind::PointTriangle,
+                };
+                if !t.contains(&v) && b.distance(&x, &pair) < reach {
+                    brute.push(pair);
+                }
+            }
+        }
+        for (i, (e, l1)) in b.edges.iter().enumerate() {
+            for (g, l2) in &b.edges[i + 1..] {
+                let pair = SelfPair {
+                    particles: [e[0], e[1], g[0], g[1]],
+                    kind: PairKind::EdgeEdge(super::MOLLIFIER * l1 * l2),
+                };
+                if !e.iter().any(|p| g.contains(p)) && b.distance(&x, &pair) < reach {
+                    brute.push(pair);
+                }
+            }
+        }
+        assert!(pairs.len() > 50, "{} pairs", pairs.len());
+        let missing: Vec<_> = brute.iter().filter(|p| !pairs.contains(p)).collect();
+        let extra: Vec<_> = pairs.iter().filter(|p| !brute.contains(p)).collect();
+        assert!(
+            missing.is_empty() && extra.is_empty(),
+            "{} vs {}; missing {:?}, extra {:?}",
+            pairs.len(),
+            brute.len(),
+            &missing[..missing.len().min(4)],
+            &extra[..extra.len().min(4)]
+        );
+        assert_eq!(pairs, brute);
+    }
 }

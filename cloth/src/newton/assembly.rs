@@ -12,6 +12,7 @@ use super::psd::{project_psd, projected_local_hessian};
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::contact::barrier::ColliderBarrier;
 use crate::contact::self_barrier::SelfBarrier;
+use super::self_contact::SelfPairsCache;
 use crate::contact::smooth_friction::LaggedContact;
 use crate::model::Model;
 use std::sync::Arc;
@@ -69,6 +70,9 @@ pub struct Pattern {
     /// The particle blocks (row ≥ column) the self-contact pairs of the last
     /// [`Pattern::with_self_blocks`] added to the constraints' (sorted).
     pub(super) self_blocks: Vec<(u32, u32)>,
+    /// The self-contact pairs of the last state they were found at (the line search, the
+    /// assembly and the pattern's fit ask for the same state's in turn).
+    pub(super) self_pairs_cache: SelfPairsCache,
 }
 
 impl Pattern {
@@ -263,6 +267,7 @@ impl Pattern {
             friction,
             self_barrier,
             self_blocks,
+            self_pairs_cache: SelfPairsCache::default(),
         }
     }
 
@@ -358,7 +363,7 @@ impl Pattern {
             }
         }
         if let Some(b) = &self.self_barrier {
-            phi += b.energy(x);
+            phi += b.energy_of(x, &self.self_pairs(x));
         }
         phi
     }

@@ -87,6 +87,8 @@ impl Model {
             let u_t = self.step_controls(controls, t - 1);
             let xt = self.begin_step(&states[t - 1], &u_t);
             system.begin_step(&states[t - 1]);
+            // Self-contact: the pattern of the pairs at x_t, the kept factorization's.
+            system.fit_self_contact(states[t].data());
             if let Some(f) = factors.get_mut(t - 1).and_then(Option::take) {
                 system.factor.insert(f);
             }

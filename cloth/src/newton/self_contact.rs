@@ -15,6 +15,11 @@ use super::NewtonSettings;
 use crate::contact::self_barrier::SelfPair;
 use crate::error::ClothError;
 use autodiff::Tensor;
+use std::sync::{Arc, Mutex};
+
+/// The self-contact pairs of the last state asked for, and that state.
+#[derive(Default)]
+pub(super) struct SelfPairsCache(Mutex<Option<(Vec<f64>, Arc<Vec<SelfPair>>)>>);
 
 /// Solves one step takes at most while the control particles move to their places.
 const MAX_CONTROL_STAGES: usize = 64;
@@ -83,10 +88,19 @@ impl NewtonSystem {
 
 impl Pattern {
     /// The self-contact pairs at `x` (`N × 3` data); none without self-contact.
-    pub(super) fn self_pairs(&self, x: &[f64]) -> Vec<SelfPair> {
-        self.self_barrier
-            .as_ref()
-            .map_or_else(Vec::new, |b| b.pairs(x))
+    pub(super) fn self_pairs(&self, x: &[f64]) -> Arc<Vec<SelfPair>> {
+        let Some(b) = &self.self_barrier else {
+            return Arc::default();
+        };
+        let mut cache = self.self_pairs_cache.0.lock().expect("an unpoisoned cache");
+        if let Some((at, pairs)) = cache.as_ref() {
+            if at[..] == *x {
+                return pairs.clone();
+            }
+        }
+        let pairs = Arc::new(b.pairs(x));
+        *cache = Some((x.to_vec(), pairs.clone()));
+        pairs
     }
 
     /// The particle blocks (row ≥ column, sorted, without duplicates) that `pairs` couple.
@@ -120,8 +134,8 @@ impl Pattern {
             return;
         };
         let (mut g, mut h) = ([0.0; 12], [0.0; 144]);
-        for pair in barrier.pairs(x) {
-            if !barrier.pair_derivatives(x, &pair, &mut g, &mut h) {
+        for pair in self.self_pairs(x).iter() {
+            if !barrier.pair_derivatives(x, pair, &mut g, &mut h) {
                 // At or within the thickness: only a predicted state can be there.
                 continue;
             }
@@ -160,9 +174,9 @@ impl Pattern {
             return;
         };
         let (mut g, mut h) = ([0.0; 12], [0.0; 144]);
-        for pair in barrier.pairs(x) {
+        for pair in self.self_pairs(x).iter() {
             let dofs = pair.particles.map(|p| self.dof(p));
-            if dofs.iter().all(Option::is_some) || !barrier.pair_derivatives(x, &pair, &mut g, &mut h)
+            if dofs.iter().all(Option::is_some) || !barrier.pair_derivatives(x, pair, &mut g, &mut h)
             {
                 continue;
             }

@@ -107,7 +107,7 @@ impl NewtonSystem {
 
     /// Self-contact: rebuilds the pattern (and the factorization's symbolic analysis) when the
     /// pairs at `x` couple other particle blocks than it holds ([`super::self_contact`]).
-    fn fit_self_contact(&mut self, x: &[f64]) {
+    pub(super) fn fit_self_contact(&mut self, x: &[f64]) {
         if self.pattern.self_barrier.is_none() {
             return;
         }
