@@ -460,4 +460,115 @@ mod tests {
         );
         assert_eq!(pairs, brute);
     }
+
+    /// A pair of four points with the given kind in a 4-particle state.
+    fn lone(kind: PairKind) -> SelfPair {
+        SelfPair {
+            particles: [0, 1, 2, 3],
+            kind,
+        }
+    }
+
+    fn four_points(h: f64) -> SelfBarrier {
+        SelfBarrier::new(
+            h,
+            Barrier {
+                d_hat: 0.1,
+                kappa: 3.0,
+            },
+            0.5,
+            Arc::from(vec![[1, 2, 3]]),
+            &[0.0; 12],
+            &[1.0; 4],
+        )
+    }
+
+    /// `P(x + hv)` for the pair's potential.
+    fn potential_at(b: &SelfBarrier, pair: &SelfPair, x: &[f64]) -> f64 {
+        let pts = pair.particles.map(|q| super::at(x, q));
+        b.potential(pair, &pts)
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 64, .. Default::default() })]
+
+        /// The gradient and Hessian of a vertex–triangle or edge–edge pair (every kind of
+        /// nearest features, the mollifier's region included) against central differences of
+        /// the potential and of the gradient.
+        #[test]
+        fn pair_derivatives_match_central_differences(
+            coords in proptest::collection::vec(-0.5f64..0.5, 12),
+            edge in proptest::bool::ANY,
+            lift in 0.05f64..0.12,
+        ) {
+            let h = 0.02;
+            let b = four_points(h);
+            // Particle 0 (and 1 for edges) lifted above the others so that the pair is apart.
+            let mut x = coords.clone();
+            for v in x.iter_mut().skip(2).step_by(3) {
+                *v *= 0.02;
+            }
+            // ε = 1 puts every edge pair in the mollifier's region (|e₁ × e₂|² < 1 here).
+            let eps = if lift > 0.085 { 1.0 } else { 1e-3 * 0.25 * 0.25 };
+            let kind = if edge { PairKind::EdgeEdge(eps) } else { PairKind::PointTriangle };
+            let lifted = if edge { 2 } else { 1 };
+            for q in 0..lifted {
+                x[3 * q + 2] += lift;
+            }
+            let pair = lone(kind);
+            let gap = b.distance(&x, &pair) - h;
+            proptest::prop_assume!(gap > 0.01 && gap < 0.09);
+            let (mut g, mut hess) = ([0.0; 12], [0.0; 144]);
+            proptest::prop_assert!(b.pair_derivatives(&x, &pair, &mut g, &mut hess));
+            let step = 1e-6;
+            let scale = g.iter().fold(1e-12f64, |m, v| m.max(v.abs()));
+            let hscale = hess.iter().fold(1e-12f64, |m, v| m.max(v.abs()));
+            for a in 0..12 {
+                let (mut up, mut down) = (x.clone(), x.clone());
+                up[a] += step;
+                down[a] -= step;
+                let fd = (potential_at(&b, &pair, &up) - potential_at(&b, &pair, &down)) / (2.0 * step);
+                proptest::prop_assert!((fd - g[a]).abs() <= 1e-5 * scale, "∂{a}: {fd} vs {}", g[a]);
+                let (mut gu, mut gd) = ([0.0; 12], [0.0; 12]);
+                b.pair_derivatives(&up, &pair, &mut gu, &mut [0.0; 144]);
+                b.pair_derivatives(&down, &pair, &mut gd, &mut [0.0; 144]);
+                for c in 0..12 {
+                    let fd2 = (gu[c] - gd[c]) / (2.0 * step);
+                    proptest::prop_assert!(
+                        (fd2 - hess[12 * a + c]).abs() <= 1e-4 * hscale,
+                        "∂²{a},{c}: {fd2} vs {}", hess[12 * a + c]
+                    );
+                }
+            }
+        }
+    }
+
+    /// A vertex driven straight through a triangle stops before it: the filter keeps a tenth of
+    /// its gap; a move along the triangle's plane is not shortened.
+    #[test]
+    fn the_filter_stops_a_vertex_before_a_triangle() {
+        let h = 0.02;
+        let b = four_points(h);
+        let x = [
+            0.2, 0.2, 0.1, // the vertex, 0.1 above
+            0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+        ];
+        let mut down = [0.0; 12];
+        down[2] = -0.5;
+        let alpha = b.max_step(&x, &down, 1.0);
+        let gap0 = 0.1 - h;
+        let end = 0.1 - 0.5 * alpha - h;
+        assert!(end >= super::APPROACH * gap0 - 1e-12, "gap at the end {end}");
+        assert!(end <= 0.2 * gap0, "stopped early: gap {end} of {gap0}");
+        let mut along = [0.0; 12];
+        along[0] = 0.3;
+        assert_eq!(b.max_step(&x, &along, 1.0), 1.0);
+        // Moving the triangle up onto the vertex is stopped the same way.
+        let mut up = [0.0; 12];
+        for k in [5, 8, 11] {
+            up[k] = 0.5;
+        }
+        let beta = b.max_step(&x, &up, 1.0);
+        assert!((beta - alpha).abs() < 1e-9, "{beta} vs {alpha}");
+    }
 }
