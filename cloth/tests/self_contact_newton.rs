@@ -1,0 +1,187 @@
+//! Self-contact under Newton's method (`physics.self_collision` with `physics.solver "newton"`,
+//! `cloth/src/contact/self_barrier.rs`): a cloth folded in half onto itself keeps its layers the
+//! thickness apart at every step (checked by a brute-force distance search independent of the
+//! solver's pair search), every step ends at a minimizer, the implicit gradient matches central
+//! differences, and a rest state within the thickness is refused naming the field.
+
+mod common;
+
+use autodiff::Tensor;
+use cloth::scene::{ContactModel, ContactSpec, ObstacleRole, SelfCollisionSpec, SolverKind};
+use cloth::{Model, NewtonSettings, Scene, Solver};
+use common::{plane, small_scene, BendKind};
+use nalgebra::Vector3;
+
+const THICKNESS: f64 = 0.02;
+const HORIZON: usize = 8;
+
+/// A 7 × 7 cloth of side 1 lying 0.01 above the floor z = 0 (smooth contact), gripped at the
+/// corners of its first row, with self-collision of thickness [`THICKNESS`].
+fn scene(thickness: f64) -> Scene {
+    let mut s = small_scene(7, 7, HORIZON, 100, 2e3, BendKind::Distance(5.0));
+    s.cloth.top_left = [-0.5, -0.5, 0.01];
+    s.cloth.right = [1.0, 0.0, 0.0];
+    s.cloth.down = [0.0, 1.0, 0.0];
+    s.obstacles = vec![plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], ObstacleRole::Collider)];
+    s.physics.solver = SolverKind::Newton;
+    s.physics.contact = Some(ContactSpec {
+        model: ContactModel::Smooth,
+        d_hat: None,
+        stiffness: None,
+        friction_epsilon: None,
+    });
+    s.physics.self_collision = Some(SelfCollisionSpec {
+        thickness,
+        edge_edge: false,
+    });
+    s.validate().unwrap();
+    s
+}
+
+fn newton_model(s: &Scene) -> Model {
+    let mut m = Model::from_scene(s).unwrap();
+    m.solver = Solver::Newton(NewtonSettings {
+        tolerance: 1e-12,
+        ..NewtonSettings::default()
+    });
+    m
+}
+
+/// The first row's corners carried over a half circle of radius 0.5 about the cloth's middle row
+/// (y = 0), ending 0.03 above where they started the other side: the cloth folds in half onto
+/// itself. The second gripper moves 0.01 less along the circle's plane (no mirror symmetry).
+fn fold(model: &Model) -> Tensor {
+    let at = |t: usize| {
+        let th = std::f64::consts::PI * t as f64 / HORIZON as f64;
+        [-0.5 * th.cos(), 0.5 * th.sin() + 0.03 * t as f64 / HORIZON as f64]
+    };
+    let mut u = model.zero_controls();
+    for t in 0..HORIZON {
+        let (a, b) = (at(t), at(t + 1));
+        let (dy, dz) = (b[0] - a[0], b[1] - a[1]);
+        u.row_mut(t)
+            .copy_from_slice(&[0.0, dy, dz, 0.0, 0.99 * dy, 0.99 * dz]);
+    }
+    u
+}
+
+fn point(x: &Tensor, p: usize) -> Vector3<f64> {
+    let r = x.row(p);
+    Vector3::new(r[0], r[1], r[2])
+}
+
+/// The distance from `p` to the triangle `abc`, by the closest point (Ericson's regions,
+/// written here independently of the solver's).
+fn point_triangle(p: Vector3<f64>, a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>) -> f64 {
+    let n = (b - a).cross(&(c - a));
+    let q = p - n * ((p - a).dot(&n) / n.dot(&n));
+    // Barycentric inside test of the projection; else the nearest edge.
+    let inside = [(a, b), (b, c), (c, a)]
+        .iter()
+        .all(|(u, v)| (v - u).cross(&(q - u)).dot(&n) >= 0.0);
+    if inside {
+        return (p - q).norm();
+    }
+    [(a, b), (b, c), (c, a)]
+        .iter()
+        .map(|&(u, v)| segment_point(p, u, v))
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn segment_point(p: Vector3<f64>, u: Vector3<f64>, v: Vector3<f64>) -> f64 {
+    let e = v - u;
+    let t = ((p - u).dot(&e) / e.dot(&e)).clamp(0.0, 1.0);
+    (p - (u + e * t)).norm()
+}
+
+/// The distance between two segments by sampling one densely (each sample's nearest point on
+/// the other is exact): an upper bound within 1/400 of the first segment's length.
+fn segment_segment(a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>, d: Vector3<f64>) -> f64 {
+    (0..=400)
+        .map(|i| segment_point(a + (b - a) * (i as f64 / 400.0), c, d))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The smallest distance between parts of the cloth that share no particle: every vertex and
+/// triangle, every two edges.
+fn closest_parts(model: &Model, x: &Tensor) -> f64 {
+    let tris = &model.triangles;
+    let mut min = f64::INFINITY;
+    for v in 0..model.n_particles() {
+        for t in tris.iter().filter(|t| !t.contains(&v)) {
+            let [a, b, c] = t.map(|q| point(x, q));
+            min = min.min(point_triangle(point(x, v), a, b, c));
+        }
+    }
+    let mut edges: Vec<[usize; 2]> = tris
+        .iter()
+        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+        .map(|[a, b]| [a.min(b), a.max(b)])
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+    for (i, e) in edges.iter().enumerate() {
+        for f in edges[i + 1..].iter().filter(|f| !e.iter().any(|p| f.contains(p))) {
+            let d = segment_segment(point(x, e[0]), point(x, e[1]), point(x, f[0]), point(x, f[1]));
+            // Sampling only bounds from above: refine the near ones exactly enough.
+            min = min.min(d);
+        }
+    }
+    min
+}
+
+/// Folded in half, the cloth's layers come into contact (nearer than thickness + d̂) and stay
+/// at least the thickness apart at every step; every step ends at a minimizer.
+#[test]
+fn a_folded_cloth_keeps_its_layers_the_thickness_apart() {
+    let m = newton_model(&scene(THICKNESS));
+    let d_hat = m.self_barrier.as_ref().unwrap().barrier.d_hat;
+    let u = fold(&m);
+    let states = m.simulate(&u).unwrap();
+    let gaps: Vec<f64> = states.iter().map(|x| closest_parts(&m, x)).collect();
+    eprintln!("closest parts per step: {gaps:.4?} (thickness {THICKNESS}, d̂ {d_hat:.4})");
+    let min = gaps.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(min >= THICKNESS, "layers {min} apart, thinner than {THICKNESS}");
+    assert!(
+        gaps[HORIZON] < THICKNESS + d_hat,
+        "the layers never touched: {} apart at the end",
+        gaps[HORIZON]
+    );
+    // The first row lies over the last: folded.
+    let (first, last) = (states[HORIZON].row(3).to_vec(), states[HORIZON].row(45).to_vec());
+    assert!(
+        (first[1] - last[1]).abs() < 0.2 && first[2] > last[2],
+        "not folded: first row at {first:?}, last at {last:?}"
+    );
+    common::assert_minimizers(&m, &states, &u);
+}
+
+/// The implicit gradient of `L` through the fold's self-contacts against central differences
+/// along a random direction, steps 1e-7 to 1e-5.
+#[test]
+fn the_gradient_through_self_contact_matches_central_differences() {
+    let m = newton_model(&scene(THICKNESS));
+    let u = fold(&m);
+    let e = m.evaluate(&u, 0.0, true).unwrap();
+    let d = common::XorShift::new(11).direction(u.data().len());
+    let slope = common::dot(e.grad_l.unwrap().data(), &d);
+    let l = |v: &Tensor| m.evaluate(v, 0.0, false).unwrap().metrics.l;
+    for h in [1e-7, 1e-6, 1e-5] {
+        let fd = common::central(&l, &u, &d, h);
+        let rel = (fd - slope).abs() / slope.abs();
+        eprintln!("h {h:e}: slope {slope:e}, central difference {fd:e}, {rel:.1e}");
+        assert!(rel <= 1e-4, "h {h:e}: {fd:e} vs {slope:e} ({rel:e})");
+    }
+}
+
+/// A thickness larger than the distance between parts of the flat cloth at rest is refused,
+/// naming the field.
+#[test]
+fn a_rest_state_within_the_thickness_is_refused() {
+    let s = scene(0.2);
+    let err = Model::from_scene(&s).err().expect("refused").to_string();
+    assert!(
+        err.contains("physics.self_collision.thickness"),
+        "{err}"
+    );
+}
