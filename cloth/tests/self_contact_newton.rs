@@ -22,7 +22,11 @@ fn scene(thickness: f64) -> Scene {
     s.cloth.top_left = [-0.5, -0.5, 0.01];
     s.cloth.right = [1.0, 0.0, 0.0];
     s.cloth.down = [0.0, 1.0, 0.0];
-    s.obstacles = vec![plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], ObstacleRole::Collider)];
+    s.obstacles = vec![plane(
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        ObstacleRole::Collider,
+    )];
     s.physics.solver = SolverKind::Newton;
     s.physics.contact = Some(ContactSpec {
         model: ContactModel::Smooth,
@@ -53,7 +57,10 @@ fn newton_model(s: &Scene) -> Model {
 fn fold(model: &Model) -> Tensor {
     let at = |t: usize| {
         let th = std::f64::consts::PI * t as f64 / HORIZON as f64;
-        [-0.5 * th.cos(), 0.5 * th.sin() + 0.03 * t as f64 / HORIZON as f64]
+        [
+            -0.5 * th.cos(),
+            0.5 * th.sin() + 0.03 * t as f64 / HORIZON as f64,
+        ]
     };
     let mut u = model.zero_controls();
     for t in 0..HORIZON {
@@ -121,8 +128,16 @@ fn closest_parts(model: &Model, x: &Tensor) -> f64 {
     edges.sort_unstable();
     edges.dedup();
     for (i, e) in edges.iter().enumerate() {
-        for f in edges[i + 1..].iter().filter(|f| !e.iter().any(|p| f.contains(p))) {
-            let d = segment_segment(point(x, e[0]), point(x, e[1]), point(x, f[0]), point(x, f[1]));
+        for f in edges[i + 1..]
+            .iter()
+            .filter(|f| !e.iter().any(|p| f.contains(p)))
+        {
+            let d = segment_segment(
+                point(x, e[0]),
+                point(x, e[1]),
+                point(x, f[0]),
+                point(x, f[1]),
+            );
             // Sampling only bounds from above: refine the near ones exactly enough.
             min = min.min(d);
         }
@@ -141,14 +156,20 @@ fn a_folded_cloth_keeps_its_layers_the_thickness_apart() {
     let gaps: Vec<f64> = states.iter().map(|x| closest_parts(&m, x)).collect();
     eprintln!("closest parts per step: {gaps:.4?} (thickness {THICKNESS}, d̂ {d_hat:.4})");
     let min = gaps.iter().copied().fold(f64::INFINITY, f64::min);
-    assert!(min >= THICKNESS, "layers {min} apart, thinner than {THICKNESS}");
+    assert!(
+        min >= THICKNESS,
+        "layers {min} apart, thinner than {THICKNESS}"
+    );
     assert!(
         gaps[HORIZON] < THICKNESS + d_hat,
         "the layers never touched: {} apart at the end",
         gaps[HORIZON]
     );
     // The first row lies over the last: folded.
-    let (first, last) = (states[HORIZON].row(3).to_vec(), states[HORIZON].row(45).to_vec());
+    let (first, last) = (
+        states[HORIZON].row(3).to_vec(),
+        states[HORIZON].row(45).to_vec(),
+    );
     assert!(
         (first[1] - last[1]).abs() < 0.2 && first[2] > last[2],
         "not folded: first row at {first:?}, last at {last:?}"
@@ -180,8 +201,5 @@ fn the_gradient_through_self_contact_matches_central_differences() {
 fn a_rest_state_within_the_thickness_is_refused() {
     let s = scene(0.2);
     let err = Model::from_scene(&s).err().expect("refused").to_string();
-    assert!(
-        err.contains("physics.self_collision.thickness"),
-        "{err}"
-    );
+    assert!(err.contains("physics.self_collision.thickness"), "{err}");
 }

@@ -38,14 +38,14 @@ pub enum EdgeEdge {
 
 /// `|p − q|²`.
 #[inline]
-fn point_point<R: Real>(p: &Vector3<R>, q: &Vector3<R>) -> R {
+pub(crate) fn point_point<R: Real>(p: &Vector3<R>, q: &Vector3<R>) -> R {
     let d = p - q;
     d.dot(&d)
 }
 
 /// Squared distance from `p` to the line through `a` and `b`: `|(a − p) × (b − p)|² / |b − a|²`.
 #[inline]
-fn point_line<R: Real>(p: &Vector3<R>, a: &Vector3<R>, b: &Vector3<R>) -> R {
+pub(crate) fn point_line<R: Real>(p: &Vector3<R>, a: &Vector3<R>, b: &Vector3<R>) -> R {
     let c = (a - p).cross(&(b - p));
     let e = b - a;
     c.dot(&c) / e.dot(&e)
@@ -53,9 +53,27 @@ fn point_line<R: Real>(p: &Vector3<R>, a: &Vector3<R>, b: &Vector3<R>) -> R {
 
 /// Squared distance from `p` to the plane through `a`, `b`, `c`.
 #[inline]
-fn point_plane<R: Real>(p: &Vector3<R>, a: &Vector3<R>, b: &Vector3<R>, c: &Vector3<R>) -> R {
+pub(crate) fn point_plane<R: Real>(
+    p: &Vector3<R>,
+    a: &Vector3<R>,
+    b: &Vector3<R>,
+    c: &Vector3<R>,
+) -> R {
     let n = (b - a).cross(&(c - a));
     let h = (p - a).dot(&n);
+    h * h / n.dot(&n)
+}
+
+/// Squared distance between the line through `a₀`, `a₁` and the line through `b₀`, `b₁`.
+#[inline]
+pub(crate) fn line_line<R: Real>(
+    a0: &Vector3<R>,
+    a1: &Vector3<R>,
+    b0: &Vector3<R>,
+    b1: &Vector3<R>,
+) -> R {
+    let n = (a1 - a0).cross(&(b1 - b0));
+    let h = (b0 - a0).dot(&n);
     h * h / n.dot(&n)
 }
 
@@ -136,11 +154,7 @@ impl EdgeEdge {
     #[inline]
     pub fn squared<R: Real>(self, a: [&Vector3<R>; 2], b: [&Vector3<R>; 2]) -> R {
         match self {
-            EdgeEdge::Lines => {
-                let n = (a[1] - a[0]).cross(&(b[1] - b[0]));
-                let h = (b[0] - a[0]).dot(&n);
-                h * h / n.dot(&n)
-            }
+            EdgeEdge::Lines => line_line(a[0], a[1], b[0], b[1]),
             EdgeEdge::FirstEnd(i) => point_line(a[i as usize], b[0], b[1]),
             EdgeEdge::SecondEnd(j) => point_line(b[j as usize], a[0], a[1]),
             EdgeEdge::Ends(i, j) => point_point(a[i as usize], b[j as usize]),
@@ -255,15 +269,30 @@ mod tests {
     fn edge_edge_distance_matches_sampling_for_every_kind() {
         let cases = [
             // crossing interiors
-            ([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], [[0.5, -0.5, 0.3], [0.5, 0.5, 0.3]]),
+            (
+                [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
+                [[0.5, -0.5, 0.3], [0.5, 0.5, 0.3]],
+            ),
             // an end of the first over the second's interior
-            ([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], [[1.2, -0.5, 0.3], [1.2, 0.5, 0.3]]),
+            (
+                [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
+                [[1.2, -0.5, 0.3], [1.2, 0.5, 0.3]],
+            ),
             // an end of the second over the first's interior
-            ([[0.5, -0.5, 0.3], [0.5, 0.5, 0.3]], [[0.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
+            (
+                [[0.5, -0.5, 0.3], [0.5, 0.5, 0.3]],
+                [[0.0, 0.0, 0.0], [-1.0, 0.0, 0.0]],
+            ),
             // two ends
-            ([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], [[1.3, 0.2, 0.1], [2.0, 1.0, 0.0]]),
+            (
+                [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
+                [[1.3, 0.2, 0.1], [2.0, 1.0, 0.0]],
+            ),
             // parallel
-            ([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], [[0.4, 0.1, 0.2], [1.4, 0.1, 0.2]]),
+            (
+                [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
+                [[0.4, 0.1, 0.2], [1.4, 0.1, 0.2]],
+            ),
         ];
         for (a, b) in cases {
             let (a, b) = (a.map(Vector3::from), b.map(Vector3::from));

@@ -25,7 +25,7 @@
 //! its relative motion cannot close, so the states the solver visits are never in contact.
 
 use super::barrier::{Barrier, APPROACH};
-use super::distance::{EdgeEdge, PointTriangle};
+use super::distance::{line_line, point_line, point_plane, point_point, EdgeEdge, PointTriangle};
 use super::grid::{Aabb, BoxGrid};
 use autodiff::{Dual, Real};
 use nalgebra::Vector3;
@@ -135,7 +135,10 @@ impl SelfBarrier {
         };
         let union = |ps: &[usize]| -> Aabb {
             ps.iter().map(|&p| points[p]).fold(
-                (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)),
+                (
+                    Vector3::repeat(f64::INFINITY),
+                    Vector3::repeat(f64::NEG_INFINITY),
+                ),
                 |(lo, hi), (a, b)| (lo.inf(&a), hi.sup(&b)),
             )
         };
@@ -184,9 +187,7 @@ impl SelfBarrier {
             cand.sort_unstable();
             for &j in &cand {
                 let (g, l2) = &self.edges[j];
-                if e.iter().any(|p| g.contains(p))
-                    || !e.iter().chain(g).any(|&p| self.movable[p])
-                {
+                if e.iter().any(|p| g.contains(p)) || !e.iter().chain(g).any(|&p| self.movable[p]) {
                     continue;
                 }
                 let (a, b) = boxes[j];
@@ -262,8 +263,10 @@ impl SelfBarrier {
     }
 
     /// The pair's gradient (12 coordinates: its four particles in order) and Hessian (row-major
-    /// 12 × 12) at `x`, by nested forward duals; false (nothing written) at or within the
-    /// thickness.
+    /// 12 × 12) at `x`; false (nothing written) at or within the thickness. The squared distance
+    /// is differentiated by nested forward duals on the coordinates its nearest features involve
+    /// (6 for two corners, 9 for a point and a line, 12 for a point and a plane or two lines),
+    /// the mollifier (edge pairs within its region) on all 12, and the barrier by the chain rule.
     pub fn pair_derivatives(
         &self,
         x: &[f64],
@@ -271,25 +274,86 @@ impl SelfBarrier {
         g: &mut [f64; 12],
         h: &mut [f64; 144],
     ) -> bool {
-        type D2 = Dual<Dual<f64, 12>, 12>;
-        let plain = pair.particles.map(|q| at(x, q));
-        let pts: [Vector3<D2>; 4] = std::array::from_fn(|i| {
-            Vector3::from_fn(|k, _| {
-                let j = 3 * i + k;
-                D2 {
-                    re: Dual::variable(plain[i][k], j),
-                    eps: std::array::from_fn(|l| Dual::constant(if l == j { 1.0 } else { 0.0 })),
+        let p = pair.particles.map(|q| at(x, q));
+        let (mut gq, mut hq) = ([0.0; 12], [0.0; 144]);
+        let q = match pair.kind {
+            PairKind::PointTriangle => {
+                match PointTriangle::classify(&p[0], [&p[1], &p[2], &p[3]]) {
+                    PointTriangle::Corner(i) => {
+                        local::<2, 6>(&p, [0, 1 + i as usize], &mut gq, &mut hq, |v| {
+                            point_point(&v[0], &v[1])
+                        })
+                    }
+                    PointTriangle::Edge(i, j) => {
+                        let idx = [0, 1 + i as usize, 1 + j as usize];
+                        local::<3, 9>(&p, idx, &mut gq, &mut hq, |v| {
+                            point_line(&v[0], &v[1], &v[2])
+                        })
+                    }
+                    PointTriangle::Face => {
+                        local::<4, 12>(&p, [0, 1, 2, 3], &mut gq, &mut hq, |v| {
+                            point_plane(&v[0], &v[1], &v[2], &v[3])
+                        })
+                    }
                 }
-            })
-        });
-        let v = self.potential(pair, &pts);
-        if !v.re.re.is_finite() {
+            }
+            PairKind::EdgeEdge(_) => match EdgeEdge::classify([&p[0], &p[1]], [&p[2], &p[3]]) {
+                EdgeEdge::Lines => local::<4, 12>(&p, [0, 1, 2, 3], &mut gq, &mut hq, |v| {
+                    line_line(&v[0], &v[1], &v[2], &v[3])
+                }),
+                EdgeEdge::FirstEnd(i) => {
+                    local::<3, 9>(&p, [i as usize, 2, 3], &mut gq, &mut hq, |v| {
+                        point_line(&v[0], &v[1], &v[2])
+                    })
+                }
+                EdgeEdge::SecondEnd(j) => {
+                    local::<3, 9>(&p, [2 + j as usize, 0, 1], &mut gq, &mut hq, |v| {
+                        point_line(&v[0], &v[1], &v[2])
+                    })
+                }
+                EdgeEdge::Ends(i, j) => {
+                    local::<2, 6>(&p, [i as usize, 2 + j as usize], &mut gq, &mut hq, |v| {
+                        point_point(&v[0], &v[1])
+                    })
+                }
+            },
+        };
+        let d = q.max(0.0).sqrt();
+        let s = d - self.thickness;
+        if s <= 0.0 {
             return false;
         }
+        // B(q) = b(s(q)), s = √q − h: B′ = b′ s′, B″ = b″ s′² + b′ s″.
+        let (b0, b1, b2) = self.barrier.shape(s);
+        let (s1, s2) = (0.5 / d, -0.25 / (d * d * d));
+        let (db, ddb) = (b1 * s1, b2 * s1 * s1 + b1 * s2);
+        let scale = self.dt2 * self.barrier.kappa;
         for a in 0..12 {
-            g[a] = v.re.eps[a];
-            for b in 0..12 {
-                h[12 * a + b] = v.eps[a].eps[b];
+            g[a] = scale * db * gq[a];
+            for c in 0..12 {
+                h[12 * a + c] = scale * (ddb * gq[a] * gq[c] + db * hq[12 * a + c]);
+            }
+        }
+        if let PairKind::EdgeEdge(eps) = pair.kind {
+            let n = (p[1] - p[0]).cross(&(p[3] - p[2]));
+            if n.norm_squared() < eps {
+                // P = m B: ∇P = m∇B + B∇m, ∇²P = m∇²B + ∇m∇Bᵀ + ∇B∇mᵀ + B∇²m.
+                let (mut gm, mut hm) = ([0.0; 12], [0.0; 144]);
+                let m = local::<4, 12>(&p, [0, 1, 2, 3], &mut gm, &mut hm, |v| {
+                    let n = (v[1] - v[0]).cross(&(v[3] - v[2]));
+                    let r = n.dot(&n) / eps;
+                    (r * -1.0 + 2.0) * r
+                });
+                let bv = scale * b0;
+                for a in 0..12 {
+                    for c in 0..12 {
+                        let k = 12 * a + c;
+                        h[k] = m * h[k] + gm[a] * g[c] + g[a] * gm[c] + bv * hm[k];
+                    }
+                }
+                for a in 0..12 {
+                    g[a] = m * g[a] + bv * gm[a];
+                }
             }
         }
         true
@@ -362,6 +426,39 @@ impl SelfBarrier {
         });
         alpha
     }
+}
+
+/// `f` (a function of `K` points) at the pair's points `idx`, with its gradient and Hessian by
+/// nested forward duals on their `N = 3K` coordinates, scattered into the pair's 12 (the other
+/// entries zero).
+fn local<const K: usize, const N: usize>(
+    p: &[Vector3<f64>; 4],
+    idx: [usize; K],
+    g: &mut [f64; 12],
+    h: &mut [f64; 144],
+    f: impl Fn(&[Vector3<Dual<Dual<f64, N>, N>>; K]) -> Dual<Dual<f64, N>, N>,
+) -> f64 {
+    debug_assert_eq!(N, 3 * K);
+    let v: [Vector3<Dual<Dual<f64, N>, N>>; K] = std::array::from_fn(|i| {
+        Vector3::from_fn(|k, _| {
+            let j = 3 * i + k;
+            Dual {
+                re: Dual::variable(p[idx[i]][k], j),
+                eps: std::array::from_fn(|l| Dual::constant(if l == j { 1.0 } else { 0.0 })),
+            }
+        })
+    });
+    let r = f(&v);
+    g.fill(0.0);
+    h.fill(0.0);
+    for a in 0..N {
+        let ga = 3 * idx[a / 3] + a % 3;
+        g[ga] = r.re.eps[a];
+        for b in 0..N {
+            h[12 * ga + 3 * idx[b / 3] + b % 3] = r.eps[a].eps[b];
+        }
+    }
+    r.re.re
 }
 
 /// Particle `p` of `N × 3` data.
@@ -558,7 +655,10 @@ mod tests {
         let alpha = b.max_step(&x, &down, 1.0);
         let gap0 = 0.1 - h;
         let end = 0.1 - 0.5 * alpha - h;
-        assert!(end >= super::APPROACH * gap0 - 1e-12, "gap at the end {end}");
+        assert!(
+            end >= super::APPROACH * gap0 - 1e-12,
+            "gap at the end {end}"
+        );
         assert!(end <= 0.2 * gap0, "stopped early: gap {end} of {gap0}");
         let mut along = [0.0; 12];
         along[0] = 0.3;

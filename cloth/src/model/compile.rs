@@ -460,8 +460,8 @@ impl Physics {
             SolverKind::Newton => {
                 let d = NewtonSettings::default();
                 // Self-contact under Newton is a barrier too (`contact::self_barrier`).
-                let smooth = self.contact_model() == ContactModel::Smooth
-                    || self.self_collision.is_some();
+                let smooth =
+                    self.contact_model() == ContactModel::Smooth || self.self_collision.is_some();
                 let halvings = if smooth { 0 } else { d.load_halvings };
                 Solver::Newton(NewtonSettings {
                     tolerance: self.tolerance.unwrap_or(d.tolerance),

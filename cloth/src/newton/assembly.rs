@@ -9,10 +9,10 @@
 use super::contact::is_contact;
 use super::ordering::elimination_positions;
 use super::psd::{project_psd, projected_local_hessian};
+use super::self_contact::SelfPairsCache;
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::contact::barrier::ColliderBarrier;
 use crate::contact::self_barrier::SelfBarrier;
-use super::self_contact::SelfPairsCache;
 use crate::contact::smooth_friction::LaggedContact;
 use crate::model::Model;
 use std::sync::Arc;
@@ -477,7 +477,13 @@ impl Pattern {
             }
         }
         if let Some((barrier, diagonal)) = &self.barrier {
-            self.assemble_barrier(barrier, diagonal, x, grad, values.as_mut().map(|(v, k)| (&mut **v, *k)));
+            self.assemble_barrier(
+                barrier,
+                diagonal,
+                x,
+                grad,
+                values.as_mut().map(|(v, k)| (&mut **v, *k)),
+            );
         }
         self.assemble_self(x, grad, values);
     }

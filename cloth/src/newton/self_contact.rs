@@ -17,9 +17,12 @@ use crate::error::ClothError;
 use autodiff::Tensor;
 use std::sync::{Arc, Mutex};
 
+/// A state and its self-contact pairs.
+type StatePairs = (Vec<f64>, Arc<Vec<SelfPair>>);
+
 /// The self-contact pairs of the last state asked for, and that state.
 #[derive(Default)]
-pub(super) struct SelfPairsCache(Mutex<Option<(Vec<f64>, Arc<Vec<SelfPair>>)>>);
+pub(super) struct SelfPairsCache(Mutex<Option<StatePairs>>);
 
 /// Solves one step takes at most while the control particles move to their places.
 const MAX_CONTROL_STAGES: usize = 64;
@@ -176,7 +179,8 @@ impl Pattern {
         let (mut g, mut h) = ([0.0; 12], [0.0; 144]);
         for pair in self.self_pairs(x).iter() {
             let dofs = pair.particles.map(|p| self.dof(p));
-            if dofs.iter().all(Option::is_some) || !barrier.pair_derivatives(x, pair, &mut g, &mut h)
+            if dofs.iter().all(Option::is_some)
+                || !barrier.pair_derivatives(x, pair, &mut g, &mut h)
             {
                 continue;
             }
