@@ -157,7 +157,7 @@ fn a_plan_still_failing_its_check_is_no_safe_plan_and_says_under_which_physics()
 
 #[test]
 fn a_physics_that_cannot_model_the_scene_is_a_named_error() {
-    // The fold has friction and self-collision, which Newton does not model.
+    // The fold has friction on rigid contact, which Newton does not model.
     let scene = Scene::builtin("fold").unwrap();
     let model = Model::from_scene(&scene).unwrap();
     let controls = plan::initial_controls(&scene, &model).unwrap();
