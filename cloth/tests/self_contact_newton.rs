@@ -8,7 +8,7 @@ mod common;
 
 use autodiff::Tensor;
 use cloth::scene::{ContactModel, ContactSpec, ObstacleRole, SelfCollisionSpec, SolverKind};
-use cloth::{Model, NewtonSettings, Scene, Solver};
+use cloth::{Model, Scene, Solver};
 use common::{plane, small_scene, BendKind};
 use nalgebra::Vector3;
 
@@ -42,12 +42,18 @@ fn scene(thickness: f64) -> Scene {
     s
 }
 
+/// The scene's Newton settings (one solve per step, the grippers moved in stages) at tolerance
+/// 1e-12.
 fn newton_model(s: &Scene) -> Model {
     let mut m = Model::from_scene(s).unwrap();
-    m.solver = Solver::Newton(NewtonSettings {
-        tolerance: 1e-12,
-        ..NewtonSettings::default()
-    });
+    let Solver::Newton(settings) = &mut m.solver else {
+        unreachable!("a Newton scene")
+    };
+    assert_eq!(
+        settings.load_halvings, 0,
+        "self-contact: no branch following"
+    );
+    settings.tolerance = 1e-12;
     m
 }
 
@@ -202,4 +208,31 @@ fn a_rest_state_within_the_thickness_is_refused() {
     let s = scene(0.2);
     let err = Model::from_scene(&s).err().expect("refused").to_string();
     assert!(err.contains("physics.self_collision.thickness"), "{err}");
+}
+
+/// A gripper moved in one step onto the place of the particle beside it: under self-contact the
+/// grippers reach their places in filtered stages, the cloth makes way, and its parts stay the
+/// thickness apart (a jump to the new place at once would start the step with the two within
+/// it).
+#[test]
+fn a_gripper_moved_onto_its_neighbour_pushes_it_aside() {
+    let m = newton_model(&scene(THICKNESS));
+    let mut u = m.zero_controls();
+    // Gripper 0 is particle 0, at x = −0.5; particle 1 is 1/6 along +x.
+    u.row_mut(0)
+        .copy_from_slice(&[1.0 / 6.0, 0.0, 0.002, 0.0, 0.0, 0.0]);
+    let Solver::Newton(settings) = m.solver else {
+        unreachable!()
+    };
+    let (states, stats) = m.simulate_newton(&u, &settings).unwrap();
+    eprintln!(
+        "stages per step: {:?}",
+        stats.iter().map(|s| s.loads).collect::<Vec<_>>()
+    );
+    assert!(stats[0].loads > 1, "one stage: {:?}", stats[0]);
+    let gaps: Vec<f64> = states.iter().map(|x| closest_parts(&m, x)).collect();
+    eprintln!("closest parts per step: {gaps:.4?}");
+    assert!(gaps.iter().all(|&g| g >= THICKNESS), "{gaps:?}");
+    let (grip, next) = (point(&states[1], 0), point(&states[1], 1));
+    assert!((grip - next).norm() > THICKNESS, "{grip:?} {next:?}");
 }

@@ -172,6 +172,13 @@ impl Model {
                     increment = smallest;
                     continue;
                 }
+                // Self-contact: the increment's control move put the cloth within the thickness
+                // of itself at the solve's start; a smaller one may not.
+                Err(ClothError::SelfContactPenetration { .. }) if increment > 1 => {
+                    stats.rejected_loads += 1;
+                    increment /= 2;
+                    continue;
+                }
                 r => r?,
             };
             stats.add_work(&sj);
