@@ -158,3 +158,16 @@ fn bad_residual_norms_are_named() {
     assert_eq!(sol.status, Status::Converged, "{}", sol.message);
     assert!(sol.x.iter().all(|v| (v - 1.0).abs() <= 1e-8), "{:?}", sol.x);
 }
+
+#[test]
+fn bfgs_learns_nothing_of_the_modelled_term() {
+    // Rosenbrock's curvature is in the hundreds; with no smooth part, every update's gradient
+    // difference is zero, so the damped updates only shrink the identity it starts from.
+    let p = problem("rosenbrock");
+    let gn = solve(&p, NormModel::Residual);
+    let b = gn.hessian.expect("a positive definite matrix");
+    assert!((0..2).all(|i| b.get(i, i) <= 1.0), "{b:?}");
+    let bfgs = solve(&p, NormModel::Smooth);
+    let b = bfgs.hessian.expect("a positive definite matrix");
+    assert!((0..2).any(|i| b.get(i, i) > 10.0), "{b:?}");
+}
