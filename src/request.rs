@@ -44,7 +44,7 @@ pub struct OptimizeRequest {
     pub iterations: usize,
     /// Form of the safety constraint (default per step).
     pub safety: SafetyForm,
-    /// How the SQP models the target term (default Gauss–Newton).
+    /// How the SQP models the target term (default BFGS: `G` in the smooth objective).
     pub target_model: TargetModel,
     /// Judge safety at the steps only (default false: the continuous check, which also keeps
     /// the straight motion between the steps δ away and the grippers' motion out of the

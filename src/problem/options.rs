@@ -70,8 +70,7 @@ pub struct TaskOptions {
     /// 10 targets). Near the bound the row reads `≈ r − max distance`. Default `None`: reaching
     /// the targets is left to the objective.
     pub goal_radius: Option<f64>,
-    /// How the SQP models the target term `G` ([`TargetModel`]; default
-    /// [`TargetModel::GaussNewton`]).
+    /// How the SQP models the target term `G` ([`TargetModel`]; default [`TargetModel::Bfgs`]).
     pub target_model: TargetModel,
 }
 
