@@ -171,8 +171,8 @@ fn polish_ranks_near_safe_results_as_safe() {
 /// A plan hands its quasi-Newton Hessian on (never into the JSON), and a plan given it
 /// (`PlanOptions::initial_hessian`) starts from it: near where the first plan ended, both starts
 /// reach the same plan, by other iterates. (Which start is faster depends on the problem: the
-/// goal stage of u_obstacle takes 13 iterations from it instead of 90, this nudged restart more;
-/// docs/performance.md.)
+/// goal stage of u_obstacle takes 13 iterations from it instead of 90 (`SearchOptions::
+/// goal_hessian`), this nudged restart more; docs/performance.md.)
 #[test]
 fn a_plan_hands_its_hessian_to_the_next() {
     let scene = reluctant_scene(0.05);
