@@ -13,13 +13,14 @@ use cloth::Model;
 pub enum TargetModel {
     /// `G` is a residual norm ([`optim::ResidualNorm`]): each QP holds `‖r + J d‖` in a
     /// second-order cone, the Gauss–Newton (prox-linear) model of `G`, and BFGS learns the
-    /// curvature of the rest only. Each backward pass pulls back 3 more seeds per target. Slower
+    /// curvature of the rest only. Each backward pass pulls back 3 more seeds per target (1323
+    /// on `fold`'s target mesh, where forward duals over the controls would be cheaper). Slower
     /// than [`TargetModel::Bfgs`] on the scenes measured (`docs/performance.md`): the residual
     /// stays large at the plan (the safety rows and `αT + βE` hold the targets back), where the
     /// curvature the model leaves out matters.
     GaussNewton,
     /// `G` is part of the smooth objective `G + βE`, its curvature learnt by damped BFGS: the
-    /// paper's formulation, and the default (measured the faster, every verdict the same).
+    /// paper's formulation, and the default (measured the faster; Gauss–Newton misses `ball_25`).
     #[default]
     Bfgs,
 }
