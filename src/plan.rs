@@ -106,6 +106,9 @@ pub struct PlanOptions {
     /// Stop when this flag is raised (e.g. by SIGINT) and return the best feasible iterate so
     /// far (status `interrupted`). Default none.
     pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    /// The quasi-Newton Hessian the first stage starts from (`n × n`, symmetric positive
+    /// definite), e.g. an earlier plan's [`PlanResult::hessian`]. Default none: the identity.
+    pub initial_hessian: Option<DenseMatrix>,
 }
 
 impl PlanOptions {
@@ -126,6 +129,7 @@ impl PlanOptions {
             allow_unsafe_start: false,
             deadline: None,
             stop: None,
+            initial_hessian: None,
         }
     }
 
@@ -258,6 +262,7 @@ pub fn plan(
         stages,
         warnings,
         solver_status: Some(solution.status),
+        hessian: solution.hessian.take(),
         ..rollout_result(model, scene, options, &controls, evaluation, (task, safety))
     })
 }
@@ -325,7 +330,7 @@ fn smooth_stage(
         _ => {
             return Ok(WarmUp {
                 x: start.data().to_vec(),
-                hessian: None,
+                hessian: options.initial_hessian.clone(),
                 stage: None,
                 settled: None,
                 iterations: 0,
@@ -336,7 +341,8 @@ fn smooth_stage(
     };
     let mut task = options.task.clone();
     task.kappa = kappa;
-    let mut warm = TrajectoryProblem::new(model, task);
+    let mut warm =
+        TrajectoryProblem::new(model, task).with_initial_hessian(options.initial_hessian.clone());
     let settings = sqp_settings(options, 10.0 * options.tol_optimality)?;
     let solution =
         SqpSolver::new(settings)?.solve_with_callback(&mut warm, start.data(), callback)?;
@@ -615,6 +621,7 @@ fn rollout_result(
         control_particles: model.controls.as_slice().to_vec(),
         controls: controls_to_nested(controls),
         solver_status: None,
+        hessian: None,
     }
 }
 

@@ -4,7 +4,7 @@
 //! spells it (`--delta` on the command line, `delta` from Python).
 
 use crate::plan::{Optimizer, PlanOptions};
-use crate::problem::SafetyForm;
+use crate::problem::{SafetyForm, TargetModel};
 use crate::result::{SearchMode, FEASIBILITY_TOLERANCE};
 use crate::search::SearchOptions;
 use crate::validate::{
@@ -44,6 +44,8 @@ pub struct OptimizeRequest {
     pub iterations: usize,
     /// Form of the safety constraint (default per step).
     pub safety: SafetyForm,
+    /// How the SQP models the target term (default BFGS: `G` in the smooth objective).
+    pub target_model: TargetModel,
     /// Judge safety at the steps only (default false: the continuous check, which also keeps
     /// the straight motion between the steps δ away and the grippers' motion out of the
     /// colliders).
@@ -77,6 +79,7 @@ impl Default for OptimizeRequest {
             beta: None,
             iterations: 200,
             safety: SafetyForm::PerStep,
+            target_model: TargetModel::default(),
             step_only: false,
             kappa: None,
             reuse_band: None,
@@ -132,6 +135,7 @@ impl OptimizeRequest {
         options.task.beta = self.beta.unwrap_or(options.task.beta);
         options.task.safety = model.safety.is_some().then_some(self.safety);
         options.task.swept = !self.step_only;
+        options.task.target_model = self.target_model;
         options.tol_optimality = self.tol;
         options.tol_feasibility = self.feasibility_tol;
         options.allow_unsafe_start = self.allow_unsafe_start;
@@ -184,6 +188,11 @@ mod tests {
             SearchMode::name,
             &["auto", "always", "off"],
         );
+        check_names(
+            &TargetModel::ALL,
+            TargetModel::name,
+            &["gauss_newton", "bfgs"],
+        );
         // The verdict's reasons, which the summary's first line prints by these names.
         check_names(
             &crate::result::Reason::ALL,
@@ -224,6 +233,10 @@ mod tests {
         assert_eq!(
             clap_names::<SafetyForm>(),
             names(SafetyForm::ALL.map(SafetyForm::name).to_vec())
+        );
+        assert_eq!(
+            clap_names::<TargetModel>(),
+            names(TargetModel::ALL.map(TargetModel::name).to_vec())
         );
         assert_eq!(
             clap_names::<SearchMode>(),

@@ -490,7 +490,7 @@ fn bad_optimize_flags() {
     let out = dir.join("out.json");
     // (`--alpha=-1`: with a space clap reads `-1` as a flag.) `--kappa 0` and `--kappa nan` used
     // to panic in the soft minimum; `--beta nan` was accepted silently.
-    let cases: [(&[&str], &str); 13] = [
+    let cases: [(&[&str], &str); 14] = [
         (
             &["--delta", "nan"],
             "--delta must be a finite number ≥ 0, got NaN",
@@ -520,6 +520,10 @@ fn bad_optimize_flags() {
         ),
         (&["--solver", "newton"], "invalid value 'newton'"),
         (
+            &["--target-model", "newton"],
+            "invalid value 'newton' for '--target-model",
+        ),
+        (
             &["--physics-tolerance", "1"],
             "--physics-tolerance must be in (0, 1), got 1",
         ),
@@ -539,7 +543,7 @@ fn bad_optimize_flags() {
             .args(args)
             .arg("--out")
             .arg(&out));
-        if args[0] == "--solver" {
+        if args[0] == "--solver" || args[0] == "--target-model" {
             // clap's own usage error: exit 2 and a usage block, still no panic and no file.
             assert_eq!(o.status.code(), Some(2));
             assert!(stderr(&o).contains(expected), "{}", stderr(&o));

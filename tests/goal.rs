@@ -167,3 +167,35 @@ fn polish_ranks_near_safe_results_as_safe() {
     nan.constraint_violation = f64::NAN;
     assert_eq!(polish_rank(&nan, &safe, delta, slack), Ordering::Greater);
 }
+
+/// A plan hands its quasi-Newton Hessian on (never into the JSON), and a plan given it
+/// (`PlanOptions::initial_hessian`) starts from it: near where the first plan ended, both starts
+/// reach the same plan (L to 1e-6), by other iterates. (Whether it helps depends on the problem:
+/// u_obstacle's goal stage takes 13 iterations from it instead of 90 (`SearchOptions::
+/// goal_hessian`); this nudged restart ends stalled at the plan; docs/performance.md.)
+#[test]
+fn a_plan_hands_its_hessian_to_the_next() {
+    let scene = reluctant_scene(0.05);
+    let model = Model::from_scene(&scene).unwrap();
+    let start = initial_controls(&scene, &model).unwrap();
+    let options = PlanOptions::for_model(&model);
+    let first = clothopt::plan::plan(&model, &scene, &start, &options, |_| {}).unwrap();
+    let hessian = first.hessian.clone().expect("the SQP's Hessian");
+    assert_eq!(hessian.nrows(), start.data().len());
+    let json = serde_json::to_value(&first).unwrap();
+    assert!(json.get("hessian").is_none());
+    // Near where the first plan ended: the same problem, a few steps to go.
+    let mut from = controls_from_nested(&model, &first.controls).unwrap();
+    let nudge = noise(11, from.data().len());
+    for (u, v) in from.data_mut().iter_mut().zip(nudge) {
+        *u += 0.01 * v;
+    }
+    let cold = clothopt::plan::plan(&model, &scene, &from, &options, |_| {}).unwrap();
+    let mut warm_options = options.clone();
+    warm_options.initial_hessian = Some(hessian);
+    let warm = clothopt::plan::plan(&model, &scene, &from, &warm_options, |_| {}).unwrap();
+    assert_eq!(cold.status, "converged");
+    assert_ne!(warm.iterations, cold.iterations, "the Hessian is used");
+    // (From it, the SQP ends `stalled` here: at the same plan, which it cannot certify.)
+    assert!((warm.metrics.l - cold.metrics.l).abs() <= 1e-6 * cold.metrics.l);
+}

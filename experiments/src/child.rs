@@ -3,13 +3,32 @@
 
 use anyhow::{anyhow, ensure, Context, Result};
 use serde::de::DeserializeOwned;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// A command that runs this program again (an experiment's hidden child mode).
 pub fn this_program() -> Result<Command> {
     let exe = std::env::current_exe().context("cannot locate this experiment's executable")?;
     Ok(Command::new(exe))
+}
+
+/// `given` (a `--clothopt` flag), or `clothopt` in this program's folder; an error says how to
+/// build it.
+pub fn clothopt_binary(given: Option<&Path>) -> Result<PathBuf> {
+    let path = match given {
+        Some(p) => p.to_path_buf(),
+        None => {
+            let exe = std::env::current_exe().context("cannot locate this program")?;
+            exe.with_file_name(format!("clothopt{}", std::env::consts::EXE_SUFFIX))
+        }
+    };
+    ensure!(
+        path.is_file(),
+        "--clothopt: no clothopt binary at {} (build it with `cargo build --release --bin clothopt`, \
+         or pass --clothopt PATH)",
+        path.display()
+    );
+    Ok(path)
 }
 
 /// Runs `command` and returns its standard output; `what` names it in the errors (start failure,

@@ -2,7 +2,7 @@
 
 use crate::error::{EvalError, OptimError};
 use crate::linalg::{norm2, norm_inf, Jacobian};
-use crate::problem::{Bounds, NormData, Problem};
+use crate::problem::{linear_residual, sort_row, Bounds, NormData, NormKind, Problem, SparseRows};
 
 /// Values at one point.
 #[derive(Clone, Debug)]
@@ -12,7 +12,7 @@ pub(crate) struct PointValues {
     pub f: f64,
     /// `Σ w_k ‖r_k‖`.
     pub f_norms: f64,
-    /// Norm residuals `r_k = A_k x + b_k`.
+    /// Norm residuals: `r_k = A_k x + b_k`, then the residual norms' `r_j(x)`.
     pub residuals: Vec<Vec<f64>>,
     /// Scaled constraint values `sᵢ cᵢ(x)` (see [`Evaluator::set_scaling`]).
     pub c: Vec<f64>,
@@ -70,6 +70,9 @@ pub(crate) struct PointDerivatives {
     /// Inequality rows of `jc` kept from an earlier iterate instead of evaluated here (see
     /// [`SqpSettings::jacobian_reuse_margin`](crate::SqpSettings)).
     pub kept: Vec<bool>,
+    /// Per norm term, the Jacobian of a residual norm's residual (empty for a linear term, whose
+    /// rows are its matrix: [`NormData::rows`]).
+    pub norm_jac: Vec<SparseRows>,
 }
 
 impl PointDerivatives {
@@ -136,7 +139,7 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
         let has_bounds = bounds.as_ref().is_some_and(Bounds::is_active);
         let bounds = bounds.unwrap_or_else(|| Bounds::unbounded(n));
         bounds.validate(n)?;
-        let norms = NormData::from_terms(&problem.norm_terms(), n)?;
+        let norms = NormData::from_terms(&problem.norm_terms(), &problem.residual_norms(), n)?;
         let (problem_m, problem_q) = (problem.num_inequalities(), problem.num_equalities());
         Ok(Self {
             n,
@@ -186,7 +189,7 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
         for (hi, s) in h.iter_mut().zip(&self.h_scale) {
             *hi *= s;
         }
-        let residuals: Vec<Vec<f64>> = self.norms.iter().map(|nd| nd.residual(x)).collect();
+        let residuals = self.norm_residuals(x)?;
         let f_norms = self
             .norms
             .iter()
@@ -202,6 +205,47 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
             h,
             violation_unscaled,
         })
+    }
+
+    /// Every norm term's residual at `x`: `A x + b`, or the problem's residual, checked.
+    fn norm_residuals(&mut self, x: &[f64]) -> Result<Vec<Vec<f64>>, EvalError> {
+        let mut out = Vec::with_capacity(self.norms.len());
+        for nd in &self.norms {
+            out.push(match &nd.kind {
+                NormKind::Linear { rows, offset } => linear_residual(rows, offset, x),
+                NormKind::Residual { index, dim } => {
+                    let mut r = vec![0.0; *dim];
+                    self.problem.residual(x, *index, &mut r)?;
+                    if let Some(i) = r.iter().position(|v| !v.is_finite()) {
+                        return Err(EvalError::new(format!(
+                            "entry {i} of residual {index} is not finite"
+                        )));
+                    }
+                    r
+                }
+            });
+        }
+        Ok(out)
+    }
+
+    /// Every residual norm's Jacobian at `x` as sparse rows (empty for linear terms), checked.
+    fn norm_jacobians(&mut self, x: &[f64]) -> Result<Vec<SparseRows>, EvalError> {
+        let mut out = Vec::with_capacity(self.norms.len());
+        for nd in &self.norms {
+            let NormKind::Residual { index, dim } = nd.kind else {
+                out.push(Vec::new());
+                continue;
+            };
+            let mut jac = Jacobian::dense(dim, self.n);
+            self.problem.residual_jacobian(x, index, &mut jac)?;
+            jac.validate(dim, self.n)
+                .map_err(|e| EvalError::new(format!("Jacobian of residual {index}: {e}")))?;
+            let mut rows: SparseRows = vec![Vec::new(); dim];
+            jac.for_each_nonzero(|i, j, v| rows[i].push((j, v)));
+            rows.iter_mut().for_each(sort_row);
+            out.push(rows);
+        }
+        Ok(out)
     }
 
     /// Gradient-based constraint scaling (as in IPOPT): `sᵢ = min(1, max_gradient / ‖∇cᵢ(x₀)‖∞)`,
@@ -278,6 +322,7 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
                 jc.replace_rows(&r.previous.jc, &kept);
             }
         }
+        let norm_jac = self.norm_jacobians(x)?;
         let mut g = vec![0.0; self.n];
         self.problem.gradient(x, &mut g)?;
         if let Some(i) = g.iter().position(|v| !v.is_finite()) {
@@ -289,6 +334,12 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
             jh.validate(self.q, self.n).map_err(EvalError::new)?;
             jh.scale_rows(&self.h_scale);
         }
-        Ok(PointDerivatives { g, jc, jh, kept })
+        Ok(PointDerivatives {
+            g,
+            jc,
+            jh,
+            kept,
+            norm_jac,
+        })
     }
 }

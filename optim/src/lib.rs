@@ -3,9 +3,10 @@
 //! Two solvers for problems described by the [`Problem`] trait:
 //!
 //! * [`SqpSolver`]: sequential quadratic programming for
-//!   `min f(x) + Σ w_k‖A_k x + b_k‖  s.t.  c(x) ≥ 0, h(x) = 0, l ≤ x ≤ u`, with a damped-BFGS Hessian,
-//!   elastic ℓ1 QP subproblems solved by [Clarabel](clarabel) (norm terms as second-order cones, so
-//!   kinks are handled exactly), penalty steering, an ℓ1 merit line search with second-order
+//!   `min f(x) + Σ w_k‖A_k x + b_k‖ + Σ v_j‖r_j(x)‖  s.t.  c(x) ≥ 0, h(x) = 0, l ≤ x ≤ u`, with a
+//!   damped-BFGS Hessian, elastic ℓ1 QP subproblems solved by [Clarabel](clarabel) (norm terms as
+//!   second-order cones, so kinks are handled exactly; nonlinear residual norms by their
+//!   Gauss–Newton linearization), penalty steering, an ℓ1 merit line search with second-order
 //!   correction, and local-infeasibility detection.
 //! * [`LbfgsSolver`]: L-BFGS with a strong-Wolfe line search, optionally with box bounds (two-metric
 //!   projection).
@@ -40,7 +41,7 @@ pub mod test_problems;
 pub use error::{EvalError, OptimError};
 pub use lbfgs::LbfgsSolver;
 pub use linalg::{DenseMatrix, Jacobian, SparseMatrix};
-pub use problem::{Bounds, NormTerm, Problem};
+pub use problem::{Bounds, NormTerm, Problem, ResidualNorm};
 pub use settings::{
     LbfgsSettings, LbfgsSettingsBuilder, SqpSettings, SqpSettingsBuilder, DEFAULT_TOL_FEASIBILITY,
 };

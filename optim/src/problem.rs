@@ -3,14 +3,17 @@
 //! A problem is
 //!
 //! ```text
-//! minimize    f(x) + Σ_k w_k ‖A_k x + b_k‖₂
+//! minimize    f(x) + Σ_k w_k ‖A_k x + b_k‖₂ + Σ_j v_j ‖r_j(x)‖₂
 //! subject to  c(x) ≥ 0          (m inequalities)
 //!             h(x) = 0          (p equalities)
 //!             l ≤ x ≤ u         (bounds, ±∞ allowed)
 //! ```
 //!
 //! `f`, `c`, `h` are smooth and supplied with derivatives; the norm terms are declared as data
-//! ([`Problem::norm_terms`]) so the SQP can treat their kinks exactly.
+//! ([`Problem::norm_terms`]) so the SQP can treat their kinks exactly. The residual norms
+//! `v_j‖r_j(x)‖` ([`Problem::residual_norms`]) have nonlinear residuals the problem evaluates with
+//! their Jacobians; the SQP models each by its linearization `v_j‖r_j + J_j d‖` (Gauss–Newton, or
+//! prox-linear: the curvature of `r_j` is left out of the model, and out of the BFGS update).
 
 use crate::error::{EvalError, OptimError};
 use crate::linalg::{DenseMatrix, Jacobian, SparseMatrix};
@@ -140,8 +143,32 @@ impl NormTerm {
     }
 }
 
+/// A declared objective term `weight · ‖r(x)‖₂` whose residual `r` (length `dimension`) is a
+/// smooth nonlinear function the problem evaluates ([`Problem::residual`]) with its Jacobian
+/// ([`Problem::residual_jacobian`]).
+///
+/// The SQP models it at each iterate by `weight · ‖r(x) + J(x) d‖` in a second-order cone, exactly
+/// as a [`NormTerm`] with `A = J(x)`: a Gauss–Newton (prox-linear) model, which needs no curvature
+/// estimate of `r` and is exact to first order. Its line search and results use the true
+/// `‖r(x)‖`. L-BFGS adds it to the smooth objective with the gradient `weight · Jᵀr/‖r‖` (0 at
+/// `r = 0`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResidualNorm {
+    /// Non-negative weight.
+    pub weight: f64,
+    /// Length of the residual `r` (≥ 1).
+    pub dimension: usize,
+}
+
+impl ResidualNorm {
+    /// `weight · ‖r(x)‖` with `r` of length `dimension`.
+    pub fn new(weight: f64, dimension: usize) -> Self {
+        Self { weight, dimension }
+    }
+}
+
 /// A smooth, possibly constrained, minimization problem:
-/// `min f(x) + Σ w_k‖A_k x + b_k‖  s.t.  c(x) ≥ 0, h(x) = 0, l ≤ x ≤ u`.
+/// `min f(x) + Σ w_k‖A_k x + b_k‖ + Σ v_j‖r_j(x)‖  s.t.  c(x) ≥ 0, h(x) = 0, l ≤ x ≤ u`.
 ///
 /// Only [`num_variables`](Problem::num_variables), [`objective`](Problem::objective) and
 /// [`gradient`](Problem::gradient) are required. Methods take `&mut self` so an implementation may cache
@@ -172,6 +199,33 @@ pub trait Problem {
     /// [`gradient`](Problem::gradient) (default: none).
     fn norm_terms(&self) -> Vec<NormTerm> {
         Vec::new()
+    }
+
+    /// Declared nonlinear residual-norm objective terms `v_j‖r_j(x)‖`, excluded from
+    /// [`objective`](Problem::objective) and [`gradient`](Problem::gradient) (default: none). A
+    /// problem declaring some implements [`residual`](Problem::residual) and
+    /// [`residual_jacobian`](Problem::residual_jacobian).
+    fn residual_norms(&self) -> Vec<ResidualNorm> {
+        Vec::new()
+    }
+
+    /// Writes the residual `r_j(x)` of residual norm `j` into `r` (length its `dimension`).
+    fn residual(&mut self, _x: &[f64], _j: usize, _r: &mut [f64]) -> Result<(), EvalError> {
+        Err(EvalError::new("Problem::residual is not implemented"))
+    }
+
+    /// Fills the `dimension × n` Jacobian of residual `j` (handed over zeroed, dense; may be
+    /// replaced by a sparse one). The solvers call it after [`residual`](Problem::residual) at
+    /// the same `x`, together with the other derivatives of an accepted point.
+    fn residual_jacobian(
+        &mut self,
+        _x: &[f64],
+        _j: usize,
+        _jac: &mut Jacobian,
+    ) -> Result<(), EvalError> {
+        Err(EvalError::new(
+            "Problem::residual_jacobian is not implemented",
+        ))
     }
 
     /// An initial approximation of the Hessian of the Lagrangian of the smooth part, symmetric positive
@@ -242,96 +296,183 @@ pub trait Problem {
     }
 }
 
-/// A validated norm term in row-compressed form, ready for fast residual evaluation.
+/// Rows of a sparse matrix: each row's `(column, value)` entries, sorted, without duplicates.
+pub(crate) type SparseRows = Vec<Vec<(usize, f64)>>;
+
+/// What a validated norm term's residual is.
+#[derive(Clone, Debug)]
+pub(crate) enum NormKind {
+    /// `A x + b`: the rows of `A` and the offset `b`.
+    Linear { rows: SparseRows, offset: Vec<f64> },
+    /// The problem's residual norm `index` ([`Problem::residual`]), of length `dim`.
+    Residual { index: usize, dim: usize },
+}
+
+/// A validated norm term (declared [`NormTerm`]s first, then [`ResidualNorm`]s), ready for fast
+/// residual evaluation.
 #[derive(Clone, Debug)]
 pub(crate) struct NormData {
     pub weight: f64,
-    /// Rows of `A`: `(column, value)` lists, duplicates merged.
-    pub rows: Vec<Vec<(usize, f64)>>,
-    pub offset: Vec<f64>,
+    pub kind: NormKind,
+}
+
+/// `Err` unless `weight` is finite and non-negative (`what` names the term).
+fn check_weight(weight: f64, what: &str) -> Result<(), OptimError> {
+    if weight.is_finite() && weight >= 0.0 {
+        Ok(())
+    } else {
+        Err(OptimError::InvalidProblem(format!(
+            "{what} has weight {weight}, expected a finite value ≥ 0"
+        )))
+    }
 }
 
 impl NormData {
-    pub(crate) fn from_terms(terms: &[NormTerm], n: usize) -> Result<Vec<NormData>, OptimError> {
-        terms
+    /// The validated terms: `terms`, then `residuals`, in `n` variables.
+    pub(crate) fn from_terms(
+        terms: &[NormTerm],
+        residuals: &[ResidualNorm],
+        n: usize,
+    ) -> Result<Vec<NormData>, OptimError> {
+        let mut out: Vec<NormData> = terms
             .iter()
             .enumerate()
-            .map(|(k, t)| {
-                if !(t.weight.is_finite() && t.weight >= 0.0) {
-                    return Err(OptimError::InvalidProblem(format!(
-                        "norm term {k} has weight {}, expected a finite value ≥ 0",
-                        t.weight
-                    )));
-                }
-                if t.matrix.ncols() != n {
-                    return Err(OptimError::DimensionMismatch {
-                        what: format!("columns of norm term {k}"),
-                        expected: n,
-                        got: t.matrix.ncols(),
-                    });
-                }
-                let p = t.matrix.nrows();
-                if t.offset.len() != p {
-                    return Err(OptimError::DimensionMismatch {
-                        what: format!("offset of norm term {k}"),
-                        expected: p,
-                        got: t.offset.len(),
-                    });
-                }
-                if p == 0 {
-                    return Err(OptimError::InvalidProblem(format!(
-                        "norm term {k} has no rows"
-                    )));
-                }
-                if t.offset.iter().any(|v| !v.is_finite()) {
-                    return Err(OptimError::InvalidProblem(format!(
-                        "norm term {k} has a non-finite offset"
-                    )));
-                }
-                let mut rows: Vec<Vec<(usize, f64)>> = vec![Vec::new(); p];
-                for &(i, j, v) in t.matrix.entries() {
-                    if i >= p || j >= n || !v.is_finite() {
-                        return Err(OptimError::InvalidProblem(format!(
-                            "norm term {k} has an invalid entry ({i}, {j}, {v})"
-                        )));
-                    }
-                    rows[i].push((j, v));
-                }
-                for row in &mut rows {
-                    row.sort_by_key(|e| e.0);
-                    row.dedup_by(|later, earlier| {
-                        if later.0 == earlier.0 {
-                            earlier.1 += later.1;
-                            true
-                        } else {
-                            false
-                        }
-                    });
-                }
-                Ok(NormData {
-                    weight: t.weight,
-                    rows,
-                    offset: t.offset.clone(),
-                })
-            })
-            .collect()
-    }
-
-    /// `r = A x + b`.
-    pub(crate) fn residual(&self, x: &[f64]) -> Vec<f64> {
-        self.rows
-            .iter()
-            .zip(&self.offset)
-            .map(|(row, b)| b + row.iter().map(|&(j, v)| v * x[j]).sum::<f64>())
-            .collect()
-    }
-
-    /// `out += Aᵀ y`.
-    pub(crate) fn tmul_add(&self, y: &[f64], out: &mut [f64]) {
-        for (row, &yi) in self.rows.iter().zip(y) {
-            for &(j, v) in row {
-                out[j] += v * yi;
+            .map(|(k, t)| Self::linear(k, t, n))
+            .collect::<Result<_, _>>()?;
+        for (index, r) in residuals.iter().enumerate() {
+            check_weight(r.weight, &format!("residual norm {index}"))?;
+            if r.dimension == 0 {
+                return Err(OptimError::InvalidProblem(format!(
+                    "residual norm {index} has dimension 0"
+                )));
             }
+            out.push(NormData {
+                weight: r.weight,
+                kind: NormKind::Residual {
+                    index,
+                    dim: r.dimension,
+                },
+            });
+        }
+        Ok(out)
+    }
+
+    /// The validated linear norm term `k`.
+    fn linear(k: usize, t: &NormTerm, n: usize) -> Result<NormData, OptimError> {
+        check_weight(t.weight, &format!("norm term {k}"))?;
+        if t.matrix.ncols() != n {
+            return Err(OptimError::DimensionMismatch {
+                what: format!("columns of norm term {k}"),
+                expected: n,
+                got: t.matrix.ncols(),
+            });
+        }
+        let p = t.matrix.nrows();
+        if t.offset.len() != p {
+            return Err(OptimError::DimensionMismatch {
+                what: format!("offset of norm term {k}"),
+                expected: p,
+                got: t.offset.len(),
+            });
+        }
+        if p == 0 {
+            return Err(OptimError::InvalidProblem(format!(
+                "norm term {k} has no rows"
+            )));
+        }
+        if t.offset.iter().any(|v| !v.is_finite()) {
+            return Err(OptimError::InvalidProblem(format!(
+                "norm term {k} has a non-finite offset"
+            )));
+        }
+        let mut rows: SparseRows = vec![Vec::new(); p];
+        for &(i, j, v) in t.matrix.entries() {
+            if i >= p || j >= n || !v.is_finite() {
+                return Err(OptimError::InvalidProblem(format!(
+                    "norm term {k} has an invalid entry ({i}, {j}, {v})"
+                )));
+            }
+            rows[i].push((j, v));
+        }
+        for row in &mut rows {
+            sort_row(row);
+        }
+        Ok(NormData {
+            weight: t.weight,
+            kind: NormKind::Linear {
+                rows,
+                offset: t.offset.clone(),
+            },
+        })
+    }
+
+    /// Length of the residual.
+    pub(crate) fn dim(&self) -> usize {
+        match &self.kind {
+            NormKind::Linear { rows, .. } => rows.len(),
+            NormKind::Residual { dim, .. } => *dim,
+        }
+    }
+
+    /// The rows of the residual's Jacobian: `A` for a linear term, else `jacobian` (the
+    /// problem's, evaluated at the iterate).
+    pub(crate) fn rows<'a>(&'a self, jacobian: &'a SparseRows) -> &'a SparseRows {
+        match &self.kind {
+            NormKind::Linear { rows, .. } => rows,
+            NormKind::Residual { .. } => jacobian,
+        }
+    }
+
+    /// The model of the residual after the step `d` from `x`, where the residual is `r` and its
+    /// Jacobian `jacobian`: `A(x + d) + b` for a linear term (exact), `r + J d` for a residual
+    /// norm.
+    pub(crate) fn model_residual(
+        &self,
+        x: &[f64],
+        r: &[f64],
+        jacobian: &SparseRows,
+        d: &[f64],
+    ) -> Vec<f64> {
+        match &self.kind {
+            NormKind::Linear { rows, offset } => {
+                let xd: Vec<f64> = x.iter().zip(d).map(|(a, b)| a + b).collect();
+                linear_residual(rows, offset, &xd)
+            }
+            NormKind::Residual { .. } => r
+                .iter()
+                .zip(jacobian)
+                .map(|(ri, row)| ri + row.iter().map(|&(j, v)| v * d[j]).sum::<f64>())
+                .collect(),
+        }
+    }
+}
+
+/// Sorts a sparse row by column, summing duplicate entries.
+pub(crate) fn sort_row(row: &mut Vec<(usize, f64)>) {
+    row.sort_by_key(|e| e.0);
+    row.dedup_by(|later, earlier| {
+        if later.0 == earlier.0 {
+            earlier.1 += later.1;
+            true
+        } else {
+            false
+        }
+    });
+}
+
+/// `A x + b` for `A`'s rows and `b`.
+pub(crate) fn linear_residual(rows: &SparseRows, offset: &[f64], x: &[f64]) -> Vec<f64> {
+    rows.iter()
+        .zip(offset)
+        .map(|(row, b)| b + row.iter().map(|&(j, v)| v * x[j]).sum::<f64>())
+        .collect()
+}
+
+/// `out += Aᵀ y` for `A`'s rows.
+pub(crate) fn tmul_add(rows: &SparseRows, y: &[f64], out: &mut [f64]) {
+    for (row, &yi) in rows.iter().zip(y) {
+        for &(j, v) in row {
+            out[j] += v * yi;
         }
     }
 }

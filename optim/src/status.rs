@@ -125,8 +125,8 @@ pub struct Multipliers {
     pub lower_bound: Vec<f64>,
     /// One per variable, `≥ 0`, for active upper bounds.
     pub upper_bound: Vec<f64>,
-    /// For each norm term, the subgradient vector `y` with `‖y‖ ≤ w` and `Aᵀy` its contribution
-    /// to the gradient of the objective.
+    /// For each norm term, then each residual norm, the subgradient vector `y` with `‖y‖ ≤ w` and
+    /// `Aᵀy` (`J(x)ᵀy` for a residual norm) its contribution to the gradient of the objective.
     pub norm_terms: Vec<Vec<f64>>,
 }
 

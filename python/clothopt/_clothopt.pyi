@@ -75,6 +75,7 @@ class Scene:
         timing: bool = True,
         check: Optional[str] = None,
         check_rounds: int = 3,
+        target_model: str = "bfgs",
     ) -> Plan:
         """Plans the task as `clothopt optimize` does (same defaults)."""
 

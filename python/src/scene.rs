@@ -6,7 +6,7 @@ use crate::results::{Plan, Rollout};
 use cloth::Model;
 use clothopt::physics_check::{plan_with_check, CheckRequest};
 use clothopt::plan::{initial_controls, Optimizer};
-use clothopt::problem::SafetyForm;
+use clothopt::problem::{SafetyForm, TargetModel};
 use clothopt::request::{load_scene, OptimizeRequest};
 use clothopt::result::{CheckPhysics, SearchMode};
 use clothopt::search::plan_with_search;
@@ -67,6 +67,13 @@ impl Choice for SafetyForm {
     const ALL: &'static [Self] = &SafetyForm::ALL;
     fn name(self) -> &'static str {
         SafetyForm::name(self)
+    }
+}
+
+impl Choice for TargetModel {
+    const ALL: &'static [Self] = &TargetModel::ALL;
+    fn name(self) -> &'static str {
+        TargetModel::name(self)
     }
 }
 
@@ -268,7 +275,8 @@ impl Scene {
     /// optimize(delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp",
     /// search="auto", starts=6, safety="per_step", step_only=None, swept=None, kappa=None,
     /// reuse_band=None, tol=1e-4, feasibility_tol=1e-8, allow_unsafe_start=False,
-    /// time_limit=None, start=None, timing=True, check=None, check_rounds=3) -> Plan
+    /// time_limit=None, start=None, timing=True, check=None, check_rounds=3,
+    /// target_model="bfgs") -> Plan
     ///
     /// Plans the scene's task exactly as `clothopt optimize` does (same defaults; `None` takes
     /// the scene's value): `solver` is "sqp" or "lbfgs", `search` "auto", "always" or "off",
@@ -279,7 +287,8 @@ impl Scene {
     /// `(T, K, 3)` (default the initial guess); `time_limit` in seconds; `timing=False` leaves the
     /// wall-clock time out of the result (as `--no-timing`); `check` ("xpbd:N", "newton" or
     /// "newton:TOL") re-simulates the plan under that physics and re-plans with a raised margin
-    /// up to `check_rounds` times where it is unsafe there (as `--check`). Raises ValueError for a bad setting
+    /// up to `check_rounds` times where it is unsafe there (as `--check`); `target_model`
+    /// "bfgs" or "gauss_newton" (as `--target-model`). Raises ValueError for a bad setting
     /// (named as here, e.g. `delta must be a finite number ≥ 0, got -1`). The GIL is released
     /// while it runs.
     #[pyo3(signature = (
@@ -287,7 +296,8 @@ impl Scene {
         starts=6, safety="per_step", step_only=None, swept=None, kappa=None, reuse_band=None,
         tol=1e-4,
         feasibility_tol=clothopt::result::FEASIBILITY_TOLERANCE, allow_unsafe_start=false,
-        time_limit=None, start=None, timing=true, check=None, check_rounds=3
+        time_limit=None, start=None, timing=true, check=None, check_rounds=3,
+        target_model="bfgs"
     ))]
     #[allow(clippy::too_many_arguments)]
     fn optimize(
@@ -313,6 +323,7 @@ impl Scene {
         timing: bool,
         check: Option<&str>,
         check_rounds: usize,
+        target_model: &str,
     ) -> PyResult<Plan> {
         let request = OptimizeRequest {
             delta,
@@ -320,6 +331,7 @@ impl Scene {
             beta,
             iterations,
             safety: choice::<SafetyForm>("safety", safety)?,
+            target_model: choice::<TargetModel>("target_model", target_model)?,
             step_only: step_only_choice(step_only, swept)?,
             kappa,
             reuse_band,

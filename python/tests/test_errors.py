@@ -58,6 +58,10 @@ def test_non_finite_controls():
         ({"solver": "newton"}, r"solver: must be one of 'sqp', 'lbfgs', got 'newton'"),
         ({"search": "maybe"}, r"search: must be one of 'auto', 'always', 'off'"),
         ({"safety": "soft"}, r"safety: must be one of 'per_step', 'aggregate', 'scalar'"),
+        (
+            {"target_model": "newton"},
+            r"target_model: must be one of 'gauss_newton', 'bfgs', got 'newton'",
+        ),
         ({"check": "xpbd"}, r"check must be `xpbd:N`, `newton` or `newton:TOL`, got `xpbd`"),
         ({"check": "newton:2"}, r"check needs Newton's tolerance in \(0, 1\)"),
     ],

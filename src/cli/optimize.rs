@@ -9,7 +9,7 @@ use cloth::{Model, Scene};
 use clothopt::output::write_json_atomic;
 use clothopt::physics_check::{plan_with_check, CheckPhysics, CheckRequest};
 use clothopt::plan::{self, Optimizer};
-use clothopt::problem::SafetyForm;
+use clothopt::problem::{SafetyForm, TargetModel};
 use clothopt::request::OptimizeRequest;
 use clothopt::result::{states_of, PlanResult, FEASIBILITY_TOLERANCE};
 use clothopt::search::{plan_with_search, Progress, SearchMode};
@@ -42,6 +42,11 @@ pub struct OptimizeArgs {
     /// Form of the safety constraint.
     #[arg(long, value_enum, default_value_t = SafetyForm::PerStep)]
     safety: SafetyForm,
+    /// How the SQP models the target term G: `bfgs` leaves G in the smooth objective, its
+    /// curvature learnt by BFGS (the paper's formulation); `gauss-newton` linearizes the target
+    /// residual in each QP's second-order cone (slower on the scenes measured).
+    #[arg(long, value_enum, default_value_t = TargetModel::Bfgs)]
+    target_model: TargetModel,
     /// Judge safety at the steps only: the rows and the verdict leave the straight motion
     /// between the steps (and the grippers' motion between them) unchecked. By default the
     /// motion between the steps keeps δ from the safety obstacles and the grippers out of the
@@ -131,6 +136,7 @@ fn request(args: &OptimizeArgs) -> OptimizeRequest {
         beta: args.beta,
         iterations: args.iterations,
         safety: args.safety,
+        target_model: args.target_model,
         // `--swept` asks for the default; clap rejects it beside `--step-only`.
         step_only: args.step_only && !args.swept,
         kappa: args.kappa,

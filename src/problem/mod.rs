@@ -1,8 +1,10 @@
 //! A cloth manipulation task as an [`optim::Problem`].
 //!
 //! Variables: the control sequence `U` flattened step by step (`T × controls × 3`). Objective:
-//! the smooth part `G + βE`, with `αT = α Σ_t ‖u_t − u_{t−1}‖` declared as norm terms so the SQP
-//! treats their kinks exactly (epigraph second-order cones). Inequalities, all `≥ 0`:
+//! the smooth part `βE`, the target term `G` as a residual norm (`target.rs`; or inside the
+//! smooth part, [`TaskOptions::target_model`]), with `αT = α Σ_t ‖u_t − u_{t−1}‖` declared as
+//! norm terms so the SQP treats their kinks exactly (epigraph second-order cones). Inequalities,
+//! all `≥ 0`:
 //! - the safety constraint, in one of two forms ([`SafetyForm`]);
 //! - one smooth row per step for `task.limits.max_strain`: `s_max − softmax_edges(strain) ≥ 0`,
 //!   pulled back through the rollout with the loss and safety rows (see [`TaskOptions::strain_kappa`]);
@@ -26,10 +28,12 @@
 mod labels;
 mod options;
 mod safety;
+mod target;
 
 pub use labels::RowLabel;
 pub use options::{SafetyForm, TaskOptions, DEFAULT_STRAIN_KAPPA, GOAL_KAPPA};
 pub use safety::start_inside_margin;
+pub use target::TargetModel;
 
 use crate::control_rows::{
     collider_rows, control_rows, gripper_collider_rows, workspace_rows, ControlRow, LinearRow,
@@ -37,7 +41,7 @@ use crate::control_rows::{
 use autodiff::{soft_min_value, soft_min_weights, RowIndex, Tape, Tensor, Var};
 use cloth::StepCost;
 use cloth::{ClothError, Controls, Model};
-use optim::{DenseMatrix, EvalError, Jacobian, NormTerm, Problem};
+use optim::{DenseMatrix, EvalError, Jacobian, NormTerm, Problem, ResidualNorm};
 use std::sync::Arc;
 
 /// An owned per-step cost (see [`StepCost`]).
@@ -56,6 +60,8 @@ struct Forward {
     strain: Vec<f64>,
     /// The goal row, if any.
     goal: Vec<f64>,
+    /// The target residual `x_targets(T) − p` when `G` is a residual norm, else empty.
+    target: Vec<f64>,
 }
 
 /// The tape rows one backward pass pulls back, besides the objective.
@@ -79,6 +85,9 @@ struct Backward {
     strain: Vec<Vec<f64>>,
     /// Gradient of the goal row, if any (zero where not `computed`).
     goal: Vec<Vec<f64>>,
+    /// Gradients of the target residual's entries when `G` is a residual norm (always pulled
+    /// back), else empty.
+    target: Vec<Vec<f64>>,
     /// Which safety rows, then strain rows, then the goal row were pulled back.
     computed: Vec<bool>,
 }
@@ -152,6 +161,14 @@ impl<'a> TrajectoryProblem<'a> {
         }
     }
 
+    /// Entries of the target residual when `G` is a residual norm (3 per target), else 0.
+    fn target_entries(&self) -> usize {
+        match self.options.target_model {
+            TargetModel::GaussNewton => target::residual_len(self.model),
+            TargetModel::Bfgs => 0,
+        }
+    }
+
     /// Number of goal rows (1 with a [`TaskOptions::goal_radius`] and targets, else 0).
     fn goal_rows(&self) -> usize {
         usize::from(self.options.goal_radius.is_some() && self.model.task.targets.rows() > 0)
@@ -171,6 +188,13 @@ impl<'a> TrajectoryProblem<'a> {
         // (r/2)(1 − smax) = (r/2)(1 + smin).
         let one_plus = tape.add_scalar(smin, 1.0);
         Some(tape.scale(one_plus, 0.5 * r))
+    }
+
+    /// Records the smooth part of the loss at step `t` on state `x` (`βE`, and `G` unless it is
+    /// a residual norm).
+    fn record_loss(&self, tape: &mut Tape, t: usize, x: Var) -> Option<Var> {
+        let (target_model, beta) = (self.options.target_model, self.options.beta);
+        target::record_smooth_loss(self.model, target_model, tape, t, x, beta)
     }
 
     /// Records the strain row of step `t`: `max_strain − smooth max strain`.
@@ -207,7 +231,7 @@ impl<'a> TrajectoryProblem<'a> {
                 tape.clear();
                 let xp = tape.leaf(states[t - 1].clone());
                 let xv = tape.leaf(states[t].clone());
-                if let Some(l) = self.model.record_loss(&mut tape, t, xv, self.options.beta) {
+                if let Some(l) = self.record_loss(&mut tape, t, xv) {
                     smooth += tape.value(l).item();
                 }
                 match self.options.safety {
@@ -243,6 +267,10 @@ impl<'a> TrajectoryProblem<'a> {
                 }
                 _ => {}
             }
+            let target = match (self.target_entries(), states.last()) {
+                (n, Some(last)) if n > 0 => target::residual(self.model, last),
+                _ => Vec::new(),
+            };
             self.forward = Some(Forward {
                 x: x.to_vec(),
                 states,
@@ -251,6 +279,7 @@ impl<'a> TrajectoryProblem<'a> {
                 safety,
                 strain,
                 goal,
+                target,
             });
         }
         self.forward
@@ -308,7 +337,8 @@ impl<'a> TrajectoryProblem<'a> {
 
     /// One backward pass at `x`, whose forward pass is cached: the objective's gradient and those
     /// of the tape rows in `wanted`, every cost pulled back through the rollout together
-    /// ([`Model::gradients`]), in the order loss, safety, strain, goal.
+    /// ([`Model::gradients`]), in the order loss, safety, strain, goal, target residual entries
+    /// (when `G` is a residual norm: one seed per entry, fewer than the controls).
     fn pull_back(&self, x: &[f64], wanted: Vec<bool>) -> Result<Backward, EvalError> {
         let forward = self
             .forward
@@ -317,10 +347,7 @@ impl<'a> TrajectoryProblem<'a> {
         let (rows, strain_rows, goal_rows) =
             (self.safety_rows(), self.strain_rows(), self.goal_rows());
         let controls = self.controls(x);
-        let beta = self.options.beta;
-        let model = self.model;
-        let loss =
-            move |tape: &mut Tape, t: usize, _: Var, xv: Var| model.record_loss(tape, t, xv, beta);
+        let loss = |tape: &mut Tape, t: usize, _: Var, xv: Var| self.record_loss(tape, t, xv);
         let scalar = |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
             self.record_scalar_safety(tape, t, xp, xv)
         };
@@ -361,6 +388,15 @@ impl<'a> TrajectoryProblem<'a> {
         if want_goal {
             costs.push(&goal_cost);
         }
+        let model = self.model;
+        let target_costs: Vec<BoxedStepCost<'_>> = (0..self.target_entries())
+            .map(|i| {
+                Box::new(move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
+                    (t == horizon).then(|| target::record_entry(model, tape, xv, i))
+                }) as BoxedStepCost<'_>
+            })
+            .collect();
+        costs.extend(target_costs.iter().map(|b| b.as_ref() as StepCost<'_>));
         let grads = self.model.gradients(&forward.states, &controls, &costs);
         let pulled = PulledRows {
             safety: &active,
@@ -424,12 +460,14 @@ impl<'a> TrajectoryProblem<'a> {
                 *row = g.into_data();
             }
         }
+        let target = grads.map(Tensor::into_data).collect();
         Backward {
             x: x.to_vec(),
             objective,
             safety,
             strain,
             goal,
+            target,
             computed: wanted,
         }
     }
@@ -509,6 +547,36 @@ impl Problem for TrajectoryProblem<'_> {
                 NormTerm::difference(self.options.alpha, n, &now, &before)
             })
             .collect()
+    }
+
+    fn residual_norms(&self) -> Vec<ResidualNorm> {
+        match self.target_entries() {
+            0 => Vec::new(),
+            n => vec![ResidualNorm::new(1.0, n)],
+        }
+    }
+
+    fn residual(&mut self, x: &[f64], _j: usize, r: &mut [f64]) -> Result<(), EvalError> {
+        r.copy_from_slice(&self.ensure_forward(x)?.target);
+        Ok(())
+    }
+
+    fn residual_jacobian(
+        &mut self,
+        x: &[f64],
+        _j: usize,
+        jac: &mut Jacobian,
+    ) -> Result<(), EvalError> {
+        // Every backward pass pulls the residual back, whatever rows it was asked for.
+        let none = vec![false; self.num_inequalities()];
+        let backward = self.ensure_backward(x, Some(&none))?;
+        let Jacobian::Dense(m) = jac else {
+            return Err(EvalError::new("expected a dense Jacobian"));
+        };
+        for (i, row) in backward.target.iter().enumerate() {
+            m.row_mut(i).copy_from_slice(row);
+        }
+        Ok(())
     }
 
     fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {

@@ -1,6 +1,7 @@
 //! What a [`super::TrajectoryProblem`] optimizes and how: the weights and margin of the task, the
 //! safety constraint's form, the sharpness of its smooth minima and maxima, the optional goal row.
 
+use super::TargetModel;
 use cloth::Model;
 
 /// How the obstacle-avoidance constraint reaches the optimizer.
@@ -69,6 +70,8 @@ pub struct TaskOptions {
     /// 10 targets). Near the bound the row reads `≈ r − max distance`. Default `None`: reaching
     /// the targets is left to the objective.
     pub goal_radius: Option<f64>,
+    /// How the SQP models the target term `G` ([`TargetModel`]; default [`TargetModel::Bfgs`]).
+    pub target_model: TargetModel,
 }
 
 /// Sharpness of the soft maximum over the targets' squared relative distances in the goal row.
@@ -79,7 +82,7 @@ pub const DEFAULT_STRAIN_KAPPA: f64 = 500.0;
 
 impl TaskOptions {
     /// The scene's own weights and margin, the per-step safety form when the scene has safety
-    /// obstacles, continuous safety, κ = 3000.
+    /// obstacles, continuous safety, κ = 3000, the default target model.
     pub fn for_model(model: &Model) -> Self {
         TaskOptions {
             delta: model.task.delta,
@@ -90,6 +93,7 @@ impl TaskOptions {
             kappa: 3000.0,
             strain_kappa: DEFAULT_STRAIN_KAPPA,
             goal_radius: None,
+            target_model: TargetModel::default(),
         }
     }
 

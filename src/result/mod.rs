@@ -111,6 +111,10 @@ pub struct PlanResult {
     /// The solver's status, for programs.
     #[serde(skip)]
     pub solver_status: Option<Status>,
+    /// The last stage's quasi-Newton Hessian (not written), to start a later plan of the same
+    /// task from ([`crate::plan::PlanOptions::initial_hessian`]).
+    #[serde(skip)]
+    pub hessian: Option<optim::DenseMatrix>,
 }
 
 /// One optimizer stage of a plan.

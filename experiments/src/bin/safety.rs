@@ -18,6 +18,7 @@ use clap::Parser;
 use cloth::{Model, Scene};
 use clothopt::figures::RolloutFigure;
 use clothopt::plan::{self, PlanOptions};
+use clothopt::problem::TargetModel;
 use clothopt::result::{controls_from_nested, states_of, PlanResult, SAFETY_TOLERANCE};
 use experiments::report::{pass_fail, write_json};
 use std::path::PathBuf;
@@ -116,6 +117,9 @@ fn main() -> Result<()> {
         let mut options = PlanOptions::for_model(&model);
         options.task.delta = delta;
         options.task.swept = swept;
+        // The paper's formulation: G in the smooth objective, its curvature learnt by BFGS.
+        // Pinned so that Table I stays reproducible whatever `--target-model` defaults to.
+        options.task.target_model = TargetModel::Bfgs;
         options.iterations = args.iterations;
         let label = format!("δ = {delta:.2}{}", if swept { " swept" } else { "" });
         // Continuation: the scene's guess, and every earlier plan with a smaller or equal δ.

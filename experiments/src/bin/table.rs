@@ -155,7 +155,7 @@ fn main() -> Result<()> {
     let cli = Cli::parse();
     ensure_positive("--time-limit", cli.time_limit)?;
     ensure!(!cli.models.is_empty(), "--models: name at least one model");
-    let clothopt = clothopt_binary(cli.clothopt.as_deref())?;
+    let clothopt = child::clothopt_binary(cli.clothopt.as_deref())?;
     let scenes = scene_files(&cli.dir, &cli.scenes)?;
     eprintln!("planning with {}", clothopt.display());
     if let Some(dir) = &cli.results_dir {
@@ -201,24 +201,6 @@ fn main() -> Result<()> {
         )?;
     }
     Ok(())
-}
-
-/// `--clothopt`, or `clothopt` in this program's folder; an error says how to build it.
-fn clothopt_binary(given: Option<&Path>) -> Result<PathBuf> {
-    let path = match given {
-        Some(p) => p.to_path_buf(),
-        None => {
-            let exe = std::env::current_exe().context("cannot locate this program")?;
-            exe.with_file_name(format!("clothopt{}", std::env::consts::EXE_SUFFIX))
-        }
-    };
-    ensure!(
-        path.is_file(),
-        "--clothopt: no clothopt binary at {} (build it with `cargo build --release --bin clothopt`, \
-         or pass --clothopt PATH)",
-        path.display()
-    );
-    Ok(path)
 }
 
 /// The scenes of the set (`--dir`, only `names` when given), each with its file's text.

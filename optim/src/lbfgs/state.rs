@@ -3,7 +3,7 @@
 use crate::error::EvalError;
 use crate::eval::Evaluator;
 use crate::linalg::{norm2, norm_inf};
-use crate::problem::Problem;
+use crate::problem::{tmul_add, Problem};
 use crate::status::{IterationInfo, Multipliers, Solution, Status};
 use std::ops::ControlFlow;
 use std::time::Instant;
@@ -15,12 +15,13 @@ pub(super) fn evaluate<P: Problem + ?Sized>(
 ) -> Result<(f64, Vec<f64>), EvalError> {
     let v = ev.values(x)?;
     // No constraints (checked by the solver): only the gradient is evaluated.
-    let mut g = ev.derivatives(x)?.g;
-    for (nd, r) in ev.norms.iter().zip(&v.residuals) {
+    let dv = ev.derivatives(x)?;
+    let mut g = dv.g;
+    for ((nd, r), jac) in ev.norms.iter().zip(&v.residuals).zip(&dv.norm_jac) {
         let nr = norm2(r);
         if nr > 0.0 {
             let y: Vec<f64> = r.iter().map(|ri| nd.weight * ri / nr).collect();
-            nd.tmul_add(&y, &mut g);
+            tmul_add(nd.rows(jac), &y, &mut g);
         }
     }
     Ok((v.objective(), g))

@@ -13,6 +13,9 @@
 //!            (s_k, A_k d + A_k x + b_k) ∈ SOC           one second-order cone per norm term
 //! ```
 //!
+//! A residual norm `v‖r(x)‖` enters as a norm term with `A_k x + b_k = r(x)` and `A_k = J(x)`, its
+//! Jacobian at the iterate: the Gauss–Newton (prox-linear) model.
+//!
 //! The feasibility variant drops the objective's `B`, `g` and norm terms and minimizes `Σ t + Σ p + Σ r`
 //! (the smallest linearized ℓ1 violation reachable inside the step box). `d = 0`, `t = max(0, −c)`, … is
 //! always feasible, so neither problem can be infeasible (the second-order correction changes `c` and
@@ -51,7 +54,7 @@ use csc::TripletBuilder;
 use solve::clarabel_settings;
 
 use crate::linalg::Jacobian;
-use crate::problem::NormData;
+use crate::problem::{NormData, SparseRows};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSolver, SolverStatus, SupportedConeT};
 
@@ -66,7 +69,10 @@ pub(crate) struct QpData<'a> {
     pub eq: &'a [f64],
     pub eq_jac: &'a Jacobian,
     pub norms: &'a [NormData],
-    /// `A_k x + b_k` at the current point.
+    /// Per norm term, the rows of its matrix or of its residual's Jacobian at the current point
+    /// ([`NormData::rows`]).
+    pub norm_rows: Vec<&'a SparseRows>,
+    /// `A_k x + b_k` (or the residual `r_k(x)`) at the current point.
     pub norm_residuals: &'a [Vec<f64>],
     /// Box on the step: bounds of the variables intersected with the step bound.
     pub step_lower: &'a [f64],
@@ -182,7 +188,7 @@ impl QpSubproblem {
         let with_norms = matches!(mode, QpMode::Optimality);
         let k = if with_norms { data.norms.len() } else { 0 };
         let norm_dims: Vec<usize> = if with_norms {
-            data.norms.iter().map(|nd| nd.rows.len()).collect()
+            data.norms.iter().map(NormData::dim).collect()
         } else {
             Vec::new()
         };
@@ -283,10 +289,10 @@ impl QpSubproblem {
         }
         // Second-order cones: (s_k, A_k d + r_k)
         let mut row = row_soc;
-        for (kk, nd) in data.norms.iter().enumerate().take(k) {
+        for (kk, rows) in data.norm_rows.iter().enumerate().take(k) {
             a.push(row, col_s + kk, -1.0);
             row += 1;
-            for (i, arow) in nd.rows.iter().enumerate() {
+            for (i, arow) in rows.iter().enumerate() {
                 for &(j, v) in arow {
                     a.push(row, j, -v);
                 }

@@ -57,7 +57,8 @@ fn huge_gradient_gives_the_clipped_step_and_unscaled_duals() {
             NormTerm::new(1.0, a, vec![0.0; width])
         })
         .collect();
-    let norms = NormData::from_terms(&terms, n).expect("norm terms");
+    let norms = NormData::from_terms(&terms, &[], n).expect("norm terms");
+    let no_jacobian = Vec::new();
     let residuals = vec![vec![0.0; width]; steps - 1];
     let (jc, je) = (Jacobian::dense(0, n), Jacobian::dense(0, n));
     let (lo, up) = (vec![-0.5; n], vec![0.5; n]);
@@ -70,6 +71,7 @@ fn huge_gradient_gives_the_clipped_step_and_unscaled_duals() {
         eq: &[],
         eq_jac: &je,
         norms: &norms,
+        norm_rows: norms.iter().map(|nd| nd.rows(&no_jacobian)).collect(),
         norm_residuals: &residuals,
         step_lower: &lo,
         step_upper: &up,
@@ -114,6 +116,7 @@ fn box_constrained_qp_matches_closed_form() {
         eq: &[],
         eq_jac: &je,
         norms: &[],
+        norm_rows: Vec::new(),
         norm_residuals: &[],
         step_lower: &[-1.0, -1.0],
         step_upper: &[1.0, 1.0],

@@ -3,7 +3,7 @@
 
 use crate::eval::{PointDerivatives, PointValues};
 use crate::linalg::{dot, norm2, norm_inf};
-use crate::problem::NormData;
+use crate::problem::{tmul_add, NormData};
 use crate::qp::QpSolution;
 use crate::status::Multipliers;
 
@@ -91,7 +91,7 @@ pub(super) fn kkt_residual(
 ) -> f64 {
     let mut gl = lagrangian_gradient(dv, mult);
     for (k, nd) in norms.iter().enumerate() {
-        nd.tmul_add(&mult.norm_terms[k], &mut gl);
+        tmul_add(nd.rows(&dv.norm_jac[k]), &mult.norm_terms[k], &mut gl);
     }
     for ((gj, zu), zl) in gl.iter_mut().zip(&mult.upper_bound).zip(&mult.lower_bound) {
         *gj += zu - zl;

@@ -167,7 +167,8 @@ fn second_order_correction<P: Problem + ?Sized>(
     Some((xs, vs))
 }
 
-/// `m(0) − m(d)` for the ℓ1 model `f + gᵀd + ½dᵀBd + Σw‖r + Ad‖ + ν·linviol(d)`.
+/// `m(0) − m(d)` for the ℓ1 model `f + gᵀd + ½dᵀBd + Σw‖r + Ad‖ + ν·linviol(d)` (`A` the
+/// Jacobian at `x` of a residual norm's residual).
 pub(super) fn predicted_reduction(
     pt: &PointValues,
     dv: &PointDerivatives,
@@ -180,10 +181,11 @@ pub(super) fn predicted_reduction(
     let mut bd = vec![0.0; n];
     symv(bfgs.matrix(), n, d, &mut bd);
     let quad = dot(&dv.g, d) + 0.5 * dot(d, &bd);
-    let xd: Vec<f64> = pt.x.iter().zip(d).map(|(a, b)| a + b).collect();
     let norms_new: f64 = norms
         .iter()
-        .map(|nd| nd.weight * norm2(&nd.residual(&xd)))
+        .zip(&pt.residuals)
+        .zip(&dv.norm_jac)
+        .map(|((nd, r), jac)| nd.weight * norm2(&nd.model_residual(&pt.x, r, jac, d)))
         .sum();
     let lin = linearized_violations(pt, dv, d);
     let lin_weighted: f64 = lin.iter().zip(weights).map(|(v, w)| v * w).sum();

@@ -18,6 +18,11 @@
 //!    evaluation counts as a rejected trial and halves the step.
 //! 5. Damped BFGS update with `y = ∇ₓL(x⁺, λ) − ∇ₓL(x, λ)` of the smooth part.
 //!
+//! A residual norm `v‖r(x)‖` ([`Problem::residual_norms`](crate::Problem::residual_norms)) enters
+//! the QP as the norm term `v‖r(x) + J(x)d‖` (Gauss–Newton, prox-linear): the QP and the predicted
+//! reduction use this model, the merit the true `‖r(x⁺)‖`, and the BFGS update leaves it out of `y`
+//! (the smooth part's Lagrangian gradient only), so `B` learns the curvature of the rest.
+//!
 //! A run whose feasible iterates stop lowering the objective (by less than `tol_progress`,
 //! relative, over `progress_window` iterations whose steps the line search all cut) ends
 //! `NoProgress` with the measured decrease ([`progress`]).

@@ -48,7 +48,7 @@ fn no_multipliers<P: Problem + ?Sized>(ev: &Evaluator<'_, P>) -> Multipliers {
         equality: vec![0.0; ev.q],
         lower_bound: vec![0.0; ev.n],
         upper_bound: vec![0.0; ev.n],
-        norm_terms: ev.norms.iter().map(|nd| vec![0.0; nd.rows.len()]).collect(),
+        norm_terms: ev.norms.iter().map(|nd| vec![0.0; nd.dim()]).collect(),
     }
 }
 

@@ -64,6 +64,11 @@ impl StepBox {
             eq: &pt.h,
             eq_jac: &dv.jh,
             norms,
+            norm_rows: norms
+                .iter()
+                .zip(&dv.norm_jac)
+                .map(|(nd, jac)| nd.rows(jac))
+                .collect(),
             norm_residuals: &pt.residuals,
             step_lower: &self.lower,
             step_upper: &self.upper,

@@ -1,5 +1,6 @@
 //! Standard test problems with published optima: a Hock–Schittkowski selection (W. Hock, K. Schittkowski,
-//! *Test Examples for Nonlinear Programming Codes*, 1981) and the chained Rosenbrock function.
+//! *Test Examples for Nonlinear Programming Codes*, 1981), the chained Rosenbrock function, and a
+//! nonlinear least-squares class written as residual norms ([`least_squares`]).
 //!
 //! Used by the crate's tests and the `hock_schittkowski` example; behind the `test-problems` feature
 //! (not solver API), so that benchmarks and other crates can still exercise the solvers on the same
@@ -9,10 +10,12 @@
 mod fails_after;
 mod hs_large;
 mod hs_small;
+mod least_squares;
 mod rosenbrock;
 mod two_disks;
 
 pub use fails_after::FailsAfter;
+pub use least_squares::{least_squares, LeastSquares, NormModel};
 pub use rosenbrock::{rosenbrock_start, Rosenbrock};
 pub use two_disks::TwoDisks;
 
@@ -210,6 +213,45 @@ mod tests {
                         p.name
                     );
                 }
+            }
+        }
+    }
+
+    /// Every least-squares residual Jacobian (and the smooth form's gradient) agrees with
+    /// central differences.
+    #[test]
+    fn residual_jacobians_match_finite_differences() {
+        for p in least_squares() {
+            let x: Vec<f64> =
+                p.x0.iter()
+                    .enumerate()
+                    .map(|(i, v)| v + 0.1 * i as f64 + 0.05)
+                    .collect();
+            let j = p.jacobian_at(&x);
+            let mut smooth = p.clone().with_model(NormModel::Smooth);
+            let mut g = vec![0.0; p.n];
+            smooth.gradient(&x, &mut g).unwrap();
+            for k in 0..p.n {
+                let mut xp = x.clone();
+                let mut xm = x.clone();
+                xp[k] += 1e-6;
+                xm[k] -= 1e-6;
+                let (rp, rm) = (p.residual_at(&xp), p.residual_at(&xm));
+                for i in 0..p.p {
+                    let fd = (rp[i] - rm[i]) / 2e-6;
+                    let a = j[i * p.n + k];
+                    assert!(
+                        (fd - a).abs() <= 1e-5 * fd.abs().max(1.0),
+                        "{} dr[{i}]/dx[{k}]",
+                        p.name
+                    );
+                }
+                let fd = (smooth.objective(&xp).unwrap() - smooth.objective(&xm).unwrap()) / 2e-6;
+                assert!(
+                    (fd - g[k]).abs() <= 1e-5 * fd.abs().max(1.0),
+                    "{} df/dx[{k}]",
+                    p.name
+                );
             }
         }
     }

@@ -5,6 +5,7 @@ use super::{Args, Task, Variant};
 use anyhow::Result;
 use autodiff::Tensor;
 use clothopt::plan::{self, Optimizer, PlanOptions};
+use clothopt::problem::TargetModel;
 use clothopt::result::{states_of, PlanResult};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -92,6 +93,10 @@ pub(crate) fn run_job(job: Job, task: &Task, args: &Args, progress: &Progress) -
     options.task.alpha = alpha;
     options.task.beta = beta;
     options.task.safety = None;
+    // The paper's formulation: G in the smooth objective (L-BFGS needs it there; SQP learns its
+    // curvature by BFGS). Pinned so that the ablation stays reproducible whatever
+    // `--target-model` defaults to.
+    options.task.target_model = TargetModel::Bfgs;
     options.solver = job.solver;
     options.iterations = task.settings.iterations;
     options.step_bound = task.settings.step_bound;
