@@ -9,6 +9,7 @@
 //! gradient and Hessian. Across a boundary between two kinds the squared distance and its
 //! gradient agree (it is C¹); only its curvature jumps.
 
+use crate::sdf::closest_between_segments_within;
 use autodiff::Real;
 use nalgebra::Vector3;
 
@@ -172,37 +173,10 @@ impl EdgeEdge {
 }
 
 /// The parameters `(s, t) ∈ [0, 1]²` of the nearest points `a₀ + s(a₁ − a₀)` and
-/// `b₀ + t(b₁ − b₀)` of two segments (Ericson §5.1.9; a degenerate segment is its first end).
+/// `b₀ + t(b₁ − b₀)` of two segments; nearly parallel ones (`sin²` of their angle at most 1e-14,
+/// where the lines' nearest points are ill-conditioned) fall to an end of the first.
 fn closest_parameters(a: [&Vector3<f64>; 2], b: [&Vector3<f64>; 2]) -> (f64, f64) {
-    let (d1, d2) = (a[1] - a[0], b[1] - b[0]);
-    let r = a[0] - b[0];
-    let (aa, ee, f) = (d1.dot(&d1), d2.dot(&d2), d2.dot(&r));
-    if aa == 0.0 && ee == 0.0 {
-        return (0.0, 0.0);
-    }
-    if aa == 0.0 {
-        return (0.0, (f / ee).clamp(0.0, 1.0));
-    }
-    let c = d1.dot(&r);
-    if ee == 0.0 {
-        return ((-c / aa).clamp(0.0, 1.0), 0.0);
-    }
-    let bb = d1.dot(&d2);
-    let denom = aa * ee - bb * bb;
-    let mut s = if denom > 1e-14 * aa * ee {
-        ((bb * f - c * ee) / denom).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let mut t = (bb * s + f) / ee;
-    if t < 0.0 {
-        t = 0.0;
-        s = (-c / aa).clamp(0.0, 1.0);
-    } else if t > 1.0 {
-        t = 1.0;
-        s = ((bb - c) / aa).clamp(0.0, 1.0);
-    }
-    (s, t)
+    closest_between_segments_within(a[0], a[1], b[0], b[1], 1e-14)
 }
 
 #[cfg(test)]

@@ -14,6 +14,7 @@ mod shapes;
 
 pub use mesh::MeshSdf;
 pub use segment::{lipschitz_segment_min, SegmentMin, SEGMENT_TOLERANCE};
+pub(crate) use shapes::closest_between_segments_within;
 pub use shapes::{sphere_surface, Capsule, Cuboid, Surface};
 
 use crate::geometry::norm;

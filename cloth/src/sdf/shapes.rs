@@ -65,6 +65,18 @@ pub fn closest_between_segments(
     p2: &Vector3<f64>,
     q2: &Vector3<f64>,
 ) -> (f64, f64) {
+    closest_between_segments_within(p1, q1, p2, q2, 0.0)
+}
+
+/// [`closest_between_segments`], treating the segments as parallel (the first's parameter 0)
+/// where `sin²` of the angle between them is at most `parallel`.
+pub fn closest_between_segments_within(
+    p1: &Vector3<f64>,
+    q1: &Vector3<f64>,
+    p2: &Vector3<f64>,
+    q2: &Vector3<f64>,
+    parallel: f64,
+) -> (f64, f64) {
     let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
     let (a, e, f) = (d1.dot(&d1), d2.dot(&d2), d2.dot(&r));
     if a == 0.0 && e == 0.0 {
@@ -79,7 +91,7 @@ pub fn closest_between_segments(
     }
     let b = d1.dot(&d2);
     let denom = a * e - b * b;
-    let s = if denom > 0.0 {
+    let s = if denom > parallel * a * e {
         ((b * f - c * e) / denom).clamp(0.0, 1.0)
     } else {
         0.0
