@@ -7,7 +7,7 @@
 mod common;
 
 use autodiff::Tensor;
-use cloth::scene::{ContactModel, ContactSpec, ObstacleRole, SelfCollisionSpec, SolverKind};
+use cloth::scene::{ContactModel, ObstacleRole, SelfCollisionSpec, SolverKind};
 use cloth::{Model, Scene, Solver};
 use common::{plane, small_scene, BendKind};
 use nalgebra::Vector3;
@@ -28,12 +28,7 @@ fn scene(thickness: f64) -> Scene {
         ObstacleRole::Collider,
     )];
     s.physics.solver = SolverKind::Newton;
-    s.physics.contact = Some(ContactSpec {
-        model: ContactModel::Smooth,
-        d_hat: None,
-        stiffness: None,
-        friction_epsilon: None,
-    });
+    s.physics.contact = common::contact_model(ContactModel::Smooth);
     s.physics.self_collision = Some(SelfCollisionSpec {
         thickness,
         edge_edge: false,

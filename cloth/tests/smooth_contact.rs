@@ -7,7 +7,7 @@
 mod common;
 
 use autodiff::Tensor;
-use cloth::scene::{BoxSpec, ContactModel, ContactSpec, Obstacle, ObstacleRole, SolverKind};
+use cloth::scene::{BoxSpec, ContactModel, Obstacle, ObstacleRole, SolverKind};
 use cloth::sdf::SignedDistance;
 use cloth::{Model, Scene};
 use cloth::{NewtonSettings, Solver};
@@ -25,12 +25,7 @@ fn scene(obstacles: Vec<Obstacle>, flat: bool) -> Scene {
     }
     s.obstacles = obstacles;
     s.physics.solver = SolverKind::Newton;
-    s.physics.contact = Some(ContactSpec {
-        model: ContactModel::Smooth,
-        d_hat: None,
-        stiffness: None,
-        friction_epsilon: None,
-    });
+    s.physics.contact = common::contact_model(ContactModel::Smooth);
     s.validate().unwrap();
     s
 }
@@ -153,12 +148,7 @@ fn the_rigid_model_named_is_bitwise_the_default() {
         s.physics.solver = solver;
         s.physics.contact = None;
         let plain = Model::from_scene(&s).unwrap();
-        s.physics.contact = Some(ContactSpec {
-            model: ContactModel::Rigid,
-            d_hat: None,
-            stiffness: None,
-            friction_epsilon: None,
-        });
+        s.physics.contact = common::contact_model(ContactModel::Rigid);
         let named = Model::from_scene(&s).unwrap();
         let u = controls(&plain, PUSH);
         let (a, b) = (plain.simulate(&u).unwrap(), named.simulate(&u).unwrap());

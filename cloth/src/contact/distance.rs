@@ -4,10 +4,11 @@
 //! Each distance is piecewise: which feature pair is nearest (the vertex and the triangle's face,
 //! one of its edges or one of its corners; the two edges' interiors, an end of one and the other,
 //! or two ends) is classified in `f64` ([`PointTriangle::classify`], [`EdgeEdge::classify`]), and
-//! the squared distance of that feature pair is then written once, generically
-//! ([`PointTriangle::squared`], [`EdgeEdge::squared`]), so that nested duals give its exact
-//! gradient and Hessian. Across a boundary between two kinds the squared distance and its
-//! gradient agree (it is C¹); only its curvature jumps.
+//! the squared distance of that feature pair is written once, generically (`point_point`,
+//! `point_line`, `point_plane`, `line_line`), so that nested duals give its exact gradient and
+//! Hessian (`SelfBarrier::pair_derivatives`). Across a boundary between two kinds the squared
+//! distance and its gradient agree (it is C¹); only its curvature jumps. The `f64` distances
+//! ([`PointTriangle::distance`], [`EdgeEdge::distance`]) are the same functions' values.
 
 use crate::sdf::closest_between_segments_within;
 use autodiff::Real;
@@ -148,17 +149,6 @@ impl EdgeEdge {
             (Some(i), None) => EdgeEdge::FirstEnd(i),
             (None, Some(j)) => EdgeEdge::SecondEnd(j),
             (Some(i), Some(j)) => EdgeEdge::Ends(i, j),
-        }
-    }
-
-    /// The squared distance of the classified features of the edges `a₀a₁` and `b₀b₁`.
-    #[inline]
-    pub fn squared<R: Real>(self, a: [&Vector3<R>; 2], b: [&Vector3<R>; 2]) -> R {
-        match self {
-            EdgeEdge::Lines => line_line(a[0], a[1], b[0], b[1]),
-            EdgeEdge::FirstEnd(i) => point_line(a[i as usize], b[0], b[1]),
-            EdgeEdge::SecondEnd(j) => point_line(b[j as usize], a[0], a[1]),
-            EdgeEdge::Ends(i, j) => point_point(a[i as usize], b[j as usize]),
         }
     }
 

@@ -210,56 +210,23 @@ impl SelfBarrier {
         }
     }
 
-    /// `Φ`'s self-contact term at `x`: `Δt² κ Σ m b(d − h)` over [`SelfBarrier::pairs`]; `+∞`
-    /// when a pair is at or within the thickness.
-    pub fn energy(&self, x: &[f64]) -> f64 {
-        self.energy_of(x, &self.pairs(x))
+    /// `Φ`'s self-contact term at `x` over `pairs` (the pairs of `x`, [`SelfBarrier::pairs`]):
+    /// `Δt² κ Σ m b(d − h)`, `+∞` when a pair is at or within the thickness.
+    pub fn energy(&self, x: &[f64], pairs: &[SelfPair]) -> f64 {
+        pairs.iter().map(|pair| self.potential(x, pair)).sum()
     }
 
-    /// [`SelfBarrier::energy`] over `pairs`, the pairs of `x`.
-    pub fn energy_of(&self, x: &[f64], pairs: &[SelfPair]) -> f64 {
-        let mut sum = 0.0;
-        for pair in pairs {
-            let pts = pair.particles.map(|q| at(x, q));
-            sum += self.potential(pair, &pts);
+    /// The pair's term `Δt² κ m b(d − h)` at `x` (`+∞` at or within the thickness).
+    fn potential(&self, x: &[f64], pair: &SelfPair) -> f64 {
+        let s = self.distance(x, pair) - self.thickness;
+        if s <= 0.0 {
+            return f64::INFINITY;
         }
-        sum
-    }
-
-    /// The pair's term `Δt² κ m b(d − h)` at its four points, written once for every scalar
-    /// type (`+∞` at or within the thickness, which only `f64` evaluations reach).
-    fn potential<R: Real>(&self, pair: &SelfPair, pts: &[Vector3<R>; 4]) -> R {
-        let plain = pts.map(|v| v.map(|c| c.value()));
-        let (squared, mollifier) = match pair.kind {
-            PairKind::PointTriangle => {
-                let kind = PointTriangle::classify(&plain[0], [&plain[1], &plain[2], &plain[3]]);
-                (kind.squared(&pts[0], [&pts[1], &pts[2], &pts[3]]), R::one())
-            }
-            PairKind::EdgeEdge(eps) => {
-                let kind = EdgeEdge::classify([&plain[0], &plain[1]], [&plain[2], &plain[3]]);
-                let squared = kind.squared([&pts[0], &pts[1]], [&pts[2], &pts[3]]);
-                let n = (pts[1] - pts[0]).cross(&(pts[3] - pts[2]));
-                let c = n.dot(&n);
-                let m = if c.value() < eps {
-                    let r = c / eps;
-                    (R::cst(2.0) - r) * r
-                } else {
-                    R::one()
-                };
-                (squared, m)
-            }
+        let m = match pair.kind {
+            PairKind::PointTriangle => 1.0,
+            PairKind::EdgeEdge(eps) => mollifier(&pair.particles.map(|q| at(x, q)), eps),
         };
-        let s = squared.sqrt() - self.thickness;
-        let d_hat = self.barrier.d_hat;
-        if s.value() >= d_hat {
-            return R::zero();
-        }
-        if s.value() <= 0.0 {
-            return R::cst(f64::INFINITY);
-        }
-        let e = s - d_hat;
-        let b = -(e * e) * (s / d_hat).ln();
-        mollifier * b * (self.dt2 * self.barrier.kappa)
+        self.dt2 * self.barrier.kappa * m * self.barrier.shape(s).0
     }
 
     /// The pair's gradient (12 coordinates: its four particles in order) and Hessian (row-major
@@ -335,15 +302,10 @@ impl SelfBarrier {
             }
         }
         if let PairKind::EdgeEdge(eps) = pair.kind {
-            let n = (p[1] - p[0]).cross(&(p[3] - p[2]));
-            if n.norm_squared() < eps {
+            if mollifier(&p, eps) < 1.0 {
                 // P = m B: ∇P = m∇B + B∇m, ∇²P = m∇²B + ∇m∇Bᵀ + ∇B∇mᵀ + B∇²m.
                 let (mut gm, mut hm) = ([0.0; 12], [0.0; 144]);
-                let m = local::<4, 12>(&p, [0, 1, 2, 3], &mut gm, &mut hm, |v| {
-                    let n = (v[1] - v[0]).cross(&(v[3] - v[2]));
-                    let r = n.dot(&n) / eps;
-                    (r * -1.0 + 2.0) * r
-                });
+                let m = local::<4, 12>(&p, [0, 1, 2, 3], &mut gm, &mut hm, |v| mollifier(v, eps));
                 let bv = scale * b0;
                 for a in 0..12 {
                     for c in 0..12 {
@@ -425,6 +387,18 @@ impl SelfBarrier {
             alpha = t;
         });
         alpha
+    }
+}
+
+/// IPC's mollifier of the edges `p₀p₁`, `p₂p₃`: `(2 − c/ε) c/ε` in `c = |e₁ × e₂|²` below `ε`,
+/// else 1.
+fn mollifier<R: Real>(p: &[Vector3<R>; 4], eps: f64) -> R {
+    let n = (p[1] - p[0]).cross(&(p[3] - p[2]));
+    let r = n.dot(&n) / eps;
+    if r.value() < 1.0 {
+        (R::cst(2.0) - r) * r
+    } else {
+        R::one()
     }
 }
 
@@ -580,10 +554,9 @@ mod tests {
         )
     }
 
-    /// `P(x + hv)` for the pair's potential.
+    /// The pair's potential at `x`.
     fn potential_at(b: &SelfBarrier, pair: &SelfPair, x: &[f64]) -> f64 {
-        let pts = pair.particles.map(|q| super::at(x, q));
-        b.potential(pair, &pts)
+        b.potential(x, pair)
     }
 
     proptest::proptest! {

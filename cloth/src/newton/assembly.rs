@@ -363,7 +363,7 @@ impl Pattern {
             }
         }
         if let Some(b) = &self.self_barrier {
-            phi += b.energy_of(x, &self.self_pairs(x));
+            phi += b.energy(x, &self.self_pairs(x));
         }
         phi
     }

@@ -28,6 +28,21 @@ pub(super) struct SelfPairsCache(Mutex<Option<StatePairs>>);
 const MAX_CONTROL_STAGES: usize = 64;
 
 impl NewtonSystem {
+    /// Self-contact: rebuilds the pattern (and the factorization's symbolic analysis) when the
+    /// pairs at `x` couple other particle blocks than it holds.
+    pub(super) fn fit_self_contact(&mut self, x: &[f64]) {
+        if self.pattern.self_barrier.is_none() {
+            return;
+        }
+        let pairs = self.pattern.self_pairs(x);
+        let blocks = self.pattern.self_blocks_for(&pairs);
+        if blocks != self.pattern.self_blocks {
+            self.pattern = self.pattern.with_self_blocks(blocks);
+            self.factor.reanalyze(&self.pattern);
+            self.values.resize(self.pattern.nnz(), 0.0);
+        }
+    }
+
     /// One step under self-contact, from the previous state `x_prev` to the minimizer of `Φ` for
     /// the predicted state `xt`. The control particles are not put at their new places at once
     /// (a gripper's move could bring the cloth it holds within the thickness of another part):

@@ -59,7 +59,7 @@ pub struct NewtonSystem {
     pub factor: Factor,
     /// The contact rows and their active set at the last state assembled.
     pub contacts: Contacts,
-    values: Vec<f64>,
+    pub(super) values: Vec<f64>,
     grad: Vec<f64>,
     dir: Vec<f64>,
 }
@@ -102,21 +102,6 @@ impl NewtonSystem {
             let curvature = kind == HessianKind::Exact;
             self.contacts
                 .reduce(&self.pattern, &mut self.values, curvature);
-        }
-    }
-
-    /// Self-contact: rebuilds the pattern (and the factorization's symbolic analysis) when the
-    /// pairs at `x` couple other particle blocks than it holds ([`super::self_contact`]).
-    pub(super) fn fit_self_contact(&mut self, x: &[f64]) {
-        if self.pattern.self_barrier.is_none() {
-            return;
-        }
-        let pairs = self.pattern.self_pairs(x);
-        let blocks = self.pattern.self_blocks_for(&pairs);
-        if blocks != self.pattern.self_blocks {
-            self.pattern = self.pattern.with_self_blocks(blocks);
-            self.factor.reanalyze(&self.pattern);
-            self.values.resize(self.pattern.nnz(), 0.0);
         }
     }
 

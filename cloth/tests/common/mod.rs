@@ -5,8 +5,8 @@
 
 use autodiff::Tensor;
 use cloth::scene::{
-    Bending, BendingModel, BoxSpec, CapsuleSpec, InitialControls, MeshSpec, Obstacle, ObstacleRole,
-    PlaneSpec, SphereSetSpec, Stiffness, Target,
+    Bending, BendingModel, BoxSpec, CapsuleSpec, ContactModel, ContactSpec, InitialControls,
+    MeshSpec, Obstacle, ObstacleRole, PlaneSpec, SphereSetSpec, Stiffness, Target,
 };
 use cloth::sdf::{Cuboid, MeshSdf};
 use cloth::{Model, Scene};
@@ -303,4 +303,14 @@ pub fn behind(kind: &str, role: ObstacleRole) -> Obstacle {
             })
         }
     }
+}
+
+/// `physics.contact` naming `model` with every setting at its default.
+pub fn contact_model(model: ContactModel) -> Option<ContactSpec> {
+    Some(ContactSpec {
+        model,
+        d_hat: None,
+        stiffness: None,
+        friction_epsilon: None,
+    })
 }
