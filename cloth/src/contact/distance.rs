@@ -4,9 +4,9 @@
 //! Each distance is piecewise: which feature pair is nearest (the vertex and the triangle's face,
 //! one of its edges or one of its corners; the two edges' interiors, an end of one and the other,
 //! or two ends) is classified in `f64` ([`PointTriangle::classify`], [`EdgeEdge::classify`]), and
-//! the squared distance of that feature pair is written once, generically (`point_point`,
-//! `point_line`, `point_plane`, `line_line`), so that nested duals give its exact gradient and
-//! Hessian (`SelfBarrier::pair_derivatives`). Across a boundary between two kinds the squared
+//! the squared distance of that feature pair is written once (`point_point`, `point_line`,
+//! `point_plane`; generic, so that tests check [`super::feature`]'s closed-form gradient and
+//! Hessian against nested duals). Across a boundary between two kinds the squared
 //! distance and its gradient agree (it is C¹); only its curvature jumps. The `f64` distances
 //! ([`PointTriangle::distance`], [`EdgeEdge::distance`]) are the same functions' values.
 
@@ -66,8 +66,10 @@ pub(crate) fn point_plane<R: Real>(
     h * h / n.dot(&n)
 }
 
-/// Squared distance between the line through `a₀`, `a₁` and the line through `b₀`, `b₁`.
-#[inline]
+/// Squared distance between the line through `a₀`, `a₁` and the line through `b₀`, `b₁` (the
+/// segments' distance itself comes from their nearest points, better conditioned when nearly
+/// parallel; this form is the reference for [`super::feature`]'s closed form).
+#[cfg(test)]
 pub(crate) fn line_line<R: Real>(
     a0: &Vector3<R>,
     a1: &Vector3<R>,

@@ -5,6 +5,7 @@ pub mod barrier;
 pub mod crossings;
 pub mod distance;
 pub mod edge_edge;
+mod feature;
 pub mod friction;
 pub(crate) mod grid;
 pub mod self_barrier;

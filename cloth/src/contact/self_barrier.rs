@@ -14,8 +14,8 @@
 //! `c = |e₁ × e₂|²`, `ε = 10⁻³ |e₁|²|e₂|²` at rest, which fades the pair out as the edges turn
 //! parallel (where their distance's curvature is unbounded and the vertex–triangle pairs of
 //! their ends hold them instead). The potential is C¹ in the state (the distance's kind changes
-//! with a continuous gradient) and smooth within each kind; its gradient and Hessian come from
-//! nested forward duals on the pair's 12 coordinates.
+//! with a continuous gradient) and smooth within each kind; its gradient and Hessian are closed forms
+//! ([`super::feature`]).
 //!
 //! The pairs are found anew at every state ([`SelfBarrier::pairs`], a uniform grid of the
 //! vertices and one of the edges' boxes), so the potential is a function of the state alone.
@@ -25,9 +25,9 @@
 //! its relative motion cannot close, so the states the solver visits are never in contact.
 
 use super::barrier::{Barrier, APPROACH};
-use super::distance::{line_line, point_line, point_plane, point_point, EdgeEdge, PointTriangle};
+use super::distance::{EdgeEdge, PointTriangle};
+use super::feature::{cross_squared_derivatives, Feature};
 use super::grid::{Aabb, BoxGrid};
-use autodiff::{Dual, Real};
 use nalgebra::Vector3;
 use std::sync::Arc;
 
@@ -229,66 +229,48 @@ impl SelfBarrier {
         self.dt2 * self.barrier.kappa * m * self.barrier.shape(s).0
     }
 
+    /// The pair's nearest features at `x` as an affine family ([`Feature`]; the pair's points in
+    /// order: vertex then triangle, or first edge then second edge).
+    fn feature(&self, p: &[Vector3<f64>; 4], kind: PairKind) -> Feature {
+        match kind {
+            PairKind::PointTriangle => {
+                match PointTriangle::classify(&p[0], [&p[1], &p[2], &p[3]]) {
+                    PointTriangle::Corner(i) => Feature::point_point(0, 1 + i as usize),
+                    PointTriangle::Edge(i, j) => {
+                        Feature::point_line(0, 1 + i as usize, 1 + j as usize)
+                    }
+                    PointTriangle::Face => Feature::point_plane(0, 1, 2, 3),
+                }
+            }
+            PairKind::EdgeEdge(_) => match EdgeEdge::classify([&p[0], &p[1]], [&p[2], &p[3]]) {
+                EdgeEdge::Lines => Feature::line_line(0, 1, 2, 3),
+                EdgeEdge::FirstEnd(i) => Feature::point_line(i as usize, 2, 3),
+                EdgeEdge::SecondEnd(j) => Feature::point_line(2 + j as usize, 0, 1),
+                EdgeEdge::Ends(i, j) => Feature::point_point(i as usize, 2 + j as usize),
+            },
+        }
+    }
+
     /// The pair's gradient (12 coordinates: its four particles in order) and Hessian (row-major
-    /// 12 × 12) at `x`; false (nothing written) at or within the thickness. The squared distance
-    /// is differentiated by nested forward duals on the coordinates its nearest features involve
-    /// (6 for two corners, 9 for a point and a line, 12 for a point and a plane or two lines),
-    /// the mollifier (edge pairs within its region) on all 12, and the barrier by the chain rule.
+    /// 12 × 12) at `x`, and which of its particles they involve; `None` (nothing written) at or
+    /// within the thickness. The squared distance's derivatives are closed forms
+    /// ([`Feature::squared_derivatives`]), the barrier is applied by the chain rule and the
+    /// mollifier (edge pairs within its region) by the product rule.
     pub fn pair_derivatives(
         &self,
         x: &[f64],
         pair: &SelfPair,
         g: &mut [f64; 12],
         h: &mut [f64; 144],
-    ) -> bool {
+    ) -> Option<[bool; 4]> {
         let p = pair.particles.map(|q| at(x, q));
+        let feature = self.feature(&p, pair.kind);
         let (mut gq, mut hq) = ([0.0; 12], [0.0; 144]);
-        let q = match pair.kind {
-            PairKind::PointTriangle => {
-                match PointTriangle::classify(&p[0], [&p[1], &p[2], &p[3]]) {
-                    PointTriangle::Corner(i) => {
-                        local::<2, 6>(&p, [0, 1 + i as usize], &mut gq, &mut hq, |v| {
-                            point_point(&v[0], &v[1])
-                        })
-                    }
-                    PointTriangle::Edge(i, j) => {
-                        let idx = [0, 1 + i as usize, 1 + j as usize];
-                        local::<3, 9>(&p, idx, &mut gq, &mut hq, |v| {
-                            point_line(&v[0], &v[1], &v[2])
-                        })
-                    }
-                    PointTriangle::Face => {
-                        local::<4, 12>(&p, [0, 1, 2, 3], &mut gq, &mut hq, |v| {
-                            point_plane(&v[0], &v[1], &v[2], &v[3])
-                        })
-                    }
-                }
-            }
-            PairKind::EdgeEdge(_) => match EdgeEdge::classify([&p[0], &p[1]], [&p[2], &p[3]]) {
-                EdgeEdge::Lines => local::<4, 12>(&p, [0, 1, 2, 3], &mut gq, &mut hq, |v| {
-                    line_line(&v[0], &v[1], &v[2], &v[3])
-                }),
-                EdgeEdge::FirstEnd(i) => {
-                    local::<3, 9>(&p, [i as usize, 2, 3], &mut gq, &mut hq, |v| {
-                        point_line(&v[0], &v[1], &v[2])
-                    })
-                }
-                EdgeEdge::SecondEnd(j) => {
-                    local::<3, 9>(&p, [2 + j as usize, 0, 1], &mut gq, &mut hq, |v| {
-                        point_line(&v[0], &v[1], &v[2])
-                    })
-                }
-                EdgeEdge::Ends(i, j) => {
-                    local::<2, 6>(&p, [i as usize, 2 + j as usize], &mut gq, &mut hq, |v| {
-                        point_point(&v[0], &v[1])
-                    })
-                }
-            },
-        };
+        let q = feature.squared_derivatives(&p, &mut gq, &mut hq);
         let d = q.max(0.0).sqrt();
         let s = d - self.thickness;
         if s <= 0.0 {
-            return false;
+            return None;
         }
         // B(q) = b(s(q)), s = √q − h: B′ = b′ s′, B″ = b″ s′² + b′ s″.
         let (b0, b1, b2) = self.barrier.shape(s);
@@ -301,24 +283,32 @@ impl SelfBarrier {
                 h[12 * a + c] = scale * (ddb * gq[a] * gq[c] + db * hq[12 * a + c]);
             }
         }
-        if let PairKind::EdgeEdge(eps) = pair.kind {
-            if mollifier(&p, eps) < 1.0 {
-                // P = m B: ∇P = m∇B + B∇m, ∇²P = m∇²B + ∇m∇Bᵀ + ∇B∇mᵀ + B∇²m.
-                let (mut gm, mut hm) = ([0.0; 12], [0.0; 144]);
-                let m = local::<4, 12>(&p, [0, 1, 2, 3], &mut gm, &mut hm, |v| mollifier(v, eps));
-                let bv = scale * b0;
-                for a in 0..12 {
-                    for c in 0..12 {
-                        let k = 12 * a + c;
-                        h[k] = m * h[k] + gm[a] * g[c] + g[a] * gm[c] + bv * hm[k];
-                    }
-                }
-                for a in 0..12 {
-                    g[a] = m * g[a] + bv * gm[a];
-                }
+        let PairKind::EdgeEdge(eps) = pair.kind else {
+            return Some(feature.involves());
+        };
+        // IPC's mollifier m = (2 − c/ε) c/ε of c = |e₁ × e₂|² below ε:
+        // m′ = 2(1 − c/ε)/ε, m″ = −2/ε²; ∇m = m′∇c, ∇²m = m″∇c∇cᵀ + m′∇²c.
+        let (mut gc, mut hc) = ([0.0; 12], [0.0; 144]);
+        let c = cross_squared_derivatives(&p, &mut gc, &mut hc);
+        if c >= eps {
+            return Some(feature.involves());
+        }
+        let m = (2.0 - c / eps) * c / eps;
+        let (m1, m2) = (2.0 * (1.0 - c / eps) / eps, -2.0 / (eps * eps));
+        // P = m B: ∇P = m∇B + B∇m, ∇²P = m∇²B + ∇m∇Bᵀ + ∇B∇mᵀ + B∇²m.
+        let bv = scale * b0;
+        for a in 0..12 {
+            for k in 0..12 {
+                let (gma, gmk) = (m1 * gc[a], m1 * gc[k]);
+                let hm = m2 * gc[a] * gc[k] + m1 * hc[12 * a + k];
+                let i = 12 * a + k;
+                h[i] = m * h[i] + gma * g[k] + g[a] * gmk + bv * hm;
             }
         }
-        true
+        for a in 0..12 {
+            g[a] = m * g[a] + bv * m1 * gc[a];
+        }
+        Some([true; 4])
     }
 
     /// The pair of `x` with the smallest gap `d − h` when some gap is at most 0 (a part of the
@@ -392,47 +382,13 @@ impl SelfBarrier {
 
 /// IPC's mollifier of the edges `p₀p₁`, `p₂p₃`: `(2 − c/ε) c/ε` in `c = |e₁ × e₂|²` below `ε`,
 /// else 1.
-fn mollifier<R: Real>(p: &[Vector3<R>; 4], eps: f64) -> R {
-    let n = (p[1] - p[0]).cross(&(p[3] - p[2]));
-    let r = n.dot(&n) / eps;
-    if r.value() < 1.0 {
-        (R::cst(2.0) - r) * r
+fn mollifier(p: &[Vector3<f64>; 4], eps: f64) -> f64 {
+    let r = (p[1] - p[0]).cross(&(p[3] - p[2])).norm_squared() / eps;
+    if r < 1.0 {
+        (2.0 - r) * r
     } else {
-        R::one()
+        1.0
     }
-}
-
-/// `f` (a function of `K` points) at the pair's points `idx`, with its gradient and Hessian by
-/// nested forward duals on their `N = 3K` coordinates, scattered into the pair's 12 (the other
-/// entries zero).
-fn local<const K: usize, const N: usize>(
-    p: &[Vector3<f64>; 4],
-    idx: [usize; K],
-    g: &mut [f64; 12],
-    h: &mut [f64; 144],
-    f: impl Fn(&[Vector3<Dual<Dual<f64, N>, N>>; K]) -> Dual<Dual<f64, N>, N>,
-) -> f64 {
-    debug_assert_eq!(N, 3 * K);
-    let v: [Vector3<Dual<Dual<f64, N>, N>>; K] = std::array::from_fn(|i| {
-        Vector3::from_fn(|k, _| {
-            let j = 3 * i + k;
-            Dual {
-                re: Dual::variable(p[idx[i]][k], j),
-                eps: std::array::from_fn(|l| Dual::constant(if l == j { 1.0 } else { 0.0 })),
-            }
-        })
-    });
-    let r = f(&v);
-    g.fill(0.0);
-    h.fill(0.0);
-    for a in 0..N {
-        let ga = 3 * idx[a / 3] + a % 3;
-        g[ga] = r.re.eps[a];
-        for b in 0..N {
-            h[12 * ga + 3 * idx[b / 3] + b % 3] = r.eps[a].eps[b];
-        }
-    }
-    r.re.re
 }
 
 /// Particle `p` of `N × 3` data.
@@ -589,7 +545,7 @@ mod tests {
             let gap = b.distance(&x, &pair) - h;
             proptest::prop_assume!(gap > 0.01 && gap < 0.09);
             let (mut g, mut hess) = ([0.0; 12], [0.0; 144]);
-            proptest::prop_assert!(b.pair_derivatives(&x, &pair, &mut g, &mut hess));
+            proptest::prop_assert!(b.pair_derivatives(&x, &pair, &mut g, &mut hess).is_some());
             let step = 1e-6;
             let scale = g.iter().fold(1e-12f64, |m, v| m.max(v.abs()));
             let hscale = hess.iter().fold(1e-12f64, |m, v| m.max(v.abs()));

@@ -153,10 +153,10 @@ impl Pattern {
         };
         let (mut g, mut h) = ([0.0; 12], [0.0; 144]);
         for pair in self.self_pairs(x).iter() {
-            if !barrier.pair_derivatives(x, pair, &mut g, &mut h) {
+            let Some(involved) = barrier.pair_derivatives(x, pair, &mut g, &mut h) else {
                 // At or within the thickness: only a predicted state can be there.
                 continue;
-            }
+            };
             let dofs = pair.particles.map(|p| self.dof(p));
             for a in 0..12 {
                 if let Some(da) = dofs[a / 3] {
@@ -167,7 +167,7 @@ impl Pattern {
                 continue;
             };
             if *kind == HessianKind::Projected {
-                project_psd(&mut h, 12);
+                project_involved(&mut h, involved);
             }
             for a in 0..12 {
                 let Some(da) = dofs[a / 3] else { continue };
@@ -195,7 +195,7 @@ impl Pattern {
         for pair in self.self_pairs(x).iter() {
             let dofs = pair.particles.map(|p| self.dof(p));
             if dofs.iter().all(Option::is_some)
-                || !barrier.pair_derivatives(x, pair, &mut g, &mut h)
+                || barrier.pair_derivatives(x, pair, &mut g, &mut h).is_none()
             {
                 continue;
             }
@@ -232,5 +232,33 @@ impl Pattern {
     pub fn self_penetration(&self, x: &[f64]) -> Option<([usize; 4], f64)> {
         let barrier = self.self_barrier.as_ref()?;
         barrier.penetration(x).map(|(p, gap)| (p.particles, gap))
+    }
+}
+
+/// Projects the pair Hessian `h` (row-major 12 × 12, zero outside the `involved` particles'
+/// rows and columns) onto the semidefinite matrices, on the involved particles' block alone
+/// (6, 9 or 12 coordinates).
+fn project_involved(h: &mut [f64; 144], involved: [bool; 4]) {
+    let mut coords = [0usize; 12];
+    let mut d = 0;
+    for a in (0..12).filter(|a| involved[a / 3]) {
+        coords[d] = a;
+        d += 1;
+    }
+    let coords = &coords[..d];
+    if d == 12 {
+        return project_psd(h, 12);
+    }
+    let mut local = [0.0; 144];
+    for (i, &a) in coords.iter().enumerate() {
+        for (j, &b) in coords.iter().enumerate() {
+            local[d * i + j] = h[12 * a + b];
+        }
+    }
+    project_psd(&mut local[..d * d], d);
+    for (i, &a) in coords.iter().enumerate() {
+        for (j, &b) in coords.iter().enumerate() {
+            h[12 * a + b] = local[d * i + j];
+        }
     }
 }
