@@ -20,7 +20,9 @@
 //! The pairs are found anew at every state ([`SelfBarrier::pairs`], a uniform grid of the
 //! vertices and one of the edges' boxes), so the potential is a function of the state alone.
 //! Each step of the solver is filtered ([`SelfBarrier::max_step`]) so that no pair comes closer
-//! than [`APPROACH`] of its gap `d − h` at the step's start: additive continuous collision
+//! than [`APPROACH`] of its gap `d − h` at the step's start or of `d̂`, whichever is smaller (a
+//! pair farther than the barrier's reach may come as near as a pair at the reach): additive
+//! continuous collision
 //! detection (Li et al. 2021, "Codimensional IPC", §5), which advances each pair by the length
 //! its relative motion cannot close, so the states the solver visits are never in contact.
 
@@ -323,60 +325,75 @@ impl SelfBarrier {
 
     /// The largest step length `α ≤ alpha` such that moving every particle in a straight line
     /// from `x` to `x + α δ` (both `N × 3` data) keeps every pair's gap `d − h` at least
-    /// [`APPROACH`] times its gap at `x`: additive continuous collision detection per pair that
-    /// the swept boxes cannot rule out, each advancing by the length its relative motion cannot
-    /// close. 0 when a pair is already at or within the thickness.
+    /// [`APPROACH`] times the smaller of its gap at `x` and `d̂`: additive continuous collision
+    /// detection per pair whose swept boxes can come that near, each advancing by the length its
+    /// relative motion cannot close. 0 when a pair is already at or within the thickness.
     pub fn max_step(&self, x: &[f64], delta: &[f64], alpha: f64) -> f64 {
-        let mut alpha = alpha;
+        let mut limit = alpha;
         let scaled: Vec<f64> = delta.iter().map(|v| v * alpha).collect();
-        let mut trial = vec![0.0; 12];
-        self.for_candidates(x, &scaled, self.thickness, |pair| {
-            if alpha == 0.0 {
-                return;
+        let margin = self.thickness + APPROACH * self.barrier.d_hat;
+        self.for_candidates(x, &scaled, margin, |pair| {
+            if limit > 0.0 {
+                limit = self.time_of_approach(x, delta, alpha, limit, &pair);
             }
-            let ps = pair.particles;
-            // The relative motion's bound: each particle's move less the pair's mean move.
-            let moves = ps.map(|q| at(delta, q));
-            let mean = (moves[0] + moves[1] + moves[2] + moves[3]) / 4.0;
-            let len = moves.map(|m| (m - mean).norm());
-            let bound = match pair.kind {
-                PairKind::PointTriangle => len[0] + len[1].max(len[2]).max(len[3]),
-                PairKind::EdgeEdge(_) => len[0].max(len[1]) + len[2].max(len[3]),
-            };
-            let gap0 = self.distance(x, &pair) - self.thickness;
-            if gap0 <= 0.0 {
-                alpha = 0.0;
-                return;
-            }
-            let floor = APPROACH * gap0;
-            if bound * alpha <= gap0 - floor {
-                return;
-            }
-            // Advance from t = 0 by (gap − floor)/bound: the gap cannot fall below the floor.
-            let (mut t, mut gap) = (0.0, gap0);
-            for _ in 0..MAX_ADVANCES {
-                let dt = (gap - floor) / bound;
-                if t + dt >= alpha {
-                    return;
-                }
-                if dt <= 1e-9 * alpha {
-                    break;
-                }
-                t += dt;
-                for (i, &q) in ps.iter().enumerate() {
-                    for k in 0..3 {
-                        trial[3 * i + k] = x[3 * q + k] + t * delta[3 * q + k];
-                    }
-                }
-                let local = SelfPair {
-                    particles: [0, 1, 2, 3],
-                    kind: pair.kind,
-                };
-                gap = self.distance(&trial, &local) - self.thickness;
-            }
-            alpha = t;
         });
-        alpha
+        limit
+    }
+
+    /// The step length `t` at which the pair's gap along `x + t δ` would first fall below its
+    /// floor `APPROACH · min(gap at x, d̂)` (conservative advancement: each advance is the gap
+    /// above the floor over the bound of the pair's relative motion, and an advance shorter than
+    /// `10⁻⁹ alpha` stops it), or `cutoff ≤ alpha` if that is smaller; 0 when the pair is at or
+    /// within the thickness at `x`. The advances do not depend on `cutoff`, so the smallest
+    /// result over pairs does not depend on their order.
+    fn time_of_approach(
+        &self,
+        x: &[f64],
+        delta: &[f64],
+        alpha: f64,
+        cutoff: f64,
+        pair: &SelfPair,
+    ) -> f64 {
+        let ps = pair.particles;
+        // The relative motion's bound: each particle's move less the pair's mean move.
+        let moves = ps.map(|q| at(delta, q));
+        let mean = (moves[0] + moves[1] + moves[2] + moves[3]) / 4.0;
+        let len = moves.map(|m| (m - mean).norm());
+        let bound = match pair.kind {
+            PairKind::PointTriangle => len[0] + len[1].max(len[2]).max(len[3]),
+            PairKind::EdgeEdge(_) => len[0].max(len[1]) + len[2].max(len[3]),
+        };
+        let gap0 = self.distance(x, pair) - self.thickness;
+        if gap0 <= 0.0 {
+            return 0.0;
+        }
+        let floor = APPROACH * gap0.min(self.barrier.d_hat);
+        if bound * cutoff <= gap0 - floor {
+            return cutoff;
+        }
+        let local = SelfPair {
+            particles: [0, 1, 2, 3],
+            kind: pair.kind,
+        };
+        let mut trial = [0.0; 12];
+        let (mut t, mut gap) = (0.0, gap0);
+        for _ in 0..MAX_ADVANCES {
+            let dt = (gap - floor) / bound;
+            if t + dt >= cutoff {
+                return cutoff;
+            }
+            if dt <= 1e-9 * alpha {
+                break;
+            }
+            t += dt;
+            for (i, &q) in ps.iter().enumerate() {
+                for k in 0..3 {
+                    trial[3 * i + k] = x[3 * q + k] + t * delta[3 * q + k];
+                }
+            }
+            gap = self.distance(&trial, &local) - self.thickness;
+        }
+        t
     }
 }
 
