@@ -8,7 +8,9 @@ mod common;
 use autodiff::update::update_rows;
 use autodiff::Tensor;
 use cloth::internals::{FrictionalContact, Regime};
-use cloth::scene::{InitialControls, Obstacle, ObstacleRole, PlaneSpec, SolverKind, Target};
+use cloth::scene::{
+    ContactModel, InitialControls, Obstacle, ObstacleRole, PlaneSpec, SolverKind, Target,
+};
 use cloth::Carry;
 use cloth::{Model, Scene};
 use common::{bitwise_eq, central, dot, small_scene, BendKind, XorShift};
@@ -89,9 +91,10 @@ fn friction_is_validated_with_its_field_named() {
     };
     p.role = ObstacleRole::Both;
     s.validate().unwrap();
-    // Newton has no friction: a named error (even before it would reject the collider).
+    // Newton's rigid model has no friction: a named error.
     let mut s = tilted_scene(theta, Some(0.5), 2);
     s.physics.solver = SolverKind::Newton;
+    s.physics.contact = common::contact_model(ContactModel::Rigid);
     let msg = validation_error(&s);
     assert!(msg.contains("obstacles[0].friction"), "{msg}");
     assert!(msg.contains("newton"), "{msg}");

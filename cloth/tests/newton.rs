@@ -171,7 +171,7 @@ fn newton_settings_are_validated_with_their_json_path() {
     let e = s.validate().err().unwrap().to_string();
     assert!(e.contains("physics.load_steps"), "{e}");
     s.physics.load_steps = Some(3);
-    let Solver::Newton(settings) = s.physics.solver() else {
+    let Solver::Newton(settings) = s.solver() else {
         panic!("newton scene");
     };
     assert_eq!(settings.load_steps, 3);
@@ -200,7 +200,7 @@ fn newton_settings_are_validated_with_their_json_path() {
     let s: Scene = serde_json::from_value(v).unwrap();
     assert_eq!(s.physics.solver, SolverKind::Newton);
     assert_eq!(
-        s.physics.solver(),
+        s.solver(),
         Solver::Newton(NewtonSettings {
             tolerance: 1e-9,
             max_iterations: cloth::DEFAULT_MAX_ITERATIONS,

@@ -7,7 +7,7 @@ mod common;
 
 use autodiff::Tensor;
 use cloth::internals::NewtonSystem;
-use cloth::scene::{Obstacle, ObstacleRole, SolverKind};
+use cloth::scene::{ContactModel, Obstacle, ObstacleRole, SolverKind};
 use cloth::sdf::SignedDistance;
 use cloth::{Model, Scene};
 use cloth::{NewtonSettings, Solver};
@@ -24,6 +24,8 @@ fn scene(obstacles: Vec<Obstacle>, solver: SolverKind, flat: bool) -> Scene {
     }
     s.obstacles = obstacles;
     s.physics.solver = solver;
+    // This file tests the rigid model (the default under Newton is the smooth one).
+    s.physics.contact = common::contact_model(ContactModel::Rigid);
     s.validate().unwrap();
     s
 }

@@ -6,7 +6,7 @@
 
 use cloth::internals::Factor;
 use cloth::internals::{HessianKind, Pattern};
-use cloth::scene::{ObstacleRole, SolverKind};
+use cloth::scene::{ContactModel, ObstacleRole, SolverKind};
 use cloth::{Model, Scene};
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymmetricOrdering};
 use faer::sparse::SymbolicSparseColMatRef;
@@ -42,6 +42,7 @@ fn models() -> Vec<(String, Model)> {
         .iter_mut()
         .map(|scene| {
             scene.physics.solver = SolverKind::Newton;
+            scene.physics.contact = common::contact_model(ContactModel::Rigid);
             scene.physics.self_collision = None;
             let model = Model::from_scene(scene).unwrap_or_else(|e| panic!("{}: {e}", scene.name));
             (scene.name.clone(), model)

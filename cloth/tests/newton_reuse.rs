@@ -8,7 +8,7 @@ mod common;
 
 use autodiff::{Tape, Tensor, Var};
 use cloth::internals::NewtonSystem;
-use cloth::scene::{ObstacleRole, SolverKind};
+use cloth::scene::{ContactModel, ObstacleRole, SolverKind};
 use cloth::StepCost;
 use cloth::StepStats;
 use cloth::{Model, Scene};
@@ -46,6 +46,7 @@ fn on_the_floor() -> (Model, Tensor) {
         ObstacleRole::Collider,
     )];
     s.physics.solver = SolverKind::Newton;
+    s.physics.contact = common::contact_model(ContactModel::Rigid);
     s.validate().unwrap();
     let model = Model::from_scene(&s).unwrap();
     let mut u = model.zero_controls();

@@ -140,15 +140,19 @@ fn a_thin_plate_is_not_tunnelled_through() {
     assert!(clearance(&m, &states) > 0.0);
 }
 
-/// Naming the rigid model is the same as naming none, bit for bit (XPBD and Newton).
+/// Naming no model is naming the default, bit for bit: the rigid one under XPBD, the smooth one
+/// under Newton (the scene has a collider).
 #[test]
-fn the_rigid_model_named_is_bitwise_the_default() {
-    for solver in [SolverKind::Xpbd, SolverKind::Newton] {
+fn naming_no_model_is_naming_the_default_bitwise() {
+    for (solver, model) in [
+        (SolverKind::Xpbd, ContactModel::Rigid),
+        (SolverKind::Newton, ContactModel::Smooth),
+    ] {
         let mut s = scene(vec![behind("box", ObstacleRole::Collider)], false);
         s.physics.solver = solver;
         s.physics.contact = None;
         let plain = Model::from_scene(&s).unwrap();
-        s.physics.contact = common::contact_model(ContactModel::Rigid);
+        s.physics.contact = common::contact_model(model);
         let named = Model::from_scene(&s).unwrap();
         let u = controls(&plain, PUSH);
         let (a, b) = (plain.simulate(&u).unwrap(), named.simulate(&u).unwrap());
@@ -203,16 +207,68 @@ proptest! {
     }
 }
 
-/// A rest state touching a collider is rejected with the field and the particle named.
+/// A rest state lying on a collider starts at the barrier's resting height `d̂/2` (its free
+/// particles; the grippers stay where the scene puts them) and simulates without entering it; one
+/// deeper inside than `d̂` is rejected with the field and the particle named.
 #[test]
-fn a_rest_state_on_a_collider_is_rejected_by_name() {
+fn a_rest_state_on_a_collider_starts_half_the_reach_above_it() {
     let mut s = scene(vec![behind("plane", ObstacleRole::Collider)], true);
     s.cloth.top_left[2] = 0.0;
+    let m = newton_model(&s);
+    let d_hat = m.contact_barrier.as_ref().unwrap().barrier.d_hat;
+    for p in 0..m.n_particles() {
+        let z = m.rest.row(p)[2];
+        let want = if m.inv_mass[p] > 0.0 {
+            0.5 * d_hat
+        } else {
+            0.0
+        };
+        assert!(
+            (z - want).abs() <= 1e-15,
+            "particle {p}: z {z}, want {want}"
+        );
+    }
+    let states = m.simulate(&m.zero_controls()).unwrap();
+    let lowest = states
+        .iter()
+        .flat_map(|x| {
+            (0..m.n_particles())
+                .filter(|&p| m.inv_mass[p] > 0.0)
+                .map(|p| x.row(p)[2])
+        })
+        .fold(f64::INFINITY, f64::min);
+    assert!(lowest > 0.0, "a particle reached the plane: z {lowest}");
+
+    s.cloth.top_left[2] = -2.0 * d_hat;
     let err = Model::from_scene(&s).err().expect("rejected").to_string();
     assert!(
         err.starts_with("physics.contact.model: ")
-            && err.contains("particle 1 of the rest state is on"),
+            && err.contains("particle 1 of the rest state is")
+            && err.contains("inside a collider"),
         "{err}"
+    );
+}
+
+/// A scene that names no contact model gets the smooth one under Newton when it has colliders,
+/// and the rigid one otherwise (under XPBD, or without colliders: the latter keeps Newton's
+/// branch following on by default).
+#[test]
+fn the_default_contact_model_is_smooth_under_newton_with_colliders() {
+    let mut s = scene(vec![behind("plane", ObstacleRole::Collider)], true);
+    s.physics.contact = None;
+    assert_eq!(s.contact_model(), ContactModel::Smooth);
+    assert!(Model::from_scene(&s).unwrap().contact_barrier.is_some());
+    s.physics.solver = SolverKind::Xpbd;
+    assert_eq!(s.contact_model(), ContactModel::Rigid);
+    let mut free = scene(vec![behind("sphere", ObstacleRole::Safety)], true);
+    free.physics.contact = None;
+    assert_eq!(free.contact_model(), ContactModel::Rigid);
+    let Solver::Newton(settings) = free.solver() else {
+        panic!("Newton")
+    };
+    assert_eq!(
+        settings.load_halvings,
+        NewtonSettings::default().load_halvings
     );
 }
 
@@ -339,5 +395,7 @@ fn smooth_contact_steps_are_one_solve_unless_the_scene_names_halvings() {
     assert_eq!(halvings(&s), 3);
     s.physics.load_halvings = None;
     s.physics.contact = None;
+    assert_eq!(halvings(&s), 0, "the default model under Newton is smooth");
+    s.physics.contact = common::contact_model(ContactModel::Rigid);
     assert_eq!(halvings(&s), NewtonSettings::default().load_halvings);
 }

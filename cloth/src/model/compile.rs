@@ -15,10 +15,10 @@ use crate::newton::terms::Terms;
 use crate::registry::ConstraintRegistry;
 use crate::rollout::strain::EdgeStrain;
 use crate::scene::{
-    BendingModel, ContactModel, Obstacle, Physics, Scene, SceneError, SolverKind, Stiffness,
+    BendingModel, ContactModel, Obstacle, Scene, SceneError, SolverKind, Stiffness,
 };
 use crate::sdf::rows::{ParticleSdf, ParticleSdfComponents};
-use crate::sdf::Union;
+use crate::sdf::{SignedDistance, Union};
 use crate::xpbd::coloring::{greedy_coloring, independent_sets};
 use crate::xpbd::projection::Projection;
 use crate::xpbd::set::{Carry, ProjectionSet};
@@ -112,7 +112,7 @@ impl Model {
             },
             strain: None,
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
-            solver: scene.physics.solver(),
+            solver: scene.solver(),
             self_collision: None,
             contact_barrier: None,
             self_barrier: None,
@@ -167,10 +167,10 @@ impl Model {
             }
         }
         let (colliders, safety) = split_obstacles(&scene.obstacles);
-        if !colliders.is_empty() && scene.physics.contact_model() == ContactModel::Smooth {
+        if !colliders.is_empty() && scene.contact_model() == ContactModel::Smooth {
             model.colliders = colliders.clone();
             let barrier = collider_barrier(scene, mean_edge, colliders);
-            check_rest_outside(&model, &barrier)?;
+            settle_rest_outside(&mut model, &barrier)?;
             model.contact_barrier = Some(Arc::new(barrier));
         } else if !colliders.is_empty() {
             let free: Vec<usize> = (0..n).filter(|&p| model.inv_mass[p] > 0.0).collect();
@@ -388,23 +388,50 @@ fn component_friction(obstacles: &[Obstacle]) -> Vec<f64> {
     buckets.concat()
 }
 
-/// The smooth contact model needs every free particle of the rest state strictly outside the
-/// colliders (the barrier is infinite on and inside them).
-fn check_rest_outside(model: &Model, barrier: &ColliderBarrier) -> Result<(), ClothError> {
+/// Smooth contact: every free particle of the rest state that is nearer to the colliders than
+/// `d̂/2` — on a surface, or inside by less than `d̂` — starts at `d̂/2` outside, moved along the
+/// colliders' distance gradient (a cloth lying on a table under the rigid model lies at the
+/// barrier's resting height under the smooth one: about `0.4–0.7 d̂`). The constraints' rest
+/// lengths are those of the scene's geometry. A particle deeper inside is an error.
+fn settle_rest_outside(model: &mut Model, barrier: &ColliderBarrier) -> Result<(), ClothError> {
+    let target = 0.5 * barrier.barrier.d_hat;
     for p in (0..model.n_particles()).filter(|&p| model.inv_mass[p] > 0.0) {
-        let d = barrier.distance(model.rest.row(p));
-        if d <= 0.0 {
+        let r = model.rest.row(p);
+        let mut q = Vector3::new(r[0], r[1], r[2]);
+        let mut d = barrier.field.distance(&q);
+        if d >= target {
+            continue;
+        }
+        if d <= -barrier.barrier.d_hat {
             return Err(SceneError::Invalid {
                 field: "physics.contact.model".into(),
                 reason: format!(
-                    "the smooth contact model needs the cloth strictly outside the colliders, \
-                     but particle {p} of the rest state is {} the collider surface (signed \
-                     distance {d:e}); move the cloth or the colliders apart",
-                    if d < 0.0 { "inside" } else { "on" }
+                    "the smooth contact model needs the cloth outside the colliders, but                      particle {p} of the rest state is {:e} inside a collider (more than                      physics.contact.d_hat {:e}); move the cloth or the colliders apart",
+                    -d,
+                    barrier.barrier.d_hat
                 ),
             }
             .into());
         }
+        // Newton's method on d(q) = d̂/2 along the gradient (exact in one step for a plane).
+        for _ in 0..16 {
+            let (dist, grad) = barrier.field.distance_gradient(&q);
+            d = dist;
+            if d >= target * (1.0 - 1e-12) {
+                break;
+            }
+            q += grad * ((target - d) / grad.norm_squared().max(f64::MIN_POSITIVE));
+        }
+        if d <= 0.0 {
+            return Err(SceneError::Invalid {
+                field: "physics.contact.model".into(),
+                reason: format!(
+                    "particle {p} of the rest state could not be moved out of the colliders                      (signed distance {d:e}); move the cloth or the colliders apart"
+                ),
+            }
+            .into());
+        }
+        model.rest.row_mut(p).copy_from_slice(q.as_slice());
     }
     Ok(())
 }
@@ -448,26 +475,28 @@ fn split_obstacles(obstacles: &[Obstacle]) -> (Union, Union) {
     (colliders, safety)
 }
 
-impl Physics {
-    /// The solver these settings describe, with Newton's defaults filled in. Under smooth
-    /// contact (and with self-contact, always smooth under Newton) a step is one solve from the previous state unless the scene asks for branch
+impl Scene {
+    /// The solver the scene's physics describe, with Newton's defaults filled in. Under smooth
+    /// contact (and with self-contact, always smooth under Newton) a step is one solve from the
+    /// previous state unless the scene asks for branch
     /// following (`load_halvings` defaults to 0): the step filter keeps that descent from
     /// crossing a surface, as IPC's incremental potential does, and the halvings multiplied the
     /// work by ~60 where the cloth settles on a table (docs/physics.md "Smooth contact").
     pub fn solver(&self) -> Solver {
-        match self.solver {
+        let physics = &self.physics;
+        match physics.solver {
             SolverKind::Xpbd => Solver::Xpbd,
             SolverKind::Newton => {
                 let d = NewtonSettings::default();
                 // Self-contact under Newton is a barrier too (`contact::self_barrier`).
-                let smooth =
-                    self.contact_model() == ContactModel::Smooth || self.self_collision.is_some();
+                let smooth = self.contact_model() == ContactModel::Smooth
+                    || physics.self_collision.is_some();
                 let halvings = if smooth { 0 } else { d.load_halvings };
                 Solver::Newton(NewtonSettings {
-                    tolerance: self.tolerance.unwrap_or(d.tolerance),
-                    max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),
-                    load_steps: self.load_steps.unwrap_or(d.load_steps),
-                    load_halvings: self.load_halvings.unwrap_or(halvings),
+                    tolerance: physics.tolerance.unwrap_or(d.tolerance),
+                    max_iterations: physics.max_newton_iterations.unwrap_or(d.max_iterations),
+                    load_steps: physics.load_steps.unwrap_or(d.load_steps),
+                    load_halvings: physics.load_halvings.unwrap_or(halvings),
                     ..d
                 })
             }

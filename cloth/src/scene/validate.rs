@@ -337,7 +337,7 @@ impl Scene {
                 return Err(invalid("material.bending.stiffness", rigid));
             }
         }
-        let smooth = self.physics.contact_model() == ContactModel::Smooth;
+        let smooth = self.contact_model() == ContactModel::Smooth;
         if let Some(i) = (!smooth)
             .then(|| self.obstacles.iter().position(|o| o.friction().is_some()))
             .flatten()

@@ -790,13 +790,21 @@ fn newton_friction_needs_the_smooth_model() {
         v["obstacles"] = json!([{"type": "plane", "point": [0, 0, -5], "normal": [0, 0, 1],
                                  "role": "collider", "friction": 0.4}]);
     };
-    let (field, msg) = invalid_after(frictional_floor);
+    let (field, msg) = invalid_after(|v| {
+        frictional_floor(v);
+        v["physics"]["contact"] = json!({"model": "rigid"});
+    });
     assert_names_field(
         &field,
         &msg,
         "obstacles[0].friction",
         "needs the smooth contact model",
     );
+    // Naming no model is the smooth one under Newton with colliders.
+    let mut v = base_value();
+    frictional_floor(&mut v);
+    let s: Scene = serde_json::from_value(v).unwrap();
+    s.validate().unwrap();
     let (field, msg) = invalid_after(|v| {
         frictional_floor(v);
         v["physics"]["contact"] = json!({"model": "smooth", "friction_epsilon": -1.0});
