@@ -7,6 +7,7 @@
 //! comes to 0.1805 under Newton (the two physics' states differ); the re-plan at δ′ = 0.2244 keeps
 //! 0.2137 under Newton. (Step-only, before the continuous check: 0.1708, 0.2366 and 0.2190.)
 
+use cloth::scene::{ContactModel, ContactSpec};
 use cloth::{Model, Scene};
 use clothopt::outcome::exit_code;
 use clothopt::physics_check::{check_plan, plan_with_check, CheckRequest, MARGIN_GROWTH};
@@ -157,8 +158,15 @@ fn a_plan_still_failing_its_check_is_no_safe_plan_and_says_under_which_physics()
 
 #[test]
 fn a_physics_that_cannot_model_the_scene_is_a_named_error() {
-    // The fold has friction on rigid contact, which Newton does not model.
-    let scene = Scene::builtin("fold").unwrap();
+    // The fold with the rigid contact model named has friction on rigid contact, which Newton
+    // does not model (under its default, the smooth model, it does).
+    let mut scene = Scene::builtin("fold").unwrap();
+    scene.physics.contact = Some(ContactSpec {
+        model: ContactModel::Rigid,
+        d_hat: None,
+        stiffness: None,
+        friction_epsilon: None,
+    });
     let model = Model::from_scene(&scene).unwrap();
     let controls = plan::initial_controls(&scene, &model).unwrap();
     let newton = CheckPhysics::Newton { tolerance: 1e-10 };
