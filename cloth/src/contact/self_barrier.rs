@@ -112,9 +112,8 @@ impl SelfBarrier {
     /// (by vertex, then triangle), then edge–edge pairs (by first edge, then second).
     pub fn pairs(&self, x: &[f64]) -> Vec<SelfPair> {
         let reach = self.thickness + self.barrier.d_hat;
-        let still = vec![0.0; x.len()];
         let mut out = Vec::new();
-        self.for_candidates(x, &still, reach, |pair| {
+        self.for_candidates(&swept_boxes(x, None), reach, |pair| {
             if self.distance(x, &pair) < reach {
                 out.push(pair);
             }
@@ -122,15 +121,40 @@ impl SelfBarrier {
         out
     }
 
-    /// Calls `f` with every pair whose particles' boxes, swept from `x` along `delta` (both
-    /// `N × 3` data), come within `margin` of each other, in [`SelfBarrier::pairs`]' order.
-    fn for_candidates(&self, x: &[f64], delta: &[f64], margin: f64, mut f: impl FnMut(SelfPair)) {
-        let n = x.len() / 3;
-        let swept = |p: usize| -> Aabb {
-            let (a, b) = (at(x, p), at(x, p) + at(delta, p));
-            (a.inf(&b), a.sup(&b))
-        };
-        let points: Vec<Aabb> = (0..n).map(swept).collect();
+    /// The pairs that can come nearer than `h + d̂` anywhere on the straight motion from `x` to
+    /// `x + δ` (both `N × 3` data): those whose particles' swept boxes come that near, in
+    /// [`SelfBarrier::pairs`]' order.
+    pub fn sweep(&self, x: &[f64], delta: &[f64]) -> Sweep {
+        let boxes = swept_boxes(x, Some(delta));
+        let mut pairs = Vec::new();
+        let reach = self.thickness + self.barrier.d_hat;
+        self.for_candidates(&boxes, reach, |pair| pairs.push(pair));
+        Sweep { boxes, pairs }
+    }
+
+    /// [`SelfBarrier::pairs`] of `x` when every particle of `x` is within its box of `sweep`
+    /// (any state on the swept motion is): the same pairs in the same order, filtered from the
+    /// sweep's instead of searched; `None` otherwise.
+    pub fn pairs_in(&self, x: &[f64], sweep: &Sweep) -> Option<Vec<SelfPair>> {
+        let inside = sweep.boxes.len() * 3 == x.len()
+            && sweep.boxes.iter().enumerate().all(|(p, (lo, hi))| {
+                (0..3).all(|k| lo[k] <= x[3 * p + k] && x[3 * p + k] <= hi[k])
+            });
+        let reach = self.thickness + self.barrier.d_hat;
+        inside.then(|| {
+            sweep
+                .pairs
+                .iter()
+                .filter(|pair| self.distance(x, pair) < reach)
+                .copied()
+                .collect()
+        })
+    }
+
+    /// Calls `f` with every pair whose particles' boxes `points` come within `margin` of each
+    /// other, in [`SelfBarrier::pairs`]' order.
+    fn for_candidates(&self, points: &[Aabb], margin: f64, mut f: impl FnMut(SelfPair)) {
+        let n = points.len();
         let grow = |(lo, hi): Aabb| -> Aabb {
             let m = Vector3::repeat(margin);
             (lo - m, hi + m)
@@ -146,7 +170,7 @@ impl SelfBarrier {
         };
         // Vertex–triangle pairs: the vertices' grid, queried with each triangle's box. `seen`
         // stamps the candidates of one query (a vertex appears once per cell of the query).
-        let grid = BoxGrid::new(&points, self.cell);
+        let grid = BoxGrid::new(points, self.cell);
         let mut found: Vec<(usize, usize)> = Vec::new();
         let mut cand = Vec::new();
         let mut seen = vec![usize::MAX; n.max(self.edges.len())];
@@ -326,18 +350,21 @@ impl SelfBarrier {
     /// The largest step length `α ≤ alpha` such that moving every particle in a straight line
     /// from `x` to `x + α δ` (both `N × 3` data) keeps every pair's gap `d − h` at least
     /// [`APPROACH`] times the smaller of its gap at `x` and `d̂`: additive continuous collision
-    /// detection per pair whose swept boxes can come that near, each advancing by the length its
-    /// relative motion cannot close. 0 when a pair is already at or within the thickness.
-    pub fn max_step(&self, x: &[f64], delta: &[f64], alpha: f64) -> f64 {
-        let mut limit = alpha;
+    /// detection per pair of the motion's [`SelfBarrier::sweep`] (which holds every pair that can
+    /// come that near), each advancing by the length its relative motion cannot close. 0 when a
+    /// pair is already at or within the thickness. The sweep is returned for the states the
+    /// line search then tries on the motion ([`SelfBarrier::pairs_in`]).
+    pub fn max_step(&self, x: &[f64], delta: &[f64], alpha: f64) -> (f64, Sweep) {
         let scaled: Vec<f64> = delta.iter().map(|v| v * alpha).collect();
-        let margin = self.thickness + APPROACH * self.barrier.d_hat;
-        self.for_candidates(x, &scaled, margin, |pair| {
-            if limit > 0.0 {
-                limit = self.time_of_approach(x, delta, alpha, limit, &pair);
+        let sweep = self.sweep(x, &scaled);
+        let mut limit = alpha;
+        for pair in &sweep.pairs {
+            if limit == 0.0 {
+                break;
             }
-        });
-        limit
+            limit = self.time_of_approach(x, delta, alpha, limit, pair);
+        }
+        (limit, sweep)
     }
 
     /// The step length `t` at which the pair's gap along `x + t δ` would first fall below its
@@ -395,6 +422,25 @@ impl SelfBarrier {
         }
         t
     }
+}
+
+/// The pairs that can come within the barrier's reach on one straight motion of the particles,
+/// with the particles' swept boxes ([`SelfBarrier::sweep`]).
+#[derive(Clone, Debug, Default)]
+pub struct Sweep {
+    boxes: Vec<Aabb>,
+    pairs: Vec<SelfPair>,
+}
+
+/// Each particle's box: the point of `x`, or its straight motion to `x + δ`.
+fn swept_boxes(x: &[f64], delta: Option<&[f64]>) -> Vec<Aabb> {
+    (0..x.len() / 3)
+        .map(|p| {
+            let a = at(x, p);
+            let b = delta.map_or(a, |d| a + at(d, p));
+            (a.inf(&b), a.sup(&b))
+        })
+        .collect()
 }
 
 /// IPC's mollifier of the edges `p₀p₁`, `p₂p₃`: `(2 − c/ε) c/ε` in `c = |e₁ × e₂|²` below `ε`,
@@ -505,6 +551,33 @@ mod tests {
         assert_eq!(pairs, brute);
     }
 
+    /// The pairs of states along a swept motion, filtered from the sweep, are exactly those of a
+    /// fresh search, in order; a state off the motion's boxes is not answered from it.
+    #[test]
+    fn pairs_filtered_from_a_sweep_are_those_of_a_search() {
+        let (tris, x) = folded(9, 0.2);
+        let b = barrier(tris, &x, 0.05);
+        // Close the fold and shear its top layer.
+        let delta: Vec<f64> = (0..x.len())
+            .map(|i| match i % 3 {
+                2 if x[i] > 0.1 => -0.15,
+                0 => 0.05 * x[i + 1].sin(),
+                _ => 0.0,
+            })
+            .collect();
+        let sweep = b.sweep(&x, &delta);
+        let mut seen = 0;
+        for t in [0.0, 0.3, 0.55, 0.8, 1.0] {
+            let xt: Vec<f64> = x.iter().zip(&delta).map(|(a, d)| a + t * d).collect();
+            let fresh = b.pairs(&xt);
+            seen += fresh.len();
+            assert_eq!(b.pairs_in(&xt, &sweep), Some(fresh), "t = {t}");
+        }
+        assert!(seen > 100, "{seen} pairs over the motion");
+        let beyond: Vec<f64> = x.iter().zip(&delta).map(|(a, d)| a + 1.5 * d).collect();
+        assert_eq!(b.pairs_in(&beyond, &sweep), None);
+    }
+
     /// A pair of four points with the given kind in a 4-particle state.
     fn lone(kind: PairKind) -> SelfPair {
         SelfPair {
@@ -598,7 +671,7 @@ mod tests {
         ];
         let mut down = [0.0; 12];
         down[2] = -0.5;
-        let alpha = b.max_step(&x, &down, 1.0);
+        let alpha = b.max_step(&x, &down, 1.0).0;
         let gap0 = 0.1 - h;
         let end = 0.1 - 0.5 * alpha - h;
         assert!(
@@ -608,13 +681,13 @@ mod tests {
         assert!(end <= 0.2 * gap0, "stopped early: gap {end} of {gap0}");
         let mut along = [0.0; 12];
         along[0] = 0.3;
-        assert_eq!(b.max_step(&x, &along, 1.0), 1.0);
+        assert_eq!(b.max_step(&x, &along, 1.0).0, 1.0);
         // Moving the triangle up onto the vertex is stopped the same way.
         let mut up = [0.0; 12];
         for k in [5, 8, 11] {
             up[k] = 0.5;
         }
-        let beta = b.max_step(&x, &up, 1.0);
+        let beta = b.max_step(&x, &up, 1.0).0;
         assert!((beta - alpha).abs() < 1e-9, "{beta} vs {alpha}");
     }
 }

@@ -12,17 +12,22 @@ use super::assembly::{HessianKind, Pattern};
 use super::psd::project_psd;
 use super::solve::{NewtonSystem, StepStats};
 use super::NewtonSettings;
-use crate::contact::self_barrier::SelfPair;
+use crate::contact::self_barrier::{SelfPair, Sweep};
 use crate::error::ClothError;
 use autodiff::Tensor;
 use std::sync::{Arc, Mutex};
 
-/// A state and its self-contact pairs.
-type StatePairs = (Vec<f64>, Arc<Vec<SelfPair>>);
-
-/// The self-contact pairs of the last state asked for, and that state.
+/// The self-contact pairs of the last state asked for, with that state, and the sweep of the last
+/// step filtered ([`Sweep`]: the pairs of the states a line search tries along that step are
+/// filtered from it instead of searched).
 #[derive(Default)]
-pub(super) struct SelfPairsCache(Mutex<Option<StatePairs>>);
+pub(super) struct SelfPairsCache(Mutex<PairsCacheState>);
+
+#[derive(Default)]
+struct PairsCacheState {
+    last: Option<(Vec<f64>, Arc<Vec<SelfPair>>)>,
+    sweep: Sweep,
+}
 
 /// Solves one step takes at most while the control particles move to their places.
 const MAX_CONTROL_STAGES: usize = 64;
@@ -72,7 +77,7 @@ impl NewtonSystem {
                 }
             }
             let barrier = self.pattern.self_barrier.clone().expect("self-contact");
-            let alpha = barrier.max_step(x.data(), &delta, 1.0);
+            let (alpha, _) = barrier.max_step(x.data(), &delta, 1.0);
             let mut target = xt.clone();
             if alpha < 1.0 {
                 let (t, d) = (target.data_mut(), x.data());
@@ -111,13 +116,13 @@ impl Pattern {
             return Arc::default();
         };
         let mut cache = self.self_pairs_cache.0.lock().expect("an unpoisoned cache");
-        if let Some((at, pairs)) = cache.as_ref() {
+        if let Some((at, pairs)) = cache.last.as_ref() {
             if at[..] == *x {
                 return pairs.clone();
             }
         }
-        let pairs = Arc::new(b.pairs(x));
-        *cache = Some((x.to_vec(), pairs.clone()));
+        let pairs = Arc::new(b.pairs_in(x, &cache.sweep).unwrap_or_else(|| b.pairs(x)));
+        cache.last = Some((x.to_vec(), pairs.clone()));
         pairs
     }
 
@@ -224,7 +229,13 @@ impl Pattern {
                 }
             }
         }
-        barrier.max_step(x, &delta, 1.0)
+        let (alpha, sweep) = barrier.max_step(x, &delta, 1.0);
+        self.self_pairs_cache
+            .0
+            .lock()
+            .expect("an unpoisoned cache")
+            .sweep = sweep;
+        alpha
     }
 
     /// Self-contact: the pair of `x` nearest within the thickness, its particles and gap
