@@ -468,6 +468,7 @@ impl Physics {
                     max_iterations: self.max_newton_iterations.unwrap_or(d.max_iterations),
                     load_steps: self.load_steps.unwrap_or(d.load_steps),
                     load_halvings: self.load_halvings.unwrap_or(halvings),
+                    linear_solver: self.linear_solver.setting(),
                     ..d
                 })
             }

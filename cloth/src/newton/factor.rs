@@ -10,6 +10,11 @@
 //! factorization is deterministic). A factorization can be copied out ([`Factor::current`]) and
 //! put back ([`Factor::insert`]): the rollout keeps each step's final one for the implicit
 //! gradient ([`super::continuation`]).
+//!
+//! A failed factorization leaves the last successful one in place (the numeric factorization
+//! writes into a spare buffer, swapped in on success): it is the preconditioner of
+//! [`super::pcg`], which a matrix that is not positive definite must not take away. A new
+//! pattern ([`Factor::reanalyze`]) drops it.
 
 use super::assembly::Pattern;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -66,8 +71,14 @@ impl NumericFactor {
 pub struct Factor {
     symbolic: SymbolicSupernodalCholesky<usize>,
     numeric: NumericFactor,
+    /// The buffer the next numeric factorization writes into (swapped with `numeric`'s on
+    /// success, so a failure keeps the last successful factorization).
+    spare: Vec<f64>,
     /// The last factorization succeeded (or a factorization was inserted).
     valid: bool,
+    /// `numeric` holds a successful factorization (perhaps of an earlier matrix than the last
+    /// one asked for).
+    any: bool,
     counts: FactorCounts,
     /// Scratch of the numeric factorization, kept between iterations (its contents do not
     /// matter; allocating it per iteration was 4% of a 40 × 40 rollout).
@@ -122,7 +133,9 @@ impl Factor {
         Factor {
             symbolic,
             numeric: NumericFactor::default(),
+            spare: Vec::new(),
             valid: false,
+            any: false,
             counts: FactorCounts::default(),
             scratch,
         }
@@ -131,17 +144,18 @@ impl Factor {
     /// Factorizes the matrix with `values` in `pattern`; false if it is not positive definite.
     /// A matrix equal bit for bit to the current factorization's is not factorized again.
     pub fn factorize(&mut self, pattern: &Pattern, values: &[f64]) -> bool {
-        if self.valid && same(&self.numeric.matrix, values) {
+        if self.holds(values) {
             self.counts.reused += 1;
+            self.valid = true;
             return true;
         }
         let n = pattern.n_dof;
         let sym =
             SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
-        let numeric = &mut self.numeric;
-        numeric.l_values.resize(self.symbolic.len_val(), 0.0);
+        // faer zeroes the buffer first, so the spare's old contents do not matter.
+        self.spare.resize(self.symbolic.len_val(), 0.0);
         let ok = factorize_supernodal_numeric_llt::<usize, f64>(
-            &mut numeric.l_values,
+            &mut self.spare,
             SparseColMatRef::new(sym, values),
             LltRegularization::default(),
             &self.symbolic,
@@ -152,6 +166,9 @@ impl Factor {
         .is_ok();
         self.valid = ok;
         if ok {
+            let numeric = &mut self.numeric;
+            std::mem::swap(&mut numeric.l_values, &mut self.spare);
+            self.any = true;
             numeric.matrix.clear();
             numeric.matrix.extend_from_slice(values);
             self.counts.factorized += 1;
@@ -184,16 +201,30 @@ impl Factor {
         );
         self.numeric = numeric;
         self.valid = true;
+        self.any = true;
     }
 
-    /// Solves `A X = B` in place for the `n × k` column-major `b` with the current
-    /// factorization (the last successful [`Factor::factorize`] or [`Factor::insert`]).
+    /// The last successful factorization (or insertion) is of the matrix with `values`, bit for
+    /// bit.
+    pub fn holds(&self, values: &[f64]) -> bool {
+        self.any && same(&self.numeric.matrix, values)
+    }
+
+    /// A successful factorization of this pattern is at hand ([`Factor::solve_in_place`] may
+    /// be called), perhaps of an earlier matrix than the last one asked for.
+    pub fn has_factorization(&self) -> bool {
+        self.any
+    }
+
+    /// Solves `A X = B` in place for the `n × k` column-major `b` with the last successful
+    /// factorization ([`Factor::factorize`] or [`Factor::insert`]), `A` its matrix: after a
+    /// failed factorization, an earlier matrix's.
     ///
     /// # Panics
-    /// If the last factorization failed.
+    /// If no factorization of this pattern has succeeded.
     pub fn solve_in_place(&self, b: &mut [f64], k: usize) {
         assert!(
-            self.valid,
+            self.any,
             "Factor::solve_in_place before a successful factorization"
         );
         let n = self.symbolic.nrows();
