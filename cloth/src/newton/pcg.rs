@@ -39,7 +39,7 @@ pub enum PcgEnd {
     Converged,
     /// A search direction `p` had `pᵀAp ≤ 0` (or not a number): `A` is not positive definite.
     NegativeCurvature,
-    /// An iteration shrank the preconditioned residual by less than [`STALL`].
+    /// An iteration shrank the residual by less than the given factor ([`STALL`] in Newton).
     Stalled,
     /// The iteration limit was reached first.
     NotConverged,
@@ -60,15 +60,15 @@ pub struct PcgOutcome {
 /// `‖r‖ ≤ tolerance · ‖b‖` (for a Newton system `H d = −∇Φ` the inexact Newton condition
 /// `‖H d + ∇Φ‖ ≤ η ‖∇Φ‖`, tested before the preconditioner is applied to `r`, so a converged
 /// iteration costs one product and one preconditioner solve); at most `max_iterations`
-/// iterations. `x` holds the last iterate whatever the end (the solution only when
-/// [`PcgEnd::Converged`]).
+/// iterations, and [`PcgEnd::Stalled`] when an iteration shrinks `‖r‖` by less than `stall`
+/// (Newton's: [`STALL`]; `f64::INFINITY` never gives up early). `x` holds the last iterate
+/// whatever the end (the solution only when [`PcgEnd::Converged`]).
 pub fn pcg(
     mut apply: impl FnMut(&[f64], &mut [f64]),
     mut precondition: impl FnMut(&mut [f64]),
     b: &[f64],
     x: &mut [f64],
-    tolerance: f64,
-    max_iterations: usize,
+    (tolerance, max_iterations, stall): (f64, usize, f64),
 ) -> PcgOutcome {
     let n = b.len();
     x.fill(0.0);
@@ -99,7 +99,7 @@ pub fn pcg(
         if r_next <= target {
             return end(PcgEnd::Converged, k);
         }
-        if !(r_next < STALL * r_norm) {
+        if !(r_next < stall * r_norm) {
             return end(PcgEnd::Stalled, k);
         }
         if k == max_iterations {
@@ -154,8 +154,7 @@ impl NewtonSystem {
             |r| precondition(factor, contacts, r),
             &b,
             &mut self.dir,
-            tolerance,
-            max_iterations,
+            (tolerance, max_iterations, STALL),
         );
         stats.pcg_iterations += outcome.iterations;
         if outcome.end == PcgEnd::Converged {
