@@ -11,10 +11,11 @@
 //! put back ([`Factor::insert`]): the rollout keeps each step's final one for the implicit
 //! gradient ([`super::continuation`]).
 //!
-//! A failed factorization leaves the last successful one in place (the numeric factorization
-//! writes into a spare buffer, swapped in on success): it is the preconditioner of
-//! [`super::pcg`], which a matrix that is not positive definite must not take away. A new
-//! pattern ([`Factor::reanalyze`]) drops it.
+//! After [`Factor::keep_on_failure`], a failed factorization leaves the last successful one in
+//! place (the numeric factorization writes into a spare buffer, swapped in on success, at the
+//! cost of a second factor's memory): it is the preconditioner of [`super::pcg`], which a matrix
+//! that is not positive definite must not take away. A new pattern ([`Factor::reanalyze`])
+//! drops it.
 
 use super::assembly::Pattern;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -71,9 +72,10 @@ impl NumericFactor {
 pub struct Factor {
     symbolic: SymbolicSupernodalCholesky<usize>,
     numeric: NumericFactor,
-    /// The buffer the next numeric factorization writes into (swapped with `numeric`'s on
-    /// success, so a failure keeps the last successful factorization).
+    /// With [`Factor::keep_on_failure`]: the buffer the next numeric factorization writes into
+    /// (swapped with `numeric`'s on success, so a failure keeps the last successful one).
     spare: Vec<f64>,
+    keep: bool,
     /// The last factorization succeeded (or a factorization was inserted).
     valid: bool,
     /// `numeric` holds a successful factorization (perhaps of an earlier matrix than the last
@@ -89,9 +91,15 @@ impl Factor {
     /// Redoes the symbolic analysis for `pattern` (a pattern of the same degrees of freedom
     /// with other entries: self-contact's), keeping the counts; no factorization is valid after.
     pub fn reanalyze(&mut self, pattern: &Pattern) {
-        let counts = self.counts;
+        let (counts, keep) = (self.counts, self.keep);
         *self = Factor::new(pattern);
-        self.counts = counts;
+        (self.counts, self.keep) = (counts, keep);
+    }
+
+    /// From now on a failed factorization keeps the last successful one (for
+    /// [`Factor::solve_in_place`], as a preconditioner), in a second buffer.
+    pub fn keep_on_failure(&mut self) {
+        self.keep = true;
     }
 
     /// The symbolic analysis of `pattern`'s matrix (its lower triangle in its own order).
@@ -134,6 +142,7 @@ impl Factor {
             symbolic,
             numeric: NumericFactor::default(),
             spare: Vec::new(),
+            keep: false,
             valid: false,
             any: false,
             counts: FactorCounts::default(),
@@ -152,10 +161,15 @@ impl Factor {
         let n = pattern.n_dof;
         let sym =
             SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
-        // faer zeroes the buffer first, so the spare's old contents do not matter.
-        self.spare.resize(self.symbolic.len_val(), 0.0);
+        // With `keep`, into the spare (faer zeroes it first, so its old contents do not matter).
+        let target = if self.keep {
+            &mut self.spare
+        } else {
+            &mut self.numeric.l_values
+        };
+        target.resize(self.symbolic.len_val(), 0.0);
         let ok = factorize_supernodal_numeric_llt::<usize, f64>(
-            &mut self.spare,
+            target,
             SparseColMatRef::new(sym, values),
             LltRegularization::default(),
             &self.symbolic,
@@ -165,14 +179,18 @@ impl Factor {
         )
         .is_ok();
         self.valid = ok;
+        let numeric = &mut self.numeric;
         if ok {
-            let numeric = &mut self.numeric;
-            std::mem::swap(&mut numeric.l_values, &mut self.spare);
+            if self.keep {
+                std::mem::swap(&mut numeric.l_values, &mut self.spare);
+            }
             self.any = true;
             numeric.matrix.clear();
             numeric.matrix.extend_from_slice(values);
             self.counts.factorized += 1;
         } else {
+            // In place, the failed factorization overwrote the last good one.
+            self.any &= self.keep;
             self.counts.failed += 1;
         }
         ok

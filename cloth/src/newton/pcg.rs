@@ -140,6 +140,7 @@ impl NewtonSystem {
         else {
             return self.factor.factorize(&self.pattern, &self.values);
         };
+        self.factor.keep_on_failure();
         // A factorization of this very matrix costs nothing (the next load increment starts
         // where the last one's convergence test factorized).
         if !iterative || !self.factor.has_factorization() || self.factor.holds(&self.values) {
