@@ -99,7 +99,7 @@ pub fn pcg(
         if r_next <= target {
             return end(PcgEnd::Converged, k);
         }
-        if !(r_next < stall * r_norm) {
+        if r_next.is_nan() || r_next >= stall * r_norm {
             return end(PcgEnd::Stalled, k);
         }
         if k == max_iterations {
