@@ -2,11 +2,13 @@
 //! default tolerance) at mesh sizes n = 10, 20, 40, from the scene's initial guess, beside the
 //! XPBD ones of `benches/rollout.rs`:
 //! - `newton_forward`: simulate and evaluate the metrics;
-//! - `newton_forward_grad_l`: the same plus `dL/dU` by implicit differentiation.
+//! - `newton_forward_grad_l`: the same plus `dL/dU` by implicit differentiation;
+//! - `newton_pcg_forward_grad_l`: the same with `physics.linear_solver = "pcg"` (Newton's systems
+//!   by conjugate gradients preconditioned with a reused factorization).
 //!
 //! Single thread: `RAYON_NUM_THREADS=1 cargo bench -p cloth --bench newton`.
 
-use cloth::scene::SolverKind;
+use cloth::scene::{LinearSolverKind, SolverKind};
 use cloth::{Model, Scene};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
@@ -26,6 +28,13 @@ fn newton(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("newton_forward_grad_l", n), &n, |b, _| {
             b.iter(|| black_box(model.evaluate_loss_gradient(&u, delta).expect("converged")))
         });
+        scene.physics.linear_solver = LinearSolverKind::Pcg;
+        let pcg = Model::from_scene(&scene).expect("model");
+        group.bench_with_input(
+            BenchmarkId::new("newton_pcg_forward_grad_l", n),
+            &n,
+            |b, _| b.iter(|| black_box(pcg.evaluate_loss_gradient(&u, delta).expect("converged"))),
+        );
     }
     group.finish();
 }

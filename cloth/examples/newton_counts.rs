@@ -5,10 +5,12 @@
 //! `RAYON_NUM_THREADS=1 cargo run --release -p cloth --example newton_counts -- 40 3 [flags]`
 //! Flags: `--no-chord` (no chord steps), `--halvings H` (`physics.load_halvings`), `--budget MIB`
 //! (`Model::checkpoint_budget`), `--ref` (∇L error against tolerance 1e-12), `--newton-only`
-//! (time Newton alone, for `perf record`).
+//! (time Newton alone, for `perf record`), `--pcg` (conjugate gradients preconditioned with a
+//! reused factorization, default tolerance and iterations; `--pcg TOL,MAX` to choose them),
+//! `--direct` (a factorization per Newton matrix).
 use cloth::scene::SolverKind;
-use cloth::Solver;
 use cloth::StepStats;
+use cloth::{LinearSolver, Solver};
 use cloth::{Model, Scene};
 use std::time::Instant;
 
@@ -38,6 +40,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if flag("--no-chord") {
         settings.chord_steps = false;
     }
+    if flag("--direct") {
+        settings.linear_solver = LinearSolver::Direct;
+    }
+    if let Some(i) = args.iter().position(|a| a == "--pcg") {
+        settings.linear_solver = match args.get(i + 1).and_then(|a| a.split_once(',')) {
+            Some((tol, max)) => LinearSolver::Pcg {
+                tolerance: tol.parse()?,
+                max_iterations: max.parse()?,
+            },
+            None => LinearSolver::PCG,
+        };
+    }
     if let Some(h) = value("--halvings") {
         settings.load_halvings = h.parse()?;
     }
@@ -55,6 +69,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let f: Vec<usize> = r.stats.iter().map(|s| s.factorizations).collect();
     println!("factorizations {:?} total {}", f, f.iter().sum::<usize>());
     let tot = r.stats.iter().fold(StepStats::default(), sum);
+    println!(
+        "{:?}: pcg solves {} iterations {} fallbacks {}",
+        settings.linear_solver, tot.pcg_solves, tot.pcg_iterations, tot.pcg_fallbacks
+    );
     println!(
         "chord {} failed {} projected {} loads {} rejected {} escapes {} saddle {}; kept {} steps {:.1} MB; forward {:.3} s",
         tot.chord_steps, tot.failed_factorizations, tot.projected, tot.loads, tot.rejected_loads,

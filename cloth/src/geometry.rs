@@ -1,5 +1,5 @@
 //! Shared vector helpers: the generic norm constraints and SDFs differentiate through, and the
-//! `f64` array helpers scene validation and tessellation use. A leaf module: it imports nothing
+//! `f64` array and slice helpers scene validation, tessellation and the Newton solver use. A leaf module: it imports nothing
 //! from the crate.
 
 use autodiff::Real;
@@ -14,6 +14,16 @@ pub fn norm<R: Real>(v: &Vector3<R>) -> R {
 /// `|v|` of a plain `f64` triple.
 pub fn norm3(v: &[f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// `a · b` of two `f64` slices, summed in order.
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// The Euclidean norm of an `f64` slice, [`dot`] with itself.
+pub fn euclidean(v: &[f64]) -> f64 {
+    dot(v, v).sqrt()
 }
 
 /// `v/|v|`, computed after scaling by the largest component so that neither tiny nor huge finite

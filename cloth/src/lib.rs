@@ -42,7 +42,8 @@ pub use newton::continuation::{NewtonKept, NewtonRollout};
 pub use newton::factor::FactorCounts;
 pub use newton::solve::StepStats;
 pub use newton::{
-    NewtonSettings, Solver, DEFAULT_LOAD_HALVINGS, DEFAULT_MAX_ITERATIONS, DEFAULT_TOLERANCE,
+    LinearSolver, NewtonSettings, Solver, DEFAULT_LOAD_HALVINGS, DEFAULT_MAX_ITERATIONS,
+    DEFAULT_PCG_MAX_ITERATIONS, DEFAULT_PCG_TOLERANCE, DEFAULT_TOLERANCE,
 };
 pub use obj::{ObjError, ObjMesh};
 pub use registry::{ConstraintRegistry, CustomInput};
@@ -62,6 +63,7 @@ pub mod internals {
     pub use crate::mesh::GridMesh;
     pub use crate::newton::assembly::{HessianKind, Pattern};
     pub use crate::newton::factor::Factor;
+    pub use crate::newton::pcg::{pcg, PcgEnd, PcgOutcome};
     pub use crate::newton::solve::NewtonSystem;
     pub use crate::rollout::cost::{trajectory_irregularity, NEGLIGIBLE_WEIGHT_EXPONENT};
     pub use crate::sdf::batch::distances_within;

@@ -1,12 +1,12 @@
 //! Newton results do not depend on the rayon thread count: `evaluate` (metrics, states, `dL/dU`
 //! and `dC/dU` by implicit differentiation) is bitwise identical in a 1-thread and a 2-thread
 //! pool, on a refined `u_obstacle` and on `drop` with the cloth pressed onto its ground collider
-//! (active contact rows).
+//! (active contact rows), and with Newton's systems solved by preconditioned conjugate gradients.
 
 mod common;
 
 use autodiff::Tensor;
-use cloth::scene::SolverKind;
+use cloth::scene::{LinearSolverKind, SolverKind};
 use cloth::Evaluation;
 use cloth::{Model, Scene};
 use common::{bitwise_eq, XorShift};
@@ -73,6 +73,26 @@ fn newton_evaluate_is_bitwise_identical_with_one_and_two_threads_on_u_obstacle()
         "C = {}",
         one.metrics.c
     );
+}
+
+/// The same with Newton's systems solved by conjugate gradients (`physics.linear_solver`
+/// `"pcg"`, `cloth/src/newton/pcg.rs`).
+#[test]
+fn newton_pcg_evaluate_is_bitwise_identical_with_one_and_two_threads() {
+    let mut scene = Scene::builtin("u_obstacle")
+        .unwrap()
+        .refined(20, 20)
+        .unwrap();
+    scene.physics.solver = SolverKind::Newton;
+    scene.physics.linear_solver = LinearSolverKind::Pcg;
+    scene.task.horizon = 3;
+    scene.validate().unwrap();
+    let model = Model::from_scene(&scene).unwrap();
+    let u = jittered(&scene.initial_controls(), 0.02, 5);
+    let delta = model.evaluate(&u, 0.0, false).unwrap().metrics.min_sdf + 0.3;
+    let one = evaluate_in_pool(&model, &u, delta, 1);
+    let two = evaluate_in_pool(&model, &u, delta, 2);
+    assert_identical(&one, &two);
 }
 
 #[test]

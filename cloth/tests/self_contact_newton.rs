@@ -178,6 +178,30 @@ fn a_folded_cloth_keeps_its_layers_the_thickness_apart() {
     common::assert_minimizers(&m, &states, &u);
 }
 
+/// The fold with Newton's systems solved by preconditioned conjugate gradients
+/// (`cloth/src/newton/pcg.rs`): the pattern follows the pairs (each new pattern drops the
+/// preconditioner), and the states are the direct solver's minimizers within 1e-9.
+#[test]
+fn the_fold_with_pcg_reaches_the_direct_solvers_states() {
+    let direct = newton_model(&scene(THICKNESS));
+    let mut pcg = direct.clone();
+    let Solver::Newton(settings) = &mut pcg.solver else {
+        unreachable!("a Newton scene")
+    };
+    settings.linear_solver = cloth::LinearSolver::PCG;
+    let settings = *settings;
+    let u = fold(&direct);
+    let states = direct.simulate(&u).unwrap();
+    let (with_pcg, stats) = pcg.simulate_newton(&u, &settings).unwrap();
+    assert!(stats.iter().any(|s| s.pcg_solves > 0), "{stats:?}");
+    for (t, (a, b)) in states.iter().zip(&with_pcg).enumerate() {
+        let diff =
+            (0..a.data().len()).fold(0.0f64, |m, i| m.max((a.data()[i] - b.data()[i]).abs()));
+        assert!(diff <= 1e-9, "state {t}: max |Δx| = {diff:e}");
+    }
+    common::assert_minimizers(&pcg, &with_pcg, &u);
+}
+
 /// The implicit gradient of `L` through the fold's self-contacts against central differences
 /// along a random direction, steps 1e-7 to 1e-5.
 #[test]

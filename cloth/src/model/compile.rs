@@ -497,6 +497,7 @@ impl Scene {
                     max_iterations: physics.max_newton_iterations.unwrap_or(d.max_iterations),
                     load_steps: physics.load_steps.unwrap_or(d.load_steps),
                     load_halvings: physics.load_halvings.unwrap_or(halvings),
+                    linear_solver: physics.linear_solver.setting(),
                     ..d
                 })
             }

@@ -20,6 +20,7 @@
 
 use super::assembly::Pattern;
 use super::factor::Factor;
+use crate::geometry::dot;
 
 /// Lanczos iterations at most (the basis is kept: 2 vectors per iteration).
 const MAX_LANCZOS_ITERATIONS: usize = 150;
@@ -47,21 +48,23 @@ fn generic(n: usize) -> Vec<f64> {
 }
 
 /// `y = A v` for the symmetric matrix whose lower triangle is `values` in `pattern`.
-fn sym_mul(pattern: &Pattern, values: &[f64], v: &[f64], y: &mut [f64]) {
+/// Column `j`'s contributions to `y[j]` are summed in a register, in the same order as entry by
+/// entry (the lower triangle has no row above `j`), so the bits are those of the plain loop.
+pub(super) fn sym_mul(pattern: &Pattern, values: &[f64], v: &[f64], y: &mut [f64]) {
     y.fill(0.0);
     for j in 0..pattern.n_dof {
         let col = pattern.col_ptr[j]..pattern.col_ptr[j + 1];
+        let (vj, mut yj) = (v[j], y[j]);
         for (&i, &a) in pattern.row_idx[col.clone()].iter().zip(&values[col]) {
-            y[i] += a * v[j];
-            if i != j {
-                y[j] += a * v[i];
+            if i == j {
+                yj += a * vj;
+            } else {
+                y[i] += a * vj;
+                yj += a * v[i];
             }
         }
+        y[j] = yj;
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// A unit direction (degree-of-freedom order) along which the exact Hessian (`exact`, lower

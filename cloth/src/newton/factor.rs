@@ -10,6 +10,12 @@
 //! factorization is deterministic). A factorization can be copied out ([`Factor::current`]) and
 //! put back ([`Factor::insert`]): the rollout keeps each step's final one for the implicit
 //! gradient ([`super::continuation`]).
+//!
+//! After [`Factor::keep_on_failure`], a failed factorization leaves the last successful one in
+//! place (the numeric factorization writes into a spare buffer, swapped in on success, at the
+//! cost of a second factor's memory): it is the preconditioner of [`super::pcg`], which a matrix
+//! that is not positive definite must not take away. A new pattern ([`Factor::reanalyze`])
+//! drops it.
 
 use super::assembly::Pattern;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -66,8 +72,15 @@ impl NumericFactor {
 pub struct Factor {
     symbolic: SymbolicSupernodalCholesky<usize>,
     numeric: NumericFactor,
+    /// With [`Factor::keep_on_failure`]: the buffer the next numeric factorization writes into
+    /// (swapped with `numeric`'s on success, so a failure keeps the last successful one).
+    spare: Vec<f64>,
+    keep: bool,
     /// The last factorization succeeded (or a factorization was inserted).
     valid: bool,
+    /// `numeric` holds a successful factorization (perhaps of an earlier matrix than the last
+    /// one asked for).
+    any: bool,
     counts: FactorCounts,
     /// Scratch of the numeric factorization, kept between iterations (its contents do not
     /// matter; allocating it per iteration was 4% of a 40 × 40 rollout).
@@ -78,9 +91,15 @@ impl Factor {
     /// Redoes the symbolic analysis for `pattern` (a pattern of the same degrees of freedom
     /// with other entries: self-contact's), keeping the counts; no factorization is valid after.
     pub fn reanalyze(&mut self, pattern: &Pattern) {
-        let counts = self.counts;
+        let (counts, keep) = (self.counts, self.keep);
         *self = Factor::new(pattern);
-        self.counts = counts;
+        (self.counts, self.keep) = (counts, keep);
+    }
+
+    /// From now on a failed factorization keeps the last successful one (for
+    /// [`Factor::solve_in_place`], as a preconditioner), in a second buffer.
+    pub fn keep_on_failure(&mut self) {
+        self.keep = true;
     }
 
     /// The symbolic analysis of `pattern`'s matrix (its lower triangle in its own order).
@@ -122,7 +141,10 @@ impl Factor {
         Factor {
             symbolic,
             numeric: NumericFactor::default(),
+            spare: Vec::new(),
+            keep: false,
             valid: false,
+            any: false,
             counts: FactorCounts::default(),
             scratch,
         }
@@ -131,17 +153,23 @@ impl Factor {
     /// Factorizes the matrix with `values` in `pattern`; false if it is not positive definite.
     /// A matrix equal bit for bit to the current factorization's is not factorized again.
     pub fn factorize(&mut self, pattern: &Pattern, values: &[f64]) -> bool {
-        if self.valid && same(&self.numeric.matrix, values) {
+        if self.holds(values) {
             self.counts.reused += 1;
+            self.valid = true;
             return true;
         }
         let n = pattern.n_dof;
         let sym =
             SymbolicSparseColMatRef::new_checked(n, n, &pattern.col_ptr, None, &pattern.row_idx);
-        let numeric = &mut self.numeric;
-        numeric.l_values.resize(self.symbolic.len_val(), 0.0);
+        // With `keep`, into the spare (faer zeroes it first, so its old contents do not matter).
+        let target = if self.keep {
+            &mut self.spare
+        } else {
+            &mut self.numeric.l_values
+        };
+        target.resize(self.symbolic.len_val(), 0.0);
         let ok = factorize_supernodal_numeric_llt::<usize, f64>(
-            &mut numeric.l_values,
+            target,
             SparseColMatRef::new(sym, values),
             LltRegularization::default(),
             &self.symbolic,
@@ -151,11 +179,18 @@ impl Factor {
         )
         .is_ok();
         self.valid = ok;
+        let numeric = &mut self.numeric;
         if ok {
+            if self.keep {
+                std::mem::swap(&mut numeric.l_values, &mut self.spare);
+            }
+            self.any = true;
             numeric.matrix.clear();
             numeric.matrix.extend_from_slice(values);
             self.counts.factorized += 1;
         } else {
+            // In place, the failed factorization overwrote the last good one.
+            self.any &= self.keep;
             self.counts.failed += 1;
         }
         ok
@@ -184,16 +219,30 @@ impl Factor {
         );
         self.numeric = numeric;
         self.valid = true;
+        self.any = true;
     }
 
-    /// Solves `A X = B` in place for the `n × k` column-major `b` with the current
-    /// factorization (the last successful [`Factor::factorize`] or [`Factor::insert`]).
+    /// The last successful factorization (or insertion) is of the matrix with `values`, bit for
+    /// bit.
+    pub fn holds(&self, values: &[f64]) -> bool {
+        self.any && same(&self.numeric.matrix, values)
+    }
+
+    /// A successful factorization of this pattern is at hand ([`Factor::solve_in_place`] may
+    /// be called), perhaps of an earlier matrix than the last one asked for.
+    pub fn has_factorization(&self) -> bool {
+        self.any
+    }
+
+    /// Solves `A X = B` in place for the `n × k` column-major `b` with the last successful
+    /// factorization ([`Factor::factorize`] or [`Factor::insert`]), `A` its matrix: after a
+    /// failed factorization, an earlier matrix's.
     ///
     /// # Panics
-    /// If the last factorization failed.
+    /// If no factorization of this pattern has succeeded.
     pub fn solve_in_place(&self, b: &mut [f64], k: usize) {
         assert!(
-            self.valid,
+            self.any,
             "Factor::solve_in_place before a successful factorization"
         );
         let n = self.symbolic.nrows();

@@ -12,6 +12,8 @@
 //! - [`psd`]: the per-constraint semidefinite projection of the Hessian's blocks;
 //! - [`ordering`]: the fill-reducing elimination order, on the particle graph;
 //! - [`factor`]: faer's sparse Cholesky (symbolic once, numeric per iteration);
+//! - [`pcg`]: conjugate gradients preconditioned with a reused factorization, instead of a
+//!   factorization per iteration ([`LinearSolver::Pcg`]);
 //! - [`solve`]: the Newton iteration with backtracking line search on `Φ` and chord steps;
 //! - [`continuation`]: the rollout, each step by branch following
 //!   ([`NewtonSettings::load_halvings`]), each step's final factorization kept for the gradients;
@@ -33,6 +35,7 @@ pub mod curvature;
 pub mod factor;
 pub mod implicit;
 pub mod ordering;
+pub mod pcg;
 pub mod psd;
 mod self_contact;
 pub mod settings;
@@ -41,7 +44,8 @@ pub mod stats;
 pub mod terms;
 
 pub use settings::{
-    NewtonSettings, Solver, DEFAULT_LOAD_HALVINGS, DEFAULT_MAX_ITERATIONS, DEFAULT_TOLERANCE,
+    LinearSolver, NewtonSettings, Solver, DEFAULT_LOAD_HALVINGS, DEFAULT_MAX_ITERATIONS,
+    DEFAULT_PCG_MAX_ITERATIONS, DEFAULT_PCG_TOLERANCE, DEFAULT_TOLERANCE,
 };
 
 use crate::error::ClothError;

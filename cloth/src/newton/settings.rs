@@ -16,6 +16,49 @@ pub const DEFAULT_MAX_ITERATIONS: usize = 500;
 /// still take projected paths), 8, 10 and 12 converge after 77, 63 and 169 to the same plan.
 pub const DEFAULT_LOAD_HALVINGS: usize = 10;
 
+/// Default [`LinearSolver::Pcg`] `tolerance`: the inexact Newton condition
+/// `‖H d + ∇Φ‖ ≤ tolerance · ‖∇Φ‖` on the direction `d`. Measured on `u_obstacle` 40 × 40
+/// (forward pass, 8 iterations at most): 1e-1 takes 295 Newton iterations and 21 rejected load
+/// increments (direct: 216 and 17), 1e-2 237 and 17, 1e-3 220 and 17 with 464 conjugate
+/// gradient iterations instead of 360.
+pub const DEFAULT_PCG_TOLERANCE: f64 = 1e-2;
+/// Default [`LinearSolver::Pcg`] `max_iterations`: each iteration costs a solve with the
+/// preconditioner, about a third of a factorization at `u_obstacle` 40 × 40, so more than a few
+/// cost more than the factorization they replace.
+pub const DEFAULT_PCG_MAX_ITERATIONS: usize = 4;
+
+/// How Newton's linear systems are solved (`cloth/src/newton/pcg.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum LinearSolver {
+    /// A sparse Cholesky factorization of every Newton matrix (the exact Hessian, or the
+    /// projected one where the exact one is not positive definite).
+    #[default]
+    Direct,
+    /// Conjugate gradients preconditioned with the last successful factorization, reused across
+    /// iterations and steps; the matrix is factorized (and becomes the preconditioner) when
+    /// they need more than `max_iterations`, stall or meet non-positive curvature. The
+    /// convergence test at a solve's end and the implicit gradient still factorize. The
+    /// returned states are minimizers to the same tolerance as with [`LinearSolver::Direct`],
+    /// not the same bits. Not the default: at `u_obstacle` 40 × 40 it halves the factorizations
+    /// but not the time (docs/performance.md, "Newton's linear solves by PCG").
+    Pcg {
+        /// They stop at a residual `‖r‖` at most this fraction of the right-hand side's
+        /// (default [`DEFAULT_PCG_TOLERANCE`]).
+        tolerance: f64,
+        /// Iterations before falling back to a factorization (default
+        /// [`DEFAULT_PCG_MAX_ITERATIONS`]).
+        max_iterations: usize,
+    },
+}
+
+impl LinearSolver {
+    /// Conjugate gradients with the default tolerance and iteration limit.
+    pub const PCG: LinearSolver = LinearSolver::Pcg {
+        tolerance: DEFAULT_PCG_TOLERANCE,
+        max_iterations: DEFAULT_PCG_MAX_ITERATIONS,
+    };
+}
+
 /// Convergence settings of the Newton solver.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NewtonSettings {
@@ -43,6 +86,8 @@ pub struct NewtonSettings {
     /// (`cloth/src/newton/solve.rs`) per step. The returned state is a minimizer to the same
     /// tolerance either way.
     pub chord_steps: bool,
+    /// How each Newton matrix is solved.
+    pub linear_solver: LinearSolver,
 }
 
 impl Default for NewtonSettings {
@@ -53,6 +98,7 @@ impl Default for NewtonSettings {
             load_steps: 1,
             load_halvings: DEFAULT_LOAD_HALVINGS,
             chord_steps: true,
+            linear_solver: LinearSolver::Direct,
         }
     }
 }

@@ -26,6 +26,7 @@ use super::factor::FactorCounts;
 pub use super::stats::StepStats;
 use super::{check_supported, NewtonSettings};
 use crate::error::ClothError;
+use crate::geometry::euclidean as norm;
 use crate::model::Model;
 use crate::xpbd::sim::check_finite;
 use autodiff::Tensor;
@@ -60,8 +61,11 @@ pub struct NewtonSystem {
     /// The contact rows and their active set at the last state assembled.
     pub contacts: Contacts,
     pub(super) values: Vec<f64>,
-    grad: Vec<f64>,
-    dir: Vec<f64>,
+    pub(super) grad: Vec<f64>,
+    pub(super) dir: Vec<f64>,
+    /// `dir` holds the Newton direction from conjugate gradients: set by `newton_matrix`
+    /// (`super::pcg`), taken by the next `newton_direction`.
+    pub(super) pcg_direction: bool,
 }
 
 impl NewtonSystem {
@@ -82,6 +86,7 @@ impl NewtonSystem {
             values: vec![0.0; nnz],
             grad: vec![0.0; n],
             dir: vec![0.0; n],
+            pcg_direction: false,
         })
     }
 
@@ -455,7 +460,7 @@ impl NewtonSystem {
             if test.exact_tried {
                 self.assemble_at(run.x.data(), run.xt_d, HessianKind::Projected);
             }
-            if !self.factor.factorize(&self.pattern, &self.values) {
+            if !self.newton_matrix(true, run.settings, &mut run.stats) {
                 return Err(run.not_converged());
             }
         }
@@ -525,7 +530,8 @@ impl NewtonSystem {
         // The exact Hessian's factorization: the Newton matrix below, and the test that x is
         // a minimizer (the implicit gradient needs it positive definite at the returned state).
         let exact_tried = kind == HessianKind::Exact || within_tolerance;
-        let exact_pd = exact_tried && self.factor.factorize(&self.pattern, &self.values);
+        let exact_pd =
+            exact_tried && self.newton_matrix(!within_tolerance, run.settings, &mut run.stats);
         Ok(Test {
             res,
             within_tolerance,
@@ -535,8 +541,11 @@ impl NewtonSystem {
     }
 
     /// The Newton direction `−K⁻¹∇Φ` (in the active contacts' tangent space) with the current
-    /// factorization, into `dir`.
+    /// factorization, into `dir` (already there when conjugate gradients found it).
     fn newton_direction(&mut self) {
+        if std::mem::take(&mut self.pcg_direction) {
+            return;
+        }
         for (d, g) in self.dir.iter_mut().zip(&self.grad) {
             *d = -g;
         }
@@ -556,8 +565,12 @@ impl NewtonSystem {
     /// leaves the saddle ([`NewtonSystem::settle`]) and goes on (`None`).
     fn at_roundoff(&mut self, run: &mut Run<'_>, test: &Test) -> Result<Option<End>, ClothError> {
         // As converged as f64 allows, but only a minimizer has an implicit gradient.
-        let minimizer =
-            test.exact_pd || (!test.exact_tried && self.factorize_exact(run.x.data(), run.xt_d));
+        // (Conjugate gradients' direction is no proof that the Hessian is positive definite.)
+        let minimizer = if test.exact_pd {
+            self.factor.holds(&self.values) || self.factorize_exact(run.x.data(), run.xt_d)
+        } else {
+            !test.exact_tried && self.factorize_exact(run.x.data(), run.xt_d)
+        };
         match self.settle(&mut run.x, run.xt_d, minimizer, &mut run.stats, run.step)? {
             None => Ok(Some(End::Minimizer)),
             Some(phi_t) => {
@@ -684,9 +697,4 @@ struct Test {
     exact_tried: bool,
     /// ... and is positive definite.
     exact_pd: bool,
-}
-
-/// Euclidean norm.
-fn norm(v: &[f64]) -> f64 {
-    v.iter().map(|a| a * a).sum::<f64>().sqrt()
 }

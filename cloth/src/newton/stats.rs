@@ -13,6 +13,14 @@ pub struct StepStats {
     pub factorizations: usize,
     /// Numeric factorizations that found the exact Hessian not positive definite.
     pub failed_factorizations: usize,
+    /// Newton directions from preconditioned conjugate gradients ([`crate::LinearSolver::Pcg`])
+    /// instead of a factorization.
+    pub pcg_solves: usize,
+    /// Conjugate gradient iterations, over all attempts.
+    pub pcg_iterations: usize,
+    /// Attempts of conjugate gradients that gave up (too many iterations, a stalled residual or
+    /// negative curvature), so the matrix was factorized.
+    pub pcg_fallbacks: usize,
     /// Iterations that fell back to the projected Hessian.
     pub projected: usize,
     /// Final `‖∇Φ‖` relative to its value at `x̃`.
@@ -34,13 +42,16 @@ pub struct StepStats {
 
 impl StepStats {
     /// Adds `other`'s work counts (iterations, chord steps, factorizations, failed
-    /// factorizations, projected iterations, saddles, escapes) to these; the residual, the
+    /// factorizations, conjugate gradients' counts, projected iterations, saddles, escapes) to these; the residual, the
     /// round-off flag and the load counts stay.
     pub fn add_work(&mut self, other: &StepStats) {
         self.iterations += other.iterations;
         self.chord_steps += other.chord_steps;
         self.factorizations += other.factorizations;
         self.failed_factorizations += other.failed_factorizations;
+        self.pcg_solves += other.pcg_solves;
+        self.pcg_iterations += other.pcg_iterations;
+        self.pcg_fallbacks += other.pcg_fallbacks;
         self.projected += other.projected;
         self.at_saddle += other.at_saddle;
         self.escapes += other.escapes;

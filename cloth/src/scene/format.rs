@@ -339,6 +339,10 @@ pub struct Physics {
     /// [`crate::NewtonSettings::load_halvings`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub load_halvings: Option<usize>,
+    /// Newton only: how its linear systems are solved, `"direct"` (default) or `"pcg"`, see
+    /// [`crate::LinearSolver`].
+    #[serde(default, skip_serializing_if = "LinearSolverKind::is_direct")]
+    pub linear_solver: LinearSolverKind,
     /// Self-collision of the cloth (absent: none), see `cloth/src/contact/self_collision.rs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub self_collision: Option<SelfCollisionSpec>,
@@ -429,6 +433,33 @@ pub struct CustomConstraint {
 
 /// Largest `physics.load_halvings` (2^20 increments per Newton step).
 pub const MAX_LOAD_HALVINGS: usize = 20;
+
+/// The linear solver named by `physics.linear_solver` (Newton only).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LinearSolverKind {
+    /// A sparse Cholesky factorization of every Newton matrix ([`crate::LinearSolver::Direct`]).
+    #[default]
+    Direct,
+    /// Conjugate gradients preconditioned with a reused factorization, with the default
+    /// tolerance and iteration limit ([`crate::LinearSolver::PCG`]).
+    Pcg,
+}
+
+impl LinearSolverKind {
+    /// The default, `"direct"` (left out when a scene is written).
+    pub fn is_direct(&self) -> bool {
+        *self == LinearSolverKind::Direct
+    }
+
+    /// The Newton setting it names.
+    pub fn setting(self) -> crate::LinearSolver {
+        match self {
+            LinearSolverKind::Direct => crate::LinearSolver::Direct,
+            LinearSolverKind::Pcg => crate::LinearSolver::PCG,
+        }
+    }
+}
 
 /// The step solver named by `physics.solver`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
