@@ -246,7 +246,7 @@ fn pcg_gradients_match_central_differences() {
 fn scene_field_linear_solver() {
     let mut scene = Scene::builtin("u_obstacle").unwrap();
     scene.physics.solver = SolverKind::Newton;
-    let Solver::Newton(default) = scene.physics.solver() else {
+    let Solver::Newton(default) = scene.solver() else {
         unreachable!()
     };
     assert_eq!(default.linear_solver, LinearSolver::Direct);
@@ -255,7 +255,7 @@ fn scene_field_linear_solver() {
     let text = scene.to_json_pretty();
     assert!(text.contains("\"linear_solver\": \"pcg\""), "{text}");
     let read = Scene::from_json_str(&text).unwrap();
-    let Solver::Newton(settings) = read.physics.solver() else {
+    let Solver::Newton(settings) = read.solver() else {
         unreachable!()
     };
     assert_eq!(settings.linear_solver, LinearSolver::PCG);
