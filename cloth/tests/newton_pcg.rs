@@ -187,15 +187,7 @@ fn pcg_rollout_matches_the_direct_one_on_u_obstacle() {
 fn pcg_rollout_matches_the_direct_one_with_contacts() {
     let scene = Scene::builtin("drop").unwrap();
     let model = newton_with(&scene, LinearSolver::Direct, 1e-10);
-    let mut u = model.zero_controls();
-    for t in 0..model.task.horizon {
-        for k in 0..model.n_controls() {
-            let row = u.row_mut(t);
-            row[3 * k] = 0.01 * (1 - k % 2) as f64;
-            row[3 * k + 1] = 0.05;
-            row[3 * k + 2] = -0.15;
-        }
-    }
+    let u = common::lowered_and_dragged(&model);
     compare_rollouts(&scene, &u, 1e-8);
 }
 

@@ -52,47 +52,33 @@ fn assert_identical(a: &Evaluation, b: &Evaluation) {
     assert!(a.grad_l.as_ref().unwrap().norm() > 0.0);
 }
 
-#[test]
-fn newton_evaluate_is_bitwise_identical_with_one_and_two_threads_on_u_obstacle() {
-    let mut scene = Scene::builtin("u_obstacle")
-        .unwrap()
-        .refined(20, 20)
-        .unwrap();
-    scene.physics.solver = SolverKind::Newton;
-    scene.task.horizon = 3;
-    scene.validate().unwrap();
-    let model = Model::from_scene(&scene).unwrap();
-    let u = jittered(&scene.initial_controls(), 0.02, 5);
-    // δ above the closest distance, so dC/dU is non-zero and flows through the implicit solves.
-    let delta = model.evaluate(&u, 0.0, false).unwrap().metrics.min_sdf + 0.3;
-    let one = evaluate_in_pool(&model, &u, delta, 1);
-    let two = evaluate_in_pool(&model, &u, delta, 2);
-    assert_identical(&one, &two);
-    assert!(
-        one.grad_c.as_ref().unwrap().norm() > 0.0,
-        "C = {}",
-        one.metrics.c
-    );
-}
-
-/// The same with Newton's systems solved by conjugate gradients (`physics.linear_solver`
+/// With Newton's systems solved directly and by conjugate gradients (`physics.linear_solver`
 /// `"pcg"`, `cloth/src/newton/pcg.rs`).
 #[test]
-fn newton_pcg_evaluate_is_bitwise_identical_with_one_and_two_threads() {
-    let mut scene = Scene::builtin("u_obstacle")
-        .unwrap()
-        .refined(20, 20)
-        .unwrap();
-    scene.physics.solver = SolverKind::Newton;
-    scene.physics.linear_solver = LinearSolverKind::Pcg;
-    scene.task.horizon = 3;
-    scene.validate().unwrap();
-    let model = Model::from_scene(&scene).unwrap();
-    let u = jittered(&scene.initial_controls(), 0.02, 5);
-    let delta = model.evaluate(&u, 0.0, false).unwrap().metrics.min_sdf + 0.3;
-    let one = evaluate_in_pool(&model, &u, delta, 1);
-    let two = evaluate_in_pool(&model, &u, delta, 2);
-    assert_identical(&one, &two);
+fn newton_evaluate_is_bitwise_identical_with_one_and_two_threads_on_u_obstacle() {
+    for linear in [LinearSolverKind::Direct, LinearSolverKind::Pcg] {
+        let mut scene = Scene::builtin("u_obstacle")
+            .unwrap()
+            .refined(20, 20)
+            .unwrap();
+        scene.physics.solver = SolverKind::Newton;
+        scene.physics.linear_solver = linear;
+        scene.task.horizon = 3;
+        scene.validate().unwrap();
+        let model = Model::from_scene(&scene).unwrap();
+        let u = jittered(&scene.initial_controls(), 0.02, 5);
+        // δ above the closest distance, so dC/dU is non-zero and flows through the implicit
+        // solves.
+        let delta = model.evaluate(&u, 0.0, false).unwrap().metrics.min_sdf + 0.3;
+        let one = evaluate_in_pool(&model, &u, delta, 1);
+        let two = evaluate_in_pool(&model, &u, delta, 2);
+        assert_identical(&one, &two);
+        assert!(
+            one.grad_c.as_ref().unwrap().norm() > 0.0,
+            "C = {}",
+            one.metrics.c
+        );
+    }
 }
 
 #[test]
@@ -101,18 +87,8 @@ fn newton_evaluate_is_bitwise_identical_with_one_and_two_threads_with_contacts()
     scene.physics.solver = SolverKind::Newton;
     scene.validate().unwrap();
     let model = Model::from_scene(&scene).unwrap();
-    // Grippers lowered to the ground and dragged (docs/performance.md, "Contact under Newton"),
-    // with noise: the cloth lands on the collider, so contact rows are active.
-    let mut u = model.zero_controls();
-    for t in 0..model.task.horizon {
-        for k in 0..model.n_controls() {
-            let row = u.row_mut(t);
-            row[3 * k] = 0.01 * (1 - k % 2) as f64;
-            row[3 * k + 1] = 0.05;
-            row[3 * k + 2] = -0.15;
-        }
-    }
-    let u = jittered(&u, 0.005, 6);
+    // With noise: the cloth lands on the collider, so contact rows are active.
+    let u = jittered(&common::lowered_and_dragged(&model), 0.005, 6);
     let delta = scene.task.delta;
     let one = evaluate_in_pool(&model, &u, delta, 1);
     let two = evaluate_in_pool(&model, &u, delta, 2);

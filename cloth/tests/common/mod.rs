@@ -314,3 +314,18 @@ pub fn contact_model(model: ContactModel) -> Option<ContactSpec> {
         friction_epsilon: None,
     })
 }
+
+/// `drop`'s grippers lowered to the ground and dragged (docs/performance.md, "Contact under
+/// Newton"): the cloth lands on the collider, so contact rows are active.
+pub fn lowered_and_dragged(model: &Model) -> Tensor {
+    let mut u = model.zero_controls();
+    for t in 0..model.task.horizon {
+        for k in 0..model.n_controls() {
+            let row = u.row_mut(t);
+            row[3 * k] = 0.01 * (1 - k % 2) as f64;
+            row[3 * k + 1] = 0.05;
+            row[3 * k + 2] = -0.15;
+        }
+    }
+    u
+}
