@@ -121,15 +121,29 @@ impl SelfBarrier {
         out
     }
 
-    /// The pairs that can come nearer than `h + d̂` anywhere on the straight motion from `x` to
-    /// `x + δ` (both `N × 3` data): those whose particles' swept boxes come that near, in
-    /// [`SelfBarrier::pairs`]' order.
+    /// The pairs that can come nearer than `h + d̂` anywhere in the particles' boxes swept from
+    /// `x` to `x + δ` (both `N × 3` data), hence anywhere on that straight motion: those whose
+    /// swept boxes come that near and whose distance at `x`, less the largest move of a particle
+    /// of each of their features, is below it; in [`SelfBarrier::pairs`]' order, with their gaps
+    /// `d − h` at `x`.
     pub fn sweep(&self, x: &[f64], delta: &[f64]) -> Sweep {
         let boxes = swept_boxes(x, Some(delta));
-        let mut pairs = Vec::new();
+        let moved: Vec<f64> = (0..boxes.len()).map(|p| at(delta, p).norm()).collect();
+        let (mut pairs, mut gaps) = (Vec::new(), Vec::new());
         let reach = self.thickness + self.barrier.d_hat;
-        self.for_candidates(&boxes, reach, |pair| pairs.push(pair));
-        Sweep { boxes, pairs }
+        self.for_candidates(&boxes, reach, |pair| {
+            let m = pair.particles.map(|q| moved[q]);
+            let farthest = match pair.kind {
+                PairKind::PointTriangle => m[0] + m[1].max(m[2]).max(m[3]),
+                PairKind::EdgeEdge(_) => m[0].max(m[1]) + m[2].max(m[3]),
+            };
+            let d = self.distance(x, &pair);
+            if d - farthest < reach {
+                pairs.push(pair);
+                gaps.push(d - self.thickness);
+            }
+        });
+        Sweep { boxes, pairs, gaps }
     }
 
     /// [`SelfBarrier::pairs`] of `x` when every particle of `x` is within its box of `sweep`
@@ -358,16 +372,16 @@ impl SelfBarrier {
         let scaled: Vec<f64> = delta.iter().map(|v| v * alpha).collect();
         let sweep = self.sweep(x, &scaled);
         let mut limit = alpha;
-        for pair in &sweep.pairs {
+        for (pair, &gap) in sweep.pairs.iter().zip(&sweep.gaps) {
             if limit == 0.0 {
                 break;
             }
-            limit = self.time_of_approach(x, delta, alpha, limit, pair);
+            limit = self.time_of_approach(x, delta, (alpha, limit), pair, gap);
         }
         (limit, sweep)
     }
 
-    /// The step length `t` at which the pair's gap along `x + t δ` would first fall below its
+    /// The step length `t` at which the pair's gap along `x + t δ`, `gap0` at `x`, would first fall below
     /// floor `APPROACH · min(gap at x, d̂)` (conservative advancement: each advance is the gap
     /// above the floor over the bound of the pair's relative motion, and an advance shorter than
     /// `10⁻⁹ alpha` stops it), or `cutoff ≤ alpha` if that is smaller; 0 when the pair is at or
@@ -377,9 +391,9 @@ impl SelfBarrier {
         &self,
         x: &[f64],
         delta: &[f64],
-        alpha: f64,
-        cutoff: f64,
+        (alpha, cutoff): (f64, f64),
         pair: &SelfPair,
+        gap0: f64,
     ) -> f64 {
         let ps = pair.particles;
         // The relative motion's bound: each particle's move less the pair's mean move.
@@ -390,7 +404,6 @@ impl SelfBarrier {
             PairKind::PointTriangle => len[0] + len[1].max(len[2]).max(len[3]),
             PairKind::EdgeEdge(_) => len[0].max(len[1]) + len[2].max(len[3]),
         };
-        let gap0 = self.distance(x, pair) - self.thickness;
         if gap0 <= 0.0 {
             return 0.0;
         }
@@ -430,6 +443,8 @@ impl SelfBarrier {
 pub struct Sweep {
     boxes: Vec<Aabb>,
     pairs: Vec<SelfPair>,
+    /// Each pair's gap `d − h` at the motion's start.
+    gaps: Vec<f64>,
 }
 
 /// Each particle's box: the point of `x`, or its straight motion to `x + δ`.
