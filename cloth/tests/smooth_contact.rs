@@ -244,9 +244,15 @@ fn a_rest_state_on_a_collider_starts_half_the_reach_above_it() {
     assert!(
         err.starts_with("physics.contact.model: ")
             && err.contains("particle 1 of the rest state is")
-            && err.contains("inside a collider"),
+            && err.contains("inside a collider")
+            && !err.contains("  ")
+            && !err.contains("default"),
         "{err}"
     );
+    // Not named: the message says the model is the default and how to choose the rigid one.
+    s.physics.contact = None;
+    let err = Model::from_scene(&s).err().expect("rejected").to_string();
+    assert!(err.contains("physics.contact.model \"rigid\""), "{err}");
 }
 
 /// A scene that names no contact model gets the smooth one under Newton when it has colliders,

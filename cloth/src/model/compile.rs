@@ -170,7 +170,7 @@ impl Model {
         if !colliders.is_empty() && scene.contact_model() == ContactModel::Smooth {
             model.colliders = colliders.clone();
             let barrier = collider_barrier(scene, mean_edge, colliders);
-            settle_rest_outside(&mut model, &barrier)?;
+            settle_rest_outside(&mut model, &barrier, scene.physics.contact.is_some())?;
             model.contact_barrier = Some(Arc::new(barrier));
         } else if !colliders.is_empty() {
             let free: Vec<usize> = (0..n).filter(|&p| model.inv_mass[p] > 0.0).collect();
@@ -393,7 +393,11 @@ fn component_friction(obstacles: &[Obstacle]) -> Vec<f64> {
 /// colliders' distance gradient (a cloth lying on a table under the rigid model lies at the
 /// barrier's resting height under the smooth one: about `0.4–0.7 d̂`). The constraints' rest
 /// lengths are those of the scene's geometry. A particle deeper inside is an error.
-fn settle_rest_outside(model: &mut Model, barrier: &ColliderBarrier) -> Result<(), ClothError> {
+fn settle_rest_outside(
+    model: &mut Model,
+    barrier: &ColliderBarrier,
+    named: bool,
+) -> Result<(), ClothError> {
     let target = 0.5 * barrier.barrier.d_hat;
     for p in (0..model.n_particles()).filter(|&p| model.inv_mass[p] > 0.0) {
         let r = model.rest.row(p);
@@ -406,9 +410,17 @@ fn settle_rest_outside(model: &mut Model, barrier: &ColliderBarrier) -> Result<(
             return Err(SceneError::Invalid {
                 field: "physics.contact.model".into(),
                 reason: format!(
-                    "the smooth contact model needs the cloth outside the colliders, but                      particle {p} of the rest state is {:e} inside a collider (more than                      physics.contact.d_hat {:e}); move the cloth or the colliders apart",
+                    "the smooth contact model needs the cloth outside the colliders, but \
+                     particle {p} of the rest state is {:e} inside a collider (more than \
+                     physics.contact.d_hat {:e}); move the cloth or the colliders apart{}",
                     -d,
-                    barrier.barrier.d_hat
+                    barrier.barrier.d_hat,
+                    if named {
+                        ""
+                    } else {
+                        " (the smooth model is Newton's default with colliders; \
+                         physics.contact.model \"rigid\" projects the cloth out instead)"
+                    }
                 ),
             }
             .into());
@@ -426,7 +438,8 @@ fn settle_rest_outside(model: &mut Model, barrier: &ColliderBarrier) -> Result<(
             return Err(SceneError::Invalid {
                 field: "physics.contact.model".into(),
                 reason: format!(
-                    "particle {p} of the rest state could not be moved out of the colliders                      (signed distance {d:e}); move the cloth or the colliders apart"
+                    "particle {p} of the rest state could not be moved out of the colliders \
+                     (signed distance {d:e}); move the cloth or the colliders apart"
                 ),
             }
             .into());
