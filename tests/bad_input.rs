@@ -490,7 +490,7 @@ fn bad_optimize_flags() {
     let out = dir.join("out.json");
     // (`--alpha=-1`: with a space clap reads `-1` as a flag.) `--kappa 0` and `--kappa nan` used
     // to panic in the soft minimum; `--beta nan` was accepted silently.
-    let cases: [(&[&str], &str); 14] = [
+    let cases: [(&[&str], &str); 15] = [
         (
             &["--delta", "nan"],
             "--delta must be a finite number ≥ 0, got NaN",
@@ -535,6 +535,10 @@ fn bad_optimize_flags() {
             &["--physics-load-steps", "0"],
             "--physics-load-steps must be at least 1, got 0",
         ),
+        (
+            &["--physics-linear-solver", "cg"],
+            "invalid value 'cg' for '--physics-linear-solver",
+        ),
     ];
     for (args, expected) in cases {
         let o = run(bin()
@@ -543,7 +547,7 @@ fn bad_optimize_flags() {
             .args(args)
             .arg("--out")
             .arg(&out));
-        if args[0] == "--solver" || args[0] == "--target-model" {
+        if ["--solver", "--target-model", "--physics-linear-solver"].contains(&args[0]) {
             // clap's own usage error: exit 2 and a usage block, still no panic and no file.
             assert_eq!(o.status.code(), Some(2));
             assert!(stderr(&o).contains(expected), "{}", stderr(&o));

@@ -47,6 +47,36 @@ fn simulate_writes_a_result_with_t_plus_one_states() {
     assert!(v["metrics"]["G"].as_f64().unwrap() > 0.0);
 }
 
+/// `--physics-linear-solver pcg` reaches the direct solver's states: the same metrics within
+/// Newton's tolerance.
+#[test]
+fn simulate_under_newton_with_either_linear_solver_gives_the_same_rollout() {
+    let dir = scratch("linear_solver");
+    let scene = small_obstacle_scene(&dir);
+    let metrics = |solver: &str| -> Value {
+        let out = dir.join(format!("{solver}.json"));
+        let o = run(bin()
+            .arg("simulate")
+            .arg(&scene)
+            .args(["--physics", "newton", "--physics-linear-solver", solver])
+            .arg("--out")
+            .arg(&out));
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap()
+    };
+    let (direct, pcg) = (metrics("direct"), metrics("pcg"));
+    for key in ["G", "E", "L"] {
+        let (a, b) = (
+            direct["metrics"][key].as_f64().unwrap(),
+            pcg["metrics"][key].as_f64().unwrap(),
+        );
+        assert!(
+            (a - b).abs() <= 1e-6 * a.abs().max(1e-3),
+            "{key}: {a} vs {b}"
+        );
+    }
+}
+
 #[test]
 fn a_bad_scene_is_rejected_in_one_line_naming_the_field_and_writes_nothing() {
     let dir = scratch("bad");

@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
-use cloth::scene::SolverKind;
+use cloth::scene::{LinearSolverKind, SolverKind};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::{self, top_view_path, RolloutFigure};
 use clothopt::plan::initial_controls;
@@ -64,6 +64,19 @@ pub struct PhysicsArgs {
     /// load step is one solve from x̃ per step).
     #[arg(long)]
     physics_load_halvings: Option<usize>,
+    /// Newton's linear solver: `direct` (a sparse Cholesky factorization per Newton matrix) or
+    /// `pcg` (conjugate gradients preconditioned with a reused factorization; default: the
+    /// scene's `physics.linear_solver`, else `direct`).
+    #[arg(long, value_parser = linear_solver())]
+    physics_linear_solver: Option<LinearSolverKind>,
+}
+
+/// `--physics-linear-solver`: `direct` or `pcg`, the scene format's names.
+fn linear_solver() -> impl TypedValueParser<Value = LinearSolverKind> {
+    PossibleValuesParser::new(["direct", "pcg"]).map(|name| match name.as_str() {
+        "pcg" => LinearSolverKind::Pcg,
+        _ => LinearSolverKind::Direct,
+    })
 }
 
 /// `--physics`: one of the scene format's solver names ([`SolverKind::ALL`], listed in `--help`),
@@ -94,6 +107,9 @@ impl PhysicsArgs {
                 cloth::scene::MAX_LOAD_HALVINGS,
             )?;
             scene.physics.load_halvings = Some(h);
+        }
+        if let Some(k) = self.physics_linear_solver {
+            scene.physics.linear_solver = k;
         }
         Ok(())
     }
