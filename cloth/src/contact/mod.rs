@@ -10,5 +10,6 @@ pub mod friction;
 pub(crate) mod grid;
 pub mod self_barrier;
 pub mod self_collision;
+pub mod self_filter;
 mod sets;
 pub mod smooth_friction;
