@@ -48,7 +48,7 @@ fn simulate_writes_a_result_with_t_plus_one_states() {
 }
 
 /// `--physics-linear-solver pcg` reaches the direct solver's states: the same metrics within
-/// Newton's tolerance.
+/// Newton's tolerance, by another path (other bits).
 #[test]
 fn simulate_under_newton_with_either_linear_solver_gives_the_same_rollout() {
     let dir = scratch("linear_solver");
@@ -75,6 +75,11 @@ fn simulate_under_newton_with_either_linear_solver_gives_the_same_rollout() {
             "{key}: {a} vs {b}"
         );
     }
+    // The flag took effect: conjugate gradients round differently from the factorization.
+    assert_ne!(
+        direct["states"], pcg["states"],
+        "the same bits: was pcg used?"
+    );
 }
 
 #[test]
