@@ -193,3 +193,60 @@ fn a_tolerance_of_zero_or_nan_is_rejected_naming_the_field() {
     scene.validate().unwrap();
     assert_eq!(Model::from_scene(&scene).unwrap().task.tolerance, 0.5);
 }
+
+/// A 7 × 7 cloth (0.42 m) lying flat on a floor (collider plane z = 0), held by the two corners
+/// of its far edge, to be folded in half: those corners' targets are 0.42 m back along −y.
+fn fold_on_floor_scene() -> Scene {
+    let text = r#"{
+      "name": "fold_on_floor",
+      "cloth": {"rows": 7, "cols": 7, "top_left": [-0.21, -0.21, 0.002], "right": [0.42, 0.0, 0.0],
+                "down": [0.0, 0.42, 0.0]},
+      "material": {"stretch": 1000.0, "bending": {"model": "distance", "stiffness": 1.0}},
+      "physics": {"dt": 0.1, "gravity": [0.0, 0.0, -9.8], "iterations": 30},
+      "controls": [[6, 0], [6, 6]],
+      "obstacles": [{"type": "plane", "point": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, 1.0],
+                     "role": "collider"}],
+      "task": {"horizon": 10,
+        "targets": [{"particle": [6, 0], "position": [-0.21, -0.21, 0.012]},
+                    {"particle": [6, 6], "position": [0.21, -0.21, 0.012]},
+                    {"particle": [3, 3], "position": [0.0, 0.0, 0.002]}],
+        "alpha": 0.1, "beta": 0.0001, "initial_controls": "zeros"}
+    }"#;
+    Scene::from_json_str(text).unwrap()
+}
+
+#[test]
+fn a_cloth_resting_on_a_collider_gets_a_carry_route_to_the_grippers_targets() {
+    use clothopt::search::routes::propose;
+    let scene = fold_on_floor_scene();
+    let model = Model::from_scene(&scene).unwrap();
+    let start = initial_controls(&scene, &model).unwrap();
+    let candidates = propose(&model, &start, (0.02, true), 0, 0, 6);
+    let routes: Vec<&str> = candidates.iter().map(|c| c.route.as_str()).collect();
+    // The straight path takes each gripper to its own target (not the targets' mean), and its
+    // carry route lifts both on half circles of radius 0.21 (half the 0.42 m travel).
+    assert_eq!(routes, ["straight", "straight, carried"], "{routes:?}");
+    let straight = &candidates[0].controls;
+    let carried = &candidates[1].controls;
+    let total =
+        |u: &autodiff::Tensor, col: usize| (0..u.rows()).map(|t| u.get(t, col)).sum::<f64>();
+    for k in 0..2 {
+        for u in [straight, carried] {
+            assert!(
+                (total(u, 3 * k + 1) + 0.42).abs() < 1e-12,
+                "travel −0.42 along y"
+            );
+            assert!((total(u, 3 * k + 2) - 0.01).abs() < 1e-12, "rise 0.01");
+        }
+        let peak = (1..=10)
+            .map(|t| (0..t).map(|s| carried.get(s, 3 * k + 2)).sum::<f64>())
+            .fold(f64::MIN, f64::max);
+        assert!((peak - (0.21 + 0.005)).abs() < 1e-12, "peak {peak}");
+    }
+    // A hanging cloth far from any collider (the blocked scene) gets no carry route.
+    let scene = blocked_scene();
+    let model = Model::from_scene(&scene).unwrap();
+    let start = initial_controls(&scene, &model).unwrap();
+    let candidates = propose(&model, &start, (0.05, true), 0, 0, 6);
+    assert!(candidates.iter().all(|c| !c.route.contains("carried")));
+}

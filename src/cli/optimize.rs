@@ -68,8 +68,9 @@ pub struct OptimizeArgs {
     #[arg(long, value_enum, default_value_t = Optimizer::Sqp)]
     solver: Optimizer,
     /// Route search: `auto` plans other routes (detours over, beside or under the obstacles
-    /// the first plan runs into, and seeded perturbations) only when the plan from the start
-    /// does not achieve the task; `always` also when it does; `off` never.
+    /// the first plan runs into, the grippers lifted where the cloth rests on a collider, and
+    /// seeded perturbations) only when the plan from the start does not achieve the task;
+    /// `always` also when it does; `off` never.
     #[arg(long, value_enum, default_value_t = SearchMode::Auto)]
     search: SearchMode,
     /// Most candidate routes the search plans (from 4 on, 2 of them seeded random
@@ -104,7 +105,8 @@ pub struct OptimizeArgs {
     #[arg(long)]
     verbose: bool,
     /// Stop after this many seconds and return the best safe plan found so far (status
-    /// `time_limit`); the route search stops too.
+    /// `time_limit`); the route search stops too. With the search on, the plan from the initial
+    /// guess gets half of the time and the other routes the rest.
     #[arg(long, allow_negative_numbers = true)]
     time_limit: Option<f64>,
     /// Leave the wall-clock time out of the result JSON and the summary, so that the same

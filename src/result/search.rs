@@ -43,11 +43,11 @@ pub struct CandidateReport {
     pub safe: bool,
     /// Task achieved.
     pub achieved: bool,
-    /// Objective `L`.
-    #[serde(rename = "L")]
+    /// Objective `L` (∞ for a candidate whose rollout failed, `null` in JSON).
+    #[serde(rename = "L", deserialize_with = "cloth::null_as_infinity")]
     pub l: f64,
-    /// Target error `G`.
-    #[serde(rename = "G")]
+    /// Target error `G` (∞ for a candidate whose rollout failed, `null` in JSON).
+    #[serde(rename = "G", deserialize_with = "cloth::null_as_infinity")]
     pub g: f64,
     /// Smallest signed distance to the safety obstacles over the rollout (∞ without any,
     /// `null` in JSON, which reads back as ∞).
@@ -69,6 +69,10 @@ pub struct CandidateReport {
     pub wall_s: f64,
     /// This is the plan returned.
     pub kept: bool,
+    /// Why the candidate could not be planned (status `failed`), e.g. its rollout's error;
+    /// absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
 }
 
 /// The search section of a result.

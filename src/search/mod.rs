@@ -2,7 +2,9 @@
 //! routes and keep the best.
 //!
 //! 1. Plan from the given start ([`crate::plan::plan`]). With [`SearchMode::Auto`] an achieved
-//!    task ends the search here: no extra work.
+//!    task ends the search here: no extra work. Under a deadline this plan gets half the time,
+//!    and the goal stage after it half of the rest, so that a guess the planner stalls on
+//!    leaves the other routes time.
 //! 2. *Goal stage:* a safe plan that misses its targets is planned again from where it ended with
 //!    the targets as a constraint ([`crate::problem::TaskOptions::goal_radius`]) rather than
 //!    only a cost: a plan that misses because `αT + βE` outweighs the last centimetres of `G`
@@ -21,6 +23,7 @@
 //!
 //! The search lives in the root package: `optim` stays problem-agnostic.
 
+mod carry;
 pub mod routes;
 
 use crate::plan::{plan, PlanOptions};
@@ -110,6 +113,28 @@ fn candidate_report(route: &str, stage: &str, r: &PlanResult) -> CandidateReport
         gradient_evaluations: r.gradient_evaluations,
         wall_s: r.wall_s,
         kept: false,
+        error: None,
+    }
+}
+
+/// The report of a candidate of `route` whose `stage` failed with `error` (its start could not
+/// be simulated, say): never kept, `L` and `G` infinite.
+fn failed_report(route: &str, stage: &str, error: &crate::Error) -> CandidateReport {
+    CandidateReport {
+        route: route.to_string(),
+        stage: stage.to_string(),
+        status: "failed".into(),
+        safe: false,
+        achieved: false,
+        l: f64::INFINITY,
+        g: f64::INFINITY,
+        min_sdf: f64::INFINITY,
+        simulations: 0,
+        iterations: 0,
+        gradient_evaluations: 0,
+        wall_s: f64::NAN,
+        kept: false,
+        error: Some(error.to_string()),
     }
 }
 
@@ -155,8 +180,26 @@ type Tally<'r> = (
     &'r mut Vec<CandidateReport>,
 );
 
+/// Under a deadline ([`PlanOptions::deadline`]), the share of the time left that the first plan,
+/// and then its goal stage, may take when a search may follow: a first plan that stalls on its
+/// guess leaves the other routes the rest (a stage stopped by its share is still a candidate,
+/// status `time_limit`).
+const TIME_SHARE: f64 = 0.5;
+
 /// Radius of the goal stage's goal row, as a fraction of the task tolerance.
 const GOAL_FRACTION: f64 = 0.98;
+
+/// `options` with its deadline, if any, moved to [`TIME_SHARE`] of the time left: the deadline
+/// of a stage that other stages may follow.
+fn time_share(options: &PlanOptions) -> PlanOptions {
+    let now = Instant::now();
+    PlanOptions {
+        deadline: options
+            .deadline
+            .map(|d| now + d.saturating_duration_since(now).mul_f64(TIME_SHARE)),
+        ..options.clone()
+    }
+}
 
 /// Keeps `result` (reported as `route`, `stage`) when it ranks above the best plan so far.
 fn tally(route: &str, stage: &str, result: PlanResult, (best, best_report, reports): Tally<'_>) {
@@ -228,32 +271,37 @@ fn route_stages(
             route: &count,
         });
     }
-    let cheap: Vec<PlanResult> = candidates
+    // A candidate that cannot be planned (its rollout fails, e.g. a route that folds the cloth
+    // through itself under self-contact) is reported and left out; the search goes on.
+    let planned: Vec<crate::Result<PlanResult>> = candidates
         .par_iter()
         .map(|c| plan(model, scene, &c.controls, &cheap_options, |_| {}))
-        .collect::<crate::Result<_>>()?;
+        .collect();
+    let mut cheap: Vec<(usize, PlanResult)> = Vec::new();
+    for (i, (c, r)) in candidates.iter().zip(planned).enumerate() {
+        match r {
+            Ok(r) => {
+                reports.push(candidate_report(&c.route, "cheap", &r));
+                cheap.push((i, r));
+            }
+            Err(e) => reports.push(failed_report(&c.route, "cheap", &e)),
+        }
+    }
     let (delta, slack) = (
         options.task.delta,
         NEAR_SAFE_FRACTION * model.task.tolerance,
     );
     let by_promise = |a: &PlanResult, b: &PlanResult| polish_rank(a, b, delta, slack);
-    let mut order: Vec<usize> = (0..cheap.len()).collect();
-    order.sort_by(|&a, &b| by_promise(&cheap[a], &cheap[b]).then(a.cmp(&b)));
-    reports.extend(
-        candidates
-            .iter()
-            .zip(&cheap)
-            .map(|(c, r)| candidate_report(&c.route, "cheap", r)),
-    );
+    cheap.sort_by(|(a, ra), (b, rb)| by_promise(ra, rb).then(a.cmp(b)));
     let mut kept = None;
-    for &i in order.iter().take(search.polish) {
+    for &(i, ref cheap_result) in cheap.iter().take(search.polish) {
         // Only candidates whose cheap result already ranks above the best plan so far (by
         // promise: near safe counts as safe) are worth a full plan (the order is best first, so
         // the rest rank lower too).
-        if by_promise(&cheap[i], best) != Ordering::Less {
+        if by_promise(cheap_result, best) != Ordering::Less {
             break;
         }
-        let start = controls_from_nested(model, &cheap[i].controls)?;
+        let start = controls_from_nested(model, &cheap_result.controls)?;
         progress(Progress::Stage {
             stage: "polished",
             route: &candidates[i].route,
@@ -288,10 +336,17 @@ pub fn plan_with_search(
 ) -> crate::Result<PlanResult> {
     search.validate()?;
     let clock = Instant::now();
-    let first = plan(model, scene, start, options, |i| {
+    // Under a deadline, a search that may follow the first plan leaves it a share of the time.
+    let first_options = match search.mode {
+        SearchMode::Auto | SearchMode::Always => time_share(options),
+        SearchMode::Off => options.clone(),
+    };
+    let first = plan(model, scene, start, &first_options, |i| {
         progress(Progress::Iteration(i))
     })?;
-    let stopped = matches!(first.status.as_str(), "time_limit" | "interrupted");
+    // Stopped by the user's deadline or interrupt, not by the first plan's share of the time.
+    let out_of_time = || options.deadline.is_some_and(|d| Instant::now() >= d);
+    let stopped = first.status == "interrupted" || (first.status == "time_limit" && out_of_time());
     let run = !stopped
         && match search.mode {
             SearchMode::Off => false,
@@ -305,16 +360,18 @@ pub fn plan_with_search(
     let mut best = first;
     let mut best_report = 0;
     // The goal stage on the first plan: a plan that misses narrowly often reaches its targets
-    // once they are a constraint rather than a cost, with no new route.
+    // once they are a constraint rather than a cost, with no new route (under a deadline, in
+    // half the time left, so that the routes still get the rest).
     goal_stage(
         model,
         scene,
-        (options, search.goal_hessian),
+        (&time_share(options), search.goal_hessian),
         "initial guess",
         &mut progress,
         (&mut best, &mut best_report, &mut reports),
     )?;
-    if !(best.task.achieved && search.mode == SearchMode::Auto) {
+    let interrupted = best.status == "interrupted";
+    if !(best.task.achieved && search.mode == SearchMode::Auto || interrupted || out_of_time()) {
         let candidates = routes::propose(
             model,
             start,
@@ -356,4 +413,44 @@ pub fn plan_with_search(
     });
     best.wall_s = clock.elapsed().as_secs_f64();
     Ok(best)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn a_stage_that_others_may_follow_gets_half_the_time_left() {
+        let model = Model::from_scene(&Scene::builtin("u_obstacle").unwrap()).unwrap();
+        let mut options = PlanOptions::for_model(&model);
+        assert!(
+            time_share(&options).deadline.is_none(),
+            "no deadline, none made up"
+        );
+        let now = Instant::now();
+        options.deadline = Some(now + Duration::from_secs(100));
+        let share = time_share(&options).deadline.unwrap();
+        let left = share.saturating_duration_since(now).as_secs_f64();
+        assert!((49.0..=50.5).contains(&left), "{left}");
+        // A deadline already past stays past.
+        options.deadline = Some(now);
+        assert!(time_share(&options).deadline.unwrap() <= Instant::now());
+    }
+
+    #[test]
+    fn a_failed_candidate_is_reported_with_infinite_l_and_reads_back() {
+        let error = crate::Error::UnsafeStart("step 3: the cloth went through itself".into());
+        let report = failed_report("random 0", "cheap", &error);
+        assert_eq!(report.status, "failed");
+        assert!(!report.kept && !report.safe && !report.achieved);
+        let json = serde_json::to_string(&report).unwrap();
+        assert!(
+            json.contains("\"L\":null") && json.contains("went through itself"),
+            "{json}"
+        );
+        let back: CandidateReport = serde_json::from_str(&json).unwrap();
+        assert_eq!(back.l, f64::INFINITY);
+        assert_eq!(back.error, report.error);
+    }
 }

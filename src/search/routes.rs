@@ -1,9 +1,12 @@
 //! Candidate routes from the scene's geometry.
 //!
 //! A route is a path for the grippers, turned into per-step displacements (the controls). Routes
-//! are built from two base paths — the initial guess and the straight path that translates the
-//! cloth by the targets' mean displacement — and from detours around the safety obstacles that a
-//! base path's rollout runs into:
+//! are built from two base paths — the initial guess and the straight path, which takes each
+//! gripper to its particle's target (or, for a gripper without one, translates it by the
+//! targets' mean displacement) — as *carry routes* where a base's rollout rests the cloth on a
+//! collider (the grippers lifted on a half circle from the base's start to its end,
+//! [`super::carry`]), and as detours around the safety obstacles that a base path's rollout runs
+//! into:
 //!
 //! 1. simulate the base path and mark the steps where the cloth (and, under the continuous check,
 //!    its straight motion from the step before) comes closer than `δ + clearance` to a safety
@@ -20,6 +23,7 @@
 //! Seeded random perturbations (a via-point at a random step with a random perpendicular offset
 //! up to the cloth's size) complete the set. Everything is deterministic.
 
+use super::carry::carry_paths;
 use autodiff::Tensor;
 use cloth::sdf::SignedDistance;
 use cloth::ControlsView;
@@ -83,12 +87,21 @@ pub fn propose(
             controls: controls_of(&straight),
         });
     }
-    // Detours per base path, ordered by rank (best direction per segment first).
+    // Per base path: its carry route where its rollout rests the cloth on a collider, and its
+    // detours, ordered by rank (best direction per segment first).
     let mut detours: Vec<Vec<Candidate>> = Vec::new();
     for (name, base) in &bases {
         let Ok(states) = model.simulate(&controls_of(base)) else {
             continue;
         };
+        if geometry.rests_on_colliders(&states) {
+            if let Some(carry) = carry_paths(base, geometry.world_up, geometry.clearance) {
+                out.push(Candidate {
+                    route: format!("{name}, carried"),
+                    controls: controls_of(&carry),
+                });
+            }
+        }
         detours.push(geometry.detours(name, base, &states));
     }
     // Interleave the bases so both get candidates under the limit.
@@ -122,6 +135,8 @@ struct Geometry<'a> {
     /// The motion between the steps counts too (the continuous check).
     swept: bool,
     clearance: f64,
+    /// Unit vector against gravity (`+z` without gravity).
+    world_up: [f64; 3],
     /// Unit "up" and "left", perpendicular to the travel direction.
     up: [f64; 3],
     left: [f64; 3],
@@ -153,6 +168,7 @@ impl<'a> Geometry<'a> {
             delta,
             swept,
             clearance,
+            world_up,
             up,
             left,
             reach: reach.min(increment * OFFSET_STEPS as f64),
@@ -161,17 +177,49 @@ impl<'a> Geometry<'a> {
         }
     }
 
-    /// Grippers translated by the targets' mean displacement, in `T` equal steps.
+    /// Each gripper on a straight line to its particle's target when it has one, else
+    /// translated by the targets' mean displacement, in `T` equal steps.
     fn straight_paths(&self) -> Paths {
-        let d = mean_target_displacement(self.model);
-        let start = gripper_starts(self.model);
-        let horizon = self.model.task.horizon;
+        let model = self.model;
+        let mean = mean_target_displacement(model);
+        let start = gripper_starts(model);
+        let targets = model.task.targets.as_slice();
+        let travel: Vec<[f64; 3]> = model
+            .controls
+            .as_slice()
+            .iter()
+            .zip(&start)
+            .map(|(&p, &s)| match targets.iter().position(|&q| q == p) {
+                Some(i) => sub(
+                    std::array::from_fn(|j| model.task.target_positions.get(i, j)),
+                    s,
+                ),
+                None => mean,
+            })
+            .collect();
+        let horizon = model.task.horizon;
         (0..=horizon)
             .map(|t| {
                 let f = t as f64 / horizon as f64;
-                start.iter().map(|&p| add(p, scale(d, f))).collect()
+                start
+                    .iter()
+                    .zip(&travel)
+                    .map(|(&p, &d)| add(p, scale(d, f)))
+                    .collect()
             })
             .collect()
+    }
+
+    /// True when some particle of some state lies within the clearance (the task tolerance) of
+    /// a collider: the cloth rests on, or slides along, something.
+    fn rests_on_colliders(&self, states: &[Tensor]) -> bool {
+        let colliders = &self.model.colliders;
+        !colliders.is_empty()
+            && states.iter().any(|x| {
+                x.data().chunks_exact(3).any(|p| {
+                    colliders.distance(&nalgebra::Vector3::new(p[0], p[1], p[2])) < self.clearance
+                })
+            })
     }
 
     /// Detours of `base` around the obstacles its rollout `states` runs into, best first.

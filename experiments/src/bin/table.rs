@@ -10,8 +10,8 @@
 //! Each plan is one `clothopt optimize SCENE --time-limit S --search M --out RESULT` child process
 //! (the binary beside this one, or `--clothopt PATH`), so a row is exactly what a user of the
 //! command line gets. A model is set as the scene's `physics.contact.model` (smooth with
-//! `physics.solver` `newton`, the only solver it has); the scene as written
-//! is run unchanged for `rigid` when it names no model (rigid is the default). A model the
+//! `physics.solver` `newton`, the only solver it has) unless the scene names it already (the
+//! default model depends on the solver, so a scene that names none gets it named). A model the
 //! simulator rejects for a scene (the scene does not load, validate or compile with it) is a row
 //! `unsupported: <its error>`; a plan whose child fails is a row `error: <its error>`. Neither is
 //! skipped. That check runs in this program, on the `cloth` it was built with: build both
@@ -300,8 +300,9 @@ fn run_one(
     })))
 }
 
-/// The scene's JSON with `physics.contact.model` set to `model`, or `None` where the scene as
-/// written already means it (rigid, the default, when the scene names no model).
+/// The scene's JSON with `physics.contact.model` set to `model`, or `None` where the scene
+/// already names it. A scene that names no model gets it named: the default depends on the
+/// solver and the colliders (smooth under Newton with colliders), so silence means neither.
 fn with_contact_model(text: &str, model: ContactModel) -> Result<Option<Value>> {
     let mut value: Value = serde_json::from_str(text)?;
     let physics = value
@@ -312,7 +313,7 @@ fn with_contact_model(text: &str, model: ContactModel) -> Result<Option<Value>> 
         .get("contact")
         .and_then(|c| c.get("model"))
         .and_then(Value::as_str);
-    if named == Some(model.name()) || (named.is_none() && model == ContactModel::Rigid) {
+    if named == Some(model.name()) {
         return Ok(None);
     }
     let contact = physics
@@ -448,9 +449,12 @@ mod tests {
         "obstacles": [{"type": "mesh", "file": "vase.obj"}, {"type": "plane"}]}"#;
 
     #[test]
-    fn the_rigid_model_runs_the_scene_as_written() {
+    fn every_model_is_named_and_a_named_one_runs_as_written() {
         let variant = |text, model| with_contact_model(text, model).unwrap();
-        assert!(variant(SCENE, ContactModel::Rigid).is_none());
+        // No model named: rigid is named too (under Newton with colliders the default is smooth).
+        let rigid = variant(SCENE, ContactModel::Rigid).unwrap();
+        assert_eq!(rigid["physics"]["contact"]["model"], "rigid");
+        assert!(rigid["physics"].get("solver").is_none());
         let smooth = variant(SCENE, ContactModel::Smooth).unwrap();
         assert_eq!(smooth["physics"]["contact"]["model"], "smooth");
         assert_eq!(smooth["physics"]["solver"], "newton");
