@@ -230,6 +230,11 @@ pub fn plan(
         watch.into_inner(),
         warm.iterations,
     )?;
+    // The optimizer calls every stop by the watch "interrupted"; a stage the deadline stopped
+    // says so.
+    for s in stages.iter_mut().filter(|s| s.status == "interrupted") {
+        s.status.clone_from(&status);
+    }
     let controls = problem.controls(&solution.x);
     let evaluation = rescore(model, &controls, options)?;
     let safety = safety_report(model, options, &evaluation);

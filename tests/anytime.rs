@@ -52,6 +52,9 @@ fn a_time_limit_returns_the_best_plan_so_far_with_its_status() {
         .unwrap()
         .contains("time limit reached"));
     assert!(v["iterations"].as_u64().unwrap() < 1_000_000);
+    // The stage the deadline stopped says so too.
+    let stages = v["stages"].as_array().unwrap();
+    assert_eq!(stages.last().unwrap()["status"], "time_limit", "{stages:?}");
     let reason = v["task"]["reason"].as_str().unwrap();
     assert!(
         matches!(reason, "stopped" | "no_safe_plan" | "achieved"),
