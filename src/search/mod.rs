@@ -24,6 +24,7 @@
 //! The search lives in the root package: `optim` stays problem-agnostic.
 
 mod carry;
+mod obstacles;
 pub mod routes;
 
 use crate::plan::{plan, PlanOptions};

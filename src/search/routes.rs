@@ -5,8 +5,8 @@
 //! gripper to its particle's target (or, for a gripper without one, translates it by the
 //! targets' mean displacement) — as *carry routes* where a base's rollout rests the cloth on a
 //! collider (the grippers lifted on a half circle from the base's start to its end,
-//! [`super::carry`]), and as detours around the safety obstacles that a base path's rollout runs
-//! into:
+//! [`super::carry`]), and as detours around the obstacles in the way that a base path's rollout
+//! runs into (the safety obstacles and the colliders no target lies on, [`super::obstacles`]):
 //!
 //! 1. simulate the base path and mark the steps where the cloth (and, under the continuous check,
 //!    its straight motion from the step before) comes closer than `δ + clearance` to a safety
@@ -24,8 +24,9 @@
 //! up to the cloth's size) complete the set. Everything is deterministic.
 
 use super::carry::carry_paths;
+use super::obstacles::in_the_way;
 use autodiff::Tensor;
-use cloth::sdf::SignedDistance;
+use cloth::sdf::{SignedDistance, Union};
 use cloth::ControlsView;
 use cloth::{Controls, Model};
 use rand::{RngExt, SeedableRng};
@@ -135,6 +136,9 @@ struct Geometry<'a> {
     /// The motion between the steps counts too (the continuous check).
     swept: bool,
     clearance: f64,
+    /// What the routes go around ([`in_the_way`]): the safety obstacles and the colliders no
+    /// target lies on.
+    avoid: Union,
     /// Unit vector against gravity (`+z` without gravity).
     world_up: [f64; 3],
     /// Unit "up" and "left", perpendicular to the travel direction.
@@ -159,7 +163,8 @@ impl<'a> Geometry<'a> {
             .unwrap_or_else(|| any_perpendicular(travel));
         let left = cross(up, travel);
         let size = extent(&model.rest);
-        let obstacles = obstacle_extent(model);
+        let avoid = in_the_way(model);
+        let obstacles = obstacle_extent(&avoid);
         let clearance = model.task.tolerance;
         let increment = (0.5 * clearance).max(1e-3 * (size + obstacles).max(1e-9));
         let reach = 2.0 * (size + obstacles + delta + clearance);
@@ -168,6 +173,7 @@ impl<'a> Geometry<'a> {
             delta,
             swept,
             clearance,
+            avoid,
             world_up,
             up,
             left,
@@ -224,8 +230,7 @@ impl<'a> Geometry<'a> {
 
     /// Detours of `base` around the obstacles its rollout `states` runs into, best first.
     fn detours(&self, name: &str, base: &Paths, states: &[Tensor]) -> Vec<Candidate> {
-        let safety = &self.model.safety_obstacles;
-        if safety.is_empty() {
+        if self.avoid.is_empty() {
             return Vec::new();
         }
         let limit = self.delta + self.clearance;
@@ -329,7 +334,7 @@ impl<'a> Geometry<'a> {
     /// by `shift` and, with [`Geometry::swept`], of its straight motion from step `t − 1`
     /// translated alike.
     fn step_distance(&self, states: &[Tensor], t: usize, shift: [f64; 3]) -> f64 {
-        let safety = &self.model.safety_obstacles;
+        let safety = &self.avoid;
         let at = min_distance(safety, &states[t], shift);
         if !self.swept {
             return at;
@@ -498,17 +503,30 @@ fn extent(x: &Tensor) -> f64 {
     (0..3).map(|j| hi[j] - lo[j]).fold(0.0, f64::max)
 }
 
-/// Largest side of the box around the safety spheres (planes are unbounded and add nothing).
-fn obstacle_extent(model: &Model) -> f64 {
+/// Largest side of the box around the spheres, capsules and boxes of `obstacles` (planes are
+/// unbounded and meshes are left out: they add nothing).
+fn obstacle_extent(obstacles: &Union) -> f64 {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
-    for set in &model.safety_obstacles.spheres {
-        for (c, &r) in set.centers.iter().zip(&set.radii) {
-            for j in 0..3 {
-                lo[j] = lo[j].min(c[j] - r);
-                hi[j] = hi[j].max(c[j] + r);
-            }
+    let mut cover = |c: [f64; 3], r: [f64; 3]| {
+        for j in 0..3 {
+            lo[j] = lo[j].min(c[j] - r[j]);
+            hi[j] = hi[j].max(c[j] + r[j]);
         }
+    };
+    for set in &obstacles.spheres {
+        for (&c, &r) in set.centers.iter().zip(&set.radii) {
+            cover(c, [r; 3]);
+        }
+    }
+    for c in &obstacles.capsules {
+        cover(c.a, [c.radius; 3]);
+        cover(c.b, [c.radius; 3]);
+    }
+    for b in &obstacles.boxes {
+        // The box's bounding sphere's box: rotation-free and never too small.
+        let r = dot(b.half_extents, b.half_extents).sqrt();
+        cover(b.center, [r; 3]);
     }
     (0..3).map(|j| hi[j] - lo[j]).fold(0.0, f64::max)
 }
