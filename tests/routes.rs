@@ -250,3 +250,36 @@ fn a_cloth_resting_on_a_collider_gets_a_carry_route_to_the_grippers_targets() {
     let candidates = propose(&model, &start, (0.05, true), 0, 0, 6);
     assert!(candidates.iter().all(|c| !c.route.contains("carried")));
 }
+
+#[test]
+fn a_guess_that_leaves_the_cloth_on_a_collider_gives_way_to_its_carry_route_when_that_is_better() {
+    // The zero guess leaves the cloth on the floor, 0.42 m from two targets; it has no travel to
+    // lift, but the straight path's carry route folds the cloth (a lower L), so the first plan
+    // starts there and says so.
+    let scene = fold_on_floor_scene();
+    let (_, result) = plan_scene(&scene, SearchMode::Auto);
+    let search = result
+        .search
+        .as_ref()
+        .expect("a search section names the start");
+    let routes: Vec<(&str, &str)> = search
+        .candidates
+        .iter()
+        .map(|c| (c.stage.as_str(), c.route.as_str()))
+        .collect();
+    println!("{routes:?}, achieved {}", result.task.achieved);
+    assert_eq!(routes[0], ("first", "straight, carried"));
+    // The rollouts that chose the start (the guess's, the carry's) are counted with it.
+    assert!(search.candidates[0].simulations >= 2 + 1);
+    // The guess it replaced is a candidate if the search goes on; the start is not planned twice.
+    if routes.len() > 1 {
+        assert!(routes.contains(&("cheap", "initial guess")), "{routes:?}");
+    }
+    assert_eq!(
+        routes.iter().filter(|r| r.1 == "straight, carried").count(),
+        1
+    );
+    // With the search off the guess is planned as given.
+    let (_, off) = plan_scene(&scene, SearchMode::Off);
+    assert!(off.search.is_none());
+}

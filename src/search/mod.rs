@@ -1,8 +1,12 @@
 //! Route search: when the plan from the initial guess does not achieve the task, plan from other
 //! routes and keep the best.
 //!
-//! 1. Plan from the given start ([`crate::plan::plan`]). With [`SearchMode::Auto`] an achieved
-//!    task ends the search here: no extra work. Under a deadline this plan gets half the time,
+//! 1. Plan from the given start ([`crate::plan::plan`]), or from a carry route
+//!    ([`routes::carried`]: the grippers lifted on half circles, along the guess or the straight
+//!    path) when the start's rollout rests the cloth on a collider and the carry route's rollout
+//!    is safer or, as safe, has the lower `L`: up to three rollouts decide it, and the guess
+//!    becomes a candidate route. With
+//!    [`SearchMode::Auto`] an achieved task ends the search here: no extra work. Under a deadline this plan gets half the time,
 //!    and the goal stage after it half of the rest, so that a guess the planner stalls on
 //!    leaves the other routes time.
 //! 2. *Goal stage:* a safe plan that misses its targets is planned again from where it ended with
@@ -190,6 +194,55 @@ const TIME_SHARE: f64 = 0.5;
 /// Radius of the goal stage's goal row, as a fraction of the task tolerance.
 const GOAL_FRACTION: f64 = 0.98;
 
+/// The first plan's start (its route's name, its controls, and the rollouts simulated to choose
+/// it): the initial guess `start`, or a carry route ([`routes::carried`]: the guess's or the
+/// straight path's) when the guess's rollout rests the cloth on a collider and the carry route's
+/// rollout ranks before the guess's by (safe at `δ`, `L`). A guess that drags the cloth across a table or itself is a poor start
+/// that the gradient cannot repair; lifting it is one rollout away.
+fn first_start(
+    model: &Model,
+    start: &Controls,
+    options: &PlanOptions,
+) -> (String, Controls, usize) {
+    let guess = || ("initial guess".to_string(), start.clone());
+    let delta = options.task.delta;
+    let score = |states: &[autodiff::Tensor], u: &Controls| {
+        let m = model.metrics(states, u, delta);
+        let clear = if options.task.swept {
+            m.min_sdf.min(m.min_sdf_swept)
+        } else {
+            m.min_sdf
+        };
+        (clear < delta, m.l)
+    };
+    if model.colliders.is_empty() {
+        let (route, u) = guess();
+        return (route, u, 0);
+    }
+    let Ok(states) = model.simulate(start) else {
+        let (route, u) = guess();
+        return (route, u, 1);
+    };
+    let carried = routes::carried(model, start, &states);
+    let rollouts = 1 + carried.len();
+    let mut best = (score(&states, start), None);
+    for carry in carried {
+        if let Ok(carry_states) = model.simulate(&carry.controls) {
+            let (a, b) = (score(&carry_states, &carry.controls), best.0);
+            if a.0 < b.0 || (a.0 == b.0 && a.1 < b.1) {
+                best = (a, Some(carry));
+            }
+        }
+    }
+    match best.1 {
+        Some(carry) => (carry.route, carry.controls, rollouts),
+        None => {
+            let (route, u) = guess();
+            (route, u, rollouts)
+        }
+    }
+}
+
 /// `options` with its deadline, if any, moved to [`TIME_SHARE`] of the time left: the deadline
 /// of a stage that other stages may follow.
 fn time_share(options: &PlanOptions) -> PlanOptions {
@@ -337,14 +390,18 @@ pub fn plan_with_search(
 ) -> crate::Result<PlanResult> {
     search.validate()?;
     let clock = Instant::now();
-    // Under a deadline, a search that may follow the first plan leaves it a share of the time.
-    let first_options = match search.mode {
-        SearchMode::Auto | SearchMode::Always => time_share(options),
-        SearchMode::Off => options.clone(),
+    // Under a deadline, a search that may follow the first plan leaves it a share of the time;
+    // the guess may give way to its carry route (module docs, step 1).
+    let (first_options, (first_route, first_start, screened)) = match search.mode {
+        SearchMode::Auto | SearchMode::Always => {
+            (time_share(options), first_start(model, start, options))
+        }
+        SearchMode::Off => (options.clone(), ("initial guess".into(), start.clone(), 0)),
     };
-    let first = plan(model, scene, start, &first_options, |i| {
+    let mut first = plan(model, scene, &first_start, &first_options, |i| {
         progress(Progress::Iteration(i))
     })?;
+    first.evaluations += screened;
     // Stopped by the user's deadline or interrupt, not by the first plan's share of the time.
     let out_of_time = || options.deadline.is_some_and(|d| Instant::now() >= d);
     let stopped = first.status == "interrupted" || (first.status == "time_limit" && out_of_time());
@@ -354,10 +411,21 @@ pub fn plan_with_search(
             SearchMode::Auto => !first.task.achieved,
             SearchMode::Always => true,
         };
+    let mut reports = vec![candidate_report(&first_route, "first", &first)];
     if !run {
+        // A first plan from the carry route says so in a search section of its own.
+        if first_route != "initial guess" {
+            reports[0].kept = true;
+            first.search = Some(SearchReport {
+                mode: search.mode,
+                simulations: first.evaluations,
+                iterations: first.iterations,
+                gradient_evaluations: first.gradient_evaluations,
+                candidates: reports,
+            });
+        }
         return Ok(first);
     }
-    let mut reports = vec![candidate_report("initial guess", "first", &first)];
     let mut best = first;
     let mut best_report = 0;
     // The goal stage on the first plan: a plan that misses narrowly often reaches its targets
@@ -367,13 +435,13 @@ pub fn plan_with_search(
         model,
         scene,
         (&time_share(options), search.goal_hessian),
-        "initial guess",
+        &first_route,
         &mut progress,
         (&mut best, &mut best_report, &mut reports),
     )?;
     let interrupted = best.status == "interrupted";
     if !(best.task.achieved && search.mode == SearchMode::Auto || interrupted || out_of_time()) {
-        let candidates = routes::propose(
+        let mut candidates = routes::propose(
             model,
             start,
             (options.task.delta, options.task.swept),
@@ -381,6 +449,18 @@ pub fn plan_with_search(
             search.seed,
             search.max_candidates,
         );
+        // The first plan's start is planned already; the guess it replaced is a candidate.
+        if first_route != "initial guess" {
+            candidates.retain(|c| c.controls.data() != first_start.data());
+            candidates.insert(
+                0,
+                routes::Candidate {
+                    route: "initial guess".into(),
+                    controls: start.clone(),
+                },
+            );
+            candidates.truncate(search.max_candidates);
+        }
         let polished_best = route_stages(
             model,
             scene,

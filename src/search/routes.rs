@@ -95,14 +95,7 @@ pub fn propose(
         let Ok(states) = model.simulate(&controls_of(base)) else {
             continue;
         };
-        if geometry.rests_on_colliders(&states) {
-            if let Some(carry) = carry_paths(base, geometry.world_up, geometry.clearance) {
-                out.push(Candidate {
-                    route: format!("{name}, carried"),
-                    controls: controls_of(&carry),
-                });
-            }
-        }
+        out.extend(geometry.carried(name, base, &states));
         detours.push(geometry.detours(name, base, &states));
     }
     // Interleave the bases so both get candidates under the limit.
@@ -127,6 +120,40 @@ pub fn propose(
     unique.truncate(limit.saturating_sub(random).max(1));
     unique.extend(geometry.random_routes(&straight, random, seed));
     unique
+}
+
+/// When the rollout `states` of the controls `initial` rests the cloth on a collider, the carry
+/// routes ([`super::carry`]) of `initial` (`initial guess, carried`) and of the straight path
+/// (`straight, carried`; its end is the grippers' targets), each once; none otherwise.
+pub fn carried(model: &Model, initial: &Controls, states: &[Tensor]) -> Vec<Candidate> {
+    let geometry = Geometry::new(model, 0.0, false);
+    let mut out: Vec<Candidate> = Vec::new();
+    let bases = [
+        ("initial guess", paths_of(model, initial)),
+        ("straight", geometry.straight_paths()),
+    ];
+    for (name, base) in &bases {
+        if let Some(c) = geometry.carried(name, base, states) {
+            if out.iter().all(|o| !same_controls(&o.controls, &c.controls)) {
+                out.push(c);
+            }
+        }
+    }
+    out
+}
+
+/// True when two control sequences agree to 1e-9 of their largest entry.
+fn same_controls(a: &Controls, b: &Controls) -> bool {
+    let scale = a
+        .data()
+        .iter()
+        .chain(b.data())
+        .fold(0.0, |m: f64, v| m.max(v.abs()));
+    a.shape() == b.shape()
+        && a.data()
+            .iter()
+            .zip(b.data())
+            .all(|(x, y)| (x - y).abs() <= 1e-9 * scale)
 }
 
 /// What the proposals need to know about the scene.
@@ -214,6 +241,19 @@ impl<'a> Geometry<'a> {
                     .collect()
             })
             .collect()
+    }
+
+    /// The carry route of `base` (called `name`) when its rollout `states` rests the cloth on a
+    /// collider.
+    fn carried(&self, name: &str, base: &Paths, states: &[Tensor]) -> Option<Candidate> {
+        if !self.rests_on_colliders(states) {
+            return None;
+        }
+        let carry = carry_paths(base, self.world_up, self.clearance)?;
+        Some(Candidate {
+            route: format!("{name}, carried"),
+            controls: controls_of(&carry),
+        })
     }
 
     /// True when some particle of some state lies within the clearance (the task tolerance) of
