@@ -270,7 +270,7 @@ fn a_guess_that_leaves_the_cloth_on_a_collider_gives_way_to_its_carry_route_when
     println!("{routes:?}, achieved {}", result.task.achieved);
     assert_eq!(routes[0], ("first", "straight, carried"));
     // The rollouts that chose the start (the guess's, the carry's) are counted with it.
-    assert!(search.candidates[0].simulations >= 2 + 1);
+    assert!(search.candidates[0].simulations > 2);
     // The guess it replaced is a candidate if the search goes on; the start is not planned twice.
     if routes.len() > 1 {
         assert!(routes.contains(&("cheap", "initial guess")), "{routes:?}");

@@ -229,7 +229,8 @@ fn first_start(
     for carry in carried {
         if let Ok(carry_states) = model.simulate(&carry.controls) {
             let (a, b) = (score(&carry_states, &carry.controls), best.0);
-            if a.0 < b.0 || (a.0 == b.0 && a.1 < b.1) {
+            // Safe before unsafe, then the lower L.
+            if a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)) == Ordering::Less {
                 best = (a, Some(carry));
             }
         }
