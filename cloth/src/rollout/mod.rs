@@ -5,9 +5,11 @@
 //! - [`swept`]: the safety field along each particle's straight motion between two states (the
 //!   continuous safety rows);
 //! - [`penetration`]: how deep the particles go into the colliders;
+//! - [`checkpoints`]: block checkpoints the plain forward keeps for the backward pass;
 //! - [`grad`]: metrics of a rollout, and gradients of any per-step costs by reverse mode
 //!   (checkpointed per step or per block of iterations).
 
+pub mod checkpoints;
 pub mod cost;
 pub mod grad;
 pub mod penetration;
