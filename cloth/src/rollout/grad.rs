@@ -310,7 +310,8 @@ impl Model {
             checkpoints: None,
         };
         let before = |seg: &Segment| &states[seg.t - 1];
-        let mut current = recorder.record(&segments[0], before(&segments[0]), Tape::new());
+        let first_tape = self.tapes.take();
+        let mut current = recorder.record(&segments[0], before(&segments[0]), first_tape);
         if rayon::current_num_threads() == 1 {
             // One thread: one recording at a time, its tape reused for the next.
             for (k, seg) in segments.iter().enumerate() {
@@ -320,10 +321,11 @@ impl Model {
                     current = recorder.record(next, before(next), tape);
                 }
             }
+            self.tapes.give(current.tape, self.checkpoint_budget);
             return grads;
         }
         // While one segment is pulled back, the next one is recorded on the other thread.
-        let mut spare = Tape::new();
+        let mut spare = self.tapes.take();
         for (k, seg) in segments.iter().enumerate() {
             let (_, next) = rayon::join(
                 || self.pull_back(&current, seg, &mut adjoints, &mut grads),
@@ -337,6 +339,8 @@ impl Model {
                 spare = std::mem::replace(&mut current, next).tape;
             }
         }
+        self.tapes.give(current.tape, self.checkpoint_budget);
+        self.tapes.give(spare, self.checkpoint_budget);
         grads
     }
 
@@ -474,6 +478,7 @@ impl RecordedRollout {
                 assert_eq!(rec.terms.len(), costs.len(), "the recorded costs");
                 let seg = Segment::whole(model, recordings.len() + 1);
                 model.pull_back(&rec, &seg, &mut adjoints, &mut grads);
+                model.tapes.give(rec.tape, model.checkpoint_budget);
             }
             grads
         });
@@ -551,8 +556,8 @@ impl Model {
             for t in 1..=horizon {
                 let x = match recordings.as_mut() {
                     Some(recs) => {
-                        let rec =
-                            recorder.record(&Segment::whole(self, t), &states[t - 1], Tape::new());
+                        let tape = self.tapes.take();
+                        let rec = recorder.record(&Segment::whole(self, t), &states[t - 1], tape);
                         let x = rec.tape.value(rec.x).clone();
                         let bytes = rec.tape.memory_bytes();
                         total += bytes;
