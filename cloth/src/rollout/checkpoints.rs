@@ -9,11 +9,15 @@
 use crate::controls::Controls;
 use crate::error::ClothError;
 use crate::model::Model;
+use crate::rollout::grad::RecordedRollout;
 use crate::xpbd::sim::check_finite;
 use autodiff::{in_pool, Tensor};
 
 /// State and multipliers at the start of a block of iterations (every block but a step's first).
 pub type Checkpoint = (Tensor, Vec<Tensor>);
+
+/// Every step's block checkpoints (step `t` at `t − 1`).
+pub type KeptCheckpoints = Vec<Vec<Checkpoint>>;
 
 impl Model {
     /// The first iteration of each block that [`Model::gradients`] records at once (see
@@ -68,7 +72,7 @@ impl Model {
     pub(crate) fn simulate_checkpointed(
         &self,
         controls: &Controls,
-    ) -> Result<(Vec<Tensor>, Option<Vec<Vec<Checkpoint>>>), ClothError> {
+    ) -> Result<(Vec<Tensor>, Option<KeptCheckpoints>), ClothError> {
         let starts = self.block_starts();
         if starts.len() < 2 || matches!(self.solver, crate::newton::settings::Solver::Newton(_)) {
             return Ok((self.simulate(controls)?, None));
@@ -95,6 +99,15 @@ impl Model {
             }
             Ok((states, kept))
         })
+    }
+}
+
+impl RecordedRollout {
+    /// Without recordings: how many block checkpoints the forward kept for the backward pass
+    /// ([`Model::simulate_checkpointed`]), or `None` when it kept none.
+    pub fn kept_checkpoints(&self) -> Option<usize> {
+        let kept = self.checkpoints.as_ref()?;
+        Some(kept.iter().map(Vec::len).sum())
     }
 }
 

@@ -7,7 +7,7 @@
 use crate::controls::Controls;
 use crate::error::ClothError;
 use crate::model::Model;
-use crate::rollout::checkpoints::Checkpoint;
+use crate::rollout::checkpoints::{Checkpoint, KeptCheckpoints};
 use crate::rollout::cost::trajectory_irregularity;
 use crate::rollout::penetration::{deeper, Penetration};
 use crate::xpbd::sim::{check_finite, control_entry, StepScratch};
@@ -416,7 +416,7 @@ pub struct RecordedRollout {
     newton: Option<crate::newton::continuation::NewtonKept>,
     /// Without recordings: every step's block checkpoints, when the forward kept them
     /// ([`Model::simulate_checkpointed`]).
-    checkpoints: Option<Vec<Vec<Checkpoint>>>,
+    pub(crate) checkpoints: Option<KeptCheckpoints>,
 }
 
 impl RecordedRollout {
@@ -425,13 +425,6 @@ impl RecordedRollout {
     pub fn recorded_bytes(&self) -> Option<usize> {
         let recs = self.recordings.as_ref()?;
         Some(recs.iter().map(|r| r.tape.memory_bytes()).sum())
-    }
-
-    /// Without recordings: how many block checkpoints the forward kept for the backward pass
-    /// ([`Model::simulate_checkpointed`]), or `None` when it kept none.
-    pub fn kept_checkpoints(&self) -> Option<usize> {
-        let kept = self.checkpoints.as_ref()?;
-        Some(kept.iter().map(Vec::len).sum())
     }
 
     /// Under Newton: the steps whose factorization was kept for the gradients, and their bytes
