@@ -8,7 +8,9 @@
 //! checked once up front, rayon above [`crate::rowfn::PARALLEL_MIN_ROWS`] rows).
 
 use crate::index::RowIndex;
-use crate::rowfn::{for_each_row_chunk, for_row_ranges, DynRowFn, RowFn, ROW_BLOCK, SEED_CHUNK};
+use crate::rowfn::{
+    for_each_row_chunk, for_row_ranges, with_scratch, DynRowFn, RowFn, ROW_BLOCK, SEED_CHUNK,
+};
 use crate::tensor::Tensor;
 
 /// Checks that `f`, `index`, `state` and `carry` fit together for [`update_rows`].
@@ -465,7 +467,15 @@ fn for_point_blocks<const A: usize, const C: usize>(
 ) {
     let idx = index.as_slice();
     for_row_ranges(index.rows(), |range| {
-        with_block_scratch(|x, y| point_blocks::<A, C>(idx, range, state, carry, x, y, &body))
+        let fresh = || {
+            (
+                [0.0; MAX_POINT_ROW * ROW_BLOCK],
+                [0.0; MAX_POINT_ROW * ROW_BLOCK],
+            )
+        };
+        with_scratch(&BLOCK_SCRATCH, fresh, |(x, y)| {
+            point_blocks::<A, C>(idx, range, state, carry, x, y, &body)
+        })
     });
 }
 
@@ -477,22 +487,6 @@ thread_local! {
     /// 1.7 kB first (that `memset` was 2–5% of a rollout with its gradient).
     static BLOCK_SCRATCH: std::cell::RefCell<(BlockRows, BlockRows)> =
         const { std::cell::RefCell::new(([0.0; MAX_POINT_ROW * ROW_BLOCK], [0.0; MAX_POINT_ROW * ROW_BLOCK])) };
-}
-
-/// Runs `run` on this thread's [`BlockRows`] pair (fresh zeroed ones if a caller up the stack
-/// holds it). Every value the kernels read from it they wrote first in the same call.
-#[inline(always)]
-fn with_block_scratch<R>(run: impl FnOnce(&mut BlockRows, &mut BlockRows) -> R) -> R {
-    BLOCK_SCRATCH.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut pair) => {
-            let (x, y) = &mut *pair;
-            run(x, y)
-        }
-        Err(_) => run(
-            &mut [0.0; MAX_POINT_ROW * ROW_BLOCK],
-            &mut [0.0; MAX_POINT_ROW * ROW_BLOCK],
-        ),
-    })
 }
 
 /// The rows `range` of [`for_point_blocks`], staged through `x` and `y`.

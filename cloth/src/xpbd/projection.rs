@@ -13,7 +13,7 @@
 //! denominator) is computed once per row; per seed there are only products and sums.
 
 use crate::constraint::{value_and_gradient, Constraint, RowVector, MAX_ARITY};
-use autodiff::rowfn::{ROW_BLOCK, SEED_CHUNK};
+use autodiff::rowfn::{with_scratch, ROW_BLOCK, SEED_CHUNK};
 use autodiff::{Real, RowFn};
 use std::sync::Arc;
 
@@ -114,14 +114,18 @@ impl<C: Constraint> RowFn for Projection<C> {
     /// (independent, so overlapping) Hessian–vector products, then the position adjoints.
     #[inline(always)]
     fn vjp_rows(&self, first: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
-        with_vectors(|g, a_g| self.vjp_block(first, inputs, out_adj, in_adj, g, a_g));
+        with_scratch(&VECTORS, fresh_vectors, |(g, a_g)| {
+            self.vjp_block(first, inputs, out_adj, in_adj, g, a_g)
+        });
     }
 
     /// `C`, `∇C`, `Δλ` and the reciprocals once for all the seeds; per seed only products and
     /// sums, and one call of [`Constraint::hessian_vectors`] for every seed's vector.
     #[inline(always)]
     fn vjp_seeds(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
-        with_vectors(|g, a_g| self.vjp_row_seeds(row, input, out_adj, in_adj, &mut g[0], a_g));
+        with_scratch(&VECTORS, fresh_vectors, |(g, a_g)| {
+            self.vjp_row_seeds(row, input, out_adj, in_adj, &mut g[0], a_g)
+        });
     }
 }
 
@@ -140,20 +144,9 @@ thread_local! {
         const { std::cell::RefCell::new(([[0.0; MAX_D]; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK])) };
 }
 
-/// Runs `run` on this thread's [`BlockVectors`] pair (fresh zeroed ones if a caller up the
-/// stack holds it). The adjoint kernels write every value of it they read first.
-#[inline(always)]
-fn with_vectors<R>(run: impl FnOnce(&mut BlockVectors, &mut BlockVectors) -> R) -> R {
-    VECTORS.with(|cell| match cell.try_borrow_mut() {
-        Ok(mut pair) => {
-            let (g, a_g) = &mut *pair;
-            run(g, a_g)
-        }
-        Err(_) => run(
-            &mut [[0.0; MAX_D]; ROW_BLOCK],
-            &mut [[0.0; MAX_D]; ROW_BLOCK],
-        ),
-    })
+/// A zeroed [`BlockVectors`] pair, when a caller up the stack holds this thread's.
+fn fresh_vectors() -> (BlockVectors, BlockVectors) {
+    ([[0.0; MAX_D]; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK])
 }
 
 impl<C: Constraint> Projection<C> {
