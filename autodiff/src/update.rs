@@ -8,7 +8,9 @@
 //! checked once up front, rayon above [`crate::rowfn::PARALLEL_MIN_ROWS`] rows).
 
 use crate::index::RowIndex;
-use crate::rowfn::{for_each_row_chunk, for_row_ranges, DynRowFn, RowFn, ROW_BLOCK, SEED_CHUNK};
+use crate::rowfn::{
+    for_each_row_chunk, for_row_ranges, with_scratch, DynRowFn, RowFn, ROW_BLOCK, SEED_CHUNK,
+};
 use crate::tensor::Tensor;
 
 /// Checks that `f`, `index`, `state` and `carry` fit together for [`update_rows`].
@@ -409,8 +411,14 @@ fn update_points<F: RowFn, const A: usize, const C: usize>(
     // SAFETY (of `for_point_blocks`): `check_update` asserted the index is disjoint and in range.
     for_point_blocks::<A, C>(index, state, carry, |first, x, y| {
         if let Some(s) = saved_rows {
-            // SAFETY: this block's rows of the saved inputs are written by this block alone.
-            unsafe { s.write((3 * A + C) * first, x) };
+            // Row by row: a copy of compile-time length is a few moves, where one of the whole
+            // block's (its row count known only here) was a `memcpy` call, 2–3% of a rollout.
+            let width = 3 * A + C;
+            for b in 0..x.len() / width {
+                let row = &x[width * b..width * b + width];
+                // SAFETY: this block's rows of the saved inputs are written by this block alone.
+                unsafe { s.write(width * (first + b), row) };
+            }
         }
         f.eval_rows(first, x, y);
     });
@@ -459,29 +467,59 @@ fn for_point_blocks<const A: usize, const C: usize>(
 ) {
     let idx = index.as_slice();
     for_row_ranges(index.rows(), |range| {
-        // Computed here, not captured, so every copy below has a compile-time length.
-        let width = 3 * A + C;
-        let mut x = [0.0; MAX_POINT_ROW * ROW_BLOCK];
-        let mut y = [0.0; MAX_POINT_ROW * ROW_BLOCK];
-        let mut first = range.start;
-        while first < range.end {
-            let n = ROW_BLOCK.min(range.end - first);
-            // SAFETY: the index is disjoint and in range (checked by the caller), so the block's
-            // points and carried values are touched by this block alone.
-            unsafe {
-                for b in 0..n {
-                    let xb = &mut x[width * b..width * b + width];
-                    gather_point_row::<A, C>(idx, first + b, state, carry, xb);
-                }
-                body(first, &x[..width * n], &mut y[..width * n]);
-                for b in 0..n {
-                    let yb = &y[width * b..width * b + width];
-                    scatter_point_row::<A, C>(idx, first + b, state, carry, yb);
-                }
-            }
-            first += n;
-        }
+        let fresh = || {
+            (
+                [0.0; MAX_POINT_ROW * ROW_BLOCK],
+                [0.0; MAX_POINT_ROW * ROW_BLOCK],
+            )
+        };
+        with_scratch(&BLOCK_SCRATCH, fresh, |(x, y)| {
+            point_blocks::<A, C>(idx, range, state, carry, x, y, &body)
+        })
     });
+}
+
+/// Rows of a block staged by [`for_point_blocks`]: its gathered rows, and the body's outputs.
+type BlockRows = [f64; MAX_POINT_ROW * ROW_BLOCK];
+
+thread_local! {
+    /// Each thread's [`BlockRows`] pair, kept so that a colour set's call does not zero
+    /// 1.7 kB first (that `memset` was 2–5% of a rollout with its gradient).
+    static BLOCK_SCRATCH: std::cell::RefCell<(BlockRows, BlockRows)> =
+        const { std::cell::RefCell::new(([0.0; MAX_POINT_ROW * ROW_BLOCK], [0.0; MAX_POINT_ROW * ROW_BLOCK])) };
+}
+
+/// The rows `range` of [`for_point_blocks`], staged through `x` and `y`.
+#[inline(always)]
+fn point_blocks<const A: usize, const C: usize>(
+    idx: &[usize],
+    range: std::ops::Range<usize>,
+    state: SharedRows,
+    carry: SharedRows,
+    x: &mut BlockRows,
+    y: &mut BlockRows,
+    body: &impl Fn(usize, &[f64], &mut [f64]),
+) {
+    // Computed here, not captured, so every copy below has a compile-time length.
+    let width = 3 * A + C;
+    let mut first = range.start;
+    while first < range.end {
+        let n = ROW_BLOCK.min(range.end - first);
+        // SAFETY: the index is disjoint and in range (checked by the caller), so the block's
+        // points and carried values are touched by this block alone.
+        unsafe {
+            for b in 0..n {
+                let xb = &mut x[width * b..width * b + width];
+                gather_point_row::<A, C>(idx, first + b, state, carry, xb);
+            }
+            body(first, &x[..width * n], &mut y[..width * n]);
+            for b in 0..n {
+                let yb = &y[width * b..width * b + width];
+                scatter_point_row::<A, C>(idx, first + b, state, carry, yb);
+            }
+        }
+        first += n;
+    }
 }
 
 /// Checks that saved inputs and adjoints (of `state_len` and `carry_len` values) fit an

@@ -66,7 +66,8 @@ pub trait Constraint: Send + Sync + 'static {
     }
 }
 
-/// One instance's coordinates (or a vector over them), padded to the largest arity.
+/// One instance's coordinates (or a vector over them), padded to the largest arity. Entries past
+/// `3·ARITY` are scratch: the XPBD kernels may leave any value there, and none is read back.
 pub type RowVector = [f64; MAX_D];
 
 /// Any constraint with its derivative overrides hidden: [`Constraint::gradient`] and

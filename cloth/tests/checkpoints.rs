@@ -5,7 +5,9 @@
 //! ground collider, an inequality constraint that switches on), T = 3, 20 iterations. Costs: the
 //! loss, the safety function, and a cost reading the state before the step (`Σ|x − x_prev|²`),
 //! whose `x_prev` adjoint reaches the step's first block from its last one. Blocks of 1, 7
-//! (uneven: 7 + 7 + 6) and 20 iterations (one block) must agree to 1e-12 relative.
+//! (uneven: 7 + 7 + 6) and 20 iterations (one block) must agree to 1e-12 relative. The
+//! checkpoints the plain forward keeps (`Model::simulate_recording` over the budget) give the
+//! states and gradients of the checkpoints recomputed in the backward pass, bit for bit.
 
 use autodiff::{Tape, Tensor, Var};
 use cloth::{Model, Scene};
@@ -24,10 +26,21 @@ fn model(name: &str) -> (Model, Tensor) {
 
 /// The three costs' gradients with blocks of `block` iterations.
 fn gradients(model: &Model, u: &Tensor, block: usize) -> Vec<Tensor> {
+    let m = blocked(model, block);
+    let states = m.simulate(u).unwrap();
+    with_costs(&m, |costs| m.gradients(&states, u, costs))
+}
+
+/// `model` with a budget that records blocks of `block` iterations.
+fn blocked(model: &Model, block: usize) -> Model {
     let mut m = model.clone();
     m.checkpoint_budget = 2 * block * m.recorded_bytes_per_iteration();
     assert_eq!(m.iterations_per_block(), block.min(m.iterations));
-    let states = m.simulate(u).unwrap();
+    m
+}
+
+/// `run` on the three costs.
+fn with_costs<T>(m: &Model, run: impl FnOnce(&[cloth::StepCost<'_>]) -> T) -> T {
     let beta = m.task.beta;
     let delta = m.task.delta;
     let loss = |tape: &mut Tape, t: usize, _: Var, x: Var| m.record_loss(tape, t, x, beta);
@@ -37,7 +50,7 @@ fn gradients(model: &Model, u: &Tensor, block: usize) -> Vec<Tensor> {
         let d2 = tape.square(d);
         Some(tape.sum(d2))
     };
-    m.gradients(&states, u, &[&loss, &safety, &motion])
+    run(&[&loss, &safety, &motion])
 }
 
 fn check(name: &str) {
@@ -69,4 +82,22 @@ fn blocked_gradients_match_whole_steps_on_u_obstacle() {
 #[test]
 fn blocked_gradients_match_whole_steps_with_a_collider() {
     check("drop");
+}
+
+#[test]
+fn checkpoints_kept_by_the_forward_give_the_same_bits() {
+    for name in ["u_obstacle", "drop"] {
+        let (model, u) = model(name);
+        let m = blocked(&model, 7);
+        let recomputed = gradients(&model, &u, 7);
+        let states = m.simulate(&u).unwrap();
+        let (kept_states, kept) = with_costs(&m, |costs| {
+            let rollout = m.simulate_recording(&u, costs).unwrap();
+            // Three steps, three blocks each: two checkpoints per step.
+            assert_eq!(rollout.kept_checkpoints(), Some(6), "{name}");
+            rollout.gradients(&m, &u, costs)
+        });
+        assert_eq!(states, kept_states, "{name}: states");
+        assert_eq!(recomputed, kept, "{name}: gradients");
+    }
 }

@@ -235,10 +235,13 @@ impl Tape {
     ///
     /// Re-recording the same workload then draws every recorded value and saved input from these
     /// buffers (smallest that fits). Spare buffers the previous re-recording left unused are
-    /// released here, so the tape never holds more than one recording's worth of memory.
+    /// released here, so the tape never holds more than one recording's worth of memory; clearing
+    /// an empty tape keeps its spare buffers.
     pub fn clear(&mut self) {
         let Tape { nodes, pool, .. } = self;
-        pool.clear();
+        if !nodes.is_empty() {
+            pool.clear();
+        }
         for node in nodes.drain(..) {
             recycle(pool, node.value.into_data());
             if let Op::UpdateRows { inputs, .. } = node.op {
@@ -272,6 +275,19 @@ impl Tape {
                 std::mem::size_of::<Node>() + (n.value.len() + saved) * f
             })
             .sum()
+    }
+
+    /// Bytes the tape holds: recorded values and saved inputs as [`Tape::memory_bytes`], plus the
+    /// spare buffers kept by [`Tape::clear`] and the node list's capacity.
+    pub fn reserved_bytes(&self) -> usize {
+        let f = std::mem::size_of::<f64>();
+        let spare: usize = self
+            .pool
+            .iter()
+            .map(|(&cap, bucket)| cap * bucket.len())
+            .sum();
+        let nodes = (self.nodes.capacity() - self.nodes.len()) * std::mem::size_of::<Node>();
+        self.memory_bytes() + spare * f + nodes
     }
 
     /// A zeroed buffer of `len` values.

@@ -112,6 +112,7 @@ impl Model {
             },
             strain: None,
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
+            tapes: Default::default(),
             solver: scene.solver(),
             self_collision: None,
             contact_barrier: None,

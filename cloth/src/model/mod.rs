@@ -94,11 +94,16 @@ pub struct Model {
     pub strain: Option<(Arc<dyn DynRowFn>, Arc<RowIndex>)>,
     /// Bytes [`Model::gradients`] may keep in recordings for the backward pass (two at a time:
     /// one pulled back while the next is recorded). A step whose recording would not fit half of
-    /// it is recorded in blocks of iterations from checkpoints of a plain forward sweep (one more
-    /// forward pass per step, memory ∝ one block). When the whole rollout's recording fits it,
+    /// it is recorded in blocks of iterations from checkpoints of a plain forward sweep (kept by
+    /// [`Model::evaluate`]'s forward, within a quarter of the budget; else one more forward pass
+    /// per step; memory ∝ one block). When the whole rollout's recording fits it,
     /// [`Model::evaluate`] records every step during the first forward instead
-    /// ([`Model::simulate_recording`]).
+    /// ([`Model::simulate_recording`]). The tapes kept between evaluations ([`Model::tapes`])
+    /// hold at most this many bytes too.
     pub checkpoint_budget: usize,
+    /// The recording tapes of the last evaluation, cleared and kept with their buffers for the
+    /// next (within [`Model::checkpoint_budget`]); a clone starts with none.
+    pub tapes: crate::rollout::tapes::TapeCache,
     /// The method that solves each step (`physics.solver`).
     pub solver: Solver,
     /// Self-collision (`physics.self_collision`): contact sets found at the start of each step

@@ -7,6 +7,7 @@
 use crate::controls::Controls;
 use crate::error::ClothError;
 use crate::model::Model;
+use crate::rollout::checkpoints::{Checkpoint, KeptCheckpoints};
 use crate::rollout::cost::trajectory_irregularity;
 use crate::rollout::penetration::{deeper, Penetration};
 use crate::xpbd::sim::{check_finite, control_entry, StepScratch};
@@ -249,7 +250,7 @@ impl Model {
         if let crate::newton::settings::Solver::Newton(_) = self.solver {
             return self.newton_gradients(states, controls, costs);
         }
-        in_pool(|| self.gradients_in_pool(states, controls, costs))
+        in_pool(|| self.gradients_in_pool(states, controls, costs, None))
     }
 
     /// Bytes one recorded Gauss–Seidel iteration keeps for the backward pass.
@@ -273,18 +274,20 @@ impl Model {
         }
     }
 
+    /// [`Model::gradients`] on the rayon pool, with every step's block checkpoints when the
+    /// forward kept them ([`Model::simulate_checkpointed`]).
     fn gradients_in_pool(
         &self,
         states: &[Tensor],
         controls: &Controls,
         costs: &[StepCost<'_>],
+        kept: Option<&[Vec<Checkpoint>]>,
     ) -> Vec<Tensor> {
         let mut grads: Vec<Tensor> = costs.iter().map(|_| self.zero_controls()).collect();
         // Per cost: the adjoint of the state (and of the multipliers, inside a step) where the
         // pull-back has reached.
         let mut adjoints: Vec<Adjoint> = costs.iter().map(|_| Adjoint::default()).collect();
-        let block = self.iterations_per_block();
-        let starts: Vec<usize> = (0..self.iterations.max(1)).step_by(block).collect();
+        let starts = self.block_starts();
         // Segments in the order the pull-back visits them: last step first, last block first.
         let segments: Vec<Segment> = (1..=self.task.horizon)
             .rev()
@@ -303,10 +306,12 @@ impl Model {
             controls,
             costs,
             starts: &starts,
+            kept,
             checkpoints: None,
         };
         let before = |seg: &Segment| &states[seg.t - 1];
-        let mut current = recorder.record(&segments[0], before(&segments[0]), Tape::new());
+        let first_tape = self.tapes.take();
+        let mut current = recorder.record(&segments[0], before(&segments[0]), first_tape);
         if rayon::current_num_threads() == 1 {
             // One thread: one recording at a time, its tape reused for the next.
             for (k, seg) in segments.iter().enumerate() {
@@ -316,10 +321,11 @@ impl Model {
                     current = recorder.record(next, before(next), tape);
                 }
             }
+            self.tapes.give(current.tape, self.checkpoint_budget);
             return grads;
         }
         // While one segment is pulled back, the next one is recorded on the other thread.
-        let mut spare = Tape::new();
+        let mut spare = self.tapes.take();
         for (k, seg) in segments.iter().enumerate() {
             let (_, next) = rayon::join(
                 || self.pull_back(&current, seg, &mut adjoints, &mut grads),
@@ -333,6 +339,8 @@ impl Model {
                 spare = std::mem::replace(&mut current, next).tape;
             }
         }
+        self.tapes.give(current.tape, self.checkpoint_budget);
+        self.tapes.give(spare, self.checkpoint_budget);
         grads
     }
 
@@ -406,6 +414,9 @@ pub struct RecordedRollout {
     recordings: Option<Vec<Recording>>,
     /// Under Newton: the system and the steps' factorizations kept for the implicit gradients.
     newton: Option<crate::newton::continuation::NewtonKept>,
+    /// Without recordings: every step's block checkpoints, when the forward kept them
+    /// ([`Model::simulate_checkpointed`]).
+    pub(crate) checkpoints: Option<KeptCheckpoints>,
 }
 
 impl RecordedRollout {
@@ -444,7 +455,12 @@ impl RecordedRollout {
             return (self.states, grads.0);
         }
         let Some(mut recordings) = self.recordings else {
-            let grads = model.gradients(&self.states, controls, costs);
+            let grads = match &self.checkpoints {
+                Some(kept) => {
+                    in_pool(|| model.gradients_in_pool(&self.states, controls, costs, Some(kept)))
+                }
+                None => model.gradients(&self.states, controls, costs),
+            };
             return (self.states, grads);
         };
         let grads = in_pool(|| {
@@ -455,6 +471,7 @@ impl RecordedRollout {
                 assert_eq!(rec.terms.len(), costs.len(), "the recorded costs");
                 let seg = Segment::whole(model, recordings.len() + 1);
                 model.pull_back(&rec, &seg, &mut adjoints, &mut grads);
+                model.tapes.give(rec.tape, model.checkpoint_budget);
             }
             grads
         });
@@ -495,13 +512,24 @@ impl Model {
                 states: rollout.states,
                 recordings: None,
                 newton: Some(rollout.kept),
+                checkpoints: None,
             });
         }
-        if costs.is_empty() || lower_bound > self.checkpoint_budget {
+        if costs.is_empty() {
             return Ok(RecordedRollout {
                 states: self.simulate(controls)?,
                 recordings: None,
                 newton: None,
+                checkpoints: None,
+            });
+        }
+        if lower_bound > self.checkpoint_budget {
+            let (states, checkpoints) = self.simulate_checkpointed(controls)?;
+            return Ok(RecordedRollout {
+                states,
+                recordings: None,
+                newton: None,
+                checkpoints,
             });
         }
         self.check_controls(controls)?;
@@ -515,13 +543,14 @@ impl Model {
                 controls,
                 costs,
                 starts: &[0],
+                kept: None,
                 checkpoints: None,
             };
             for t in 1..=horizon {
                 let x = match recordings.as_mut() {
                     Some(recs) => {
-                        let rec =
-                            recorder.record(&Segment::whole(self, t), &states[t - 1], Tape::new());
+                        let tape = self.tapes.take();
+                        let rec = recorder.record(&Segment::whole(self, t), &states[t - 1], tape);
                         let x = rec.tape.value(rec.x).clone();
                         let bytes = rec.tape.memory_bytes();
                         total += bytes;
@@ -547,6 +576,7 @@ impl Model {
                 states,
                 recordings,
                 newton: None,
+                checkpoints: None,
             })
         })
     }
@@ -598,12 +628,11 @@ struct Recorder<'a> {
     controls: &'a Controls,
     costs: &'a [StepCost<'a>],
     starts: &'a [usize],
-    /// `(step, checkpoints)` of the step being recorded.
+    /// Every step's checkpoints, when the forward kept them (step `t` at `t − 1`).
+    kept: Option<&'a [Vec<Checkpoint>]>,
+    /// `(step, checkpoints)` of the step being recorded (computed here when not `kept`).
     checkpoints: Option<(usize, Vec<Checkpoint>)>,
 }
-
-/// State and multipliers at the start of a block of iterations (every block but a step's first).
-type Checkpoint = (Tensor, Vec<Tensor>);
 
 impl Recorder<'_> {
     /// Records segment `seg` on `tape`, from the state `x_prev` before its step.
@@ -613,14 +642,11 @@ impl Recorder<'_> {
         // The step's self-contacts: a function of the same state and controls as the forward's,
         // so the same sets, bit for bit.
         let contacts = m.contact_sets(x_prev, &u_t);
-        if self.starts.len() > 1 && self.checkpoints.as_ref().map(|c| c.0) != Some(t) {
-            let mut x = m.begin_step(x_prev, &u_t);
-            let mut lambdas = m.step_carries(x_prev, &contacts);
-            let mut checkpoints = Vec::with_capacity(self.starts.len() - 1);
-            for w in self.starts.windows(2) {
-                m.sweep(&mut x, &mut lambdas, w[1] - w[0], &contacts);
-                checkpoints.push((x.clone(), lambdas.clone()));
-            }
+        if self.starts.len() > 1
+            && self.kept.is_none()
+            && self.checkpoints.as_ref().map(|c| c.0) != Some(t)
+        {
+            let (checkpoints, _) = m.step_checkpoints(x_prev, &u_t, self.starts, false);
             self.checkpoints = Some((t, checkpoints));
         }
         tape.clear();
@@ -630,7 +656,16 @@ impl Recorder<'_> {
             let x = m.record_begin_step(&mut tape, x_prev, u);
             (x, m.record_initial_carries(&mut tape, x_prev, &contacts))
         } else {
-            let (_, checkpoints) = self.checkpoints.as_ref().expect("checkpoints of this step");
+            let checkpoints = match self.kept {
+                Some(kept) => &kept[t - 1],
+                None => {
+                    &self
+                        .checkpoints
+                        .as_ref()
+                        .expect("checkpoints of this step")
+                        .1
+                }
+            };
             let (x, l) = &checkpoints[seg.block - 1];
             let x = tape.leaf(x.clone());
             (x, l.iter().map(|l| tape.leaf(l.clone())).collect())

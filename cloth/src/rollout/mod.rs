@@ -4,12 +4,16 @@
 //! - [`strain`]: edge strain and its smooth maximum (the `max_strain` rows);
 //! - [`swept`]: the safety field along each particle's straight motion between two states (the
 //!   continuous safety rows);
+//! - [`tapes`]: recording tapes kept between evaluations;
 //! - [`penetration`]: how deep the particles go into the colliders;
+//! - [`checkpoints`]: block checkpoints the plain forward keeps for the backward pass;
 //! - [`grad`]: metrics of a rollout, and gradients of any per-step costs by reverse mode
 //!   (checkpointed per step or per block of iterations).
 
+pub mod checkpoints;
 pub mod cost;
 pub mod grad;
 pub mod penetration;
 pub mod strain;
 pub mod swept;
+pub mod tapes;

@@ -13,7 +13,7 @@
 //! denominator) is computed once per row; per seed there are only products and sums.
 
 use crate::constraint::{value_and_gradient, Constraint, RowVector, MAX_ARITY};
-use autodiff::rowfn::{ROW_BLOCK, SEED_CHUNK};
+use autodiff::rowfn::{with_scratch, ROW_BLOCK, SEED_CHUNK};
 use autodiff::{Real, RowFn};
 use std::sync::Arc;
 
@@ -114,14 +114,61 @@ impl<C: Constraint> RowFn for Projection<C> {
     /// (independent, so overlapping) Hessian–vector products, then the position adjoints.
     #[inline(always)]
     fn vjp_rows(&self, first: usize, inputs: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+        with_scratch(&VECTORS, fresh_vectors, |(g, a_g)| {
+            self.vjp_block(first, inputs, out_adj, in_adj, g, a_g)
+        });
+    }
+
+    /// `C`, `∇C`, `Δλ` and the reciprocals once for all the seeds; per seed only products and
+    /// sums, and one call of [`Constraint::hessian_vectors`] for every seed's vector.
+    #[inline(always)]
+    fn vjp_seeds(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+        with_scratch(&VECTORS, fresh_vectors, |(g, a_g)| {
+            self.vjp_row_seeds(row, input, out_adj, in_adj, &mut g[0], a_g)
+        });
+    }
+}
+
+/// Vectors of one block's rows (or one row's seeds): `∇C` and the adjoints of `∇C`.
+type BlockVectors = [RowVector; ROW_BLOCK];
+
+const _: () = assert!(
+    ROW_BLOCK == SEED_CHUNK,
+    "one scratch serves blocks and seeds"
+);
+
+thread_local! {
+    /// Each thread's [`BlockVectors`] pair, kept so that a block does not zero 1.5 kB first
+    /// (that `memset` was 2–4% of a rollout with its gradient).
+    static VECTORS: std::cell::RefCell<(BlockVectors, BlockVectors)> =
+        const { std::cell::RefCell::new(([[0.0; MAX_D]; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK])) };
+}
+
+/// A zeroed [`BlockVectors`] pair, when a caller up the stack holds this thread's.
+fn fresh_vectors() -> (BlockVectors, BlockVectors) {
+    ([[0.0; MAX_D]; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK])
+}
+
+impl<C: Constraint> Projection<C> {
+    /// [`RowFn::vjp_rows`] with `g` and `a_g` as scratch for the block's `∇C` and adjoints.
+    #[inline(always)]
+    fn vjp_block(
+        &self,
+        first: usize,
+        inputs: &[f64],
+        out_adj: &[f64],
+        in_adj: &mut [f64],
+        g: &mut BlockVectors,
+        a_g: &mut BlockVectors,
+    ) {
         let w = 3 * C::ARITY + 1;
         let rows = inputs.len() / w;
-        let (mut c, mut g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
+        let mut c = [0.0; ROW_BLOCK];
         for b in 0..rows {
             c[b] = self.gradient(first + b, &inputs[w * b..w * b + w], &mut g[b]);
         }
         let mut steps = [None; ROW_BLOCK];
-        let (mut a_num, mut a_g) = ([0.0; ROW_BLOCK], [[0.0; MAX_D]; ROW_BLOCK]);
+        let mut a_num = [0.0; ROW_BLOCK];
         for b in 0..rows {
             let (row, r) = (first + b, w * b..w * b + w);
             steps[b] = self.row_step(row, &inputs[r.clone()], c[b], &g[b]);
@@ -144,10 +191,18 @@ impl<C: Constraint> RowFn for Projection<C> {
         }
     }
 
-    /// `C`, `∇C`, `Δλ` and the reciprocals once for all the seeds; per seed only products and
-    /// sums, and one call of [`Constraint::hessian_vectors`] for every seed's vector.
+    /// [`RowFn::vjp_seeds`] with `g` and `a_g` as scratch for the row's `∇C` and the seeds'
+    /// adjoints of it.
     #[inline(always)]
-    fn vjp_seeds(&self, row: usize, input: &[f64], out_adj: &[f64], in_adj: &mut [f64]) {
+    fn vjp_row_seeds(
+        &self,
+        row: usize,
+        input: &[f64],
+        out_adj: &[f64],
+        in_adj: &mut [f64],
+        g: &mut RowVector,
+        a_g: &mut BlockVectors,
+    ) {
         let w = 3 * C::ARITY + 1;
         let seeds = out_adj.len() / w;
         assert!(
@@ -158,20 +213,19 @@ impl<C: Constraint> RowFn for Projection<C> {
             let r = w * s..w * s + w;
             add_identity::<C>(&out_adj[r.clone()], &mut in_adj[r]);
         }
-        let mut g = [0.0; MAX_D];
-        let c = self.gradient(row, input, &mut g);
-        let Some(step) = self.row_step(row, input, c, &g) else {
+        let c = self.gradient(row, input, g);
+        let Some(step) = self.row_step(row, input, c, g) else {
             return;
         };
-        let (mut a_num, mut a_g) = ([0.0; SEED_CHUNK], [[0.0; MAX_D]; SEED_CHUNK]);
+        let mut a_num = [0.0; SEED_CHUNK];
         for s in 0..seeds {
             let r = w * s..w * s + w;
             let (oa, ia) = (&out_adj[r.clone()], &mut in_adj[r]);
-            a_num[s] = self.seed_head(row, &g, &step, oa, ia, &mut a_g[s]);
+            a_num[s] = self.seed_head(row, g, &step, oa, ia, &mut a_g[s]);
         }
         self.hessian_vectors(row, input, &mut a_g[..seeds]);
         for s in 0..seeds {
-            seed_tail::<C>(&g, a_num[s], &a_g[s], &mut in_adj[w * s..w * s + w]);
+            seed_tail::<C>(g, a_num[s], &a_g[s], &mut in_adj[w * s..w * s + w]);
         }
     }
 }
