@@ -9,7 +9,6 @@
 use crate::controls::Controls;
 use crate::error::ClothError;
 use crate::model::Model;
-use crate::rollout::grad::RecordedRollout;
 use crate::xpbd::sim::check_finite;
 use autodiff::{in_pool, Tensor};
 
@@ -99,15 +98,6 @@ impl Model {
             }
             Ok((states, kept))
         })
-    }
-}
-
-impl RecordedRollout {
-    /// Without recordings: how many block checkpoints the forward kept for the backward pass
-    /// ([`Model::simulate_checkpointed`]), or `None` when it kept none.
-    pub fn kept_checkpoints(&self) -> Option<usize> {
-        let kept = self.checkpoints.as_ref()?;
-        Some(kept.iter().map(Vec::len).sum())
     }
 }
 

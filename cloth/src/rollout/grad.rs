@@ -420,6 +420,13 @@ pub struct RecordedRollout {
 }
 
 impl RecordedRollout {
+    /// Without recordings: how many block checkpoints the forward kept for the backward pass
+    /// ([`Model::simulate_checkpointed`]), or `None` when it kept none.
+    pub fn kept_checkpoints(&self) -> Option<usize> {
+        let kept = self.checkpoints.as_ref()?;
+        Some(kept.iter().map(Vec::len).sum())
+    }
+
     /// Bytes held by the step recordings ([`Tape::memory_bytes`]), or `None` when the rollout
     /// was simulated plainly (its gradients then re-record each step from its checkpoint).
     pub fn recorded_bytes(&self) -> Option<usize> {
