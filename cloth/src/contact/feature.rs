@@ -245,6 +245,9 @@ mod tests {
             .prop_map(|a| a.map(Vector3::from))
     }
 
+    /// A squared distance written directly, in nested duals.
+    type DirectDistance = Box<dyn Fn(&[Vector3<D2>; 4]) -> D2>;
+
     proptest! {
         /// Each kind's closed form equals the nested-dual derivatives of its squared distance
         /// written directly (the functions `PointTriangle::distance` and `EdgeEdge::distance`
@@ -257,7 +260,7 @@ mod tests {
             prop_assume!(e1.norm() > 0.1 && e1.cross(&e2).norm() > 0.05);
             prop_assume!(e3.cross(&(p[3] - p[2])).norm() > 0.05);
             let (mut g, mut h) = ([0.0; 12], [0.0; 144]);
-            let cases: [(Feature, Box<dyn Fn(&[Vector3<D2>; 4]) -> D2>); 4] = [
+            let cases: [(Feature, DirectDistance); 4] = [
                 (Feature::point_point(0, 2), Box::new(|v| point_point(&v[0], &v[2]))),
                 (Feature::point_line(3, 1, 2), Box::new(|v| point_line(&v[3], &v[1], &v[2]))),
                 (
