@@ -47,7 +47,8 @@ pub use newton::{
 };
 pub use obj::{ObjError, ObjMesh};
 pub use registry::{ConstraintRegistry, CustomInput};
-pub use rollout::grad::{null_as_infinity, Evaluation, Metrics, RecordedRollout, StepCost};
+pub use rollout::grad::{RecordedRollout, StepCost};
+pub use rollout::metrics::{null_as_infinity, Evaluation, Metrics};
 pub use rollout::penetration::Penetration;
 pub use scene::Scene;
 pub use xpbd::set::{Carry, ProjectionSet};

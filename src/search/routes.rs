@@ -134,26 +134,16 @@ pub fn carried(model: &Model, initial: &Controls, states: &[Tensor]) -> Vec<Cand
     ];
     for (name, base) in &bases {
         if let Some(c) = geometry.carried(name, base, states) {
-            if out.iter().all(|o| !same_controls(&o.controls, &c.controls)) {
+            let path = paths_of(model, &c.controls);
+            if out
+                .iter()
+                .all(|o| !same_paths(&paths_of(model, &o.controls), &path))
+            {
                 out.push(c);
             }
         }
     }
     out
-}
-
-/// True when two control sequences agree to 1e-9 of their largest entry.
-fn same_controls(a: &Controls, b: &Controls) -> bool {
-    let scale = a
-        .data()
-        .iter()
-        .chain(b.data())
-        .fold(0.0, |m: f64, v| m.max(v.abs()));
-    a.shape() == b.shape()
-        && a.data()
-            .iter()
-            .zip(b.data())
-            .all(|(x, y)| (x - y).abs() <= 1e-9 * scale)
 }
 
 /// What the proposals need to know about the scene.

@@ -7,12 +7,14 @@
 //! - [`tapes`]: recording tapes kept between evaluations;
 //! - [`penetration`]: how deep the particles go into the colliders;
 //! - [`checkpoints`]: block checkpoints the plain forward keeps for the backward pass;
+//! - [`metrics`]: what an evaluation returns (`Metrics`, `Evaluation`);
 //! - [`grad`]: metrics of a rollout, and gradients of any per-step costs by reverse mode
 //!   (checkpointed per step or per block of iterations).
 
 pub mod checkpoints;
 pub mod cost;
 pub mod grad;
+pub mod metrics;
 pub mod penetration;
 pub mod strain;
 pub mod swept;
