@@ -7,6 +7,11 @@
 //!   and a lower bound for meshes ([`cloth::sdf::SignedDistance::segment_min`]). A particle whose
 //!   rest state already lies within `δ` ([`start_inside_margin`]) counts from its step-1 state:
 //!   no plan can move where the cloth starts, and step 0 is judged on its own.
+//! - *Surface*: no safety obstacle cuts into the cloth's surface (its triangles: a thin obstacle
+//!   can pass between particles that all keep `δ`) by more than [`SURFACE_TOLERANCE`], at the
+//!   steps and, under the continuous check, swept between them (a certified minimum,
+//!   [`cloth::sdf::surface::surface_minimum`]). A rest state the obstacles already cut is judged
+//!   from its step-1 state, as the particles are.
 //! - *Grippers*: no gripper inside a collider (by more than the feasibility tolerance), at the
 //!   steps and, under the continuous check, on its motion between them. Grippers have infinite
 //!   mass, so no collider pushes them out.
@@ -16,9 +21,13 @@
 //! Each failure is a sentence in [`SafetyReport::failures`]; a plan with any is not safe.
 
 use crate::problem::{start_inside_margin, TaskOptions};
-use crate::result::{GripperClearance, MotionCheck, PathMinimum, SafetyReport, SAFETY_TOLERANCE};
+use crate::result::{
+    GripperClearance, MotionCheck, PathMinimum, SafetyReport, SurfaceClearance, SAFETY_TOLERANCE,
+    SURFACE_TOLERANCE,
+};
 use autodiff::Tensor;
 use cloth::nalgebra::Vector3;
+use cloth::sdf::surface::surface_minimum;
 use cloth::sdf::SignedDistance;
 use cloth::{Metrics, Model};
 
@@ -55,6 +64,20 @@ pub fn check_safety(
             ));
         }
     }
+    let surface = surface(model, states, task.swept, task.delta);
+    if let Some(s) = surface {
+        if s.distance < -SURFACE_TOLERANCE {
+            let when = if task.swept {
+                format!("between steps {} and {}", s.step - 1, s.step)
+            } else {
+                format!("at step {}", s.step)
+            };
+            failures.push(format!(
+                "a safety obstacle passes through the cloth {when}: {:.4} deep into triangle {}, between its particles",
+                -s.distance, s.triangle
+            ));
+        }
+    }
     let grippers = grippers(model, states, task.swept);
     if let Some(g) = grippers {
         if g.distance < -tol_feasibility {
@@ -81,6 +104,7 @@ pub fn check_safety(
     SafetyReport {
         check,
         between_steps,
+        surface,
         grippers,
         failures,
     }
@@ -111,6 +135,35 @@ fn between_steps(model: &Model, states: &[Tensor], delta: f64) -> Option<PathMin
         }
     }
     best
+}
+
+/// The cloth's surface nearest to the safety obstacles (module docs); `None` without them.
+fn surface(model: &Model, states: &[Tensor], swept: bool, delta: f64) -> Option<SurfaceClearance> {
+    const TOL: f64 = SURFACE_TOLERANCE;
+    let field = &model.safety_obstacles;
+    let rest = [states.first()?.clone(), states[0].clone()];
+    let rest_cut = surface_minimum(field, &model.triangles, &rest, (false, false), 0.0, TOL)
+        .is_some_and(|m| m.value < -TOL);
+    let m = surface_minimum(
+        field,
+        &model.triangles,
+        states,
+        (swept, rest_cut),
+        delta,
+        TOL,
+    )?;
+    // Within the tolerance of the minimum, unless the search ran out of boxes first: then its
+    // certified bound, which is what the check may promise.
+    let certified = m.value - m.lower <= TOL;
+    Some(SurfaceClearance {
+        distance: if m.value < delta && certified {
+            m.value
+        } else {
+            m.lower
+        },
+        step: m.step,
+        triangle: m.triangle,
+    })
 }
 
 /// The gripper nearest to the colliders (all of them, planes included) at the steps and, when

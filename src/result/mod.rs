@@ -21,7 +21,9 @@ pub use check::{CheckPhysics, CheckRound, PhysicsCheck};
 pub use convert::{
     controls_from_nested, controls_to_nested, gripper_positions, mesh_triangles, state_points,
 };
-pub use safety::{GripperClearance, MotionCheck, PathMinimum, SafetyReport};
+pub use safety::{
+    GripperClearance, MotionCheck, PathMinimum, SafetyReport, SurfaceClearance, SURFACE_TOLERANCE,
+};
 pub use search::{CandidateReport, SearchMode, SearchReport};
 pub use strain::{strain_report, StrainReport};
 pub use task::{Reason, TaskOutcome};

@@ -1,6 +1,7 @@
 //! The `safety` section of a result: what the verdict checked besides the optimizer's rows and
 //! the margin at the steps — the straight motion between the steps (the continuous check), the
-//! grippers against the colliders, the cloth inside the colliders — and what failed
+//! cloth's surface between its particles, the grippers against the colliders, the cloth inside
+//! the colliders — and what failed
 //! ([`crate::safety_check`] fills it in).
 
 use serde::{Deserialize, Serialize};
@@ -52,6 +53,24 @@ pub struct GripperClearance {
     pub gripper: usize,
 }
 
+/// The smallest signed distance from the safety obstacles to the cloth's surface (its
+/// triangles, not only its particles).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SurfaceClearance {
+    /// The distance (length units; negative where an obstacle passes through the cloth), to
+    /// [`SURFACE_TOLERANCE`] where it is below `δ`; where the whole surface keeps `δ`, a lower
+    /// bound at least `δ` less that tolerance.
+    pub distance: f64,
+    /// The step `1..=T`: its state, or (continuous check) the motion from the step before.
+    pub step: usize,
+    /// The triangle (index into the cloth's triangles).
+    pub triangle: usize,
+}
+
+/// How precisely [`SurfaceClearance::distance`] is certified, and how far an obstacle may cut
+/// into the cloth's surface before the plan is not safe: 1 mm (length units).
+pub const SURFACE_TOLERANCE: f64 = 1e-3;
+
 /// The verdict's safety checks beyond the optimizer's rows.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SafetyReport {
@@ -62,6 +81,11 @@ pub struct SafetyReport {
     /// from its step-1 state); `null` under the step-only check or without safety obstacles.
     #[serde(default)]
     pub between_steps: Option<PathMinimum>,
+    /// The cloth's surface nearest to the safety obstacles, at the steps and (continuous check)
+    /// swept between them: a thin obstacle can pass between particles that all keep `δ`. `null`
+    /// without safety obstacles (and in results written before the check existed).
+    #[serde(default)]
+    pub surface: Option<SurfaceClearance>,
     /// The gripper nearest to the colliders, at the steps and (continuous check) between them;
     /// `null` without colliders.
     #[serde(default)]

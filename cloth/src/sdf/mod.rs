@@ -11,6 +11,7 @@ mod mesh;
 pub(crate) mod rows;
 mod segment;
 mod shapes;
+pub mod surface;
 
 pub use mesh::MeshSdf;
 pub use segment::{lipschitz_segment_min, SegmentMin, SEGMENT_TOLERANCE};
