@@ -12,6 +12,9 @@
 //!   steps and, under the continuous check, swept between them (a certified minimum,
 //!   [`cloth::sdf::surface::surface_minimum`]). A rest state the obstacles already cut is judged
 //!   from its step-1 state, as the particles are.
+//! - *Layers* (with self-collision): no vertex nearer than half the thickness to a triangle
+//!   outside its 1-ring at a step, and no vertex–triangle or edge–edge pair passing through
+//!   each other between the steps ([`cloth::crossings`]).
 //! - *Grippers*: no gripper inside a collider (by more than the feasibility tolerance), at the
 //!   steps and, under the continuous check, on its motion between them. Grippers have infinite
 //!   mass, so no collider pushes them out.
@@ -22,8 +25,8 @@
 
 use crate::problem::{start_inside_margin, TaskOptions};
 use crate::result::{
-    GripperClearance, MotionCheck, PathMinimum, SafetyReport, SurfaceClearance, SAFETY_TOLERANCE,
-    SURFACE_TOLERANCE,
+    GripperClearance, LayerClearance, LayerPair, MotionCheck, PathMinimum, SafetyReport,
+    SurfaceClearance, SAFETY_TOLERANCE, SURFACE_TOLERANCE,
 };
 use autodiff::Tensor;
 use cloth::nalgebra::Vector3;
@@ -78,6 +81,23 @@ pub fn check_safety(
             ));
         }
     }
+    let layers = layers(model, states);
+    if let (Some(sc), Some(l)) = (&model.self_collision, layers) {
+        if let Some(p) = l.nearest.filter(|p| p.distance < 0.5 * sc.thickness) {
+            failures.push(format!(
+                "the cloth's layers come {:.4} apart at step {} (vertex {}, triangle {}), less than half the thickness {}",
+                p.distance, p.step, p.vertex, p.triangle, sc.thickness
+            ));
+        }
+        if let Some(step) = l.first_crossing_step {
+            failures.push(format!(
+                "the cloth passes through itself between steps {} and {} ({} crossing pairs in all)",
+                step - 1,
+                step,
+                l.crossings
+            ));
+        }
+    }
     let grippers = grippers(model, states, task.swept);
     if let Some(g) = grippers {
         if g.distance < -tol_feasibility {
@@ -105,6 +125,7 @@ pub fn check_safety(
         check,
         between_steps,
         surface,
+        layers,
         grippers,
         failures,
     }
@@ -164,6 +185,32 @@ fn surface(model: &Model, states: &[Tensor], swept: bool, delta: f64) -> Option<
         step: m.step,
         triangle: m.triangle,
     })
+}
+
+/// The cloth's nearest layers at the steps and its crossings between them (module docs); `None`
+/// without self-collision.
+fn layers(model: &Model, states: &[Tensor]) -> Option<LayerClearance> {
+    let thickness = model.self_collision.as_ref()?.thickness;
+    let mut out = LayerClearance::default();
+    for t in 1..states.len() {
+        if let Some(g) = model.layer_gap(&states[t], thickness) {
+            if out.nearest.is_none_or(|p| g.distance < p.distance) {
+                out.nearest = Some(LayerPair {
+                    distance: g.distance,
+                    step: t,
+                    vertex: g.vertex,
+                    triangle: g.triangle,
+                });
+            }
+        }
+        let c = cloth::crossings(&model.triangles, &states[t - 1], &states[t]);
+        let count = c.vertex_triangle.len() + c.edge_edge.len();
+        if count > 0 && out.first_crossing_step.is_none() {
+            out.first_crossing_step = Some(t);
+        }
+        out.crossings += count;
+    }
+    Some(out)
 }
 
 /// The gripper nearest to the colliders (all of them, planes included) at the steps and, when

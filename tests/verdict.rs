@@ -1,6 +1,9 @@
 //! The verdict checks step 0 and says what it measured: a start inside an obstacle is an error
 //! naming the obstacle and the depth (a warning with `--allow-unsafe-start`), the iteration count
-//! is given per stage, and the feasibility tolerance is a documented, validated option.
+//! is given per stage, and the feasibility tolerance is a documented, validated option. It judges
+//! the cloth, not only its particles: a thin obstacle through a triangle, and (with
+//! self-collision) layers pressed within half the thickness or passing through each other, make a
+//! plan not safe.
 
 mod common;
 
@@ -115,4 +118,113 @@ fn a_bad_feasibility_tolerance_is_rejected_naming_the_flag() {
         assert_eq!(o.status.code(), Some(1), "{bad}: {err}");
         assert!(err.contains("--feasibility-tol"), "{err}");
     }
+}
+
+/// A 5 × 5 cloth in three made-up states: at rest, then with its corner vertex 0 moved 0.05 in
+/// front of the far corner's last triangle, then 0.05 behind it.
+fn through_itself(scene: &Scene) -> (cloth::Model, Vec<autodiff::Tensor>) {
+    let model = cloth::Model::from_scene(scene).unwrap();
+    let rest = model.rest.clone();
+    let p = |x: &autodiff::Tensor, i: usize| {
+        cloth::nalgebra::Vector3::new(x.get(i, 0), x.get(i, 1), x.get(i, 2))
+    };
+    let far = *model.triangles.last().unwrap();
+    let [a, b, c] = far.map(|i| p(&rest, i));
+    let normal = (b - a).cross(&(c - a)).normalize();
+    let centre = (a + b + c) / 3.0;
+    let moved = |offset: f64| {
+        let mut x = rest.clone();
+        let q = centre + normal * offset;
+        x.row_mut(0).copy_from_slice(&[q.x, q.y, q.z]);
+        x
+    };
+    let states = vec![rest.clone(), moved(0.05), moved(-0.05)];
+    (model, states)
+}
+
+#[test]
+fn a_cloth_through_itself_or_its_layers_pressed_together_is_not_safe() {
+    let mut scene = common::small(5, 5, 2, 10);
+    scene.physics.self_collision = Some(cloth::scene::SelfCollisionSpec {
+        thickness: 0.2,
+        edge_edge: false,
+    });
+    scene.validate().unwrap();
+    let (model, states) = through_itself(&scene);
+    let mut task = clothopt::problem::TaskOptions::for_model(&model);
+    task.swept = true;
+    let metrics = cloth::Metrics::default();
+    let report = clothopt::safety_check::check_safety(&model, &states, &metrics, &task, 1e-6);
+    let layers = report.layers.expect("a layer report under self-collision");
+    let nearest = layers
+        .nearest
+        .expect("the moved vertex within the thickness");
+    // Vertex 0 is 0.05 from the far triangle (the triangles it drags along may come nearer
+    // to other vertices).
+    assert!(nearest.distance <= 0.05 + 1e-9, "{nearest:?}");
+    assert_eq!(layers.first_crossing_step, Some(2), "{layers:?}");
+    assert!(layers.crossings >= 1);
+    let text = report.failures.join("\n");
+    assert!(text.contains("less than half the thickness 0.2"), "{text}");
+    assert!(
+        text.contains("passes through itself between steps 1 and 2"),
+        "{text}"
+    );
+
+    // Without self-collision the scene does not simulate it, and the verdict does not judge it.
+    scene.physics.self_collision = None;
+    let (model, states) = through_itself(&scene);
+    let report = clothopt::safety_check::check_safety(&model, &states, &metrics, &task, 1e-6);
+    assert!(
+        report.layers.is_none() && report.failures.is_empty(),
+        "{report:?}"
+    );
+}
+
+/// A thin safety pole through a triangle's middle, every particle more than `δ` from it: the
+/// particles' check passes, the surface's does not.
+#[test]
+fn a_thin_obstacle_through_the_cloth_between_its_particles_is_not_safe() {
+    let mut scene = common::small(5, 5, 1, 10);
+    let model = cloth::Model::from_scene(&scene).unwrap();
+    let p = |i: usize| {
+        cloth::nalgebra::Vector3::new(
+            model.rest.get(i, 0),
+            model.rest.get(i, 1),
+            model.rest.get(i, 2),
+        )
+    };
+    let [a, b, c] = model.triangles[5].map(p);
+    let normal = (b - a).cross(&(c - a)).normalize();
+    let centre = (a + b + c) / 3.0;
+    let nearest = (0..model.n_particles())
+        .map(|i| (p(i) - centre).norm())
+        .fold(f64::INFINITY, f64::min);
+    let radius = 0.005;
+    let (from, to) = (centre - normal, centre + normal);
+    scene.obstacles = vec![Obstacle::Capsule(cloth::scene::CapsuleSpec {
+        a: [from.x, from.y, from.z],
+        b: [to.x, to.y, to.z],
+        radius,
+        role: ObstacleRole::Safety,
+        friction: None,
+    })];
+    scene.task.delta = 0.5 * (nearest - radius);
+    scene.validate().unwrap();
+    let model = cloth::Model::from_scene(&scene).unwrap();
+    let states = vec![model.rest.clone(), model.rest.clone()];
+    let mut task = clothopt::problem::TaskOptions::for_model(&model);
+    task.swept = false;
+    let metrics = cloth::Metrics::default();
+    let report = clothopt::safety_check::check_safety(&model, &states, &metrics, &task, 1e-6);
+    let surface = report
+        .surface
+        .expect("a surface report with safety obstacles");
+    assert!((surface.distance + radius).abs() <= 1e-3, "{surface:?}");
+    let text = report.failures.join("\n");
+    assert!(
+        text.contains("passes through the cloth at step 1"),
+        "{text}"
+    );
+    assert_eq!(report.failures.len(), 1, "the particles keep δ: {text}");
 }

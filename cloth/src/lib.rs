@@ -48,6 +48,7 @@ pub use newton::{
 pub use obj::{ObjError, ObjMesh};
 pub use registry::{ConstraintRegistry, CustomInput};
 pub use rollout::grad::{RecordedRollout, StepCost};
+pub use rollout::layers::LayerGap;
 pub use rollout::metrics::{null_as_infinity, Evaluation, Metrics};
 pub use rollout::penetration::Penetration;
 pub use scene::Scene;

@@ -22,7 +22,8 @@ pub use convert::{
     controls_from_nested, controls_to_nested, gripper_positions, mesh_triangles, state_points,
 };
 pub use safety::{
-    GripperClearance, MotionCheck, PathMinimum, SafetyReport, SurfaceClearance, SURFACE_TOLERANCE,
+    GripperClearance, LayerClearance, LayerPair, MotionCheck, PathMinimum, SafetyReport,
+    SurfaceClearance, SURFACE_TOLERANCE,
 };
 pub use search::{CandidateReport, SearchMode, SearchReport};
 pub use strain::{strain_report, StrainReport};

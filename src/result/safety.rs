@@ -1,7 +1,7 @@
 //! The `safety` section of a result: what the verdict checked besides the optimizer's rows and
 //! the margin at the steps — the straight motion between the steps (the continuous check), the
-//! cloth's surface between its particles, the grippers against the colliders, the cloth inside
-//! the colliders — and what failed
+//! cloth's surface between its particles, the cloth's layers, the grippers against the colliders,
+//! the cloth inside the colliders — and what failed
 //! ([`crate::safety_check`] fills it in).
 
 use serde::{Deserialize, Serialize};
@@ -67,6 +67,32 @@ pub struct SurfaceClearance {
     pub triangle: usize,
 }
 
+/// How near a self-colliding cloth's layers come, and whether they pass through each other.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LayerClearance {
+    /// The nearest vertex–triangle pair (outside each other's 1-ring) at any step `1..=T`,
+    /// among the pairs within the thickness; `null` when none comes that near.
+    pub nearest: Option<LayerPair>,
+    /// How many vertex–triangle and edge–edge pairs pass through each other between the steps
+    /// (from the rest state on), in all.
+    pub crossings: usize,
+    /// The first step whose motion from the step before has a crossing; `null` without any.
+    pub first_crossing_step: Option<usize>,
+}
+
+/// A vertex–triangle pair of the cloth at a step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LayerPair {
+    /// Their unsigned distance (length units).
+    pub distance: f64,
+    /// The step `1..=T`.
+    pub step: usize,
+    /// The vertex (particle index).
+    pub vertex: usize,
+    /// The triangle (index into the cloth's triangles).
+    pub triangle: usize,
+}
+
 /// How precisely [`SurfaceClearance::distance`] is certified, and how far an obstacle may cut
 /// into the cloth's surface before the plan is not safe: 1 mm (length units).
 pub const SURFACE_TOLERANCE: f64 = 1e-3;
@@ -86,6 +112,10 @@ pub struct SafetyReport {
     /// without safety obstacles (and in results written before the check existed).
     #[serde(default)]
     pub surface: Option<SurfaceClearance>,
+    /// With self-collision (`physics.self_collision`), how near the cloth's layers come and
+    /// whether it passes through itself; `null` without self-collision.
+    #[serde(default)]
+    pub layers: Option<LayerClearance>,
     /// The gripper nearest to the colliders, at the steps and (continuous check) between them;
     /// `null` without colliders.
     #[serde(default)]
