@@ -199,3 +199,28 @@ fn a_plan_hands_its_hessian_to_the_next() {
     // (From it, the SQP ends `stalled` here: at the same plan, which it cannot certify.)
     assert!((warm.metrics.l - cold.metrics.l).abs() <= 1e-6 * cold.metrics.l);
 }
+
+/// With `SearchOptions::goal_hessian`, a goal stage from the first plan's Hessian gets at most the
+/// iterations of that plan's last stage; here (the targets far from where the first plan ends) it
+/// ends short of them, and the stage is planned again from the identity, which reaches them.
+#[test]
+fn a_warm_goal_stage_that_ends_short_is_planned_again_from_the_identity() {
+    let scene = reluctant_scene(0.05);
+    let model = Model::from_scene(&scene).unwrap();
+    let start = initial_controls(&scene, &model).unwrap();
+    let options = PlanOptions::for_model(&model);
+    let search = SearchOptions {
+        goal_hessian: true,
+        ..SearchOptions::default()
+    };
+    let result = plan_with_search(&model, &scene, &start, &options, &search, |_| {}).unwrap();
+    assert!(result.task.achieved, "{:?}", result.task);
+    let report = result.search.as_ref().expect("a search report");
+    let stage = |name: &str| report.candidates.iter().find(|c| c.stage == name);
+    let first = stage("first").expect("the first plan");
+    let warm = stage("goal").expect("the warm goal stage");
+    let again = stage("goal_identity").expect("the goal stage from the identity");
+    assert!(!(warm.achieved && warm.safe), "{warm:?}");
+    assert!(warm.iterations <= first.iterations, "{warm:?} {first:?}");
+    assert!(again.kept && again.achieved && again.safe, "{again:?}");
+}

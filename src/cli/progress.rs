@@ -127,6 +127,9 @@ impl Reporter {
         let elapsed = elapsed.as_secs_f64();
         let what = match stage {
             "goal" => format!("goal stage (targets as constraints), route: {route}"),
+            "goal_identity" => {
+                format!("goal stage again from the identity Hessian, route: {route}")
+            }
             "cheap" => format!("cheap stage, {route} in parallel"),
             "polished" => format!("polishing, route: {route}"),
             other => format!("{other} stage, route: {route}"),

@@ -35,7 +35,9 @@ impl SearchMode {
 pub struct CandidateReport {
     /// How the route was built (`initial guess` for the first plan).
     pub route: String,
-    /// `first` (the plan from the given start), `cheap` or `polished`.
+    /// `first` (the plan from the given start), `goal` (a safe plan that missed, planned again
+    /// with its targets as a constraint), `goal_identity` (the same from the identity Hessian,
+    /// after a `goal` stage from the plan's own ended short), `cheap` or `polished`.
     pub stage: String,
     /// Solver status of that stage.
     pub status: String,
