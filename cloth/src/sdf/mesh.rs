@@ -276,15 +276,18 @@ impl SignedDistance for MeshSdf {
         }
     }
 
-    /// A path that stays outside the mesh is answered exactly (to rounding): its smallest
-    /// distance to the surface, from a BVH search over the triangles
+    /// A path that stays outside the mesh (by more than rounding) is answered exactly: its
+    /// smallest distance to the surface, from a BVH search over the triangles
     /// (`segment_surface_distance`). A path that starts inside or touches the surface is
     /// searched by [`lipschitz_segment_min`]: a lower bound within [`SEGMENT_TOLERANCE`], or
     /// after its 4096 evaluations (a path running parallel to a face inside) a looser one, its
     /// `gap` saying by how much at most.
     fn segment_min(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> SegmentMin {
         let (surface, s) = self.segment_surface_distance(a, b);
-        if surface > 0.0 && self.distance(a) > 0.0 {
+        // A path that only rounding keeps off the surface (one starting on it, say) may go
+        // inside: that is the Lipschitz search's case.
+        let rounding = 1e-10 * (1.0 + a.norm().max(b.norm()));
+        if surface > rounding && self.distance(a) > 0.0 {
             let attained = self.distance(&(a + (b - a) * s));
             return SegmentMin {
                 value: surface.min(attained),
