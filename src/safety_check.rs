@@ -70,11 +70,7 @@ pub fn check_safety(
     let surface = surface(model, states, task.swept, task.delta);
     if let Some(s) = surface {
         if s.distance < -SURFACE_TOLERANCE {
-            let when = if task.swept {
-                format!("between steps {} and {}", s.step - 1, s.step)
-            } else {
-                format!("at step {}", s.step)
-            };
+            let when = when(task.swept, s.step);
             failures.push(format!(
                 "a safety obstacle passes through the cloth {when}: {:.4} deep into triangle {}, between its particles",
                 -s.distance, s.triangle
@@ -101,11 +97,7 @@ pub fn check_safety(
     let grippers = grippers(model, states, task.swept);
     if let Some(g) = grippers {
         if g.distance < -tol_feasibility {
-            let when = if task.swept {
-                format!("between steps {} and {}", g.step - 1, g.step)
-            } else {
-                format!("at step {}", g.step)
-            };
+            let when = when(task.swept, g.step);
             failures.push(format!(
                 "gripper {} goes {:.4} inside the colliders {when}",
                 g.gripper, -g.distance
@@ -156,6 +148,16 @@ fn between_steps(model: &Model, states: &[Tensor], delta: f64) -> Option<PathMin
         }
     }
     best
+}
+
+/// When a finding at step `step` happened: on the motion from the step before under the
+/// continuous check (`swept`), at the step otherwise.
+fn when(swept: bool, step: usize) -> String {
+    if swept {
+        format!("between steps {} and {}", step - 1, step)
+    } else {
+        format!("at step {step}")
+    }
 }
 
 /// The cloth's surface nearest to the safety obstacles (module docs); `None` without them.
