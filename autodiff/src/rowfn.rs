@@ -11,6 +11,7 @@
 use crate::dual::Dual;
 use crate::index::RowIndex;
 use crate::real::Real;
+use crate::simd::{F64x8, LANES};
 use crate::tensor::Tensor;
 use rayon::prelude::*;
 
@@ -56,6 +57,29 @@ pub trait RowFn: Send + Sync {
             .enumerate()
         {
             self.eval(first + k, x, y);
+        }
+    }
+
+    /// Whether [`RowFn::eval_lanes`] is a lane-wise formulation: the in-place kernels then
+    /// evaluate rows of points [`LANES`] at a time through it, gathered straight from the state
+    /// into lanes, where the CPU has AVX2 (row by row elsewhere).
+    const HAS_LANES: bool = false;
+
+    /// Evaluates the rows `first .. first + LANES` lane-wise: `inputs[j]` holds input `j` of
+    /// the rows (lane `l` is row `first + l`), `outputs[j]` receives output `j`. An override
+    /// (with [`RowFn::HAS_LANES`]) must give [`RowFn::eval`]'s values bit for bit in every lane
+    /// (the same IEEE operations in the same order, no fused multiply–add). The default
+    /// evaluates lane by lane through [`RowFn::eval`].
+    #[inline(always)]
+    fn eval_lanes(&self, first: usize, inputs: &[F64x8], outputs: &mut [F64x8])
+    where
+        Self: Sized,
+    {
+        let (mut x, mut y) = (vec![0.0; self.n_in()], vec![0.0; self.n_out()]);
+        for l in 0..LANES {
+            x.iter_mut().zip(inputs).for_each(|(v, i)| *v = i.0[l]);
+            self.eval(first + l, &x, &mut y);
+            outputs.iter_mut().zip(&y).for_each(|(o, v)| o.0[l] = *v);
         }
     }
 

@@ -14,7 +14,7 @@
 
 use crate::constraint::{value_and_gradient, Constraint, RowVector, MAX_ARITY};
 use autodiff::rowfn::{with_scratch, ROW_BLOCK, SEED_CHUNK};
-use autodiff::{Real, RowFn};
+use autodiff::{F64x8, Real, RowFn};
 use std::sync::Arc;
 
 const MAX_D: usize = 3 * MAX_ARITY;
@@ -117,6 +117,40 @@ impl<C: Constraint> RowFn for Projection<C> {
         with_scratch(&VECTORS, fresh_vectors, |(g, a_g)| {
             self.vjp_block(first, inputs, out_adj, in_adj, g, a_g)
         });
+    }
+
+    const HAS_LANES: bool = C::LANES;
+
+    /// [`Projection::eval`] of four rows in lanes ([`Constraint::gradient_lanes`]), bitwise:
+    /// a lane whose row does not move keeps its inputs (selected, not branched on).
+    #[inline(always)]
+    fn eval_lanes(&self, first: usize, x: &[F64x8], y: &mut [F64x8]) {
+        let d = 3 * C::ARITY;
+        let instances = std::array::from_fn(|l| self.instances[first + l]);
+        let c = self
+            .constraint
+            .gradient_lanes(instances, &x[..d], &mut y[..d]);
+        let w: [F64x8; MAX_ARITY] = std::array::from_fn(|i| match i < C::ARITY {
+            true => F64x8::from_fn(|l| self.inv_mass[(first + l) * C::ARITY + i]),
+            false => F64x8::splat(0.0),
+        });
+        // As `weighted_sq` and `step_of`, lane by lane.
+        let mut s = F64x8::splat(0.0);
+        for i in 0..C::ARITY {
+            let g = &y[3 * i..3 * i + 3];
+            s = s + (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * w[i];
+        }
+        let alpha = F64x8::splat(self.compliance);
+        let denom = s + alpha;
+        let dlambda = (-c - x[d] * alpha) / denom;
+        let mut still = denom.eq_zero();
+        if C::INEQUALITY {
+            still = still.or(c.ge_zero());
+        }
+        for j in 0..d {
+            y[j] = F64x8::select(still, x[j], x[j] + y[j] * w[j / 3] * dlambda);
+        }
+        y[d] = F64x8::select(still, x[d], x[d] + dlambda);
     }
 
     /// `C`, `∇C`, `Δλ` and the reciprocals once for all the seeds; per seed only products and
