@@ -81,6 +81,28 @@ pub(crate) unsafe fn lane_groups<F: RowFn, const A: usize>(
     range.start
 }
 
+/// [`vjp_groups`] on the rows of `range` where the target has it; returns the first row left to
+/// the row-by-row kernel.
+///
+/// # Safety
+/// As [`vjp_groups`].
+#[inline(always)]
+pub(crate) unsafe fn lane_groups_vjp<F: RowFn, const A: usize>(
+    f: &F,
+    idx: &[usize],
+    range: std::ops::Range<usize>,
+    inputs: &[f64],
+    adj: PointBuffers,
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if F::HAS_LANES {
+        vjp_groups::<F, A>(f, idx, range.clone(), inputs, adj);
+        return groups_end(&range);
+    }
+    let _ = (f, idx, inputs, adj);
+    range.start
+}
+
 /// First row of `range` that [`update_groups`] leaves to the row-by-row kernel.
 #[inline(always)]
 pub(crate) fn groups_end(range: &std::ops::Range<usize>) -> usize {
@@ -104,39 +126,22 @@ pub(crate) unsafe fn update_groups<F: RowFn, const A: usize>(
     range: std::ops::Range<usize>,
     buf: PointBuffers,
 ) {
-    use std::arch::x86_64::*;
     let width = 3 * A + 1;
     debug_assert!(idx.len() >= A * range.end);
-    // Lanes 0–2 of a point: its coordinates (the fourth value is another point's or past the end).
-    let xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
     let (state, carry, saved) = (buf.state.ptr, buf.carry.ptr, buf.saved.ptr);
     let (mut x, mut y) = ([F64x8::default(); 13], [F64x8::default(); 13]);
     let mut k = range.start;
     while k < groups_end(&range) {
-        // Two groups of four rows, each gathered by 4 × 4 transposes of its points.
-        for (h, k) in [k, k + 4].into_iter().enumerate() {
-            for j in 0..A {
-                let p = |l: usize| 3 * *idx.get_unchecked(A * (k + l) + j);
-                let r = [0, 1, 2, 3].map(|l| _mm256_maskload_pd(state.add(p(l)), xyz));
-                if !saved.is_null() {
-                    // Four values at the point's place in the row: the fourth is overwritten by
-                    // the next point or the carried value, written after it.
-                    for (l, &rl) in r.iter().enumerate() {
-                        _mm256_storeu_pd(saved.add(width * (k + l) + 3 * j), rl);
-                    }
+        let points = |j: usize| point_offsets::<A>(idx, k, j);
+        for j in 0..A {
+            let rows = load_points(state, points(j), &mut x[3 * j..3 * j + 3]);
+            if !saved.is_null() {
+                // Four values at the point's place in the row: the fourth is overwritten by
+                // the next point or the carried value, written after it.
+                for (l, &row) in rows.iter().enumerate() {
+                    let at = saved.add(width * (k + l) + 3 * j);
+                    std::arch::x86_64::_mm256_storeu_pd(at, row);
                 }
-                // [x0 x1 z0 z1], [y0 y1 · ·], [x2 x3 z2 z3], [y2 y3 · ·].
-                let (a, b) = (
-                    _mm256_unpacklo_pd(r[0], r[1]),
-                    _mm256_unpackhi_pd(r[0], r[1]),
-                );
-                let (c, d) = (
-                    _mm256_unpacklo_pd(r[2], r[3]),
-                    _mm256_unpackhi_pd(r[2], r[3]),
-                );
-                set_half(&mut x[3 * j], h, _mm256_permute2f128_pd::<0x20>(a, c));
-                set_half(&mut x[3 * j + 1], h, _mm256_permute2f128_pd::<0x20>(b, d));
-                set_half(&mut x[3 * j + 2], h, _mm256_permute2f128_pd::<0x31>(a, c));
             }
         }
         x[3 * A] = F64x8(std::ptr::read_unaligned(carry.add(k).cast()));
@@ -146,30 +151,129 @@ pub(crate) unsafe fn update_groups<F: RowFn, const A: usize>(
             }
         }
         f.eval_lanes(k, &x[..width], &mut y[..width]);
-        for (h, k) in [k, k + 4].into_iter().enumerate() {
-            for j in 0..A {
-                let p = |l: usize| 3 * *idx.get_unchecked(A * (k + l) + j);
-                let [px, py, pz] = [0, 1, 2].map(|c| half(&y[3 * j + c], h));
-                // [x0 y0 x2 y2], [x1 y1 x3 y3], [z0 z0 z2 z2], [z1 z1 z3 z3].
-                let (a, b) = (_mm256_unpacklo_pd(px, py), _mm256_unpackhi_pd(px, py));
-                let (c, d) = (_mm256_unpacklo_pd(pz, pz), _mm256_unpackhi_pd(pz, pz));
-                for (l, (xy, zz)) in [(a, c), (b, d)].into_iter().enumerate() {
-                    let (lo, hi) = (p(l), p(l + 2));
-                    _mm_storeu_pd(state.add(lo), _mm256_castpd256_pd128(xy));
-                    _mm_store_sd(state.add(lo + 2), _mm256_castpd256_pd128(zz));
-                    _mm_storeu_pd(state.add(hi), _mm256_extractf128_pd::<1>(xy));
-                    _mm_store_sd(state.add(hi + 2), _mm256_extractf128_pd::<1>(zz));
-                }
-            }
+        for j in 0..A {
+            store_points(state, points(j), &y[3 * j..3 * j + 3]);
         }
         std::ptr::write_unaligned(carry.add(k).cast(), y[3 * A].0);
         k += LANES;
     }
 }
 
+/// The adjoint of [`update_groups`] in place, through [`RowFn::vjp_lanes`]: on the rows
+/// `range.start .. groups_end(range)`, the adjoints `adj.state` and `adj.carry` of the updated
+/// rows become those of the rows before the update; `inputs` are the saved inputs (row layout).
+///
+/// # Safety
+/// As [`update_groups`], with `adj` for the state and carry, and `inputs` holding `3A + 1`
+/// values per row up to `range.end`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn vjp_groups<F: RowFn, const A: usize>(
+    f: &F,
+    idx: &[usize],
+    range: std::ops::Range<usize>,
+    inputs: &[f64],
+    adj: PointBuffers,
+) {
+    let width = 3 * A + 1;
+    debug_assert!(idx.len() >= A * range.end && inputs.len() >= width * range.end);
+    let (state, carry, saved) = (adj.state.ptr, adj.carry.ptr, inputs.as_ptr());
+    let (mut x, mut oa, mut ia) = (
+        [F64x8::default(); 13],
+        [F64x8::default(); 13],
+        [F64x8::default(); 13],
+    );
+    let mut k = range.start;
+    while k < groups_end(&range) {
+        let points = |j: usize| point_offsets::<A>(idx, k, j);
+        for j in 0..A {
+            load_points(state, points(j), &mut oa[3 * j..3 * j + 3]);
+            let rows = std::array::from_fn(|l| width * (k + l) + 3 * j);
+            load_points(saved, rows, &mut x[3 * j..3 * j + 3]);
+        }
+        oa[3 * A] = F64x8(std::ptr::read_unaligned(carry.add(k).cast()));
+        x[3 * A] = F64x8::from_fn(|l| *saved.add(width * (k + l) + 3 * A));
+        f.vjp_lanes(k, &x[..width], &oa[..width], &mut ia[..width]);
+        for j in 0..A {
+            store_points(state, points(j), &ia[3 * j..3 * j + 3]);
+        }
+        std::ptr::write_unaligned(carry.add(k).cast(), ia[3 * A].0);
+        k += LANES;
+    }
+}
+
+/// Where point `j` of each of the rows `k .. k + LANES` starts in the state.
+///
+/// # Safety
+/// `idx` holds `A` points for each of these rows.
+#[inline(always)]
+unsafe fn point_offsets<const A: usize>(idx: &[usize], k: usize, j: usize) -> [usize; LANES] {
+    std::array::from_fn(|l| 3 * *idx.get_unchecked(A * (k + l) + j))
+}
+
+/// Loads the three values at `base + off[l]` of every lane `l` into `dst` (x, y and z lanes),
+/// by two 4 × 4 transposes; returns the loaded registers (each `[x y z 0]`).
+///
+/// # Safety
+/// Three values readable at each offset; AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn load_points(
+    base: *const f64,
+    off: [usize; LANES],
+    dst: &mut [F64x8],
+) -> [std::arch::x86_64::__m256d; LANES] {
+    use std::arch::x86_64::*;
+    // Lanes 0–2 of a point: its coordinates (the fourth value is another point's or past the end).
+    let xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
+    let r = off.map(|o| _mm256_maskload_pd(base.add(o), xyz));
+    for h in 0..2 {
+        let r = &r[4 * h..4 * h + 4];
+        // [x0 x1 z0 z1], [y0 y1 · ·], [x2 x3 z2 z3], [y2 y3 · ·].
+        let (a, b) = (
+            _mm256_unpacklo_pd(r[0], r[1]),
+            _mm256_unpackhi_pd(r[0], r[1]),
+        );
+        let (c, d) = (
+            _mm256_unpacklo_pd(r[2], r[3]),
+            _mm256_unpackhi_pd(r[2], r[3]),
+        );
+        set_half(&mut dst[0], h, _mm256_permute2f128_pd::<0x20>(a, c));
+        set_half(&mut dst[1], h, _mm256_permute2f128_pd::<0x20>(b, d));
+        set_half(&mut dst[2], h, _mm256_permute2f128_pd::<0x31>(a, c));
+    }
+    r
+}
+
+/// Stores `src`'s x, y and z lanes as three values at `base + off[l]` for every lane `l`.
+///
+/// # Safety
+/// Three values writable at each offset, touched by no other task; AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn store_points(base: *mut f64, off: [usize; LANES], src: &[F64x8]) {
+    use std::arch::x86_64::*;
+    for h in 0..2 {
+        let [px, py, pz] = [0, 1, 2].map(|c| half(&src[c], h));
+        // [x0 y0 x2 y2], [x1 y1 x3 y3], [z0 z0 z2 z2], [z1 z1 z3 z3].
+        let (a, b) = (_mm256_unpacklo_pd(px, py), _mm256_unpackhi_pd(px, py));
+        let (c, d) = (_mm256_unpacklo_pd(pz, pz), _mm256_unpackhi_pd(pz, pz));
+        for (l, (xy, zz)) in [(a, c), (b, d)].into_iter().enumerate() {
+            let (lo, hi) = (base.add(off[4 * h + l]), base.add(off[4 * h + l + 2]));
+            _mm_storeu_pd(lo, _mm256_castpd256_pd128(xy));
+            _mm_store_sd(lo.add(2), _mm256_castpd256_pd128(zz));
+            _mm_storeu_pd(hi, _mm256_extractf128_pd::<1>(xy));
+            _mm_store_sd(hi.add(2), _mm256_extractf128_pd::<1>(zz));
+        }
+    }
+}
+
 /// Lanes `4h .. 4h + 4` of `v` as a register.
 #[cfg(target_arch = "x86_64")]
-#[inline(always)]
+#[target_feature(enable = "avx2")]
+#[inline]
 fn half(v: &F64x8, h: usize) -> std::arch::x86_64::__m256d {
     // SAFETY: four values of the eight, unaligned load.
     unsafe { std::arch::x86_64::_mm256_loadu_pd(v.0[4 * h..4 * h + 4].as_ptr()) }
@@ -177,7 +281,8 @@ fn half(v: &F64x8, h: usize) -> std::arch::x86_64::__m256d {
 
 /// Sets lanes `4h .. 4h + 4` of `v` to a register's values.
 #[cfg(target_arch = "x86_64")]
-#[inline(always)]
+#[target_feature(enable = "avx2")]
+#[inline]
 fn set_half(v: &mut F64x8, h: usize, r: std::arch::x86_64::__m256d) {
     // SAFETY: four values of the eight, unaligned store.
     unsafe { std::arch::x86_64::_mm256_storeu_pd(v.0[4 * h..4 * h + 4].as_mut_ptr(), r) }

@@ -83,6 +83,26 @@ pub trait RowFn: Send + Sync {
         }
     }
 
+    /// The vector–Jacobian product of the rows `first .. first + LANES` lane-wise, as
+    /// [`RowFn::eval_lanes`] is to [`RowFn::eval`]: `in_adj` receives `Jᵀ out_adj` (what
+    /// [`RowFn::vjp`] accumulates into zeros, bit for bit in every lane, for an override). The
+    /// default pulls back lane by lane through [`RowFn::vjp`].
+    #[inline(always)]
+    fn vjp_lanes(&self, first: usize, inputs: &[F64x8], out_adj: &[F64x8], in_adj: &mut [F64x8])
+    where
+        Self: Sized,
+    {
+        let (n_in, n_out) = (self.n_in(), self.n_out());
+        let (mut x, mut oa, mut ia) = (vec![0.0; n_in], vec![0.0; n_out], vec![0.0; n_in]);
+        for l in 0..LANES {
+            x.iter_mut().zip(inputs).for_each(|(v, i)| *v = i.0[l]);
+            oa.iter_mut().zip(out_adj).for_each(|(v, o)| *v = o.0[l]);
+            ia.fill(0.0);
+            self.vjp(first + l, &x, &oa, &mut ia);
+            in_adj.iter_mut().zip(&ia).for_each(|(a, v)| a.0[l] = *v);
+        }
+    }
+
     /// [`RowFn::vjp`] for the consecutive rows of a block, as [`RowFn::eval_rows`] is to
     /// [`RowFn::eval`].
     #[inline(always)]

@@ -8,7 +8,7 @@
 //! checked once up front, rayon above [`crate::rowfn::PARALLEL_MIN_ROWS`] rows).
 
 use crate::index::RowIndex;
-use crate::lanes::{lane_groups, lanes_for, PointBuffers, SharedRows};
+use crate::lanes::{lane_groups, lane_groups_vjp, lanes_for, PointBuffers, SharedRows};
 use crate::rowfn::{
     for_each_row_chunk, for_row_ranges, with_scratch, DynRowFn, RowFn, ROW_BLOCK, SEED_CHUNK,
 };
@@ -453,7 +453,18 @@ fn vjp_update_points<F: RowFn, const A: usize, const C: usize>(
 ) {
     check_adjoints::<A, C>(index, inputs, state_adj.len(), carry_adj.len());
     let (state, carry) = (SharedRows::new(state_adj), SharedRows::new(carry_adj));
-    let head = |range: Range<usize>| range.start;
+    let lanes = C == 1 && lanes_for::<F>();
+    let adj = PointBuffers {
+        state,
+        carry,
+        saved: SharedRows::EMPTY,
+    };
+    let idx = index.as_slice();
+    // SAFETY (of `lane_groups_vjp`): `check_adjoints` asserted the index and inputs fit.
+    let head = |range: Range<usize>| match lanes {
+        true => unsafe { lane_groups_vjp::<F, A>(f, idx, range, inputs, adj) },
+        false => range.start,
+    };
     for_point_blocks::<A, C>(index, state, carry, head, |first, oa, ia| {
         let width = 3 * A + C;
         let rows = oa.len() / width;

@@ -73,6 +73,27 @@ pub trait Constraint: Send + Sync + 'static {
         c
     }
 
+    /// `∇²C(x)·v` of [`LANES`] instances at once, in place: lane `l` of `x[i]` and
+    /// `v[i]` belongs to `instances[l]`. An override (with [`Constraint::LANES`]) must give
+    /// [`Constraint::hessian_vectors`]' values bit for bit in every lane. The default calls
+    /// [`Constraint::hessian_vectors`] per lane.
+    #[inline(always)]
+    fn hessian_vector_lanes(&self, instances: [usize; LANES], x: &[F64x8], v: &mut [F64x8])
+    where
+        Self: Sized,
+    {
+        let (mut xl, mut vl) = ([0.0; MAX_D], [[0.0; MAX_D]]);
+        for (l, &instance) in instances.iter().enumerate() {
+            xl.iter_mut().zip(x).for_each(|(a, xi)| *a = xi.0[l]);
+            vl[0]
+                .iter_mut()
+                .zip(v.iter())
+                .for_each(|(a, vi)| *a = vi.0[l]);
+            self.hessian_vectors(instance, &xl[..x.len()], &mut vl);
+            v.iter_mut().zip(&vl[0]).for_each(|(vi, a)| vi.0[l] = *a);
+        }
+    }
+
     /// `∇²C(x)·v` for several vectors `v` at once, in place: each `vs[s][..3·ARITY]` in, its
     /// product out. The XPBD backward pass calls it with every seed's vector of a row, so what
     /// the vectors share (the point's own quantities, reciprocals) is computed once.
@@ -282,6 +303,22 @@ impl Constraint for Distance {
             g[k + 3] = F64x8::select(zero, F64x8::splat(0.0), -gk);
         }
         n - F64x8::from_fn(|l| self.rest[instances[l]])
+    }
+
+    /// [`Distance::hessian_vectors`] of one vector in lanes, bitwise.
+    #[inline(always)]
+    fn hessian_vector_lanes(&self, _instances: [usize; LANES], x: &[F64x8], v: &mut [F64x8]) {
+        let d = [x[0] - x[3], x[1] - x[4], x[2] - x[5]];
+        let s = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let (zero, inv) = (s.eq_zero(), F64x8::splat(1.0) / s.sqrt());
+        let u = d.map(|dk| dk * inv);
+        let delta = [v[0] - v[3], v[1] - v[4], v[2] - v[5]];
+        let t = u[0] * delta[0] + u[1] * delta[1] + u[2] * delta[2];
+        for k in 0..3 {
+            let h = (delta[k] - u[k] * t) * inv;
+            v[k] = F64x8::select(zero, F64x8::splat(0.0), h);
+            v[k + 3] = F64x8::select(zero, F64x8::splat(0.0), -h);
+        }
     }
 
     /// `∇²C·v`: `±(δ − u(u·δ))/|d|` with `d = p₀ − p₁`, `u = d/|d|`, `δ = v₀ − v₁`; `1/|d|`

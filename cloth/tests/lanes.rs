@@ -1,9 +1,10 @@
 //! The lane-wise colour-set kernel (four rows at once, gathered straight from the state into
 //! AVX2 lanes: `autodiff/src/lanes.rs` with `Projection::eval_lanes` and
-//! `Distance::gradient_lanes`) against the row-by-row kernel it replaces where the CPU has AVX2:
-//! states, multipliers and the recorded inputs must be bitwise equal.
+//! `Distance::gradient_lanes`) and its pull-back (`Projection::vjp_lanes`,
+//! `Distance::hessian_vector_lanes`) against the row-by-row kernels they replace where the CPU
+//! has AVX2: states, multipliers, the recorded inputs and the adjoints must be bitwise equal.
 //!
-//! Random colour sets of `Distance` rows (0 to 40 rows, so groups of four and every tail length;
+//! Random colour sets of `Distance` rows (0 to 40 rows, so groups of eight and every tail length;
 //! now and then 600 rows, so the rows are split into tasks), random states with some rows'
 //! particles coincident (`∇C` = 0, the zero branch), inverse masses 0 with probability ¼ (rows
 //! of two pinned particles do not move when rigid), compliance 0 or in `[1e-6, 1]`, and random
@@ -13,7 +14,7 @@ mod common;
 
 use autodiff::lanes::without_lanes;
 use autodiff::update::update_rows;
-use autodiff::{RowIndex, Tensor};
+use autodiff::{DynRowFn, RowIndex, Tensor};
 use cloth::constraint::Distance;
 use cloth::internals::Projection;
 use common::XorShift;
@@ -62,16 +63,29 @@ fn colour_set(
     )
 }
 
-/// Three sweeps of the set (so moved rows move again), recording the last: the final state,
-/// multipliers and saved inputs as bits.
-fn sweeps(p: &Projection<Distance>, index: &RowIndex, state: &Tensor, carry: &Tensor) -> Vec<u64> {
+/// Three sweeps of the set (so moved rows move again), recording the last, and the last's
+/// pull-back of random adjoints: the final state, multipliers, saved inputs and the adjoints
+/// as bits.
+fn sweeps(
+    p: &Projection<Distance>,
+    index: &RowIndex,
+    state: &Tensor,
+    carry: &Tensor,
+    seed: u64,
+) -> Vec<u64> {
     let (mut state, mut carry, mut saved) = (state.clone(), carry.clone(), vec![f64::NAN; 5]);
     for sweep in 0..3 {
         let record = (sweep == 2).then_some(&mut saved);
         update_rows(p, index, &mut state, &mut carry, record);
     }
+    let mut rng = XorShift::new(seed ^ 0x5eed);
+    let (n, rows) = (state.rows(), carry.rows());
+    let mut state_adj = Tensor::new(n, 3, rng.direction(3 * n));
+    let mut carry_adj = Tensor::new(rows, 1, rng.direction(rows));
+    p.vjp_update_batch(index, &saved, &mut state_adj, &mut carry_adj);
     let values = state.data().iter().chain(carry.data()).chain(&saved);
-    values.map(|v| v.to_bits()).collect()
+    let adjoints = state_adj.data().iter().chain(carry_adj.data());
+    values.chain(adjoints).map(|v| v.to_bits()).collect()
 }
 
 proptest! {
@@ -84,8 +98,8 @@ proptest! {
         alpha in prop_oneof![Just(0.0), 1e-6f64..1.0],
     ) {
         let (p, index, state, carry) = colour_set(seed, rows, alpha);
-        let lanes = sweeps(&p, &index, &state, &carry);
-        let by_rows = without_lanes(|| sweeps(&p, &index, &state, &carry));
+        let lanes = sweeps(&p, &index, &state, &carry, seed);
+        let by_rows = without_lanes(|| sweeps(&p, &index, &state, &carry, seed));
         prop_assert_eq!(lanes.len(), by_rows.len());
         for (i, (a, b)) in lanes.iter().zip(&by_rows).enumerate() {
             prop_assert_eq!(a, b, "value {} differs: {:e} vs {:e}", i, f64::from_bits(*a), f64::from_bits(*b));

@@ -14,7 +14,7 @@
 
 use crate::constraint::{value_and_gradient, Constraint, RowVector, MAX_ARITY};
 use autodiff::rowfn::{with_scratch, ROW_BLOCK, SEED_CHUNK};
-use autodiff::{F64x8, Real, RowFn};
+use autodiff::{F64x8, Mask8, Real, RowFn};
 use std::sync::Arc;
 
 const MAX_D: usize = 3 * MAX_ARITY;
@@ -121,8 +121,8 @@ impl<C: Constraint> RowFn for Projection<C> {
 
     const HAS_LANES: bool = C::LANES;
 
-    /// [`Projection::eval`] of four rows in lanes ([`Constraint::gradient_lanes`]), bitwise:
-    /// a lane whose row does not move keeps its inputs (selected, not branched on).
+    /// [`Projection::eval`] of [`LANES`](autodiff::simd::LANES) rows in lanes ([`Constraint::gradient_lanes`]),
+    /// bitwise: a lane whose row does not move keeps its inputs (selected, not branched on).
     #[inline(always)]
     fn eval_lanes(&self, first: usize, x: &[F64x8], y: &mut [F64x8]) {
         let d = 3 * C::ARITY;
@@ -130,27 +130,51 @@ impl<C: Constraint> RowFn for Projection<C> {
         let c = self
             .constraint
             .gradient_lanes(instances, &x[..d], &mut y[..d]);
-        let w: [F64x8; MAX_ARITY] = std::array::from_fn(|i| match i < C::ARITY {
-            true => F64x8::from_fn(|l| self.inv_mass[(first + l) * C::ARITY + i]),
-            false => F64x8::splat(0.0),
-        });
-        // As `weighted_sq` and `step_of`, lane by lane.
-        let mut s = F64x8::splat(0.0);
-        for i in 0..C::ARITY {
-            let g = &y[3 * i..3 * i + 3];
-            s = s + (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * w[i];
-        }
-        let alpha = F64x8::splat(self.compliance);
-        let denom = s + alpha;
-        let dlambda = (-c - x[d] * alpha) / denom;
-        let mut still = denom.eq_zero();
-        if C::INEQUALITY {
-            still = still.or(c.ge_zero());
-        }
+        let w = self.lane_masses(first);
+        let (still, _, dlambda) = self.step_lanes(x, c, y, &w);
         for j in 0..d {
             y[j] = F64x8::select(still, x[j], x[j] + y[j] * w[j / 3] * dlambda);
         }
         y[d] = F64x8::select(still, x[d], x[d] + dlambda);
+    }
+
+    /// [`Projection::vjp`] of [`LANES`](autodiff::simd::LANES) rows in lanes (into zeros), bitwise: the adjoint of
+    /// [`Projection::eval_lanes`] as `vjp_block` computes it row by row, with
+    /// [`Constraint::hessian_vector_lanes`].
+    #[inline(always)]
+    fn vjp_lanes(&self, first: usize, x: &[F64x8], oa: &[F64x8], ia: &mut [F64x8]) {
+        let d = 3 * C::ARITY;
+        let instances = std::array::from_fn(|l| self.instances[first + l]);
+        let mut g = [F64x8::default(); MAX_D];
+        let c = self
+            .constraint
+            .gradient_lanes(instances, &x[..d], &mut g[..d]);
+        let w = self.lane_masses(first);
+        let (still, denom, dlambda) = self.step_lanes(x, c, &g, &w);
+        let inv_denom = F64x8::splat(1.0) / denom;
+        let dlambda_inv_denom = dlambda * inv_denom;
+        // As `seed_head`: the adjoints of Δλ, its numerator and denominator, and of ∇C.
+        let mut a_dl = oa[d];
+        for j in 0..d {
+            a_dl = a_dl + w[j / 3] * g[j] * oa[j];
+        }
+        let a_num = a_dl * inv_denom;
+        let a_den2 = F64x8::splat(-2.0) * (a_dl * dlambda_inv_denom);
+        let mut a_g = [F64x8::default(); MAX_D];
+        for j in 0..d {
+            a_g[j] = w[j / 3] * (dlambda * oa[j] + a_den2 * g[j]);
+        }
+        self.constraint
+            .hessian_vector_lanes(instances, &x[..d], &mut a_g[..d]);
+        // The identity part (added to zeros), then `seed_head`'s and `seed_tail`'s terms.
+        let zero = F64x8::splat(0.0);
+        let alpha = F64x8::splat(self.compliance);
+        let id = zero + oa[d];
+        ia[d] = F64x8::select(still, id, id - alpha * a_num);
+        for j in 0..d {
+            let id = zero + oa[j];
+            ia[j] = F64x8::select(still, id, id + (a_g[j] - a_num * g[j]));
+        }
     }
 
     /// `C`, `∇C`, `Δλ` and the reciprocals once for all the seeds; per seed only products and
@@ -295,6 +319,41 @@ fn seed_tail<C: Constraint>(g: &[f64; MAX_D], a_num: f64, hv: &[f64; MAX_D], in_
 }
 
 impl<C: Constraint> Projection<C> {
+    /// The inverse masses of the rows `first .. first + LANES`, point by point.
+    #[inline(always)]
+    fn lane_masses(&self, first: usize) -> [F64x8; MAX_ARITY] {
+        std::array::from_fn(|i| match i < C::ARITY {
+            true => F64x8::from_fn(|l| self.inv_mass[(first + l) * C::ARITY + i]),
+            false => F64x8::splat(0.0),
+        })
+    }
+
+    /// [`Projection::step_of`] in lanes: the lanes whose row does not move, the denominator
+    /// and `Δλ` (meaningless in the lanes that do not move).
+    #[inline(always)]
+    fn step_lanes(
+        &self,
+        x: &[F64x8],
+        c: F64x8,
+        g: &[F64x8],
+        w: &[F64x8; MAX_ARITY],
+    ) -> (Mask8, F64x8, F64x8) {
+        // As `weighted_sq`, lane by lane.
+        let mut s = F64x8::splat(0.0);
+        for i in 0..C::ARITY {
+            let g = &g[3 * i..3 * i + 3];
+            s = s + (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * w[i];
+        }
+        let alpha = F64x8::splat(self.compliance);
+        let denom = s + alpha;
+        let dlambda = (-c - x[3 * C::ARITY] * alpha) / denom;
+        let mut still = denom.eq_zero();
+        if C::INEQUALITY {
+            still = still.or(c.ge_zero());
+        }
+        (still, denom, dlambda)
+    }
+
     /// `C` and `∇C` (into `g[..3·ARITY]`) of row `row` at its input positions.
     #[inline(always)]
     fn gradient<R: Real>(&self, row: usize, input: &[R], g: &mut [R]) -> R {
