@@ -14,6 +14,7 @@
 
 use crate::constraint::{value_and_gradient, Constraint, RowVector, MAX_ARITY};
 use autodiff::rowfn::{with_scratch, ROW_BLOCK, SEED_CHUNK};
+use autodiff::simd::LANES;
 use autodiff::{F64x8, Mask8, Real, RowFn};
 use std::sync::Arc;
 
@@ -26,6 +27,9 @@ pub struct Projection<C> {
     instances: Vec<usize>,
     /// Inverse mass of each row's particles (`rows × ARITY`).
     inv_mass: Vec<f64>,
+    /// The same in lanes when `C` has them: for each group of eight rows from row 0 (the
+    /// lane-wise kernels' groups), `ARITY` vectors (point by point); rows past the end have 0.
+    lane_mass: Vec<F64x8>,
     /// `α̃ = 1/(k Δt²)`; 0 for a rigid constraint.
     compliance: f64,
 }
@@ -50,10 +54,27 @@ impl<C: Constraint> Projection<C> {
             compliance >= 0.0 && compliance.is_finite(),
             "Projection: compliance must be finite and ≥ 0"
         );
+        let groups = if C::LANES {
+            instances.len().div_ceil(LANES)
+        } else {
+            0
+        };
+        let lane_mass = (0..groups)
+            .flat_map(|group| {
+                let w = &inv_mass;
+                (0..C::ARITY).map(move |i| {
+                    F64x8::from_fn(|l| {
+                        let row = LANES * group + l;
+                        w.get(row * C::ARITY + i).copied().unwrap_or(0.0)
+                    })
+                })
+            })
+            .collect();
         Projection {
             constraint,
             instances,
             inv_mass,
+            lane_mass,
             compliance,
         }
     }
@@ -121,7 +142,7 @@ impl<C: Constraint> RowFn for Projection<C> {
 
     const HAS_LANES: bool = C::LANES;
 
-    /// [`Projection::eval`] of [`LANES`](autodiff::simd::LANES) rows in lanes ([`Constraint::gradient_lanes`]),
+    /// [`Projection::eval`] of [`LANES`] rows in lanes ([`Constraint::gradient_lanes`]),
     /// bitwise: a lane whose row does not move keeps its inputs (selected, not branched on).
     #[inline(always)]
     fn eval_lanes(&self, first: usize, x: &[F64x8], y: &mut [F64x8]) {
@@ -138,7 +159,7 @@ impl<C: Constraint> RowFn for Projection<C> {
         y[d] = F64x8::select(still, x[d], x[d] + dlambda);
     }
 
-    /// [`Projection::vjp`] of [`LANES`](autodiff::simd::LANES) rows in lanes (into zeros), bitwise: the adjoint of
+    /// [`Projection::vjp`] of [`LANES`] rows in lanes (into zeros), bitwise: the adjoint of
     /// [`Projection::eval_lanes`] as `vjp_block` computes it row by row, with
     /// [`Constraint::hessian_vector_lanes`].
     #[inline(always)]
@@ -322,10 +343,16 @@ impl<C: Constraint> Projection<C> {
     /// The inverse masses of the rows `first .. first + LANES`, point by point.
     #[inline(always)]
     fn lane_masses(&self, first: usize) -> [F64x8; MAX_ARITY] {
-        std::array::from_fn(|i| match i < C::ARITY {
-            true => F64x8::from_fn(|l| self.inv_mass[(first + l) * C::ARITY + i]),
-            false => F64x8::splat(0.0),
-        })
+        let mut w = [F64x8::splat(0.0); MAX_ARITY];
+        if first % LANES == 0 {
+            let group = &self.lane_mass[first / LANES * C::ARITY..][..C::ARITY];
+            w[..C::ARITY].copy_from_slice(group);
+        } else {
+            for (i, wi) in w[..C::ARITY].iter_mut().enumerate() {
+                *wi = F64x8::from_fn(|l| self.inv_mass[(first + l) * C::ARITY + i]);
+            }
+        }
+        w
     }
 
     /// [`Projection::step_of`] in lanes: the lanes whose row does not move, the denominator
