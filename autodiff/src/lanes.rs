@@ -105,6 +105,7 @@ pub(crate) unsafe fn lane_groups_vjp<F: RowFn, const A: usize>(
 
 /// First row of `range` that [`update_groups`] leaves to the row-by-row kernel.
 #[inline(always)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub(crate) fn groups_end(range: &std::ops::Range<usize>) -> usize {
     range.end - (range.end - range.start) % LANES
 }

@@ -11,7 +11,7 @@
 use crate::dual::Dual;
 use crate::index::RowIndex;
 use crate::real::Real;
-use crate::simd::{F64x8, LANES};
+use crate::simd::{read_lane, write_lane, F64x8, LANES};
 use crate::tensor::Tensor;
 use rayon::prelude::*;
 
@@ -77,9 +77,9 @@ pub trait RowFn: Send + Sync {
     {
         let (mut x, mut y) = (vec![0.0; self.n_in()], vec![0.0; self.n_out()]);
         for l in 0..LANES {
-            x.iter_mut().zip(inputs).for_each(|(v, i)| *v = i.0[l]);
+            read_lane(inputs, l, &mut x);
             self.eval(first + l, &x, &mut y);
-            outputs.iter_mut().zip(&y).for_each(|(o, v)| o.0[l] = *v);
+            write_lane(outputs, l, &y);
         }
     }
 
@@ -95,11 +95,11 @@ pub trait RowFn: Send + Sync {
         let (n_in, n_out) = (self.n_in(), self.n_out());
         let (mut x, mut oa, mut ia) = (vec![0.0; n_in], vec![0.0; n_out], vec![0.0; n_in]);
         for l in 0..LANES {
-            x.iter_mut().zip(inputs).for_each(|(v, i)| *v = i.0[l]);
-            oa.iter_mut().zip(out_adj).for_each(|(v, o)| *v = o.0[l]);
+            read_lane(inputs, l, &mut x);
+            read_lane(out_adj, l, &mut oa);
             ia.fill(0.0);
             self.vjp(first + l, &x, &oa, &mut ia);
-            in_adj.iter_mut().zip(&ia).for_each(|(a, v)| a.0[l] = *v);
+            write_lane(in_adj, l, &ia);
         }
     }
 

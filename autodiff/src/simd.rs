@@ -70,6 +70,18 @@ impl F64x8 {
     }
 }
 
+/// Copies lane `l` of every vector of `src` into `dst` (one value per vector).
+#[inline(always)]
+pub fn read_lane(src: &[F64x8], l: usize, dst: &mut [f64]) {
+    dst.iter_mut().zip(src).for_each(|(d, s)| *d = s.0[l]);
+}
+
+/// Writes `src` (one value per vector) into lane `l` of the vectors of `dst`.
+#[inline(always)]
+pub fn write_lane(dst: &mut [F64x8], l: usize, src: &[f64]) {
+    dst.iter_mut().zip(src).for_each(|(d, s)| d.0[l] = *s);
+}
+
 impl Mask8 {
     /// `self || other` lane by lane.
     #[inline(always)]

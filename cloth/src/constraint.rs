@@ -19,7 +19,7 @@
 //!   derivatives (as [`Real::min`]).
 
 use crate::geometry::{point, write_points};
-use autodiff::simd::LANES;
+use autodiff::simd::{read_lane, write_lane, LANES};
 use autodiff::{Dual, F64x8, Real};
 use nalgebra::Vector3;
 
@@ -66,9 +66,9 @@ pub trait Constraint: Send + Sync + 'static {
         let (mut xl, mut gl) = ([0.0; MAX_D], [0.0; MAX_D]);
         let mut c = F64x8::splat(0.0);
         for (l, &instance) in instances.iter().enumerate() {
-            xl.iter_mut().zip(x).for_each(|(v, xi)| *v = xi.0[l]);
+            read_lane(x, l, &mut xl);
             c.0[l] = self.gradient(instance, &xl[..x.len()], &mut gl[..x.len()]);
-            grad.iter_mut().zip(&gl).for_each(|(g, v)| g.0[l] = *v);
+            write_lane(grad, l, &gl);
         }
         c
     }
@@ -84,13 +84,10 @@ pub trait Constraint: Send + Sync + 'static {
     {
         let (mut xl, mut vl) = ([0.0; MAX_D], [[0.0; MAX_D]]);
         for (l, &instance) in instances.iter().enumerate() {
-            xl.iter_mut().zip(x).for_each(|(a, xi)| *a = xi.0[l]);
-            vl[0]
-                .iter_mut()
-                .zip(v.iter())
-                .for_each(|(a, vi)| *a = vi.0[l]);
+            read_lane(x, l, &mut xl);
+            read_lane(v, l, &mut vl[0]);
             self.hessian_vectors(instance, &xl[..x.len()], &mut vl);
-            v.iter_mut().zip(&vl[0]).for_each(|(vi, a)| vi.0[l] = *a);
+            write_lane(v, l, &vl[0]);
         }
     }
 
