@@ -16,8 +16,10 @@
 
 pub mod dual;
 pub mod index;
+pub mod lanes;
 pub mod real;
 pub mod rowfn;
+pub mod simd;
 pub mod tape;
 pub mod tensor;
 pub mod update;
@@ -26,5 +28,6 @@ pub use dual::Dual;
 pub use index::RowIndex;
 pub use real::Real;
 pub use rowfn::{in_pool, vjp_by_duals, vjp_seeds_by_duals, DynRowFn, RowFn};
+pub use simd::{F64x8, Mask8};
 pub use tape::{soft_min_value, soft_min_weights, Gradients, Tape, Var};
 pub use tensor::Tensor;

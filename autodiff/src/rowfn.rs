@@ -11,6 +11,7 @@
 use crate::dual::Dual;
 use crate::index::RowIndex;
 use crate::real::Real;
+use crate::simd::{read_lane, write_lane, F64x8, LANES};
 use crate::tensor::Tensor;
 use rayon::prelude::*;
 
@@ -56,6 +57,49 @@ pub trait RowFn: Send + Sync {
             .enumerate()
         {
             self.eval(first + k, x, y);
+        }
+    }
+
+    /// Whether [`RowFn::eval_lanes`] is a lane-wise formulation: the in-place kernels then
+    /// evaluate rows of points [`LANES`] at a time through it, gathered straight from the state
+    /// into lanes, where the CPU has AVX2 (row by row elsewhere).
+    const HAS_LANES: bool = false;
+
+    /// Evaluates the rows `first .. first + LANES` lane-wise: `inputs[j]` holds input `j` of
+    /// the rows (lane `l` is row `first + l`), `outputs[j]` receives output `j`. An override
+    /// (with [`RowFn::HAS_LANES`]) must give [`RowFn::eval`]'s values bit for bit in every lane
+    /// (the same IEEE operations in the same order, no fused multiply–add). The default
+    /// evaluates lane by lane through [`RowFn::eval`].
+    #[inline(always)]
+    fn eval_lanes(&self, first: usize, inputs: &[F64x8], outputs: &mut [F64x8])
+    where
+        Self: Sized,
+    {
+        let (mut x, mut y) = (vec![0.0; self.n_in()], vec![0.0; self.n_out()]);
+        for l in 0..LANES {
+            read_lane(inputs, l, &mut x);
+            self.eval(first + l, &x, &mut y);
+            write_lane(outputs, l, &y);
+        }
+    }
+
+    /// The vector–Jacobian product of the rows `first .. first + LANES` lane-wise, as
+    /// [`RowFn::eval_lanes`] is to [`RowFn::eval`]: `in_adj` receives `Jᵀ out_adj` (what
+    /// [`RowFn::vjp`] accumulates into zeros, bit for bit in every lane, for an override). The
+    /// default pulls back lane by lane through [`RowFn::vjp`].
+    #[inline(always)]
+    fn vjp_lanes(&self, first: usize, inputs: &[F64x8], out_adj: &[F64x8], in_adj: &mut [F64x8])
+    where
+        Self: Sized,
+    {
+        let (n_in, n_out) = (self.n_in(), self.n_out());
+        let (mut x, mut oa, mut ia) = (vec![0.0; n_in], vec![0.0; n_out], vec![0.0; n_in]);
+        for l in 0..LANES {
+            read_lane(inputs, l, &mut x);
+            read_lane(out_adj, l, &mut oa);
+            ia.fill(0.0);
+            self.vjp(first + l, &x, &oa, &mut ia);
+            write_lane(in_adj, l, &ia);
         }
     }
 

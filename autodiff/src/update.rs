@@ -8,10 +8,12 @@
 //! checked once up front, rayon above [`crate::rowfn::PARALLEL_MIN_ROWS`] rows).
 
 use crate::index::RowIndex;
+use crate::lanes::{lane_groups, lane_groups_vjp, lanes_for, PointBuffers, SharedRows};
 use crate::rowfn::{
     for_each_row_chunk, for_row_ranges, with_scratch, DynRowFn, RowFn, ROW_BLOCK, SEED_CHUNK,
 };
 use crate::tensor::Tensor;
+use std::ops::Range;
 
 /// Checks that `f`, `index`, `state` and `carry` fit together for [`update_rows`].
 ///
@@ -408,8 +410,20 @@ fn update_points<F: RowFn, const A: usize, const C: usize>(
     });
     let saved_rows = saved.as_ref().map(|(rows, _)| *rows);
     let (state, carry) = (SharedRows::new(state), SharedRows::new(carry));
-    // SAFETY (of `for_point_blocks`): `check_update` asserted the index is disjoint and in range.
-    for_point_blocks::<A, C>(index, state, carry, |first, x, y| {
+    let lanes = C == 1 && lanes_for::<F>();
+    let buf = PointBuffers {
+        state,
+        carry,
+        saved: saved_rows.unwrap_or(SharedRows::EMPTY),
+    };
+    let (f_ref, idx) = (f, index.as_slice());
+    // SAFETY (of `lane_groups` and `for_point_blocks`): `check_update` asserted the index is disjoint
+    // and in range, `lanes_for` that the CPU has AVX2, and `saved` has room for every row.
+    let head = |range: Range<usize>| match lanes {
+        true => unsafe { lane_groups::<F, A>(f_ref, idx, range, buf) },
+        false => range.start,
+    };
+    for_point_blocks::<A, C>(index, state, carry, head, |first, x, y| {
         if let Some(s) = saved_rows {
             // Row by row: a copy of compile-time length is a few moves, where one of the whole
             // block's (its row count known only here) was a `memcpy` call, 2–3% of a rollout.
@@ -439,7 +453,19 @@ fn vjp_update_points<F: RowFn, const A: usize, const C: usize>(
 ) {
     check_adjoints::<A, C>(index, inputs, state_adj.len(), carry_adj.len());
     let (state, carry) = (SharedRows::new(state_adj), SharedRows::new(carry_adj));
-    for_point_blocks::<A, C>(index, state, carry, |first, oa, ia| {
+    let lanes = C == 1 && lanes_for::<F>();
+    let adj = PointBuffers {
+        state,
+        carry,
+        saved: SharedRows::EMPTY,
+    };
+    let idx = index.as_slice();
+    // SAFETY (of `lane_groups_vjp`): `check_adjoints` asserted the index and inputs fit.
+    let head = |range: Range<usize>| match lanes {
+        true => unsafe { lane_groups_vjp::<F, A>(f, idx, range, inputs, adj) },
+        false => range.start,
+    };
+    for_point_blocks::<A, C>(index, state, carry, head, |first, oa, ia| {
         let width = 3 * A + C;
         let rows = oa.len() / width;
         // `vjp_rows` accumulates.
@@ -455,7 +481,9 @@ fn vjp_update_points<F: RowFn, const A: usize, const C: usize>(
 
 /// Runs `body(first, rows_in, rows_out)` over an in-place update's rows in blocks of up to
 /// [`ROW_BLOCK`]: `rows_in` holds the block's gathered rows (`A` points and `C` carried values
-/// each); `body` writes all of `rows_out`, which goes back to the same rows after it.
+/// each); `body` writes all of `rows_out`, which goes back to the same rows after it. Each
+/// task's range of rows is first handed to `head`, which does a first part of it itself and
+/// returns where `body`'s blocks start.
 ///
 /// The caller has checked that `index` is disjoint and in range for `state` and `carry`.
 #[inline(always)]
@@ -463,10 +491,12 @@ fn for_point_blocks<const A: usize, const C: usize>(
     index: &RowIndex,
     state: SharedRows,
     carry: SharedRows,
+    head: impl Fn(Range<usize>) -> usize + Sync,
     body: impl Fn(usize, &[f64], &mut [f64]) + Sync,
 ) {
     let idx = index.as_slice();
     for_row_ranges(index.rows(), |range| {
+        let range = head(range.clone())..range.end;
         let fresh = || {
             (
                 [0.0; MAX_POINT_ROW * ROW_BLOCK],
@@ -493,7 +523,7 @@ thread_local! {
 #[inline(always)]
 fn point_blocks<const A: usize, const C: usize>(
     idx: &[usize],
-    range: std::ops::Range<usize>,
+    range: Range<usize>,
     state: SharedRows,
     carry: SharedRows,
     x: &mut BlockRows,
@@ -643,58 +673,5 @@ unsafe fn scatter_point_row<const A: usize, const C: usize>(
         carry
             .slice(C * k, C)
             .copy_from_slice(&src[3 * A..3 * A + C]);
-    }
-}
-
-/// A buffer that several rayon tasks write at once, each to values no other task touches.
-#[derive(Clone, Copy)]
-struct SharedRows {
-    ptr: *mut f64,
-    len: usize,
-}
-
-// SAFETY: only used for writes to disjoint ranges (see `update_points`).
-unsafe impl Send for SharedRows {}
-unsafe impl Sync for SharedRows {}
-
-impl SharedRows {
-    /// No buffer (a placeholder in fixed arrays).
-    const EMPTY: SharedRows = SharedRows {
-        ptr: std::ptr::null_mut(),
-        len: 0,
-    };
-
-    fn new(data: &mut [f64]) -> Self {
-        SharedRows {
-            ptr: data.as_mut_ptr(),
-            len: data.len(),
-        }
-    }
-
-    /// Copies `src` to the values from `start`, which may be uninitialized (no reference to them
-    /// is made).
-    ///
-    /// # Safety
-    /// As [`SharedRows::slice`].
-    #[inline(always)]
-    unsafe fn write(self, start: usize, src: &[f64]) {
-        debug_assert!(start + src.len() <= self.len);
-        std::ptr::copy_nonoverlapping(src.as_ptr(), self.ptr.add(start), src.len());
-    }
-
-    /// `n` values from `start`.
-    ///
-    /// # Safety
-    /// They must lie inside the buffer (the kernels check their index's bound up front), and no
-    /// other live reference may overlap them.
-    #[inline(always)]
-    #[allow(clippy::mut_from_ref)]
-    unsafe fn slice<'a>(self, start: usize, n: usize) -> &'a mut [f64] {
-        debug_assert!(
-            start + n <= self.len,
-            "SharedRows: {start}+{n} > {}",
-            self.len
-        );
-        std::slice::from_raw_parts_mut(self.ptr.add(start), n)
     }
 }

@@ -19,7 +19,8 @@
 //!   derivatives (as [`Real::min`]).
 
 use crate::geometry::{point, write_points};
-use autodiff::{Dual, Real};
+use autodiff::simd::{read_lane, write_lane, LANES};
+use autodiff::{Dual, F64x8, Real};
 use nalgebra::Vector3;
 
 /// The largest arity a constraint may have (its gradient is carried by `Dual<_, 3·arity>`).
@@ -47,6 +48,47 @@ pub trait Constraint: Send + Sync + 'static {
         Self: Sized,
     {
         value_and_gradient_by_duals(self, instance, x, grad)
+    }
+
+    /// Whether [`Constraint::gradient_lanes`] is a lane-wise override: the XPBD sweep then
+    /// projects this type's rows four at a time through it where the CPU has AVX2.
+    const LANES: bool = false;
+
+    /// `C` and `∇C` of four instances at once: lane `l` of `x[i]` and `grad[i]` belongs to
+    /// `instances[l]`. An override (with [`Constraint::LANES`]) must give
+    /// [`Constraint::gradient`]'s values bit for bit in every lane (the same operations in the
+    /// same order, no fused multiply–add). The default calls [`Constraint::gradient`] per lane.
+    #[inline(always)]
+    fn gradient_lanes(&self, instances: [usize; LANES], x: &[F64x8], grad: &mut [F64x8]) -> F64x8
+    where
+        Self: Sized,
+    {
+        let (mut xl, mut gl) = ([0.0; MAX_D], [0.0; MAX_D]);
+        let mut c = F64x8::splat(0.0);
+        for (l, &instance) in instances.iter().enumerate() {
+            read_lane(x, l, &mut xl);
+            c.0[l] = self.gradient(instance, &xl[..x.len()], &mut gl[..x.len()]);
+            write_lane(grad, l, &gl);
+        }
+        c
+    }
+
+    /// `∇²C(x)·v` of [`LANES`] instances at once, in place: lane `l` of `x[i]` and
+    /// `v[i]` belongs to `instances[l]`. An override (with [`Constraint::LANES`]) must give
+    /// [`Constraint::hessian_vectors`]' values bit for bit in every lane. The default calls
+    /// [`Constraint::hessian_vectors`] per lane.
+    #[inline(always)]
+    fn hessian_vector_lanes(&self, instances: [usize; LANES], x: &[F64x8], v: &mut [F64x8])
+    where
+        Self: Sized,
+    {
+        let (mut xl, mut vl) = ([0.0; MAX_D], [[0.0; MAX_D]]);
+        for (l, &instance) in instances.iter().enumerate() {
+            read_lane(x, l, &mut xl);
+            read_lane(v, l, &mut vl[0]);
+            self.hessian_vectors(instance, &xl[..x.len()], &mut vl);
+            write_lane(v, l, &vl[0]);
+        }
     }
 
     /// `∇²C(x)·v` for several vectors `v` at once, in place: each `vs[s][..3·ARITY]` in, its
@@ -241,6 +283,39 @@ impl Constraint for Distance {
             }
         }
         n - self.rest[instance]
+    }
+
+    const LANES: bool = true;
+
+    /// [`Distance::gradient`] in four lanes, bitwise.
+    #[inline(always)]
+    fn gradient_lanes(&self, instances: [usize; LANES], x: &[F64x8], g: &mut [F64x8]) -> F64x8 {
+        let d = [x[0] - x[3], x[1] - x[4], x[2] - x[5]];
+        let s = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let n = s.sqrt();
+        let (zero, inv) = (s.eq_zero(), F64x8::splat(1.0) / n);
+        for k in 0..3 {
+            let gk = d[k] * inv;
+            g[k] = F64x8::select(zero, F64x8::splat(0.0), gk);
+            g[k + 3] = F64x8::select(zero, F64x8::splat(0.0), -gk);
+        }
+        n - F64x8::from_fn(|l| self.rest[instances[l]])
+    }
+
+    /// [`Distance::hessian_vectors`] of one vector in lanes, bitwise.
+    #[inline(always)]
+    fn hessian_vector_lanes(&self, _instances: [usize; LANES], x: &[F64x8], v: &mut [F64x8]) {
+        let d = [x[0] - x[3], x[1] - x[4], x[2] - x[5]];
+        let s = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        let (zero, inv) = (s.eq_zero(), F64x8::splat(1.0) / s.sqrt());
+        let u = d.map(|dk| dk * inv);
+        let delta = [v[0] - v[3], v[1] - v[4], v[2] - v[5]];
+        let t = u[0] * delta[0] + u[1] * delta[1] + u[2] * delta[2];
+        for k in 0..3 {
+            let h = (delta[k] - u[k] * t) * inv;
+            v[k] = F64x8::select(zero, F64x8::splat(0.0), h);
+            v[k + 3] = F64x8::select(zero, F64x8::splat(0.0), -h);
+        }
     }
 
     /// `∇²C·v`: `±(δ − u(u·δ))/|d|` with `d = p₀ − p₁`, `u = d/|d|`, `δ = v₀ − v₁`; `1/|d|`

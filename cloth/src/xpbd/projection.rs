@@ -14,7 +14,8 @@
 
 use crate::constraint::{value_and_gradient, Constraint, RowVector, MAX_ARITY};
 use autodiff::rowfn::{with_scratch, ROW_BLOCK, SEED_CHUNK};
-use autodiff::{Real, RowFn};
+use autodiff::simd::LANES;
+use autodiff::{F64x8, Mask8, Real, RowFn};
 use std::sync::Arc;
 
 const MAX_D: usize = 3 * MAX_ARITY;
@@ -26,6 +27,9 @@ pub struct Projection<C> {
     instances: Vec<usize>,
     /// Inverse mass of each row's particles (`rows × ARITY`).
     inv_mass: Vec<f64>,
+    /// The same in lanes when `C` has them: for each group of eight rows from row 0 (the
+    /// lane-wise kernels' groups), `ARITY` vectors (point by point); rows past the end have 0.
+    lane_mass: Vec<F64x8>,
     /// `α̃ = 1/(k Δt²)`; 0 for a rigid constraint.
     compliance: f64,
 }
@@ -50,10 +54,27 @@ impl<C: Constraint> Projection<C> {
             compliance >= 0.0 && compliance.is_finite(),
             "Projection: compliance must be finite and ≥ 0"
         );
+        let groups = if C::LANES {
+            instances.len().div_ceil(LANES)
+        } else {
+            0
+        };
+        let lane_mass = (0..groups)
+            .flat_map(|group| {
+                let w = &inv_mass;
+                (0..C::ARITY).map(move |i| {
+                    F64x8::from_fn(|l| {
+                        let row = LANES * group + l;
+                        w.get(row * C::ARITY + i).copied().unwrap_or(0.0)
+                    })
+                })
+            })
+            .collect();
         Projection {
             constraint,
             instances,
             inv_mass,
+            lane_mass,
             compliance,
         }
     }
@@ -117,6 +138,64 @@ impl<C: Constraint> RowFn for Projection<C> {
         with_scratch(&VECTORS, fresh_vectors, |(g, a_g)| {
             self.vjp_block(first, inputs, out_adj, in_adj, g, a_g)
         });
+    }
+
+    const HAS_LANES: bool = C::LANES;
+
+    /// [`Projection::eval`] of [`LANES`] rows in lanes ([`Constraint::gradient_lanes`]),
+    /// bitwise: a lane whose row does not move keeps its inputs (selected, not branched on).
+    #[inline(always)]
+    fn eval_lanes(&self, first: usize, x: &[F64x8], y: &mut [F64x8]) {
+        let d = 3 * C::ARITY;
+        let instances = std::array::from_fn(|l| self.instances[first + l]);
+        let c = self
+            .constraint
+            .gradient_lanes(instances, &x[..d], &mut y[..d]);
+        let w = self.lane_masses(first);
+        let (still, _, dlambda) = self.step_lanes(x, c, y, &w);
+        for j in 0..d {
+            y[j] = F64x8::select(still, x[j], x[j] + y[j] * w[j / 3] * dlambda);
+        }
+        y[d] = F64x8::select(still, x[d], x[d] + dlambda);
+    }
+
+    /// [`Projection::vjp`] of [`LANES`] rows in lanes (into zeros), bitwise: the adjoint of
+    /// [`Projection::eval_lanes`] as `vjp_block` computes it row by row, with
+    /// [`Constraint::hessian_vector_lanes`].
+    #[inline(always)]
+    fn vjp_lanes(&self, first: usize, x: &[F64x8], oa: &[F64x8], ia: &mut [F64x8]) {
+        let d = 3 * C::ARITY;
+        let instances = std::array::from_fn(|l| self.instances[first + l]);
+        let mut g = [F64x8::default(); MAX_D];
+        let c = self
+            .constraint
+            .gradient_lanes(instances, &x[..d], &mut g[..d]);
+        let w = self.lane_masses(first);
+        let (still, denom, dlambda) = self.step_lanes(x, c, &g, &w);
+        let inv_denom = F64x8::splat(1.0) / denom;
+        let dlambda_inv_denom = dlambda * inv_denom;
+        // As `seed_head`: the adjoints of Δλ, its numerator and denominator, and of ∇C.
+        let mut a_dl = oa[d];
+        for j in 0..d {
+            a_dl = a_dl + w[j / 3] * g[j] * oa[j];
+        }
+        let a_num = a_dl * inv_denom;
+        let a_den2 = F64x8::splat(-2.0) * (a_dl * dlambda_inv_denom);
+        let mut a_g = [F64x8::default(); MAX_D];
+        for j in 0..d {
+            a_g[j] = w[j / 3] * (dlambda * oa[j] + a_den2 * g[j]);
+        }
+        self.constraint
+            .hessian_vector_lanes(instances, &x[..d], &mut a_g[..d]);
+        // The identity part (added to zeros), then `seed_head`'s and `seed_tail`'s terms.
+        let zero = F64x8::splat(0.0);
+        let alpha = F64x8::splat(self.compliance);
+        let id = zero + oa[d];
+        ia[d] = F64x8::select(still, id, id - alpha * a_num);
+        for j in 0..d {
+            let id = zero + oa[j];
+            ia[j] = F64x8::select(still, id, id + (a_g[j] - a_num * g[j]));
+        }
     }
 
     /// `C`, `∇C`, `Δλ` and the reciprocals once for all the seeds; per seed only products and
@@ -261,6 +340,47 @@ fn seed_tail<C: Constraint>(g: &[f64; MAX_D], a_num: f64, hv: &[f64; MAX_D], in_
 }
 
 impl<C: Constraint> Projection<C> {
+    /// The inverse masses of the rows `first .. first + LANES`, point by point.
+    #[inline(always)]
+    fn lane_masses(&self, first: usize) -> [F64x8; MAX_ARITY] {
+        let mut w = [F64x8::splat(0.0); MAX_ARITY];
+        if first % LANES == 0 {
+            let group = &self.lane_mass[first / LANES * C::ARITY..][..C::ARITY];
+            w[..C::ARITY].copy_from_slice(group);
+        } else {
+            for (i, wi) in w[..C::ARITY].iter_mut().enumerate() {
+                *wi = F64x8::from_fn(|l| self.inv_mass[(first + l) * C::ARITY + i]);
+            }
+        }
+        w
+    }
+
+    /// [`Projection::step_of`] in lanes: the lanes whose row does not move, the denominator
+    /// and `Δλ` (meaningless in the lanes that do not move).
+    #[inline(always)]
+    fn step_lanes(
+        &self,
+        x: &[F64x8],
+        c: F64x8,
+        g: &[F64x8],
+        w: &[F64x8; MAX_ARITY],
+    ) -> (Mask8, F64x8, F64x8) {
+        // As `weighted_sq`, lane by lane.
+        let mut s = F64x8::splat(0.0);
+        for i in 0..C::ARITY {
+            let g = &g[3 * i..3 * i + 3];
+            s = s + (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * w[i];
+        }
+        let alpha = F64x8::splat(self.compliance);
+        let denom = s + alpha;
+        let dlambda = (-c - x[3 * C::ARITY] * alpha) / denom;
+        let mut still = denom.eq_zero();
+        if C::INEQUALITY {
+            still = still.or(c.ge_zero());
+        }
+        (still, denom, dlambda)
+    }
+
     /// `C` and `∇C` (into `g[..3·ARITY]`) of row `row` at its input positions.
     #[inline(always)]
     fn gradient<R: Real>(&self, row: usize, input: &[R], g: &mut [R]) -> R {

@@ -1,0 +1,343 @@
+//! The lane-wise in-place kernel for rows of points: [`LANES`] rows of a colour set at once,
+//! each point gathered straight from the state into lanes (one masked load per point and 4 × 4
+//! register transposes, no staging of the rows), evaluated by [`RowFn::eval_lanes`] and
+//! transposed back into the state.
+//!
+//! It runs where the CPU has AVX2 (detected at run time) for row functions with
+//! [`RowFn::HAS_LANES`]; elsewhere, and for the rows left over after the groups of eight, the
+//! row-by-row kernels of [`crate::update`] run. Both give the same values bit for bit (no fused
+//! multiply–add on either path, each lane's operations in the row's order), so results do not
+//! depend on the CPU's features, the thread count or where a group of rows starts.
+
+use crate::rowfn::RowFn;
+#[cfg(target_arch = "x86_64")]
+use crate::simd::F64x8;
+use crate::simd::LANES;
+use std::cell::Cell;
+
+thread_local! {
+    /// Set while [`without_lanes`] runs on this thread.
+    static OFF: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Runs `work` with the lane-wise kernel switched off for the updates this thread starts (their
+/// rows then go one by one): how tests compare the two paths.
+pub fn without_lanes<T>(work: impl FnOnce() -> T) -> T {
+    /// Restores the previous setting, also when `work` panics.
+    struct Restore(bool);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            OFF.with(|off| off.set(self.0));
+        }
+    }
+    let _restore = Restore(OFF.with(|off| off.replace(true)));
+    work()
+}
+
+/// Whether an in-place update by `F` takes the lane-wise kernel on this machine and thread.
+#[inline(always)]
+pub(crate) fn lanes_for<F: RowFn>() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        F::HAS_LANES && std::arch::is_x86_feature_detected!("avx2") && !OFF.with(Cell::get)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// An in-place update's buffers for [`update_groups`]: the state (3 values per point), the
+/// carry (one value per row) and, when recording, the saved inputs (`3A + 1` values per row,
+/// written, never read; [`SharedRows::EMPTY`] when not recording).
+#[derive(Clone, Copy)]
+pub(crate) struct PointBuffers {
+    /// The state.
+    pub state: SharedRows,
+    /// The carry.
+    pub carry: SharedRows,
+    /// The saved inputs, or [`SharedRows::EMPTY`].
+    pub saved: SharedRows,
+}
+
+/// [`update_groups`] on the rows of `range` where the target has it; returns the first row left
+/// to the row-by-row kernel.
+///
+/// # Safety
+/// As [`update_groups`].
+#[inline(always)]
+pub(crate) unsafe fn lane_groups<F: RowFn, const A: usize>(
+    f: &F,
+    idx: &[usize],
+    range: std::ops::Range<usize>,
+    buf: PointBuffers,
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if F::HAS_LANES {
+        update_groups::<F, A>(f, idx, range.clone(), buf);
+        return groups_end(&range);
+    }
+    let _ = (f, idx, buf);
+    range.start
+}
+
+/// [`vjp_groups`] on the rows of `range` where the target has it; returns the first row left to
+/// the row-by-row kernel.
+///
+/// # Safety
+/// As [`vjp_groups`].
+#[inline(always)]
+pub(crate) unsafe fn lane_groups_vjp<F: RowFn, const A: usize>(
+    f: &F,
+    idx: &[usize],
+    range: std::ops::Range<usize>,
+    inputs: &[f64],
+    adj: PointBuffers,
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if F::HAS_LANES {
+        vjp_groups::<F, A>(f, idx, range.clone(), inputs, adj);
+        return groups_end(&range);
+    }
+    let _ = (f, idx, inputs, adj);
+    range.start
+}
+
+/// First row of `range` that [`update_groups`] leaves to the row-by-row kernel.
+#[inline(always)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(crate) fn groups_end(range: &std::ops::Range<usize>) -> usize {
+    range.end - (range.end - range.start) % LANES
+}
+
+/// Updates the rows `range.start .. groups_end(range)` of an in-place update of `A` points and
+/// one carried value per row, [`LANES`] rows at a time through [`RowFn::eval_lanes`], and
+/// saves each row's inputs in row layout when `buf.saved` is not empty.
+///
+/// # Safety
+/// The CPU has AVX2; `idx` (`A` points per row) is disjoint and in range for the state and
+/// covers `range`; the carry has a value for every row of `range`; `buf.saved`, if not empty,
+/// has room for `3A + 1` values per row up to `range.end`; no other task touches these rows'
+/// values.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn update_groups<F: RowFn, const A: usize>(
+    f: &F,
+    idx: &[usize],
+    range: std::ops::Range<usize>,
+    buf: PointBuffers,
+) {
+    let width = 3 * A + 1;
+    debug_assert!(idx.len() >= A * range.end);
+    let (state, carry, saved) = (buf.state.ptr, buf.carry.ptr, buf.saved.ptr);
+    let (mut x, mut y) = ([F64x8::default(); 13], [F64x8::default(); 13]);
+    let mut k = range.start;
+    while k < groups_end(&range) {
+        let points = |j: usize| point_offsets::<A>(idx, k, j);
+        for j in 0..A {
+            let rows = load_points(state, points(j), &mut x[3 * j..3 * j + 3]);
+            if !saved.is_null() {
+                // Four values at the point's place in the row: the fourth is overwritten by
+                // the next point or the carried value, written after it.
+                for (l, &row) in rows.iter().enumerate() {
+                    let at = saved.add(width * (k + l) + 3 * j);
+                    std::arch::x86_64::_mm256_storeu_pd(at, row);
+                }
+            }
+        }
+        x[3 * A] = F64x8(std::ptr::read_unaligned(carry.add(k).cast()));
+        if !saved.is_null() {
+            for l in 0..LANES {
+                *saved.add(width * (k + l) + 3 * A) = x[3 * A].0[l];
+            }
+        }
+        f.eval_lanes(k, &x[..width], &mut y[..width]);
+        for j in 0..A {
+            store_points(state, points(j), &y[3 * j..3 * j + 3]);
+        }
+        std::ptr::write_unaligned(carry.add(k).cast(), y[3 * A].0);
+        k += LANES;
+    }
+}
+
+/// The adjoint of [`update_groups`] in place, through [`RowFn::vjp_lanes`]: on the rows
+/// `range.start .. groups_end(range)`, the adjoints `adj.state` and `adj.carry` of the updated
+/// rows become those of the rows before the update; `inputs` are the saved inputs (row layout).
+///
+/// # Safety
+/// As [`update_groups`], with `adj` for the state and carry, and `inputs` holding `3A + 1`
+/// values per row up to `range.end`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn vjp_groups<F: RowFn, const A: usize>(
+    f: &F,
+    idx: &[usize],
+    range: std::ops::Range<usize>,
+    inputs: &[f64],
+    adj: PointBuffers,
+) {
+    let width = 3 * A + 1;
+    debug_assert!(idx.len() >= A * range.end && inputs.len() >= width * range.end);
+    let (state, carry, saved) = (adj.state.ptr, adj.carry.ptr, inputs.as_ptr());
+    let (mut x, mut oa, mut ia) = (
+        [F64x8::default(); 13],
+        [F64x8::default(); 13],
+        [F64x8::default(); 13],
+    );
+    let mut k = range.start;
+    while k < groups_end(&range) {
+        let points = |j: usize| point_offsets::<A>(idx, k, j);
+        for j in 0..A {
+            load_points(state, points(j), &mut oa[3 * j..3 * j + 3]);
+            let rows = std::array::from_fn(|l| width * (k + l) + 3 * j);
+            load_points(saved, rows, &mut x[3 * j..3 * j + 3]);
+        }
+        oa[3 * A] = F64x8(std::ptr::read_unaligned(carry.add(k).cast()));
+        x[3 * A] = F64x8::from_fn(|l| *saved.add(width * (k + l) + 3 * A));
+        f.vjp_lanes(k, &x[..width], &oa[..width], &mut ia[..width]);
+        for j in 0..A {
+            store_points(state, points(j), &ia[3 * j..3 * j + 3]);
+        }
+        std::ptr::write_unaligned(carry.add(k).cast(), ia[3 * A].0);
+        k += LANES;
+    }
+}
+
+/// Where point `j` of each of the rows `k .. k + LANES` starts in the state.
+///
+/// # Safety
+/// `idx` holds `A` points for each of these rows.
+#[inline(always)]
+unsafe fn point_offsets<const A: usize>(idx: &[usize], k: usize, j: usize) -> [usize; LANES] {
+    std::array::from_fn(|l| 3 * *idx.get_unchecked(A * (k + l) + j))
+}
+
+/// Loads the three values at `base + off[l]` of every lane `l` into `dst` (x, y and z lanes),
+/// by two 4 × 4 transposes; returns the loaded registers (each `[x y z 0]`).
+///
+/// # Safety
+/// Three values readable at each offset; AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn load_points(
+    base: *const f64,
+    off: [usize; LANES],
+    dst: &mut [F64x8],
+) -> [std::arch::x86_64::__m256d; LANES] {
+    use std::arch::x86_64::*;
+    // Lanes 0–2 of a point: its coordinates (the fourth value is another point's or past the end).
+    let xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
+    let r = off.map(|o| _mm256_maskload_pd(base.add(o), xyz));
+    for h in 0..2 {
+        let r = &r[4 * h..4 * h + 4];
+        // [x0 x1 z0 z1], [y0 y1 · ·], [x2 x3 z2 z3], [y2 y3 · ·].
+        let (a, b) = (
+            _mm256_unpacklo_pd(r[0], r[1]),
+            _mm256_unpackhi_pd(r[0], r[1]),
+        );
+        let (c, d) = (
+            _mm256_unpacklo_pd(r[2], r[3]),
+            _mm256_unpackhi_pd(r[2], r[3]),
+        );
+        set_half(&mut dst[0], h, _mm256_permute2f128_pd::<0x20>(a, c));
+        set_half(&mut dst[1], h, _mm256_permute2f128_pd::<0x20>(b, d));
+        set_half(&mut dst[2], h, _mm256_permute2f128_pd::<0x31>(a, c));
+    }
+    r
+}
+
+/// Stores `src`'s x, y and z lanes as three values at `base + off[l]` for every lane `l`.
+///
+/// # Safety
+/// Three values writable at each offset, touched by no other task; AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn store_points(base: *mut f64, off: [usize; LANES], src: &[F64x8]) {
+    use std::arch::x86_64::*;
+    for h in 0..2 {
+        let [px, py, pz] = [0, 1, 2].map(|c| half(&src[c], h));
+        // [x0 y0 x2 y2], [x1 y1 x3 y3], [z0 z0 z2 z2], [z1 z1 z3 z3].
+        let (a, b) = (_mm256_unpacklo_pd(px, py), _mm256_unpackhi_pd(px, py));
+        let (c, d) = (_mm256_unpacklo_pd(pz, pz), _mm256_unpackhi_pd(pz, pz));
+        for (l, (xy, zz)) in [(a, c), (b, d)].into_iter().enumerate() {
+            let (lo, hi) = (base.add(off[4 * h + l]), base.add(off[4 * h + l + 2]));
+            _mm_storeu_pd(lo, _mm256_castpd256_pd128(xy));
+            _mm_store_sd(lo.add(2), _mm256_castpd256_pd128(zz));
+            _mm_storeu_pd(hi, _mm256_extractf128_pd::<1>(xy));
+            _mm_store_sd(hi.add(2), _mm256_extractf128_pd::<1>(zz));
+        }
+    }
+}
+
+/// Lanes `4h .. 4h + 4` of `v` as a register.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn half(v: &F64x8, h: usize) -> std::arch::x86_64::__m256d {
+    // SAFETY: four values of the eight, unaligned load.
+    unsafe { std::arch::x86_64::_mm256_loadu_pd(v.0[4 * h..4 * h + 4].as_ptr()) }
+}
+
+/// Sets lanes `4h .. 4h + 4` of `v` to a register's values.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn set_half(v: &mut F64x8, h: usize, r: std::arch::x86_64::__m256d) {
+    // SAFETY: four values of the eight, unaligned store.
+    unsafe { std::arch::x86_64::_mm256_storeu_pd(v.0[4 * h..4 * h + 4].as_mut_ptr(), r) }
+}
+
+/// A buffer that several rayon tasks write at once, each to values no other task touches.
+#[derive(Clone, Copy)]
+pub(crate) struct SharedRows {
+    pub(crate) ptr: *mut f64,
+    pub(crate) len: usize,
+}
+
+// SAFETY: only used for writes to disjoint ranges (see `update_points`).
+unsafe impl Send for SharedRows {}
+unsafe impl Sync for SharedRows {}
+
+impl SharedRows {
+    /// No buffer (a placeholder in fixed arrays).
+    pub(crate) const EMPTY: SharedRows = SharedRows {
+        ptr: std::ptr::null_mut(),
+        len: 0,
+    };
+
+    pub(crate) fn new(data: &mut [f64]) -> Self {
+        SharedRows {
+            ptr: data.as_mut_ptr(),
+            len: data.len(),
+        }
+    }
+
+    /// Copies `src` to the values from `start`, which may be uninitialized (no reference to them
+    /// is made).
+    ///
+    /// # Safety
+    /// As [`SharedRows::slice`].
+    #[inline(always)]
+    pub(crate) unsafe fn write(self, start: usize, src: &[f64]) {
+        debug_assert!(start + src.len() <= self.len);
+        std::ptr::copy_nonoverlapping(src.as_ptr(), self.ptr.add(start), src.len());
+    }
+
+    /// `n` values from `start`.
+    ///
+    /// # Safety
+    /// They must lie inside the buffer (the kernels check their index's bound up front), and no
+    /// other live reference may overlap them.
+    #[inline(always)]
+    #[allow(clippy::mut_from_ref)]
+    pub(crate) unsafe fn slice<'a>(self, start: usize, n: usize) -> &'a mut [f64] {
+        debug_assert!(
+            start + n <= self.len,
+            "SharedRows: {start}+{n} > {}",
+            self.len
+        );
+        std::slice::from_raw_parts_mut(self.ptr.add(start), n)
+    }
+}

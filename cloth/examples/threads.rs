@@ -1,0 +1,44 @@
+//! Forward + ∇L (`Model::evaluate_loss_gradient`) of `u_obstacle` refined to `n × n` (T = 10,
+//! 100 iterations) on pools of the given thread counts, alternated round by round so both see
+//! the same machine load; prints each run and, per thread count, the median and the minimum.
+//!
+//! `cargo run --release -p cloth --example threads -- [n] [rounds] [threads,…]`, by default
+//! `100 3 1,2`. With one round and one thread count it doubles as a peak-memory probe
+//! (`/usr/bin/time -f %M`).
+
+use cloth::{Model, Scene};
+use std::time::Instant;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let n: usize = args.first().map_or(Ok(100), |a| a.parse())?;
+    let rounds: usize = args.get(1).map_or(Ok(3), |a| a.parse())?;
+    let threads: Vec<usize> = match args.get(2) {
+        Some(list) => list.split(',').map(str::parse).collect::<Result<_, _>>()?,
+        None => vec![1, 2],
+    };
+    let mut scene = Scene::builtin("u_obstacle")?.refined(n, n)?;
+    scene.physics.iterations = 100;
+    let model = Model::from_scene(&scene)?;
+    let (u, delta) = (scene.initial_controls(), scene.task.delta);
+    let pools = threads
+        .iter()
+        .map(|&t| rayon::ThreadPoolBuilder::new().num_threads(t).build())
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut times = vec![Vec::new(); threads.len()];
+    for round in 0..rounds {
+        for ((pool, &t), times) in pools.iter().zip(&threads).zip(&mut times) {
+            let start = Instant::now();
+            pool.install(|| model.evaluate_loss_gradient(&u, delta))?;
+            let s = start.elapsed().as_secs_f64();
+            println!("n = {n}, round {round}, {t} thread(s): {s:.3} s");
+            times.push(s);
+        }
+    }
+    for (t, times) in threads.iter().zip(&mut times) {
+        times.sort_by(f64::total_cmp);
+        let (median, min) = (times[times.len() / 2], times[0]);
+        println!("{t} thread(s): median {median:.3} s, min {min:.3} s");
+    }
+    Ok(())
+}
