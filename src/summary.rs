@@ -102,6 +102,28 @@ impl PlanResult {
         ] {
             writeln!(s, "{k:>10} {v:>12.6}")?;
         }
+        if let Some(c) = self.safety.surface {
+            writeln!(
+                s,
+                "{:>10} {:>12.6}  (the cloth's surface: triangle {} at step {})",
+                "surface", c.distance, c.triangle, c.step
+            )?;
+        }
+        if let Some(l) = self.safety.layers {
+            let nearest = l
+                .nearest
+                .map_or("none within the thickness".to_string(), |p| {
+                    format!(
+                        "{:.6} (vertex {}, triangle {} at step {})",
+                        p.distance, p.vertex, p.triangle, p.step
+                    )
+                });
+            writeln!(
+                s,
+                "{:>10} {nearest}; {} crossings between steps",
+                "layers", l.crossings
+            )?;
+        }
         if let Some(p) = m.max_penetration {
             writeln!(
                 s,
