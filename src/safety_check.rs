@@ -164,7 +164,8 @@ fn when(swept: bool, step: usize) -> String {
 fn surface(model: &Model, states: &[Tensor], swept: bool, delta: f64) -> Option<SurfaceClearance> {
     const TOL: f64 = SURFACE_TOLERANCE;
     let field = &model.safety_obstacles;
-    let rest = [states.first()?.clone(), states[0].clone()];
+    // The rest state alone: the step-only check of a one-step "rollout" that stays there.
+    let rest = vec![states.first()?.clone(); 2];
     let rest_cut = surface_minimum(field, &model.triangles, &rest, (false, false), 0.0, TOL)
         .is_some_and(|m| m.value < -TOL);
     let m = surface_minimum(

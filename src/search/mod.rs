@@ -295,13 +295,13 @@ fn goal_stage(
         goal.iterations = full_budget.min(last.iterations.max(1));
     }
     let start = controls_from_nested(model, &best.controls)?;
-    progress(Progress::Stage {
-        stage: "goal",
-        route,
-    });
-    let result = plan(model, scene, &start, &goal, |i| {
-        progress(Progress::Iteration(i))
-    })?;
+    let mut run = |stage: &'static str, goal: &PlanOptions| {
+        progress(Progress::Stage { stage, route });
+        plan(model, scene, &start, goal, |i| {
+            progress(Progress::Iteration(i))
+        })
+    };
+    let result = run("goal", &goal)?;
     // A warm start that ends short of a safe, achieved plan, or at its budget, is retried from
     // the identity with the full budget.
     let retry = goal.initial_hessian.is_some()
@@ -311,13 +311,7 @@ fn goal_stage(
     if retry {
         goal.initial_hessian = None;
         goal.iterations = full_budget;
-        progress(Progress::Stage {
-            stage: "goal_identity",
-            route,
-        });
-        let result = plan(model, scene, &start, &goal, |i| {
-            progress(Progress::Iteration(i))
-        })?;
+        let result = run("goal_identity", &goal)?;
         tally(route, "goal_identity", result, (best, best_report, reports));
     }
     Ok(())

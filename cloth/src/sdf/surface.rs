@@ -46,6 +46,9 @@ struct Cell {
     triangle: usize,
     lo: [f64; 3],
     hi: [f64; 3],
+    /// The parameter whose edges of the box are longest in space (the first on a tie): where
+    /// the box is split.
+    axis: usize,
 }
 
 impl PartialEq for Cell {
@@ -85,12 +88,6 @@ impl Patch {
     }
 }
 
-/// Where the motion of a step starts and ends: states `a → b`, or one state at rest.
-struct Motion<'s> {
-    a: &'s Tensor,
-    b: &'s Tensor,
-}
-
 /// The smallest signed distance to `field` over the surface `triangles` of the rollout `states`
 /// (`states[0]` the rest state): for every step `k = 1..=T` the triangles moving straight from
 /// state `k − 1` to `k` when `swept`, at state `k` alone otherwise (and from state 1 alone when
@@ -107,24 +104,15 @@ pub fn surface_minimum(
     if triangles.is_empty() || states.len() < 2 || field.is_empty() {
         return None;
     }
-    let motion = |step: usize| {
-        let still = !swept || (step == 1 && rest_alone);
-        Motion {
-            a: if still {
-                &states[step]
-            } else {
-                &states[step - 1]
-            },
-            b: &states[step],
-        }
-    };
+    // The motion of step `k`: from state `k − 1`, or at state `k` alone.
     let patch = |step: usize, triangle: usize| {
-        let m = motion(step);
+        let still = !swept || (step == 1 && rest_alone);
+        let start = &states[if still { step } else { step - 1 }];
         let corner = |x: &Tensor, p: usize| Vector3::new(x.get(p, 0), x.get(p, 1), x.get(p, 2));
         let [i, j, k] = triangles[triangle];
         Patch {
-            a: [corner(m.a, i), corner(m.a, j), corner(m.a, k)],
-            b: [corner(m.b, i), corner(m.b, j), corner(m.b, k)],
+            a: [corner(start, i), corner(start, j), corner(start, k)],
+            b: [i, j, k].map(|p| corner(&states[step], p)),
         }
     };
     let mut search = Search {
@@ -145,23 +133,26 @@ pub fn surface_minimum(
                     triangle,
                     lo: [0.0; 3],
                     hi: [1.0; 3],
+                    axis: 0,
                 },
             );
         }
     }
     let mut lowest: Option<Cell> = None;
+    // The smallest bound of the boxes too small to split in `f64`, which leave the heap.
+    let mut unsplit = f64::INFINITY;
     while let Some(cell) = search.heap.pop() {
-        lowest = Some(cell);
         if cell.lower >= search.best.min(cap) - tol || search.evaluations >= MAX_SURFACE_BOXES {
+            lowest = Some(cell);
             break;
         }
-        lowest = None;
-        let p = patch(cell.step, cell.triangle);
-        let axis = widest_axis(&p, &cell);
+        let axis = cell.axis;
         let mid = 0.5 * (cell.lo[axis] + cell.hi[axis]);
         if mid <= cell.lo[axis] || mid >= cell.hi[axis] {
+            unsplit = unsplit.min(cell.lower);
             continue;
         }
+        let p = patch(cell.step, cell.triangle);
         let (mut left, mut right) = (cell, cell);
         left.hi[axis] = mid;
         right.lo[axis] = mid;
@@ -172,6 +163,7 @@ pub fn surface_minimum(
     // value or the cap.
     let lower = lowest
         .map_or(f64::INFINITY, |c| c.lower)
+        .min(unsplit)
         .min(search.best)
         .min(cap);
     let (step, triangle) = match lowest {
@@ -198,21 +190,34 @@ struct Search<'f> {
 
 impl Search<'_> {
     /// Bounds the field on `cell` of `patch` from its centre and opens it unless the bound
-    /// cannot beat the best value (or the cap).
+    /// cannot beat the best value (or the cap); its corners' images also give its split axis.
     fn push(&mut self, patch: &Patch, mut cell: Cell) {
         let centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (cell.lo[k] + cell.hi[k]));
         let x = patch.at(centre);
-        let mut radius: f64 = 0.0;
-        for corner in 0..8 {
-            let q = std::array::from_fn(|k| {
-                if corner >> k & 1 == 0 {
+        // Corner `c` has parameter `k` at its upper end where bit `k` of `c` is set.
+        let corners: [Vector3<f64>; 8] = std::array::from_fn(|c| {
+            patch.at(std::array::from_fn(|k| {
+                if c >> k & 1 == 0 {
                     cell.lo[k]
                 } else {
                     cell.hi[k]
                 }
-            });
-            radius = radius.max((patch.at(q) - x).norm());
-        }
+            }))
+        });
+        let radius = corners.iter().map(|q| (q - x).norm()).fold(0.0, f64::max);
+        let edge = |axis: usize| {
+            (0..8)
+                .filter(|c| c >> axis & 1 == 0)
+                .map(|c| (corners[c | 1 << axis] - corners[c]).norm())
+                .fold(0.0, f64::max)
+        };
+        cell.axis = (1..3).fold(0, |widest, axis| {
+            if edge(axis) > edge(widest) {
+                axis
+            } else {
+                widest
+            }
+        });
         let ceiling = self.best.min(self.cap);
         let d = self.field.distance_within(&x, ceiling + radius);
         self.evaluations += 1;
@@ -227,33 +232,6 @@ impl Search<'_> {
             self.heap.push(cell);
         }
     }
-}
-
-/// The parameter whose edges of `cell` are longest in space (the first on a tie).
-fn widest_axis(patch: &Patch, cell: &Cell) -> usize {
-    let mut widest = (0, -1.0);
-    for axis in 0..3 {
-        let mut length: f64 = 0.0;
-        for corner in 0..8usize {
-            if corner >> axis & 1 == 1 {
-                continue;
-            }
-            let q: [f64; 3] = std::array::from_fn(|k| {
-                if corner >> k & 1 == 0 {
-                    cell.lo[k]
-                } else {
-                    cell.hi[k]
-                }
-            });
-            let mut r = q;
-            r[axis] = cell.hi[axis];
-            length = length.max((patch.at(r) - patch.at(q)).norm());
-        }
-        if length > widest.1 {
-            widest = (axis, length);
-        }
-    }
-    widest.0
 }
 
 #[cfg(test)]
