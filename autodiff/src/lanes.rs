@@ -11,6 +11,8 @@
 
 use crate::rowfn::RowFn;
 #[cfg(target_arch = "x86_64")]
+use crate::rowfn::SEED_CHUNK;
+#[cfg(target_arch = "x86_64")]
 use crate::simd::F64x8;
 use crate::simd::LANES;
 use std::cell::Cell;
@@ -100,6 +102,32 @@ pub(crate) unsafe fn lane_groups_vjp<F: RowFn, const A: usize>(
         return groups_end(&range);
     }
     let _ = (f, idx, inputs, adj);
+    range.start
+}
+
+/// [`vjp_groups_seeds`] on the rows of `range` where the target has it; returns the first row
+/// left to the row-by-row kernel.
+///
+/// # Safety
+/// As [`vjp_groups_seeds`].
+#[inline(always)]
+pub(crate) unsafe fn lane_groups_vjp_seeds<F: RowFn, const A: usize>(
+    f: &F,
+    idx: &[usize],
+    range: std::ops::Range<usize>,
+    inputs: &[f64],
+    states: &[SharedRows],
+    carries: &[SharedRows],
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if F::HAS_LANES {
+        let fresh = || Box::new([[F64x8::default(); 13 * SEED_CHUNK]; 2]);
+        crate::rowfn::with_scratch(&SEED_LANES, fresh, |scratch| {
+            vjp_groups_seeds::<F, A>(f, idx, range.clone(), inputs, states, carries, scratch)
+        });
+        return groups_end(&range);
+    }
+    let _ = (f, idx, inputs, states, carries);
     range.start
 }
 
@@ -201,6 +229,67 @@ pub(crate) unsafe fn vjp_groups<F: RowFn, const A: usize>(
         std::ptr::write_unaligned(carry.add(k).cast(), ia[3 * A].0);
         k += LANES;
     }
+}
+
+/// [`vjp_groups`] for up to [`SEED_CHUNK`] seeds at once, through [`RowFn::vjp_lanes_seeds`]:
+/// each group's saved inputs are loaded once for all the seeds; seed `s`'s adjoints are
+/// `states[s]` and `carries[s]`. `scratch` holds the seeds' output and input adjoints of a
+/// group (every value written before it is read).
+///
+/// # Safety
+/// As [`vjp_groups`], for every seed's buffers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn vjp_groups_seeds<F: RowFn, const A: usize>(
+    f: &F,
+    idx: &[usize],
+    range: std::ops::Range<usize>,
+    inputs: &[f64],
+    states: &[SharedRows],
+    carries: &[SharedRows],
+    scratch: &mut [[F64x8; 13 * SEED_CHUNK]; 2],
+) {
+    let [oa, ia] = scratch;
+    let width = 3 * A + 1;
+    let seeds = states.len();
+    debug_assert!(seeds <= SEED_CHUNK && carries.len() == seeds);
+    debug_assert!(idx.len() >= A * range.end && inputs.len() >= width * range.end);
+    let saved = inputs.as_ptr();
+    let mut x = [F64x8::default(); 13];
+    let mut k = range.start;
+    while k < groups_end(&range) {
+        let points = |j: usize| point_offsets::<A>(idx, k, j);
+        for j in 0..A {
+            let rows = std::array::from_fn(|l| width * (k + l) + 3 * j);
+            load_points(saved, rows, &mut x[3 * j..3 * j + 3]);
+        }
+        x[3 * A] = F64x8::from_fn(|l| *saved.add(width * (k + l) + 3 * A));
+        for (s, (state, carry)) in states.iter().zip(carries).enumerate() {
+            let oa = &mut oa[width * s..width * s + width];
+            for j in 0..A {
+                load_points(state.ptr, points(j), &mut oa[3 * j..3 * j + 3]);
+            }
+            oa[3 * A] = F64x8(std::ptr::read_unaligned(carry.ptr.add(k).cast()));
+        }
+        let n = width * seeds;
+        f.vjp_lanes_seeds(k, &x[..width], &oa[..n], &mut ia[..n]);
+        for (s, (state, carry)) in states.iter().zip(carries).enumerate() {
+            let ia = &ia[width * s..width * s + width];
+            for j in 0..A {
+                store_points(state.ptr, points(j), &ia[3 * j..3 * j + 3]);
+            }
+            std::ptr::write_unaligned(carry.ptr.add(k).cast(), ia[3 * A].0);
+        }
+        k += LANES;
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+thread_local! {
+    /// Each thread's scratch for [`vjp_groups_seeds`] (13 kB, on the heap), kept so that a
+    /// colour set's call does not zero it first: that `memset` was 8% of planning u_obstacle.
+    static SEED_LANES: std::cell::RefCell<Box<[[F64x8; 13 * SEED_CHUNK]; 2]>> =
+        std::cell::RefCell::new(Box::new([[F64x8::default(); 13 * SEED_CHUNK]; 2]));
 }
 
 /// Where point `j` of each of the rows `k .. k + LANES` starts in the state.

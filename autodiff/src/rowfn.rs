@@ -103,6 +103,30 @@ pub trait RowFn: Send + Sync {
         }
     }
 
+    /// [`RowFn::vjp_lanes`] for several seeds at once: `out_adj` holds `seeds` lane vectors of
+    /// the outputs one after another (`seeds × n_out`), `in_adj` receives the matching
+    /// `seeds × n_in`. An override must give [`RowFn::vjp_lanes`]' values for every seed bit for
+    /// bit; it computes what the seeds share (the row's own quantities) once. The default calls
+    /// [`RowFn::vjp_lanes`] per seed.
+    #[inline(always)]
+    fn vjp_lanes_seeds(
+        &self,
+        first: usize,
+        inputs: &[F64x8],
+        out_adj: &[F64x8],
+        in_adj: &mut [F64x8],
+    ) where
+        Self: Sized,
+    {
+        let (n_in, n_out) = (self.n_in(), self.n_out());
+        for (oa, ia) in out_adj
+            .chunks_exact(n_out)
+            .zip(in_adj.chunks_exact_mut(n_in))
+        {
+            self.vjp_lanes(first, inputs, oa, ia);
+        }
+    }
+
     /// [`RowFn::vjp`] for the consecutive rows of a block, as [`RowFn::eval_rows`] is to
     /// [`RowFn::eval`].
     #[inline(always)]

@@ -8,7 +8,9 @@
 //! checked once up front, rayon above [`crate::rowfn::PARALLEL_MIN_ROWS`] rows).
 
 use crate::index::RowIndex;
-use crate::lanes::{lane_groups, lane_groups_vjp, lanes_for, PointBuffers, SharedRows};
+use crate::lanes::{
+    lane_groups, lane_groups_vjp, lane_groups_vjp_seeds, lanes_for, PointBuffers, SharedRows,
+};
 use crate::rowfn::{
     for_each_row_chunk, for_row_ranges, with_scratch, DynRowFn, RowFn, ROW_BLOCK, SEED_CHUNK,
 };
@@ -575,7 +577,8 @@ fn check_adjoints<const A: usize, const C: usize>(
 
 /// [`DynRowFn::vjp_update_batch_seeds`] for the layout of [`update_points`], up to
 /// [`SEED_CHUNK`] seeds: each row's saved inputs are read once and handed to
-/// [`RowFn::vjp_seeds`] with every seed's output adjoint.
+/// [`RowFn::vjp_seeds`] with every seed's output adjoint, or, where the lane-wise kernel runs,
+/// each group of [`crate::simd::LANES`] rows' to [`RowFn::vjp_lanes_seeds`].
 fn vjp_update_points_seeds<F: RowFn, const A: usize, const C: usize>(
     f: &F,
     index: &RowIndex,
@@ -599,11 +602,20 @@ fn vjp_update_points_seeds<F: RowFn, const A: usize, const C: usize>(
     }
     let (states, carries) = (&states[..seeds], &carries[..seeds]);
     let idx = index.as_slice();
+    let lanes = C == 1 && lanes_for::<F>();
     for_row_ranges(index.rows(), |range| {
+        // SAFETY (of `lane_groups_vjp_seeds`): `check_adjoints` asserted the index and inputs
+        // fit every seed's buffers, `lanes_for` that the CPU has AVX2.
+        let start = match lanes {
+            true => unsafe {
+                lane_groups_vjp_seeds::<F, A>(f, idx, range.clone(), inputs, states, carries)
+            },
+            false => range.start,
+        };
         let width = 3 * A + C;
         let mut oa = [0.0; MAX_POINT_ROW * SEED_CHUNK];
         let mut ia = [0.0; MAX_POINT_ROW * SEED_CHUNK];
-        for k in range {
+        for k in start..range.end {
             // SAFETY: as in `update_points` (asserted above), for every seed's buffers.
             unsafe {
                 for (s, (&state, &carry)) in states.iter().zip(carries).enumerate() {

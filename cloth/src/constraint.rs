@@ -73,21 +73,38 @@ pub trait Constraint: Send + Sync + 'static {
         c
     }
 
-    /// `∇²C(x)·v` of [`LANES`] instances at once, in place: lane `l` of `x[i]` and
-    /// `v[i]` belongs to `instances[l]`. An override (with [`Constraint::LANES`]) must give
-    /// [`Constraint::hessian_vectors`]' values bit for bit in every lane. The default calls
-    /// [`Constraint::hessian_vectors`] per lane.
+    /// `∇²C(x)·v` of [`LANES`] instances at once for several vectors, in place: vector `s`
+    /// is `vs[stride·s .. stride·s + 3·ARITY]` (`stride ≥ 3·ARITY`; the entries between vectors
+    /// are left alone), and lane `l` of `x[i]` and of every vector belongs to `instances[l]`.
+    /// An override (with [`Constraint::LANES`]) must give [`Constraint::hessian_vectors`]'
+    /// values bit for bit in every lane. The default calls [`Constraint::hessian_vectors`] per
+    /// lane, for up to eight vectors at a time.
     #[inline(always)]
-    fn hessian_vector_lanes(&self, instances: [usize; LANES], x: &[F64x8], v: &mut [F64x8])
-    where
+    fn hessian_vectors_lanes(
+        &self,
+        instances: [usize; LANES],
+        x: &[F64x8],
+        vs: &mut [F64x8],
+        stride: usize,
+    ) where
         Self: Sized,
     {
-        let (mut xl, mut vl) = ([0.0; MAX_D], [[0.0; MAX_D]]);
-        for (l, &instance) in instances.iter().enumerate() {
-            read_lane(x, l, &mut xl);
-            read_lane(v, l, &mut vl[0]);
-            self.hessian_vectors(instance, &xl[..x.len()], &mut vl);
-            write_lane(v, l, &vl[0]);
+        let d = 3 * Self::ARITY;
+        let mut xl = [0.0; MAX_D];
+        let mut vl = [[0.0; MAX_D]; 8];
+        let vectors = vs.len().div_ceil(stride);
+        for first in (0..vectors).step_by(8) {
+            let chunk = first..vectors.min(first + 8);
+            for (l, &instance) in instances.iter().enumerate() {
+                read_lane(&x[..d], l, &mut xl);
+                for (s, row) in chunk.clone().zip(vl.iter_mut()) {
+                    read_lane(&vs[stride * s..stride * s + d], l, row);
+                }
+                self.hessian_vectors(instance, &xl[..d], &mut vl[..chunk.len()]);
+                for (s, row) in chunk.clone().zip(vl.iter()) {
+                    write_lane(&mut vs[stride * s..stride * s + d], l, &row[..d]);
+                }
+            }
         }
     }
 
@@ -302,19 +319,27 @@ impl Constraint for Distance {
         n - F64x8::from_fn(|l| self.rest[instances[l]])
     }
 
-    /// [`Distance::hessian_vectors`] of one vector in lanes, bitwise.
+    /// [`Distance::hessian_vectors`] in lanes, bitwise: `1/|d|` and `u` once for all vectors.
     #[inline(always)]
-    fn hessian_vector_lanes(&self, _instances: [usize; LANES], x: &[F64x8], v: &mut [F64x8]) {
+    fn hessian_vectors_lanes(
+        &self,
+        _instances: [usize; LANES],
+        x: &[F64x8],
+        vs: &mut [F64x8],
+        stride: usize,
+    ) {
         let d = [x[0] - x[3], x[1] - x[4], x[2] - x[5]];
         let s = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
         let (zero, inv) = (s.eq_zero(), F64x8::splat(1.0) / s.sqrt());
         let u = d.map(|dk| dk * inv);
-        let delta = [v[0] - v[3], v[1] - v[4], v[2] - v[5]];
-        let t = u[0] * delta[0] + u[1] * delta[1] + u[2] * delta[2];
-        for k in 0..3 {
-            let h = (delta[k] - u[k] * t) * inv;
-            v[k] = F64x8::select(zero, F64x8::splat(0.0), h);
-            v[k + 3] = F64x8::select(zero, F64x8::splat(0.0), -h);
+        for v in vs.chunks_mut(stride) {
+            let delta = [v[0] - v[3], v[1] - v[4], v[2] - v[5]];
+            let t = u[0] * delta[0] + u[1] * delta[1] + u[2] * delta[2];
+            for k in 0..3 {
+                let h = (delta[k] - u[k] * t) * inv;
+                v[k] = F64x8::select(zero, F64x8::splat(0.0), h);
+                v[k + 3] = F64x8::select(zero, F64x8::splat(0.0), -h);
+            }
         }
     }
 

@@ -1,8 +1,9 @@
 //! The lane-wise colour-set kernel (four rows at once, gathered straight from the state into
 //! AVX2 lanes: `autodiff/src/lanes.rs` with `Projection::eval_lanes` and
-//! `Distance::gradient_lanes`) and its pull-back (`Projection::vjp_lanes`,
-//! `Distance::hessian_vector_lanes`) against the row-by-row kernels they replace where the CPU
-//! has AVX2: states, multipliers, the recorded inputs and the adjoints must be bitwise equal.
+//! `Distance::gradient_lanes`) and its pull-backs, of one seed and of several at once
+//! (`Projection::vjp_lanes`, `Projection::vjp_lanes_seeds`, `Distance::hessian_vectors_lanes`),
+//! against the row-by-row kernels they replace where the CPU has AVX2: states, multipliers, the
+//! recorded inputs and the adjoints must be bitwise equal.
 //!
 //! Random colour sets of `Distance` rows (0 to 40 rows, so groups of eight and every tail length;
 //! now and then 600 rows, so the rows are split into tasks), random states with some rows'
@@ -70,8 +71,8 @@ fn colour_set<C: Constraint>(
 }
 
 /// Three sweeps of the set (so moved rows move again), recording the last, and the last's
-/// pull-back of random adjoints: the final state, multipliers, saved inputs and the adjoints
-/// as bits.
+/// pull-back of random adjoints, alone and as one of 1 to 8 seeds at once: the final state,
+/// multipliers, saved inputs and the adjoints as bits.
 fn sweeps<C: Constraint>(
     p: &Projection<C>,
     index: &RowIndex,
@@ -89,13 +90,26 @@ fn sweeps<C: Constraint>(
     let mut state_adj = Tensor::new(n, 3, rng.direction(3 * n));
     let mut carry_adj = Tensor::new(rows, 1, rng.direction(rows));
     p.vjp_update_batch(index, &saved, &mut state_adj, &mut carry_adj);
+    let seeds = 1 + (rng.next_f64() * 8.0) as usize;
+    let mut states: Vec<Tensor> = (0..seeds)
+        .map(|_| Tensor::new(n, 3, rng.direction(3 * n)))
+        .collect();
+    let mut carries: Vec<Tensor> = (0..seeds)
+        .map(|_| Tensor::new(rows, 1, rng.direction(rows)))
+        .collect();
+    p.vjp_update_batch_seeds(index, &saved, &mut states, &mut carries);
     let values = state.data().iter().chain(carry.data()).chain(&saved);
     let adjoints = state_adj.data().iter().chain(carry_adj.data());
-    values.chain(adjoints).map(|v| v.to_bits()).collect()
+    let seeded = states.iter().chain(&carries).flat_map(|t| t.data());
+    values
+        .chain(adjoints)
+        .chain(seeded)
+        .map(|v| v.to_bits())
+        .collect()
 }
 
 /// `Distance` with [`Constraint::LANES`] but without its lane-wise overrides, so the kernels
-/// take the trait's default `gradient_lanes` and `hessian_vector_lanes` (row by row in lanes).
+/// take the trait's default `gradient_lanes` and `hessian_vectors_lanes` (row by row in lanes).
 struct DefaultLanes(Distance);
 
 impl Constraint for DefaultLanes {

@@ -161,10 +161,20 @@ impl<C: Constraint> RowFn for Projection<C> {
 
     /// [`Projection::vjp`] of [`LANES`] rows in lanes (into zeros), bitwise: the adjoint of
     /// [`Projection::eval_lanes`] as `vjp_block` computes it row by row, with
-    /// [`Constraint::hessian_vector_lanes`].
+    /// [`Constraint::hessian_vectors_lanes`].
     #[inline(always)]
     fn vjp_lanes(&self, first: usize, x: &[F64x8], oa: &[F64x8], ia: &mut [F64x8]) {
+        self.vjp_lanes_seeds(first, x, oa, ia);
+    }
+
+    /// [`Projection::vjp_lanes`] for several seeds: `C`, `∇C`, `Δλ` and the reciprocal of the
+    /// denominator once for all of them, and one call of [`Constraint::hessian_vectors_lanes`]
+    /// for every seed's vector (each seed's adjoint of `∇C` is built in its `in_adj`).
+    #[inline(always)]
+    fn vjp_lanes_seeds(&self, first: usize, x: &[F64x8], oa: &[F64x8], ia: &mut [F64x8]) {
         let d = 3 * C::ARITY;
+        let seeds = oa.len() / (d + 1);
+        debug_assert!(seeds <= SEED_CHUNK && ia.len() == oa.len());
         let instances = std::array::from_fn(|l| self.instances[first + l]);
         let mut g = [F64x8::default(); MAX_D];
         let c = self
@@ -174,27 +184,36 @@ impl<C: Constraint> RowFn for Projection<C> {
         let (still, denom, dlambda) = self.step_lanes(x, c, &g, &w);
         let inv_denom = F64x8::splat(1.0) / denom;
         let dlambda_inv_denom = dlambda * inv_denom;
-        // As `seed_head`: the adjoints of Δλ, its numerator and denominator, and of ∇C.
-        let mut a_dl = oa[d];
-        for j in 0..d {
-            a_dl = a_dl + w[j / 3] * g[j] * oa[j];
-        }
-        let a_num = a_dl * inv_denom;
-        let a_den2 = F64x8::splat(-2.0) * (a_dl * dlambda_inv_denom);
-        let mut a_g = [F64x8::default(); MAX_D];
-        for j in 0..d {
-            a_g[j] = w[j / 3] * (dlambda * oa[j] + a_den2 * g[j]);
+        // As `seed_head`, per seed: the adjoints of Δλ, its numerator and denominator, and of
+        // ∇C (into the seed's `in_adj`, where its Hessian–vector product replaces it).
+        let mut a_num = [F64x8::default(); SEED_CHUNK];
+        for (s, a_num) in a_num[..seeds].iter_mut().enumerate() {
+            let r = (d + 1) * s..(d + 1) * (s + 1);
+            let (oa, a_g) = (&oa[r.clone()], &mut ia[r]);
+            let mut a_dl = oa[d];
+            for j in 0..d {
+                a_dl = a_dl + w[j / 3] * g[j] * oa[j];
+            }
+            *a_num = a_dl * inv_denom;
+            let a_den2 = F64x8::splat(-2.0) * (a_dl * dlambda_inv_denom);
+            for j in 0..d {
+                a_g[j] = w[j / 3] * (dlambda * oa[j] + a_den2 * g[j]);
+            }
         }
         self.constraint
-            .hessian_vector_lanes(instances, &x[..d], &mut a_g[..d]);
+            .hessian_vectors_lanes(instances, &x[..d], ia, d + 1);
         // The identity part (added to zeros), then `seed_head`'s and `seed_tail`'s terms.
         let zero = F64x8::splat(0.0);
         let alpha = F64x8::splat(self.compliance);
-        let id = zero + oa[d];
-        ia[d] = F64x8::select(still, id, id - alpha * a_num);
-        for j in 0..d {
-            let id = zero + oa[j];
-            ia[j] = F64x8::select(still, id, id + (a_g[j] - a_num * g[j]));
+        for (s, &a_num) in a_num[..seeds].iter().enumerate() {
+            let r = (d + 1) * s..(d + 1) * (s + 1);
+            let (oa, ia) = (&oa[r.clone()], &mut ia[r]);
+            let id = zero + oa[d];
+            ia[d] = F64x8::select(still, id, id - alpha * a_num);
+            for j in 0..d {
+                let id = zero + oa[j];
+                ia[j] = F64x8::select(still, id, id + (ia[j] - a_num * g[j]));
+            }
         }
     }
 
