@@ -4,10 +4,12 @@
 //! transposed back into the state.
 //!
 //! It runs where the CPU has AVX2 (detected at run time) for row functions with
-//! [`RowFn::HAS_LANES`]; elsewhere, and for the rows left over after the groups of eight, the
-//! row-by-row kernels of [`crate::update`] run. Both give the same values bit for bit (no fused
-//! multiply–add on either path, each lane's operations in the row's order), so results do not
-//! depend on the CPU's features, the thread count or where a group of rows starts.
+//! [`RowFn::HAS_LANES`]; elsewhere the row-by-row kernels of [`crate::update`] run. A range's
+//! last group of fewer than eight rows repeats its last row in the spare lanes: they load that
+//! row's values, so they compute its results and store them once more. Both paths give the same
+//! values bit for bit (no fused multiply–add on either, each lane's operations in the row's
+//! order), so results do not depend on the CPU's features, the thread count or where a group of
+//! rows starts.
 
 use crate::rowfn::RowFn;
 #[cfg(target_arch = "x86_64")]
@@ -77,7 +79,7 @@ pub(crate) unsafe fn lane_groups<F: RowFn, const A: usize>(
     #[cfg(target_arch = "x86_64")]
     if F::HAS_LANES {
         update_groups::<F, A>(f, idx, range.clone(), buf);
-        return groups_end(&range);
+        return range.end;
     }
     let _ = (f, idx, buf);
     range.start
@@ -99,7 +101,7 @@ pub(crate) unsafe fn lane_groups_vjp<F: RowFn, const A: usize>(
     #[cfg(target_arch = "x86_64")]
     if F::HAS_LANES {
         vjp_groups::<F, A>(f, idx, range.clone(), inputs, adj);
-        return groups_end(&range);
+        return range.end;
     }
     let _ = (f, idx, inputs, adj);
     range.start
@@ -125,20 +127,51 @@ pub(crate) unsafe fn lane_groups_vjp_seeds<F: RowFn, const A: usize>(
         crate::rowfn::with_scratch(&SEED_LANES, fresh, |scratch| {
             vjp_groups_seeds::<F, A>(f, idx, range.clone(), inputs, states, carries, scratch)
         });
-        return groups_end(&range);
+        return range.end;
     }
     let _ = (f, idx, inputs, states, carries);
     range.start
 }
 
-/// First row of `range` that [`update_groups`] leaves to the row-by-row kernel.
+/// The rows of the group from row `k` of a range ending at `end`: `k + l` in lane `l`, the
+/// range's last row in the lanes past it.
 #[inline(always)]
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-pub(crate) fn groups_end(range: &std::ops::Range<usize>) -> usize {
-    range.end - (range.end - range.start) % LANES
+fn group_rows(k: usize, end: usize) -> [usize; LANES] {
+    std::array::from_fn(|l| (k + l).min(end - 1))
 }
 
-/// Updates the rows `range.start .. groups_end(range)` of an in-place update of `A` points and
+/// The lanes of `v` whose rows are whole, at `ptr` (`ptr` holding a value per row from row `k`).
+///
+/// # Safety
+/// `ptr` is writable for `min(LANES, end − k)` values, touched by no other task.
+#[inline(always)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+unsafe fn store_rows(ptr: *mut f64, k: usize, end: usize, v: [f64; LANES]) {
+    if k + LANES <= end {
+        std::ptr::write_unaligned(ptr.add(k).cast(), v);
+    } else {
+        for (l, &value) in v.iter().enumerate().take(end - k) {
+            *ptr.add(k + l) = value;
+        }
+    }
+}
+
+/// One value per row of `rows` from `ptr` (a value per row).
+///
+/// # Safety
+/// `ptr` is readable at each of `rows`.
+#[inline(always)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+unsafe fn load_rows(ptr: *const f64, rows: [usize; LANES]) -> [f64; LANES] {
+    if rows[LANES - 1] == rows[0] + LANES - 1 {
+        std::ptr::read_unaligned(ptr.add(rows[0]).cast())
+    } else {
+        rows.map(|row| *ptr.add(row))
+    }
+}
+
+/// Updates the rows `range` of an in-place update of `A` points and
 /// one carried value per row, [`LANES`] rows at a time through [`RowFn::eval_lanes`], and
 /// saves each row's inputs in row layout when `buf.saved` is not empty.
 ///
@@ -160,36 +193,37 @@ pub(crate) unsafe fn update_groups<F: RowFn, const A: usize>(
     let (state, carry, saved) = (buf.state.ptr, buf.carry.ptr, buf.saved.ptr);
     let (mut x, mut y) = ([F64x8::default(); 13], [F64x8::default(); 13]);
     let mut k = range.start;
-    while k < groups_end(&range) {
-        let points = |j: usize| point_offsets::<A>(idx, k, j);
+    while k < range.end {
+        let (rows, whole) = (group_rows(k, range.end), LANES.min(range.end - k));
+        let points = |j: usize| point_offsets::<A>(idx, rows, j);
         for j in 0..A {
-            let rows = load_points(state, points(j), &mut x[3 * j..3 * j + 3]);
+            let loaded = load_points(state, points(j), &mut x[3 * j..3 * j + 3]);
             if !saved.is_null() {
                 // Four values at the point's place in the row: the fourth is overwritten by
                 // the next point or the carried value, written after it.
-                for (l, &row) in rows.iter().enumerate() {
+                for (l, &row) in loaded.iter().enumerate().take(whole) {
                     let at = saved.add(width * (k + l) + 3 * j);
                     std::arch::x86_64::_mm256_storeu_pd(at, row);
                 }
             }
         }
-        x[3 * A] = F64x8(std::ptr::read_unaligned(carry.add(k).cast()));
+        x[3 * A] = F64x8(load_rows(carry, rows));
         if !saved.is_null() {
-            for l in 0..LANES {
+            for l in 0..whole {
                 *saved.add(width * (k + l) + 3 * A) = x[3 * A].0[l];
             }
         }
-        f.eval_lanes(k, &x[..width], &mut y[..width]);
+        f.eval_lanes(rows, &x[..width], &mut y[..width]);
         for j in 0..A {
             store_points(state, points(j), &y[3 * j..3 * j + 3]);
         }
-        std::ptr::write_unaligned(carry.add(k).cast(), y[3 * A].0);
+        store_rows(carry, k, range.end, y[3 * A].0);
         k += LANES;
     }
 }
 
 /// The adjoint of [`update_groups`] in place, through [`RowFn::vjp_lanes`]: on the rows
-/// `range.start .. groups_end(range)`, the adjoints `adj.state` and `adj.carry` of the updated
+/// `range`, the adjoints `adj.state` and `adj.carry` of the updated
 /// rows become those of the rows before the update; `inputs` are the saved inputs (row layout).
 ///
 /// # Safety
@@ -213,20 +247,24 @@ pub(crate) unsafe fn vjp_groups<F: RowFn, const A: usize>(
         [F64x8::default(); 13],
     );
     let mut k = range.start;
-    while k < groups_end(&range) {
-        let points = |j: usize| point_offsets::<A>(idx, k, j);
+    while k < range.end {
+        let rows = group_rows(k, range.end);
+        let points = |j: usize| point_offsets::<A>(idx, rows, j);
         for j in 0..A {
             load_points(state, points(j), &mut oa[3 * j..3 * j + 3]);
-            let rows = std::array::from_fn(|l| width * (k + l) + 3 * j);
-            load_points(saved, rows, &mut x[3 * j..3 * j + 3]);
+            load_points(
+                saved,
+                rows.map(|row| width * row + 3 * j),
+                &mut x[3 * j..3 * j + 3],
+            );
         }
-        oa[3 * A] = F64x8(std::ptr::read_unaligned(carry.add(k).cast()));
-        x[3 * A] = F64x8::from_fn(|l| *saved.add(width * (k + l) + 3 * A));
-        f.vjp_lanes(k, &x[..width], &oa[..width], &mut ia[..width]);
+        oa[3 * A] = F64x8(load_rows(carry, rows));
+        x[3 * A] = F64x8(rows.map(|row| *saved.add(width * row + 3 * A)));
+        f.vjp_lanes(rows, &x[..width], &oa[..width], &mut ia[..width]);
         for j in 0..A {
             store_points(state, points(j), &ia[3 * j..3 * j + 3]);
         }
-        std::ptr::write_unaligned(carry.add(k).cast(), ia[3 * A].0);
+        store_rows(carry, k, range.end, ia[3 * A].0);
         k += LANES;
     }
 }
@@ -257,28 +295,32 @@ pub(crate) unsafe fn vjp_groups_seeds<F: RowFn, const A: usize>(
     let saved = inputs.as_ptr();
     let mut x = [F64x8::default(); 13];
     let mut k = range.start;
-    while k < groups_end(&range) {
-        let points = |j: usize| point_offsets::<A>(idx, k, j);
+    while k < range.end {
+        let rows = group_rows(k, range.end);
+        let points = |j: usize| point_offsets::<A>(idx, rows, j);
         for j in 0..A {
-            let rows = std::array::from_fn(|l| width * (k + l) + 3 * j);
-            load_points(saved, rows, &mut x[3 * j..3 * j + 3]);
+            load_points(
+                saved,
+                rows.map(|row| width * row + 3 * j),
+                &mut x[3 * j..3 * j + 3],
+            );
         }
-        x[3 * A] = F64x8::from_fn(|l| *saved.add(width * (k + l) + 3 * A));
+        x[3 * A] = F64x8(rows.map(|row| *saved.add(width * row + 3 * A)));
         for (s, (state, carry)) in states.iter().zip(carries).enumerate() {
             let oa = &mut oa[width * s..width * s + width];
             for j in 0..A {
                 load_points(state.ptr, points(j), &mut oa[3 * j..3 * j + 3]);
             }
-            oa[3 * A] = F64x8(std::ptr::read_unaligned(carry.ptr.add(k).cast()));
+            oa[3 * A] = F64x8(load_rows(carry.ptr, rows));
         }
         let n = width * seeds;
-        f.vjp_lanes_seeds(k, &x[..width], &oa[..n], &mut ia[..n]);
+        f.vjp_lanes_seeds(rows, &x[..width], &oa[..n], &mut ia[..n]);
         for (s, (state, carry)) in states.iter().zip(carries).enumerate() {
             let ia = &ia[width * s..width * s + width];
             for j in 0..A {
                 store_points(state.ptr, points(j), &ia[3 * j..3 * j + 3]);
             }
-            std::ptr::write_unaligned(carry.ptr.add(k).cast(), ia[3 * A].0);
+            store_rows(carry.ptr, k, range.end, ia[3 * A].0);
         }
         k += LANES;
     }
@@ -292,13 +334,17 @@ thread_local! {
         std::cell::RefCell::new(Box::new([[F64x8::default(); 13 * SEED_CHUNK]; 2]));
 }
 
-/// Where point `j` of each of the rows `k .. k + LANES` starts in the state.
+/// Where point `j` of each of the rows `rows` starts in the state.
 ///
 /// # Safety
 /// `idx` holds `A` points for each of these rows.
 #[inline(always)]
-unsafe fn point_offsets<const A: usize>(idx: &[usize], k: usize, j: usize) -> [usize; LANES] {
-    std::array::from_fn(|l| 3 * *idx.get_unchecked(A * (k + l) + j))
+unsafe fn point_offsets<const A: usize>(
+    idx: &[usize],
+    rows: [usize; LANES],
+    j: usize,
+) -> [usize; LANES] {
+    rows.map(|row| 3 * *idx.get_unchecked(A * row + j))
 }
 
 /// Loads the three values at `base + off[l]` of every lane `l` into `dst` (x, y and z lanes),

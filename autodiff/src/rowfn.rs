@@ -65,31 +65,38 @@ pub trait RowFn: Send + Sync {
     /// into lanes, where the CPU has AVX2 (row by row elsewhere).
     const HAS_LANES: bool = false;
 
-    /// Evaluates the rows `first .. first + LANES` lane-wise: `inputs[j]` holds input `j` of
-    /// the rows (lane `l` is row `first + l`), `outputs[j]` receives output `j`. An override
+    /// Evaluates the rows `rows` lane-wise: `inputs[j]` holds input `j` of the rows (lane `l`
+    /// is row `rows[l]`), `outputs[j]` receives output `j`. The rows are consecutive, except in
+    /// a batch's last group of fewer than [`LANES`] rows, whose spare lanes repeat its last row
+    /// (with its inputs, so they give its outputs, which the kernels write once more). An override
     /// (with [`RowFn::HAS_LANES`]) must give [`RowFn::eval`]'s values bit for bit in every lane
     /// (the same IEEE operations in the same order, no fused multiply–add). The default
     /// evaluates lane by lane through [`RowFn::eval`].
     #[inline(always)]
-    fn eval_lanes(&self, first: usize, inputs: &[F64x8], outputs: &mut [F64x8])
+    fn eval_lanes(&self, rows: [usize; LANES], inputs: &[F64x8], outputs: &mut [F64x8])
     where
         Self: Sized,
     {
         let (mut x, mut y) = (vec![0.0; self.n_in()], vec![0.0; self.n_out()]);
         for l in 0..LANES {
             read_lane(inputs, l, &mut x);
-            self.eval(first + l, &x, &mut y);
+            self.eval(rows[l], &x, &mut y);
             write_lane(outputs, l, &y);
         }
     }
 
-    /// The vector–Jacobian product of the rows `first .. first + LANES` lane-wise, as
+    /// The vector–Jacobian product of the rows `rows` lane-wise, as
     /// [`RowFn::eval_lanes`] is to [`RowFn::eval`]: `in_adj` receives `Jᵀ out_adj` (what
     /// [`RowFn::vjp`] accumulates into zeros, bit for bit in every lane, for an override). The
     /// default pulls back lane by lane through [`RowFn::vjp`].
     #[inline(always)]
-    fn vjp_lanes(&self, first: usize, inputs: &[F64x8], out_adj: &[F64x8], in_adj: &mut [F64x8])
-    where
+    fn vjp_lanes(
+        &self,
+        rows: [usize; LANES],
+        inputs: &[F64x8],
+        out_adj: &[F64x8],
+        in_adj: &mut [F64x8],
+    ) where
         Self: Sized,
     {
         let (n_in, n_out) = (self.n_in(), self.n_out());
@@ -98,7 +105,7 @@ pub trait RowFn: Send + Sync {
             read_lane(inputs, l, &mut x);
             read_lane(out_adj, l, &mut oa);
             ia.fill(0.0);
-            self.vjp(first + l, &x, &oa, &mut ia);
+            self.vjp(rows[l], &x, &oa, &mut ia);
             write_lane(in_adj, l, &ia);
         }
     }
@@ -111,7 +118,7 @@ pub trait RowFn: Send + Sync {
     #[inline(always)]
     fn vjp_lanes_seeds(
         &self,
-        first: usize,
+        rows: [usize; LANES],
         inputs: &[F64x8],
         out_adj: &[F64x8],
         in_adj: &mut [F64x8],
@@ -123,7 +130,7 @@ pub trait RowFn: Send + Sync {
             .chunks_exact(n_out)
             .zip(in_adj.chunks_exact_mut(n_in))
         {
-            self.vjp_lanes(first, inputs, oa, ia);
+            self.vjp_lanes(rows, inputs, oa, ia);
         }
     }
 

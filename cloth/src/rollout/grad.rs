@@ -367,7 +367,7 @@ pub struct RecordedRollout {
 
 impl RecordedRollout {
     /// Without recordings: how many block checkpoints the forward kept for the backward pass
-    /// ([`Model::simulate_checkpointed`]), or `None` when it kept none.
+    /// (`Model::simulate_checkpointed`), or `None` when it kept none.
     pub fn kept_checkpoints(&self) -> Option<usize> {
         let kept = self.checkpoints.as_ref()?;
         Some(kept.iter().map(Vec::len).sum())

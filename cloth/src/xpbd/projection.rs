@@ -27,8 +27,8 @@ pub struct Projection<C> {
     instances: Vec<usize>,
     /// Inverse mass of each row's particles (`rows × ARITY`).
     inv_mass: Vec<f64>,
-    /// The same in lanes when `C` has them: for each group of eight rows from row 0 (the
-    /// lane-wise kernels' groups), `ARITY` vectors (point by point); rows past the end have 0.
+    /// The same in lanes when `C` has them: for each whole group of eight rows from row 0 (the
+    /// lane-wise kernels' groups), `ARITY` vectors (point by point).
     lane_mass: Vec<F64x8>,
     /// `α̃ = 1/(k Δt²)`; 0 for a rigid constraint.
     compliance: f64,
@@ -54,20 +54,12 @@ impl<C: Constraint> Projection<C> {
             compliance >= 0.0 && compliance.is_finite(),
             "Projection: compliance must be finite and ≥ 0"
         );
-        let groups = if C::LANES {
-            instances.len().div_ceil(LANES)
-        } else {
-            0
-        };
+        let groups = if C::LANES { instances.len() / LANES } else { 0 };
         let lane_mass = (0..groups)
             .flat_map(|group| {
                 let w = &inv_mass;
-                (0..C::ARITY).map(move |i| {
-                    F64x8::from_fn(|l| {
-                        let row = LANES * group + l;
-                        w.get(row * C::ARITY + i).copied().unwrap_or(0.0)
-                    })
-                })
+                (0..C::ARITY)
+                    .map(move |i| F64x8::from_fn(|l| w[(LANES * group + l) * C::ARITY + i]))
             })
             .collect();
         Projection {
@@ -145,13 +137,13 @@ impl<C: Constraint> RowFn for Projection<C> {
     /// [`Projection::eval`] of [`LANES`] rows in lanes ([`Constraint::gradient_lanes`]),
     /// bitwise: a lane whose row does not move keeps its inputs (selected, not branched on).
     #[inline(always)]
-    fn eval_lanes(&self, first: usize, x: &[F64x8], y: &mut [F64x8]) {
+    fn eval_lanes(&self, rows: [usize; LANES], x: &[F64x8], y: &mut [F64x8]) {
         let d = 3 * C::ARITY;
-        let instances = std::array::from_fn(|l| self.instances[first + l]);
+        let instances = rows.map(|row| self.instances[row]);
         let c = self
             .constraint
             .gradient_lanes(instances, &x[..d], &mut y[..d]);
-        let w = self.lane_masses(first);
+        let w = self.lane_masses(rows);
         let (still, _, dlambda) = self.step_lanes(x, c, y, &w);
         for j in 0..d {
             y[j] = F64x8::select(still, x[j], x[j] + y[j] * w[j / 3] * dlambda);
@@ -163,24 +155,24 @@ impl<C: Constraint> RowFn for Projection<C> {
     /// [`Projection::eval_lanes`] as `vjp_block` computes it row by row, with
     /// [`Constraint::hessian_vectors_lanes`].
     #[inline(always)]
-    fn vjp_lanes(&self, first: usize, x: &[F64x8], oa: &[F64x8], ia: &mut [F64x8]) {
-        self.vjp_lanes_seeds(first, x, oa, ia);
+    fn vjp_lanes(&self, rows: [usize; LANES], x: &[F64x8], oa: &[F64x8], ia: &mut [F64x8]) {
+        self.vjp_lanes_seeds(rows, x, oa, ia);
     }
 
     /// [`Projection::vjp_lanes`] for several seeds: `C`, `∇C`, `Δλ` and the reciprocal of the
     /// denominator once for all of them, and one call of [`Constraint::hessian_vectors_lanes`]
     /// for every seed's vector (each seed's adjoint of `∇C` is built in its `in_adj`).
     #[inline(always)]
-    fn vjp_lanes_seeds(&self, first: usize, x: &[F64x8], oa: &[F64x8], ia: &mut [F64x8]) {
+    fn vjp_lanes_seeds(&self, rows: [usize; LANES], x: &[F64x8], oa: &[F64x8], ia: &mut [F64x8]) {
         let d = 3 * C::ARITY;
         let seeds = oa.len() / (d + 1);
         debug_assert!(seeds <= SEED_CHUNK && ia.len() == oa.len());
-        let instances = std::array::from_fn(|l| self.instances[first + l]);
+        let instances = rows.map(|row| self.instances[row]);
         let mut g = [F64x8::default(); MAX_D];
         let c = self
             .constraint
             .gradient_lanes(instances, &x[..d], &mut g[..d]);
-        let w = self.lane_masses(first);
+        let w = self.lane_masses(rows);
         let (still, denom, dlambda) = self.step_lanes(x, c, &g, &w);
         let inv_denom = F64x8::splat(1.0) / denom;
         let dlambda_inv_denom = dlambda * inv_denom;
@@ -359,16 +351,18 @@ fn seed_tail<C: Constraint>(g: &[f64; MAX_D], a_num: f64, hv: &[f64; MAX_D], in_
 }
 
 impl<C: Constraint> Projection<C> {
-    /// The inverse masses of the rows `first .. first + LANES`, point by point.
+    /// The inverse masses of the rows `rows` (as [`RowFn::eval_lanes`] hands them), point by
+    /// point: a whole aligned group's from [`Projection::lane_mass`], others gathered.
     #[inline(always)]
-    fn lane_masses(&self, first: usize) -> [F64x8; MAX_ARITY] {
+    fn lane_masses(&self, rows: [usize; LANES]) -> [F64x8; MAX_ARITY] {
         let mut w = [F64x8::splat(0.0); MAX_ARITY];
-        if first % LANES == 0 {
+        let first = rows[0];
+        if first % LANES == 0 && rows[LANES - 1] == first + LANES - 1 {
             let group = &self.lane_mass[first / LANES * C::ARITY..][..C::ARITY];
             w[..C::ARITY].copy_from_slice(group);
         } else {
             for (i, wi) in w[..C::ARITY].iter_mut().enumerate() {
-                *wi = F64x8::from_fn(|l| self.inv_mass[(first + l) * C::ARITY + i]);
+                *wi = F64x8::from_fn(|l| self.inv_mass[rows[l] * C::ARITY + i]);
             }
         }
         w
