@@ -85,28 +85,6 @@ pub(crate) unsafe fn lane_groups<F: RowFn, const A: usize>(
     range.start
 }
 
-/// [`vjp_groups`] on the rows of `range` where the target has it; returns the first row left to
-/// the row-by-row kernel.
-///
-/// # Safety
-/// As [`vjp_groups`].
-#[inline(always)]
-pub(crate) unsafe fn lane_groups_vjp<F: RowFn, const A: usize>(
-    f: &F,
-    idx: &[usize],
-    range: std::ops::Range<usize>,
-    inputs: &[f64],
-    adj: PointBuffers,
-) -> usize {
-    #[cfg(target_arch = "x86_64")]
-    if F::HAS_LANES {
-        vjp_groups::<F, A>(f, idx, range.clone(), inputs, adj);
-        return range.end;
-    }
-    let _ = (f, idx, inputs, adj);
-    range.start
-}
-
 /// [`vjp_groups_seeds`] on the rows of `range` where the target has it; returns the first row
 /// left to the row-by-row kernel.
 ///
@@ -222,60 +200,15 @@ pub(crate) unsafe fn update_groups<F: RowFn, const A: usize>(
     }
 }
 
-/// The adjoint of [`update_groups`] in place, through [`RowFn::vjp_lanes`]: on the rows
-/// `range`, the adjoints `adj.state` and `adj.carry` of the updated
-/// rows become those of the rows before the update; `inputs` are the saved inputs (row layout).
+/// The adjoint of [`update_groups`] in place for up to [`SEED_CHUNK`] seeds at once, through
+/// [`RowFn::vjp_lanes_seeds`]: on the rows `range`, seed `s`'s adjoints `states[s]` and
+/// `carries[s]` of the updated rows become those of the rows before the update; `inputs` are the
+/// saved inputs (row layout), each group's loaded once for all the seeds. `scratch` holds the
+/// seeds' output and input adjoints of a group (every value written before it is read).
 ///
 /// # Safety
-/// As [`update_groups`], with `adj` for the state and carry, and `inputs` holding `3A + 1`
-/// values per row up to `range.end`.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-pub(crate) unsafe fn vjp_groups<F: RowFn, const A: usize>(
-    f: &F,
-    idx: &[usize],
-    range: std::ops::Range<usize>,
-    inputs: &[f64],
-    adj: PointBuffers,
-) {
-    let width = 3 * A + 1;
-    debug_assert!(idx.len() >= A * range.end && inputs.len() >= width * range.end);
-    let (state, carry, saved) = (adj.state.ptr, adj.carry.ptr, inputs.as_ptr());
-    let (mut x, mut oa, mut ia) = (
-        [F64x8::default(); 13],
-        [F64x8::default(); 13],
-        [F64x8::default(); 13],
-    );
-    let mut k = range.start;
-    while k < range.end {
-        let rows = group_rows(k, range.end);
-        let points = |j: usize| point_offsets::<A>(idx, rows, j);
-        for j in 0..A {
-            load_points(state, points(j), &mut oa[3 * j..3 * j + 3]);
-            load_points(
-                saved,
-                rows.map(|row| width * row + 3 * j),
-                &mut x[3 * j..3 * j + 3],
-            );
-        }
-        oa[3 * A] = F64x8(load_rows(carry, rows));
-        x[3 * A] = F64x8(rows.map(|row| *saved.add(width * row + 3 * A)));
-        f.vjp_lanes(rows, &x[..width], &oa[..width], &mut ia[..width]);
-        for j in 0..A {
-            store_points(state, points(j), &ia[3 * j..3 * j + 3]);
-        }
-        store_rows(carry, k, range.end, ia[3 * A].0);
-        k += LANES;
-    }
-}
-
-/// [`vjp_groups`] for up to [`SEED_CHUNK`] seeds at once, through [`RowFn::vjp_lanes_seeds`]:
-/// each group's saved inputs are loaded once for all the seeds; seed `s`'s adjoints are
-/// `states[s]` and `carries[s]`. `scratch` holds the seeds' output and input adjoints of a
-/// group (every value written before it is read).
-///
-/// # Safety
-/// As [`vjp_groups`], for every seed's buffers.
+/// As [`update_groups`], with every seed's buffers for the state and carry, and `inputs` holding
+/// `3A + 1` values per row up to `range.end`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 pub(crate) unsafe fn vjp_groups_seeds<F: RowFn, const A: usize>(

@@ -8,9 +8,7 @@
 //! checked once up front, rayon above [`crate::rowfn::PARALLEL_MIN_ROWS`] rows).
 
 use crate::index::RowIndex;
-use crate::lanes::{
-    lane_groups, lane_groups_vjp, lane_groups_vjp_seeds, lanes_for, PointBuffers, SharedRows,
-};
+use crate::lanes::{lane_groups, lane_groups_vjp_seeds, lanes_for, PointBuffers, SharedRows};
 use crate::rowfn::{
     for_each_row_chunk, for_row_ranges, with_scratch, DynRowFn, RowFn, ROW_BLOCK, SEED_CHUNK,
 };
@@ -456,15 +454,11 @@ fn vjp_update_points<F: RowFn, const A: usize, const C: usize>(
     check_adjoints::<A, C>(index, inputs, state_adj.len(), carry_adj.len());
     let (state, carry) = (SharedRows::new(state_adj), SharedRows::new(carry_adj));
     let lanes = C == 1 && lanes_for::<F>();
-    let adj = PointBuffers {
-        state,
-        carry,
-        saved: SharedRows::EMPTY,
-    };
     let idx = index.as_slice();
-    // SAFETY (of `lane_groups_vjp`): `check_adjoints` asserted the index and inputs fit.
+    // SAFETY (of `lane_groups_vjp_seeds`, one seed): `check_adjoints` asserted the index and
+    // inputs fit, `lanes_for` that the CPU has AVX2.
     let head = |range: Range<usize>| match lanes {
-        true => unsafe { lane_groups_vjp::<F, A>(f, idx, range, inputs, adj) },
+        true => unsafe { lane_groups_vjp_seeds::<F, A>(f, idx, range, inputs, &[state], &[carry]) },
         false => range.start,
     };
     for_point_blocks::<A, C>(index, state, carry, head, |first, oa, ia| {
