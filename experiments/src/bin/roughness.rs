@@ -7,7 +7,9 @@
 //! many of them descend, and the largest distance of `f` from its tangent line over `[−Kh, Kh]`.
 //! A smooth objective gives deviations that shrink with `h`; a rough one (a rollout whose contact
 //! set, stick/slip state or buckling changes between nearby controls) does not. With
-//! `--sensitivity`, also the rollout's per-step sensitivity `max |x_t(u + hd) − x_t(u)| / h`.
+//! `--sensitivity`, also the rollout's per-step sensitivity `max |x_t(s + h) − x_t(s)| / h` across
+//! the sample interval `[s, s + h]` whose slope deviates most (where a jump is, the first step
+//! whose state jumps is the one that switched: a contact, a stick/slip state or an equilibrium).
 //! With `--controls FILE` (a controls file or a result, e.g. a stalled plan) it measures there
 //! instead of at the initial guess.
 //!
@@ -58,7 +60,7 @@ struct Args {
     /// `{"controls": [[[x, y, z], …], …]}` or any result file (such as a plan's end).
     #[arg(long)]
     controls: Option<PathBuf>,
-    /// Also print the rollout's per-step sensitivity to a step of each size along `d`.
+    /// Also print the rollout's per-step sensitivity across each size's roughest interval.
     #[arg(long)]
     sensitivity: bool,
     /// Write the rows as JSON here.
@@ -79,7 +81,10 @@ struct Row {
     intervals: usize,
     /// Largest `|f(s) − f(0) − s ∇f·d|` over `[−Kh, Kh]`.
     max_from_tangent: f64,
-    /// Per step `t = 0…T`: `max_i |x_t(u + hd) − x_t(u)| / h` (with `--sensitivity`).
+    /// Start `s` of the interval `[s, s + h]` whose slope deviates most.
+    roughest_at: f64,
+    /// Per step `t = 0…T`: `max_i |x_t(s + h) − x_t(s)| / h` across that interval (with
+    /// `--sensitivity`).
     sensitivity: Vec<f64>,
 }
 
@@ -140,25 +145,25 @@ fn main() -> Result<()> {
         "h", "∇f·d", "max |FD − ∇f·d|", "descending", "max |f − tangent|"
     );
     let k = args.samples as i64;
-    let base = if args.sensitivity {
-        model.simulate(&problem.controls(&x0))?
-    } else {
-        Vec::new()
-    };
     let mut rows = Vec::new();
     for &h in &args.steps {
         let values = (-k..=k)
             .map(|i| problem.objective(&along(i as f64 * h)))
             .collect::<Result<Vec<f64>, _>>()?;
         let slopes: Vec<f64> = values.windows(2).map(|w| (w[1] - w[0]) / h).collect();
-        let max_slope_deviation = slopes.iter().map(|s| (s + norm).abs()).fold(0.0, f64::max);
+        let deviations = slopes.iter().map(|s| (s + norm).abs());
+        let (roughest, max_slope_deviation) = deviations
+            .enumerate()
+            .fold((0, 0.0), |best, (i, v)| if v > best.1 { (i, v) } else { best });
+        let roughest_at = (roughest as i64 - k) as f64 * h;
         let max_from_tangent = values
             .iter()
             .zip(-k..=k)
             .map(|(f, i)| (f - f0 + norm * i as f64 * h).abs())
             .fold(0.0, f64::max);
         let sensitivity = if args.sensitivity {
-            let moved = model.simulate(&problem.controls(&along(h)))?;
+            let base = model.simulate(&problem.controls(&along(roughest_at)))?;
+            let moved = model.simulate(&problem.controls(&along(roughest_at + h)))?;
             base.iter()
                 .zip(&moved)
                 .map(|(a, b)| {
@@ -176,6 +181,7 @@ fn main() -> Result<()> {
             descending: slopes.iter().filter(|&&s| s < 0.0).count(),
             intervals: slopes.len(),
             max_from_tangent,
+            roughest_at,
             sensitivity,
         };
         println!(
@@ -190,7 +196,12 @@ fn main() -> Result<()> {
         if args.sensitivity {
             let per_step: Vec<String> =
                 row.sensitivity.iter().map(|v| format!("{v:.0e}")).collect();
-            println!("         sensitivity per step: {}", per_step.join(" "));
+            println!(
+                "         sensitivity per step on [{:.0e}, {:.0e}]: {}",
+                row.roughest_at,
+                row.roughest_at + h,
+                per_step.join(" ")
+            );
         }
         rows.push(row);
     }
