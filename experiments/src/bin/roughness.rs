@@ -152,9 +152,10 @@ fn main() -> Result<()> {
             .collect::<Result<Vec<f64>, _>>()?;
         let slopes: Vec<f64> = values.windows(2).map(|w| (w[1] - w[0]) / h).collect();
         let deviations = slopes.iter().map(|s| (s + norm).abs());
-        let (roughest, max_slope_deviation) = deviations
-            .enumerate()
-            .fold((0, 0.0), |best, (i, v)| if v > best.1 { (i, v) } else { best });
+        let (roughest, max_slope_deviation) = deviations.enumerate().fold(
+            (0, 0.0),
+            |best, (i, v)| if v > best.1 { (i, v) } else { best },
+        );
         let roughest_at = (roughest as i64 - k) as f64 * h;
         let max_from_tangent = values
             .iter()
