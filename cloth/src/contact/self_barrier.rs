@@ -18,7 +18,8 @@
 //! ([`super::feature`]).
 //!
 //! The pairs are found anew at every state ([`SelfBarrier::pairs`], a uniform grid of the
-//! vertices and one of the edges' boxes), so the potential is a function of the state alone.
+//! vertices and one of the edges' boxes, or the same pairs filtered from a Verlet list:
+//! [`super::self_candidates`]), so the potential is a function of the state alone.
 //! Each step of the solver is filtered ([`SelfBarrier::max_step`]) so that no pair comes closer
 //! than [`APPROACH`] of its gap `d − h` at the step's start or of `d̂`, whichever is smaller (a
 //! pair farther than the barrier's reach may come as near as a pair at the reach): additive

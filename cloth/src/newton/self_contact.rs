@@ -4,9 +4,12 @@
 //! A pair couples particles that no constraint does, so the Hessian's pattern depends on the
 //! state: [`NewtonSystem`](super::solve::NewtonSystem) rebuilds it (and the factorization's
 //! symbolic analysis) whenever the pairs at the state it assembles need other blocks than the
-//! pattern holds ([`Pattern::self_blocks_for`]). The pattern is then a function of the state
-//! alone (the constraints' blocks and those of the state's pairs), so the gradient pass, which
-//! assembles at the same converged states, factorizes the same matrices as the forward.
+//! pattern holds ([`Pattern::self_blocks_for`]), or takes back one of the last patterns it left
+//! that has those blocks, with its analysis. The pattern is then a function of the state alone
+//! (the constraints' blocks and those of the state's pairs), so the gradient pass, which
+//! assembles at the same converged states, factorizes the same matrices as the forward. The
+//! pair searches and step filters go through a Verlet list of candidate pairs
+//! ([`crate::contact::self_candidates`]), with the same answers as a search of the whole cloth.
 
 use super::assembly::{HessianKind, Pattern};
 use super::factor::Factor;
