@@ -9,6 +9,7 @@ mod feature;
 pub mod friction;
 pub(crate) mod grid;
 pub mod self_barrier;
+pub mod self_candidates;
 pub mod self_collision;
 pub mod self_filter;
 mod sets;

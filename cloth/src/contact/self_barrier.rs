@@ -18,7 +18,8 @@
 //! ([`super::feature`]).
 //!
 //! The pairs are found anew at every state ([`SelfBarrier::pairs`], a uniform grid of the
-//! vertices and one of the edges' boxes), so the potential is a function of the state alone.
+//! vertices and one of the edges' boxes, or the same pairs filtered from a Verlet list:
+//! [`super::self_candidates`]), so the potential is a function of the state alone.
 //! Each step of the solver is filtered ([`SelfBarrier::max_step`]) so that no pair comes closer
 //! than [`APPROACH`] of its gap `d − h` at the step's start or of `d̂`, whichever is smaller (a
 //! pair farther than the barrier's reach may come as near as a pair at the reach): additive
@@ -30,6 +31,7 @@ use super::barrier::Barrier;
 use super::distance::{EdgeEdge, PointTriangle};
 use super::feature::{cross_squared_derivatives, Feature};
 use super::grid::{Aabb, BoxGrid};
+use super::self_candidates::Candidates;
 use nalgebra::Vector3;
 use std::sync::Arc;
 
@@ -63,9 +65,9 @@ pub struct SelfBarrier {
     pub barrier: Barrier,
     /// `Δt²`: the potential's scale in Newton's `Φ`.
     pub dt2: f64,
-    triangles: Arc<[[usize; 3]]>,
+    pub(super) triangles: Arc<[[usize; 3]]>,
     /// Every edge of the triangles once, with its squared rest length.
-    edges: Vec<([usize; 2], f64)>,
+    pub(super) edges: Vec<([usize; 2], f64)>,
     /// Which particles can move (inverse mass > 0).
     movable: Vec<bool>,
     /// The broad phase's cell: the edges' mean rest length.
@@ -109,9 +111,14 @@ impl SelfBarrier {
     /// The pairs of state `x` (`N × 3` data) nearer than `h + d̂`, vertex–triangle pairs first
     /// (by vertex, then triangle), then edge–edge pairs (by first edge, then second).
     pub fn pairs(&self, x: &[f64]) -> Vec<SelfPair> {
+        self.pairs_with(x, None)
+    }
+
+    /// [`SelfBarrier::pairs`], through a candidate list when there is one.
+    pub(super) fn pairs_with(&self, x: &[f64], list: Option<&mut Candidates>) -> Vec<SelfPair> {
         let reach = self.thickness + self.barrier.d_hat;
         let mut out = Vec::new();
-        self.for_candidates(&swept_boxes(x, None), reach, |pair| {
+        self.candidates_with(&swept_boxes(x, None), reach, list, |pair| {
             if self.distance(x, &pair) < reach {
                 out.push(pair);
             }
@@ -120,8 +127,15 @@ impl SelfBarrier {
     }
 
     /// Calls `f` with every pair whose particles' boxes `points` come within `margin` of each
-    /// other, in [`SelfBarrier::pairs`]' order.
-    pub(super) fn for_candidates(&self, points: &[Aabb], margin: f64, mut f: impl FnMut(SelfPair)) {
+    /// other, in [`SelfBarrier::pairs`]' order, and the pair's query and item (triangle and
+    /// vertex, or first and second edge: indices into [`SelfBarrier::triangles`] and `points`,
+    /// or twice into [`SelfBarrier::edges`]).
+    pub(super) fn for_candidates(
+        &self,
+        points: &[Aabb],
+        margin: f64,
+        mut f: impl FnMut(SelfPair, [usize; 2]),
+    ) {
         let n = points.len();
         let grow = |(lo, hi): Aabb| -> Aabb {
             let m = Vector3::repeat(margin);
@@ -163,10 +177,11 @@ impl SelfBarrier {
         found.sort_unstable();
         for (v, ti) in found {
             let t = self.triangles[ti];
-            f(SelfPair {
+            let pair = SelfPair {
                 particles: [v, t[0], t[1], t[2]],
                 kind: PairKind::PointTriangle,
-            });
+            };
+            f(pair, [ti, v]);
         }
         // Edge–edge pairs: the edges' grid, queried with each edge's box.
         let boxes: Vec<Aabb> = self.edges.iter().map(|(e, _)| union(e)).collect();
@@ -186,10 +201,11 @@ impl SelfBarrier {
                 }
                 let (a, b) = boxes[j];
                 if (0..3).all(|k| a[k] <= hi[k] && b[k] >= lo[k]) {
-                    f(SelfPair {
+                    let pair = SelfPair {
                         particles: [e[0], e[1], g[0], g[1]],
                         kind: PairKind::EdgeEdge(MOLLIFIER * l1 * l2),
-                    });
+                    };
+                    f(pair, [i, j]);
                 }
             }
         }
@@ -308,9 +324,15 @@ impl SelfBarrier {
     /// The pair of `x` with the smallest gap `d − h` when some gap is at most 0 (a part of the
     /// cloth at or within the thickness of another), with that gap; else `None`.
     pub fn penetration(&self, x: &[f64]) -> Option<(SelfPair, f64)> {
-        self.pairs(x)
-            .into_iter()
-            .map(|p| (p, self.distance(x, &p) - self.thickness))
+        self.penetration_among(x, &self.pairs(x))
+    }
+
+    /// [`SelfBarrier::penetration`] with the pairs of `x` already found
+    /// ([`SelfBarrier::pairs`]).
+    pub fn penetration_among(&self, x: &[f64], pairs: &[SelfPair]) -> Option<(SelfPair, f64)> {
+        pairs
+            .iter()
+            .map(|&p| (p, self.distance(x, &p) - self.thickness))
             .filter(|&(_, s)| s <= 0.0)
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }

@@ -6,6 +6,7 @@
 use super::barrier::APPROACH;
 use super::grid::Aabb;
 use super::self_barrier::{at, swept_boxes, PairKind, SelfBarrier, SelfPair};
+use super::self_candidates::Candidates;
 
 /// Advances one pair's time-of-impact search makes at most before it stops where it is.
 const MAX_ADVANCES: usize = 200;
@@ -17,11 +18,16 @@ impl SelfBarrier {
     /// of each of their features, is below it; in [`SelfBarrier::pairs`]' order, with their gaps
     /// `d − h` at `x`.
     pub fn sweep(&self, x: &[f64], delta: &[f64]) -> Sweep {
+        self.sweep_with(x, delta, None)
+    }
+
+    /// [`SelfBarrier::sweep`], through a candidate list when there is one.
+    fn sweep_with(&self, x: &[f64], delta: &[f64], list: Option<&mut Candidates>) -> Sweep {
         let boxes = swept_boxes(x, Some(delta));
         let moved: Vec<f64> = (0..boxes.len()).map(|p| at(delta, p).norm()).collect();
         let (mut pairs, mut gaps) = (Vec::new(), Vec::new());
         let reach = self.thickness + self.barrier.d_hat;
-        self.for_candidates(&boxes, reach, |pair| {
+        self.candidates_with(&boxes, reach, list, |pair| {
             let m = pair.particles.map(|q| moved[q]);
             let farthest = match pair.kind {
                 PairKind::PointTriangle => m[0] + m[1].max(m[2]).max(m[3]),
@@ -63,8 +69,30 @@ impl SelfBarrier {
     /// pair is already at or within the thickness. The sweep is returned for the states the
     /// line search then tries on the motion ([`SelfBarrier::pairs_in`]).
     pub fn max_step(&self, x: &[f64], delta: &[f64], alpha: f64) -> (f64, Sweep) {
+        self.max_step_with(x, delta, alpha, None)
+    }
+
+    /// [`SelfBarrier::max_step`] with its sweep's candidates through the list `list` (the same
+    /// answer).
+    pub fn max_step_listed(
+        &self,
+        x: &[f64],
+        delta: &[f64],
+        alpha: f64,
+        list: &mut Candidates,
+    ) -> (f64, Sweep) {
+        self.max_step_with(x, delta, alpha, Some(list))
+    }
+
+    fn max_step_with(
+        &self,
+        x: &[f64],
+        delta: &[f64],
+        alpha: f64,
+        list: Option<&mut Candidates>,
+    ) -> (f64, Sweep) {
         let scaled: Vec<f64> = delta.iter().map(|v| v * alpha).collect();
-        let sweep = self.sweep(x, &scaled);
+        let sweep = self.sweep_with(x, &scaled, list);
         let mut limit = alpha;
         for (pair, &gap) in sweep.pairs.iter().zip(&sweep.gaps) {
             if limit == 0.0 {

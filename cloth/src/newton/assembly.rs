@@ -57,13 +57,15 @@ pub struct Pattern {
     /// Every stored 3 × 3 particle block: (row block, column block, value index of each entry,
     /// row-major; a diagonal block's upper entries point at their lower mirror).
     blocks: Vec<(u32, u32, [u32; 9])>,
+    /// Column block `c`'s blocks are `blocks[block_start[c]..block_start[c + 1]]` (by row).
+    block_start: Vec<usize>,
     groups: Vec<GroupPattern>,
     /// Smooth contact: the barrier potential of every free particle, and the value indices of
     /// each particle's diagonal block (lower triangle, row-major; [`NONE`] above the diagonal).
     barrier: Option<(Arc<ColliderBarrier>, Vec<[u32; 9]>)>,
     /// Smooth contact with friction: the step's start (full `N × 3` data) and each particle's
     /// frictional contacts there ([`Pattern::begin_step`]).
-    friction: Option<(Vec<f64>, Vec<Vec<LaggedContact>>)>,
+    pub(super) friction: Option<(Vec<f64>, Vec<Vec<LaggedContact>>)>,
     /// Self-contact under Newton ([`super::self_contact`]): the barrier between parts of the
     /// cloth.
     pub(super) self_barrier: Option<Arc<SelfBarrier>>,
@@ -71,8 +73,9 @@ pub struct Pattern {
     /// [`Pattern::with_self_blocks`] added to the constraints' (sorted).
     pub(super) self_blocks: Vec<(u32, u32)>,
     /// The self-contact pairs of the last state they were found at (the line search, the
-    /// assembly and the pattern's fit ask for the same state's in turn).
-    pub(super) self_pairs_cache: SelfPairsCache,
+    /// assembly and the pattern's fit ask for the same state's in turn); shared with the
+    /// patterns rebuilt from this one.
+    pub(super) self_pairs_cache: Arc<SelfPairsCache>,
 }
 
 impl Pattern {
@@ -139,14 +142,16 @@ impl Pattern {
     /// duplicates) as its self-contact blocks instead of its own: the same degrees of freedom,
     /// energy and lagged friction.
     pub(super) fn with_self_blocks(&self, self_blocks: Vec<(u32, u32)>) -> Pattern {
-        Pattern::structured(
+        let mut pattern = Pattern::structured(
             self.dof_of.clone(),
             self.mass.clone(),
             self.groups.iter().map(|g| g.terms.clone()).collect(),
             self.barrier.as_ref().map(|(b, _)| b.clone()),
             (self.self_barrier.clone(), self_blocks),
             self.friction.clone(),
-        )
+        );
+        pattern.self_pairs_cache = self.self_pairs_cache.clone();
+        pattern
     }
 
     /// The pattern over the degrees of freedom `dof_of` of the constraint `groups` and the
@@ -202,7 +207,9 @@ impl Pattern {
         };
         let diag = (0..n_dof).map(|d| index(d, d)).collect();
         let mut block_list = Vec::new();
+        let mut block_start = Vec::with_capacity(blocks.len() + 1);
         for (bc, rows) in blocks.iter().enumerate() {
+            block_start.push(block_list.len());
             for &br in rows {
                 let (r0, c0) = (3 * br as usize, 3 * bc);
                 let idx = std::array::from_fn(|k| {
@@ -212,22 +219,31 @@ impl Pattern {
                 block_list.push((br, bc as u32, idx));
             }
         }
+        block_start.push(block_list.len());
         let groups = groups
             .into_iter()
             .map(|terms| {
                 let d = 3 * terms.arity();
-                let mut scatter = Vec::with_capacity(terms.count() * d * d);
-                for k in 0..terms.count() {
+                let mut scatter = vec![NONE; terms.count() * d * d];
+                for (k, out) in scatter.chunks_exact_mut(d * d).enumerate() {
+                    // Block by block (the entries `index` would find, for less search).
                     let ps = terms.particles(k);
-                    for a in 0..d {
-                        for b in 0..d {
-                            let (ra, cb) = (dof_of[ps[a / 3]], dof_of[ps[b / 3]]);
-                            let (r, c) = (ra as usize + a % 3, cb as usize + b % 3);
-                            scatter.push(if ra == NONE || cb == NONE || r < c {
-                                NONE
-                            } else {
-                                index(r, c) as u32
-                            });
+                    for (pa, &a) in ps.iter().enumerate() {
+                        for (pb, &b) in ps.iter().enumerate() {
+                            let (ra, cb) = (dof_of[a], dof_of[b]);
+                            if ra == NONE || cb == NONE || ra < cb {
+                                continue;
+                            }
+                            let (br, bc) = (ra as usize / 3, cb as usize / 3);
+                            let column = &block_list[block_start[bc]..block_start[bc + 1]];
+                            let at = column.partition_point(|blk| (blk.0 as usize) < br);
+                            let idx = &column[at].2;
+                            for i in 0..3 {
+                                // A diagonal block's upper entries are not stored.
+                                for j in 0..if ra == cb { i + 1 } else { 3 } {
+                                    out[(3 * pa + i) * d + 3 * pb + j] = idx[3 * i + j];
+                                }
+                            }
                         }
                     }
                 }
@@ -262,12 +278,13 @@ impl Pattern {
             row_idx,
             diag,
             blocks: block_list,
+            block_start,
             groups,
             barrier,
             friction,
             self_barrier,
             self_blocks,
-            self_pairs_cache: SelfPairsCache::default(),
+            self_pairs_cache: Arc::default(),
         }
     }
 
@@ -279,11 +296,12 @@ impl Pattern {
             .map(|(r, c, idx)| (*r as usize, *c as usize, idx))
     }
 
-    /// The value index of the stored entry `(r, c)`, `r ≥ c` (degrees of freedom); `None` when
-    /// the pattern does not hold it.
-    pub(super) fn value_index(&self, r: usize, c: usize) -> Option<usize> {
-        let rows = &self.row_idx[self.col_ptr[c]..self.col_ptr[c + 1]];
-        rows.binary_search(&r).ok().map(|i| self.col_ptr[c] + i)
+    /// The value indices (row-major) of the stored particle block `(r, c)`, `r ≥ c` (particle
+    /// blocks: degrees of freedom over 3); `None` when the pattern does not hold it.
+    pub(super) fn block_index(&self, r: usize, c: usize) -> Option<&[u32; 9]> {
+        let column = &self.blocks[self.block_start[c]..self.block_start[c + 1]];
+        let i = column.binary_search_by_key(&(r as u32), |b| b.0).ok()?;
+        Some(&column[i].2)
     }
 
     /// Number of stored (lower-triangle) entries.

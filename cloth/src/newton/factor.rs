@@ -14,7 +14,7 @@
 //! After [`Factor::keep_on_failure`], a failed factorization leaves the last successful one in
 //! place (the numeric factorization writes into a spare buffer, swapped in on success, at the
 //! cost of a second factor's memory): it is the preconditioner of [`super::pcg`], which a matrix
-//! that is not positive definite must not take away. A new pattern ([`Factor::reanalyze`])
+//! that is not positive definite must not take away. A new pattern (`Factor::swap_analysis`)
 //! drops it.
 
 use super::assembly::Pattern;
@@ -88,12 +88,17 @@ pub struct Factor {
 }
 
 impl Factor {
-    /// Redoes the symbolic analysis for `pattern` (a pattern of the same degrees of freedom
-    /// with other entries: self-contact's), keeping the counts; no factorization is valid after.
-    pub fn reanalyze(&mut self, pattern: &Pattern) {
-        let (counts, keep) = (self.counts, self.keep);
-        *self = Factor::new(pattern);
-        (self.counts, self.keep) = (counts, keep);
+    /// Swaps this factor's symbolic analysis with `other`'s (of another pattern of the same
+    /// degrees of freedom: self-contact's), keeping the counts; no factorization is valid after,
+    /// as with a new analysis (`other` keeps nothing numeric either).
+    pub(super) fn swap_analysis(&mut self, other: &mut Factor) {
+        std::mem::swap(&mut self.symbolic, &mut other.symbolic);
+        std::mem::swap(&mut self.scratch, &mut other.scratch);
+        for f in [&mut *self, other] {
+            f.numeric = NumericFactor::default();
+            f.spare = Vec::new();
+            (f.valid, f.any) = (false, false);
+        }
     }
 
     /// From now on a failed factorization keeps the last successful one (for

@@ -16,7 +16,7 @@
 //! factorize). So branch following ([`crate::NewtonSettings::load_halvings`]) may see a load
 //! increment leave the convex region only at its convergence test instead of at the first
 //! iterate where the Hessian is indefinite (u_obstacle 40 × 40: 12 such tests instead of 5, the
-//! same 17 rejected increments, the same minimizers within the tolerance). A matrix of another pattern (self-contact's, [`Factor::reanalyze`]) comes with no
+//! same 17 rejected increments, the same minimizers within the tolerance). A matrix of another pattern (self-contact's, `Factor::swap_analysis`) comes with no
 //! preconditioner, so its first iteration factorizes.
 
 use super::curvature::sym_mul;

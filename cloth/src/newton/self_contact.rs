@@ -4,15 +4,20 @@
 //! A pair couples particles that no constraint does, so the Hessian's pattern depends on the
 //! state: [`NewtonSystem`](super::solve::NewtonSystem) rebuilds it (and the factorization's
 //! symbolic analysis) whenever the pairs at the state it assembles need other blocks than the
-//! pattern holds ([`Pattern::self_blocks_for`]). The pattern is then a function of the state
-//! alone (the constraints' blocks and those of the state's pairs), so the gradient pass, which
-//! assembles at the same converged states, factorizes the same matrices as the forward.
+//! pattern holds ([`Pattern::self_blocks_for`]), or takes back one of the last patterns it left
+//! that has those blocks, with its analysis. The pattern is then a function of the state alone
+//! (the constraints' blocks and those of the state's pairs), so the gradient pass, which
+//! assembles at the same converged states, factorizes the same matrices as the forward. The
+//! pair searches and step filters go through a Verlet list of candidate pairs
+//! ([`crate::contact::self_candidates`]), with the same answers as a search of the whole cloth.
 
 use super::assembly::{HessianKind, Pattern};
+use super::factor::Factor;
 use super::psd::project_psd;
 use super::solve::{NewtonSystem, StepStats};
 use super::NewtonSettings;
 use crate::contact::self_barrier::SelfPair;
+use crate::contact::self_candidates::Candidates;
 use crate::contact::self_filter::Sweep;
 use crate::error::ClothError;
 use autodiff::Tensor;
@@ -20,7 +25,8 @@ use std::sync::{Arc, Mutex};
 
 /// The self-contact pairs of the last state asked for, with that state, and the sweep of the last
 /// step filtered ([`Sweep`]: the pairs of the states a line search tries along that step are
-/// filtered from it instead of searched).
+/// filtered from it instead of searched). Shared by a pattern and the patterns rebuilt from it
+/// (the pairs depend on the state alone), with the counts of the work done.
 #[derive(Default)]
 pub(super) struct SelfPairsCache(Mutex<PairsCacheState>);
 
@@ -28,25 +34,80 @@ pub(super) struct SelfPairsCache(Mutex<PairsCacheState>);
 struct PairsCacheState {
     last: Option<(Vec<f64>, Arc<Vec<SelfPair>>)>,
     sweep: Sweep,
+    /// The candidate pairs of the searches and the sweeps (a Verlet list).
+    candidates: Candidates,
+    counts: SelfCounts,
 }
+
+/// Self-contact's work so far (the [`StepStats`] fields of the same names).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct SelfCounts {
+    pub(super) pair_searches: usize,
+    pub(super) pair_filters: usize,
+    pub(super) step_filters: usize,
+    pub(super) pattern_rebuilds: usize,
+    pub(super) pattern_reuses: usize,
+    pub(super) grid_searches: usize,
+}
+
+impl SelfCounts {
+    /// Adds the counts since `earlier` (an earlier reading of the same cache) to `stats`.
+    pub(super) fn add_since(self, earlier: SelfCounts, stats: &mut StepStats) {
+        stats.pair_searches += self.pair_searches - earlier.pair_searches;
+        stats.pair_filters += self.pair_filters - earlier.pair_filters;
+        stats.step_filters += self.step_filters - earlier.step_filters;
+        stats.pattern_rebuilds += self.pattern_rebuilds - earlier.pattern_rebuilds;
+        stats.pattern_reuses += self.pattern_reuses - earlier.pattern_reuses;
+        stats.grid_searches += self.grid_searches - earlier.grid_searches;
+    }
+}
+
+/// Self-contact patterns (with their symbolic analyses) a Newton system keeps after leaving
+/// them, to go back to without a new analysis: the pairs' blocks often come and go between a
+/// few sets as a solve's iterates move.
+const RECENT_PATTERNS: usize = 8;
 
 /// Solves one step takes at most while the control particles move to their places.
 const MAX_CONTROL_STAGES: usize = 64;
 
 impl NewtonSystem {
-    /// Self-contact: rebuilds the pattern (and the factorization's symbolic analysis) when the
-    /// pairs at `x` couple other particle blocks than it holds.
+    /// Self-contact: changes the pattern (and the factorization's symbolic analysis) when the
+    /// pairs at `x` couple other particle blocks than it holds: to one of the last
+    /// [`RECENT_PATTERNS`] patterns left when it has those blocks (the same pattern, built
+    /// again, would be the same bits), else to a new one.
     pub(super) fn fit_self_contact(&mut self, x: &[f64]) {
         if self.pattern.self_barrier.is_none() {
             return;
         }
         let pairs = self.pattern.self_pairs(x);
         let blocks = self.pattern.self_blocks_for(&pairs);
-        if blocks != self.pattern.self_blocks {
-            self.pattern = self.pattern.with_self_blocks(blocks);
-            self.factor.reanalyze(&self.pattern);
-            self.values.resize(self.pattern.nnz(), 0.0);
+        if blocks == self.pattern.self_blocks {
+            return;
         }
+        let (mut pattern, mut analysis) = match self
+            .recent
+            .iter()
+            .position(|(p, _)| p.self_blocks == blocks)
+        {
+            Some(i) => {
+                self.pattern.self_counts_mut(|c| c.pattern_reuses += 1);
+                let (mut p, f) = self.recent.remove(i);
+                // The step's lagged friction (`Pattern::begin_step`), maybe not its.
+                p.friction.clone_from(&self.pattern.friction);
+                (p, f)
+            }
+            None => {
+                self.pattern.self_counts_mut(|c| c.pattern_rebuilds += 1);
+                let p = self.pattern.with_self_blocks(blocks);
+                let f = Factor::new(&p);
+                (p, f)
+            }
+        };
+        std::mem::swap(&mut self.pattern, &mut pattern);
+        self.factor.swap_analysis(&mut analysis);
+        self.recent.insert(0, (pattern, analysis));
+        self.recent.truncate(RECENT_PATTERNS);
+        self.values.resize(self.pattern.nnz(), 0.0);
     }
 
     /// One step under self-contact, from the previous state `x_prev` to the minimizer of `Φ` for
@@ -77,8 +138,10 @@ impl NewtonSystem {
                     delta[3 * p + k] = xt.data()[3 * p + k] - x.data()[3 * p + k];
                 }
             }
-            let barrier = self.pattern.self_barrier.clone().expect("self-contact");
-            let (alpha, _) = barrier.max_step(x.data(), &delta, 1.0);
+            let before = self.pattern.self_counts();
+            let (alpha, _) = self.pattern.self_filter(x.data(), &delta);
+            stats.step_filters += 1;
+            (self.pattern.self_counts()).add_since(before, &mut stats);
             let mut target = xt.clone();
             if alpha < 1.0 {
                 let (t, d) = (target.data_mut(), x.data());
@@ -122,9 +185,49 @@ impl Pattern {
                 return pairs.clone();
             }
         }
-        let pairs = Arc::new(b.pairs_in(x, &cache.sweep).unwrap_or_else(|| b.pairs(x)));
+        let pairs = match b.pairs_in(x, &cache.sweep) {
+            Some(pairs) => {
+                cache.counts.pair_filters += 1;
+                pairs
+            }
+            None => {
+                cache.counts.pair_searches += 1;
+                b.pairs_listed(x, &mut cache.candidates)
+            }
+        };
+        let pairs = Arc::new(pairs);
         cache.last = Some((x.to_vec(), pairs.clone()));
         pairs
+    }
+
+    /// The self-contact step filter along `delta` (`N × 3` data) from `x`
+    /// ([`crate::contact::self_barrier::SelfBarrier::max_step`], its candidates through the
+    /// cache's list); `(1, empty)` without self-contact.
+    fn self_filter(&self, x: &[f64], delta: &[f64]) -> (f64, Sweep) {
+        let Some(b) = &self.self_barrier else {
+            return (1.0, Sweep::default());
+        };
+        let mut cache = self.self_pairs_cache.0.lock().expect("an unpoisoned cache");
+        b.max_step_listed(x, delta, 1.0, &mut cache.candidates)
+    }
+
+    /// Self-contact's work so far (zero without self-contact).
+    pub(super) fn self_counts(&self) -> SelfCounts {
+        let cache = self.self_pairs_cache.0.lock().expect("an unpoisoned cache");
+        SelfCounts {
+            grid_searches: cache.candidates.searches,
+            ..cache.counts
+        }
+    }
+
+    /// Changes the work counts with `f`.
+    fn self_counts_mut(&self, f: impl FnOnce(&mut SelfCounts)) {
+        f(&mut self
+            .self_pairs_cache
+            .0
+            .lock()
+            .expect("an unpoisoned cache")
+            .counts);
     }
 
     /// The particle blocks (row ≥ column, sorted, without duplicates) that `pairs` couple.
@@ -175,16 +278,23 @@ impl Pattern {
             if *kind == HessianKind::Projected {
                 project_involved(&mut h, involved);
             }
-            for a in 0..12 {
-                let Some(da) = dofs[a / 3] else { continue };
-                for b in 0..12 {
-                    let Some(db) = dofs[b / 3] else { continue };
-                    let (r, c) = (da + a % 3, db + b % 3);
-                    if r >= c {
-                        let i = self
-                            .value_index(r, c)
-                            .expect("the pattern holds the self-contact pairs' blocks");
-                        v[i] += h[12 * a + b];
+            // Block by block: each stored entry takes one value per pair, as entry by entry.
+            for (pa, da) in dofs.iter().enumerate() {
+                let Some(da) = *da else { continue };
+                for (pb, db) in dofs.iter().enumerate() {
+                    let Some(db) = *db else { continue };
+                    if da < db {
+                        continue;
+                    }
+                    let idx = self
+                        .block_index(da / 3, db / 3)
+                        .expect("the pattern holds the self-contact pairs' blocks");
+                    for i in 0..3 {
+                        // A diagonal block's upper entries are its lower ones'.
+                        let columns = if da == db { i + 1 } else { 3 };
+                        for j in 0..columns {
+                            v[idx[3 * i + j] as usize] += h[12 * (3 * pa + i) + 3 * pb + j];
+                        }
                     }
                 }
             }
@@ -219,9 +329,9 @@ impl Pattern {
     /// `step`) from `x` that keeps every self-contact pair's gap above the filter's floor
     /// ([`crate::contact::self_barrier::SelfBarrier::max_step`]); 1 without self-contact.
     pub(super) fn self_max_step(&self, x: &[f64], step: f64, dir: &[f64]) -> f64 {
-        let Some(barrier) = &self.self_barrier else {
+        if self.self_barrier.is_none() {
             return 1.0;
-        };
+        }
         let mut delta = vec![0.0; x.len()];
         for p in 0..x.len() / 3 {
             if let Some(d) = self.dof(p) {
@@ -230,12 +340,10 @@ impl Pattern {
                 }
             }
         }
-        let (alpha, sweep) = barrier.max_step(x, &delta, 1.0);
-        self.self_pairs_cache
-            .0
-            .lock()
-            .expect("an unpoisoned cache")
-            .sweep = sweep;
+        let (alpha, sweep) = self.self_filter(x, &delta);
+        let mut cache = self.self_pairs_cache.0.lock().expect("an unpoisoned cache");
+        cache.sweep = sweep;
+        cache.counts.step_filters += 1;
         alpha
     }
 
@@ -243,7 +351,10 @@ impl Pattern {
     /// `d − h ≤ 0`; `None` when every pair is apart (or without self-contact).
     pub fn self_penetration(&self, x: &[f64]) -> Option<([usize; 4], f64)> {
         let barrier = self.self_barrier.as_ref()?;
-        barrier.penetration(x).map(|(p, gap)| (p.particles, gap))
+        let pairs = self.self_pairs(x);
+        barrier
+            .penetration_among(x, &pairs)
+            .map(|(p, gap)| (p.particles, gap))
     }
 }
 

@@ -63,6 +63,8 @@ pub struct NewtonSystem {
     pub(super) values: Vec<f64>,
     pub(super) grad: Vec<f64>,
     pub(super) dir: Vec<f64>,
+    /// Self-contact: the last patterns left for another, with their symbolic analyses.
+    pub(super) recent: Vec<(Pattern, Factor)>,
     /// `dir` holds the Newton direction from conjugate gradients: set by `newton_matrix`
     /// (`super::pcg`), taken by the next `newton_direction`.
     pub(super) pcg_direction: bool,
@@ -86,6 +88,7 @@ impl NewtonSystem {
             values: vec![0.0; nnz],
             grad: vec![0.0; n],
             dir: vec![0.0; n],
+            recent: Vec::new(),
             pcg_direction: false,
         })
     }
@@ -329,13 +332,14 @@ impl NewtonSystem {
         settings: &NewtonSettings,
         convex_only: bool,
     ) -> Result<(Option<Tensor>, StepStats), ClothError> {
-        let before = self.factor.counts();
+        let (before, self_before) = (self.factor.counts(), self.pattern.self_counts());
         let (x, mut stats) = self.solve_core(start, xt, step, settings, convex_only)?;
         let FactorCounts {
             factorized, failed, ..
         } = self.factor.counts().since(before);
         stats.factorizations = factorized;
         stats.failed_factorizations = failed;
+        (self.pattern.self_counts()).add_since(self_before, &mut stats);
         Ok((x, stats))
     }
 

@@ -38,11 +38,30 @@ pub struct StepStats {
     /// Load increments abandoned and halved because a solve left the region where the exact
     /// Hessian is positive definite.
     pub rejected_loads: usize,
+    /// Self-contact: states whose pairs were searched (not filtered from a sweep).
+    pub pair_searches: usize,
+    /// Self-contact: searches over the whole cloth (a grid of the vertices and one of the
+    /// edges), for the pairs of a state or a step filter's sweep; the others are filtered from
+    /// the last search's candidate list (`cloth/src/contact/self_candidates.rs`).
+    pub grid_searches: usize,
+    /// Self-contact: states whose pairs were filtered from the last step filter's sweep
+    /// instead of searched.
+    pub pair_filters: usize,
+    /// Self-contact: step filters (continuous collision detection along a straight motion,
+    /// each with a sweep of the cloth).
+    pub step_filters: usize,
+    /// Self-contact: rebuilds of the Hessian's pattern, each with a new symbolic analysis,
+    /// because the pairs coupled other particle blocks.
+    pub pattern_rebuilds: usize,
+    /// Self-contact: changes of the Hessian's pattern back to one of the last patterns left,
+    /// whose symbolic analysis was kept.
+    pub pattern_reuses: usize,
 }
 
 impl StepStats {
     /// Adds `other`'s work counts (iterations, chord steps, factorizations, failed
-    /// factorizations, conjugate gradients' counts, projected iterations, saddles, escapes) to these; the residual, the
+    /// factorizations, conjugate gradients' counts, projected iterations, saddles, escapes,
+    /// self-contact's searches, filters, pattern rebuilds and reuses) to these; the residual, the
     /// round-off flag and the load counts stay.
     pub fn add_work(&mut self, other: &StepStats) {
         self.iterations += other.iterations;
@@ -55,5 +74,11 @@ impl StepStats {
         self.projected += other.projected;
         self.at_saddle += other.at_saddle;
         self.escapes += other.escapes;
+        self.pair_searches += other.pair_searches;
+        self.pair_filters += other.pair_filters;
+        self.step_filters += other.step_filters;
+        self.pattern_rebuilds += other.pattern_rebuilds;
+        self.pattern_reuses += other.pattern_reuses;
+        self.grid_searches += other.grid_searches;
     }
 }
