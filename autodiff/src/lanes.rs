@@ -145,7 +145,7 @@ unsafe fn load_rows(ptr: *const f64, rows: [usize; LANES]) -> [f64; LANES] {
     if rows[LANES - 1] == rows[0] + LANES - 1 {
         std::ptr::read_unaligned(ptr.add(rows[0]).cast())
     } else {
-        rows.map(|row| *ptr.add(row))
+        std::array::from_fn(|l| *ptr.add(rows[l]))
     }
 }
 
@@ -234,11 +234,11 @@ pub(crate) unsafe fn vjp_groups_seeds<F: RowFn, const A: usize>(
         for j in 0..A {
             load_points(
                 saved,
-                rows.map(|row| width * row + 3 * j),
+                std::array::from_fn(|l| width * rows[l] + 3 * j),
                 &mut x[3 * j..3 * j + 3],
             );
         }
-        x[3 * A] = F64x8(rows.map(|row| *saved.add(width * row + 3 * A)));
+        x[3 * A] = F64x8::from_fn(|l| *saved.add(width * rows[l] + 3 * A));
         for (s, (state, carry)) in states.iter().zip(carries).enumerate() {
             let oa = &mut oa[width * s..width * s + width];
             for j in 0..A {
@@ -277,7 +277,8 @@ unsafe fn point_offsets<const A: usize>(
     rows: [usize; LANES],
     j: usize,
 ) -> [usize; LANES] {
-    rows.map(|row| 3 * *idx.get_unchecked(A * row + j))
+    // `from_fn`, not `map`: `map` was not inlined here (a call per group, without AVX2).
+    std::array::from_fn(|l| 3 * *idx.get_unchecked(A * rows[l] + j))
 }
 
 /// Loads the three values at `base + off[l]` of every lane `l` into `dst` (x, y and z lanes),

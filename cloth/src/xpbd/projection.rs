@@ -139,7 +139,7 @@ impl<C: Constraint> RowFn for Projection<C> {
     #[inline(always)]
     fn eval_lanes(&self, rows: [usize; LANES], x: &[F64x8], y: &mut [F64x8]) {
         let d = 3 * C::ARITY;
-        let instances = rows.map(|row| self.instances[row]);
+        let instances = std::array::from_fn(|l| self.instances[rows[l]]);
         let c = self
             .constraint
             .gradient_lanes(instances, &x[..d], &mut y[..d]);
@@ -167,7 +167,7 @@ impl<C: Constraint> RowFn for Projection<C> {
         let d = 3 * C::ARITY;
         let seeds = oa.len() / (d + 1);
         debug_assert!(seeds <= SEED_CHUNK && ia.len() == oa.len());
-        let instances = rows.map(|row| self.instances[row]);
+        let instances = std::array::from_fn(|l| self.instances[rows[l]]);
         let mut g = [F64x8::default(); MAX_D];
         let c = self
             .constraint
