@@ -367,14 +367,14 @@ pub(super) fn at(x: &[f64], p: usize) -> Vector3<f64> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::{PairKind, SelfBarrier, SelfPair};
     use crate::contact::barrier::Barrier;
     use std::sync::Arc;
 
     /// A `k × k` grid cloth of spacing 1 folded over itself along the middle column, with a
     /// little noise: layers about `gap` apart.
-    pub(super) fn folded(k: usize, gap: f64) -> (Vec<[usize; 3]>, Vec<f64>) {
+    pub(in crate::contact) fn folded(k: usize, gap: f64) -> (Vec<[usize; 3]>, Vec<f64>) {
         let mut x = Vec::new();
         let half = (k - 1) as f64 / 2.0;
         for r in 0..k {

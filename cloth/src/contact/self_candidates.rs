@@ -140,36 +140,9 @@ impl SelfBarrier {
 mod tests {
     use super::Candidates;
     use crate::contact::barrier::Barrier;
+    use crate::contact::self_barrier::tests::folded;
     use crate::contact::self_barrier::SelfBarrier;
     use std::sync::Arc;
-
-    /// A `k × k` grid cloth of spacing 1 folded over itself along the middle column, layers
-    /// `gap` apart, with a little noise.
-    fn folded(k: usize, gap: f64) -> (Vec<[usize; 3]>, Vec<f64>) {
-        let half = (k - 1) as f64 / 2.0;
-        let mut x = Vec::new();
-        for r in 0..k {
-            for c in 0..k {
-                let u = c as f64;
-                let (px, pz) = if u <= half {
-                    (u, 0.0)
-                } else {
-                    (2.0 * half - u, gap)
-                };
-                let noise = ((r * 31 + c * 17) % 7) as f64 * 1e-3;
-                x.extend([px + noise, r as f64, pz + noise]);
-            }
-        }
-        let mut tris = Vec::new();
-        for r in 0..k - 1 {
-            for c in 0..k - 1 {
-                let p = r * k + c;
-                tris.push([p, p + 1, p + k]);
-                tris.push([p + 1, p + k + 1, p + k]);
-            }
-        }
-        (tris, x)
-    }
 
     /// Along a motion that closes the fold and shears its top layer, by small moves (answered
     /// from the list) and jumps (searched again), the pairs of each state and each step
