@@ -18,9 +18,12 @@
 //! symmetric saddle both are ties decided by the last bits of the state, which any change of the
 //! solver's arithmetic moves).
 
-use super::assembly::Pattern;
+use super::assembly::{HessianKind, Pattern};
 use super::factor::Factor;
+use super::solve::NewtonSystem;
+use super::stats::StepStats;
 use crate::geometry::dot;
+use autodiff::Tensor;
 
 /// Lanczos iterations at most (the basis is kept: 2 vectors per iteration).
 const MAX_LANCZOS_ITERATIONS: usize = 150;
@@ -218,6 +221,64 @@ pub(super) fn escape_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f6
     match (ahead, back) {
         (Some(a), Some(b)) => Some(if b.1 < a.1 - tie { b.0 } else { a.0 }),
         (a, b) => a.or(b).map(|(e, _)| e),
+    }
+}
+
+/// Saddles one solve leaves at most (a guard against cycling between saddles).
+const MAX_SADDLE_ESCAPES: usize = 8;
+
+impl NewtonSystem {
+    /// At `x`, a stationary point of `Φ` for `xt` that is not a minimizer: moves `x` along the
+    /// exact Hessian's unstable mode, the way and by the length that lower `Φ` the most
+    /// ([`escape_length`]; at a tie, the way [`orient`] picks); returns the new `Φ`, or `None` (and
+    /// leaves `x`) when no direction of negative curvature is found, none lowers `Φ`, or the
+    /// solve has left [`MAX_SADDLE_ESCAPES`] saddles already.
+    pub(super) fn leave_saddle(
+        &mut self,
+        x: &mut Tensor,
+        xt_d: &[f64],
+        stats: &mut StepStats,
+    ) -> Option<f64> {
+        if stats.escapes == MAX_SADDLE_ESCAPES {
+            return None;
+        }
+        self.assemble_at(x.data(), xt_d, HessianKind::Exact);
+        let exact = self.values.clone();
+        self.assemble_at(x.data(), xt_d, HessianKind::Projected);
+        if !self.factor.factorize(&self.pattern, &self.values) {
+            return None;
+        }
+        let p = &self.pattern;
+        let mut v = negative_curvature(p, &exact, &self.values, &self.factor)?;
+        self.contacts.project_tangent(&mut v);
+        // M (x̃ − x) in degree-of-freedom order.
+        let diff: Vec<f64> = xt_d.iter().zip(x.data()).map(|(a, b)| a - b).collect();
+        let mut free = vec![0.0; p.n_dof];
+        p.gather(&diff, &mut free);
+        let mut scattered = vec![0.0; diff.len()];
+        p.add_mass_times(&free, &mut scattered);
+        let mut pull = free;
+        p.gather(&scattered, &mut pull);
+        orient(&mut v, &pull);
+        let phi0 = p.energy(x.data(), xt_d);
+        let x_max = x.data().iter().fold(1.0f64, |m, a| m.max(a.abs()));
+        let mut trial = x.clone();
+        let contacts = &self.contacts;
+        let mut phi_at = |eta: f64| {
+            if p.max_step(x.data(), eta, &v) < 1.0 {
+                // The move would pass a collider (smooth contact).
+                return f64::INFINITY;
+            }
+            trial.data_mut().copy_from_slice(x.data());
+            p.add_scaled(trial.data_mut(), eta, &v);
+            contacts.project(trial.data_mut());
+            p.energy(trial.data(), xt_d)
+        };
+        let eta = escape_length(f64::EPSILON.sqrt() * x_max, phi0, &mut phi_at)?;
+        let phi_t = phi_at(eta);
+        x.data_mut().copy_from_slice(trial.data());
+        stats.escapes += 1;
+        Some(phi_t)
     }
 }
 

@@ -20,7 +20,6 @@
 
 use super::assembly::{HessianKind, Pattern};
 use super::contact::Contacts;
-use super::curvature;
 use super::factor::Factor;
 use super::factor::FactorCounts;
 pub use super::stats::StepStats;
@@ -39,8 +38,6 @@ const ROUNDOFF_STEP: f64 = 16.0;
 const PHI_ROUNDOFF: f64 = 1024.0;
 /// Halvings of the step before the line search gives up.
 const MAX_HALVINGS: usize = 40;
-/// Saddles one solve leaves at most (a guard against cycling between saddles).
-const MAX_SADDLE_ESCAPES: usize = 8;
 /// A chord step is kept when the KKT residual falls at least by this factor.
 pub const CHORD_CONTRACTION: f64 = 0.25;
 /// Chord steps are tried only where the relative residual is at most this. Farther out they
@@ -101,7 +98,7 @@ impl NewtonSystem {
 
     /// Assembles `∇Φ` and the Hessian of `kind` at `x`; with contact rows, the active set at `x`
     /// and the reduced matrix `K` ([`Contacts::reduce`]; `curvature` for the exact Lagrangian).
-    fn assemble_at(&mut self, x: &[f64], xt: &[f64], kind: HessianKind) {
+    pub(super) fn assemble_at(&mut self, x: &[f64], xt: &[f64], kind: HessianKind) {
         self.fit_self_contact(x);
         let values = Some((&mut self.values[..], kind));
         self.pattern.assemble(x, xt, &mut self.grad, values);
@@ -226,54 +223,6 @@ impl NewtonSystem {
                 residual: stats.residual,
             }),
         }
-    }
-
-    /// At `x`, a stationary point of `Φ` for `xt` that is not a minimizer: moves `x` along the
-    /// exact Hessian's unstable mode, the way and by the length that lower `Φ` the most
-    /// ([`curvature::escape_length`]; at a tie, the way [`curvature::orient`] picks); returns the new `Φ`, or `None` (and
-    /// leaves `x`) when no direction of negative curvature is found, none lowers `Φ`, or the
-    /// solve has left [`MAX_SADDLE_ESCAPES`] saddles already.
-    fn leave_saddle(&mut self, x: &mut Tensor, xt_d: &[f64], stats: &mut StepStats) -> Option<f64> {
-        if stats.escapes == MAX_SADDLE_ESCAPES {
-            return None;
-        }
-        self.assemble_at(x.data(), xt_d, HessianKind::Exact);
-        let exact = self.values.clone();
-        self.assemble_at(x.data(), xt_d, HessianKind::Projected);
-        if !self.factor.factorize(&self.pattern, &self.values) {
-            return None;
-        }
-        let p = &self.pattern;
-        let mut v = curvature::negative_curvature(p, &exact, &self.values, &self.factor)?;
-        self.contacts.project_tangent(&mut v);
-        // M (x̃ − x) in degree-of-freedom order.
-        let diff: Vec<f64> = xt_d.iter().zip(x.data()).map(|(a, b)| a - b).collect();
-        let mut free = vec![0.0; p.n_dof];
-        p.gather(&diff, &mut free);
-        let mut scattered = vec![0.0; diff.len()];
-        p.add_mass_times(&free, &mut scattered);
-        let mut pull = free;
-        p.gather(&scattered, &mut pull);
-        curvature::orient(&mut v, &pull);
-        let phi0 = p.energy(x.data(), xt_d);
-        let x_max = x.data().iter().fold(1.0f64, |m, a| m.max(a.abs()));
-        let mut trial = x.clone();
-        let contacts = &self.contacts;
-        let mut phi_at = |eta: f64| {
-            if p.max_step(x.data(), eta, &v) < 1.0 {
-                // The move would pass a collider (smooth contact).
-                return f64::INFINITY;
-            }
-            trial.data_mut().copy_from_slice(x.data());
-            p.add_scaled(trial.data_mut(), eta, &v);
-            contacts.project(trial.data_mut());
-            p.energy(trial.data(), xt_d)
-        };
-        let eta = curvature::escape_length(f64::EPSILON.sqrt() * x_max, phi0, &mut phi_at)?;
-        let phi_t = phi_at(eta);
-        x.data_mut().copy_from_slice(trial.data());
-        stats.escapes += 1;
-        Some(phi_t)
     }
 
     /// Factorizes the exact Hessian of `Φ` at `x` for the predicted state `xt` (with contact
