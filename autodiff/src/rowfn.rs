@@ -85,36 +85,12 @@ pub trait RowFn: Send + Sync {
         }
     }
 
-    /// The vector–Jacobian product of the rows `rows` lane-wise, as
-    /// [`RowFn::eval_lanes`] is to [`RowFn::eval`]: `in_adj` receives `Jᵀ out_adj` (what
-    /// [`RowFn::vjp`] accumulates into zeros, bit for bit in every lane, for an override). The
-    /// default pulls back lane by lane through [`RowFn::vjp`].
-    #[inline(always)]
-    fn vjp_lanes(
-        &self,
-        rows: [usize; LANES],
-        inputs: &[F64x8],
-        out_adj: &[F64x8],
-        in_adj: &mut [F64x8],
-    ) where
-        Self: Sized,
-    {
-        let (n_in, n_out) = (self.n_in(), self.n_out());
-        let (mut x, mut oa, mut ia) = (vec![0.0; n_in], vec![0.0; n_out], vec![0.0; n_in]);
-        for l in 0..LANES {
-            read_lane(inputs, l, &mut x);
-            read_lane(out_adj, l, &mut oa);
-            ia.fill(0.0);
-            self.vjp(rows[l], &x, &oa, &mut ia);
-            write_lane(in_adj, l, &ia);
-        }
-    }
-
-    /// [`RowFn::vjp_lanes`] for several seeds at once: `out_adj` holds `seeds` lane vectors of
-    /// the outputs one after another (`seeds × n_out`), `in_adj` receives the matching
-    /// `seeds × n_in`. An override must give [`RowFn::vjp_lanes`]' values for every seed bit for
-    /// bit; it computes what the seeds share (the row's own quantities) once. The default calls
-    /// [`RowFn::vjp_lanes`] per seed.
+    /// The vector–Jacobian products of the rows `rows` lane-wise for several seeds at once, as
+    /// [`RowFn::eval_lanes`] is to [`RowFn::eval`]: `out_adj` holds `seeds` lane vectors of the
+    /// outputs one after another (`seeds × n_out`), and `in_adj` receives the matching
+    /// `seeds × n_in`, each seed's `Jᵀ out_adj` (what [`RowFn::vjp`] accumulates into zeros, bit
+    /// for bit in every lane, for an override, which computes what the seeds share once). The
+    /// default pulls back lane by lane and seed by seed through [`RowFn::vjp`].
     #[inline(always)]
     fn vjp_lanes_seeds(
         &self,
@@ -126,11 +102,18 @@ pub trait RowFn: Send + Sync {
         Self: Sized,
     {
         let (n_in, n_out) = (self.n_in(), self.n_out());
-        for (oa, ia) in out_adj
+        let (mut x, mut oa, mut ia) = (vec![0.0; n_in], vec![0.0; n_out], vec![0.0; n_in]);
+        for (seed_out, seed_in) in out_adj
             .chunks_exact(n_out)
             .zip(in_adj.chunks_exact_mut(n_in))
         {
-            self.vjp_lanes(rows, inputs, oa, ia);
+            for l in 0..LANES {
+                read_lane(inputs, l, &mut x);
+                read_lane(seed_out, l, &mut oa);
+                ia.fill(0.0);
+                self.vjp(rows[l], &x, &oa, &mut ia);
+                write_lane(seed_in, l, &ia);
+            }
         }
     }
 

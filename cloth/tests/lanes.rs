@@ -1,7 +1,7 @@
-//! The lane-wise colour-set kernel (four rows at once, gathered straight from the state into
+//! The lane-wise colour-set kernel (eight rows at once, gathered straight from the state into
 //! AVX2 lanes: `autodiff/src/lanes.rs` with `Projection::eval_lanes` and
 //! `Distance::gradient_lanes`) and its pull-backs, of one seed and of several at once
-//! (`Projection::vjp_lanes`, `Projection::vjp_lanes_seeds`, `Distance::hessian_vectors_lanes`),
+//! (`Projection::vjp_lanes_seeds`, one seed or several, and `Distance::hessian_vectors_lanes`),
 //! against the row-by-row kernels they replace where the CPU has AVX2: states, multipliers, the
 //! recorded inputs and the adjoints must be bitwise equal.
 //!

@@ -151,15 +151,9 @@ impl<C: Constraint> RowFn for Projection<C> {
         y[d] = F64x8::select(still, x[d], x[d] + dlambda);
     }
 
-    /// [`Projection::vjp`] of [`LANES`] rows in lanes (into zeros), bitwise: the adjoint of
-    /// [`Projection::eval_lanes`] as `vjp_block` computes it row by row, with
-    /// [`Constraint::hessian_vectors_lanes`].
-    #[inline(always)]
-    fn vjp_lanes(&self, rows: [usize; LANES], x: &[F64x8], oa: &[F64x8], ia: &mut [F64x8]) {
-        self.vjp_lanes_seeds(rows, x, oa, ia);
-    }
-
-    /// [`Projection::vjp_lanes`] for several seeds: `C`, `∇C`, `Δλ` and the reciprocal of the
+    /// [`Projection::vjp`] of [`LANES`] rows in lanes for several seeds (into zeros), bitwise:
+    /// the adjoint of [`Projection::eval_lanes`] as `vjp_block` computes it row by row. `C`,
+    /// `∇C`, `Δλ` and the reciprocal of the
     /// denominator once for all of them, and one call of [`Constraint::hessian_vectors_lanes`]
     /// for every seed's vector (each seed's adjoint of `∇C` is built in its `in_adj`).
     #[inline(always)]
