@@ -8,7 +8,8 @@ use crate::problem::{SafetyForm, TargetModel};
 use crate::result::{SearchMode, FEASIBILITY_TOLERANCE};
 use crate::search::SearchOptions;
 use crate::validate::{
-    ensure_iterations, ensure_non_negative, ensure_positive, ensure_positive_or_infinite,
+    ensure_factor_or_infinite, ensure_iterations, ensure_non_negative, ensure_positive,
+    ensure_positive_or_infinite,
 };
 use crate::{Error, Result};
 use cloth::{Model, Scene};
@@ -54,6 +55,9 @@ pub struct OptimizeRequest {
     pub kappa: Option<f64>,
     /// Jacobian reuse band (default off).
     pub reuse_band: Option<f64>,
+    /// A trial rollout's Newton work bound, in multiples of its iterate's (default the
+    /// planner's, [`crate::problem::DEFAULT_TRIAL_WORK_FACTOR`]; ∞ never stops one).
+    pub trial_work_factor: Option<f64>,
     /// The optimizer (default SQP).
     pub solver: Optimizer,
     /// Route search mode (default auto).
@@ -83,6 +87,7 @@ impl Default for OptimizeRequest {
             step_only: false,
             kappa: None,
             reuse_band: None,
+            trial_work_factor: None,
             solver: Optimizer::Sqp,
             search: SearchMode::Auto,
             starts: 6,
@@ -98,12 +103,17 @@ impl OptimizeRequest {
     /// Checks every setting before any scene is read; an error names the setting as
     /// `name(field)` spells it (e.g. `delta` → `--delta`).
     pub fn check(&self, name: &dyn Fn(&str) -> String) -> Result<()> {
-        let optional: [(&str, Option<f64>, Check); 5] = [
+        let optional: [(&str, Option<f64>, Check); 6] = [
             ("delta", self.delta, ensure_non_negative),
             ("alpha", self.alpha, ensure_non_negative),
             ("beta", self.beta, ensure_non_negative),
             ("kappa", self.kappa, ensure_positive),
             ("reuse_band", self.reuse_band, ensure_positive_or_infinite),
+            (
+                "trial_work_factor",
+                self.trial_work_factor,
+                ensure_factor_or_infinite,
+            ),
         ];
         for (field, value, check) in optional {
             if let Some(v) = value {
@@ -141,6 +151,9 @@ impl OptimizeRequest {
         options.allow_unsafe_start = self.allow_unsafe_start;
         options.task.kappa = self.kappa.unwrap_or(options.task.kappa);
         options.reuse_band = self.reuse_band.unwrap_or(options.reuse_band);
+        if let Some(f) = self.trial_work_factor {
+            options.task.trial_work_factor = f;
+        }
         ensure_iterations(&name("starts"), self.starts)?;
         let search = SearchOptions {
             mode: self.search,

@@ -26,6 +26,15 @@ pub fn ensure_iterations(name: &str, iterations: usize) -> Result<()> {
     require(iterations > 0, name, "must be at least 1, got 0".into())
 }
 
+/// `value` is ≥ 1, where ∞ is allowed (it switches a feature off), or an error naming it.
+pub fn ensure_factor_or_infinite(name: &str, value: f64) -> Result<()> {
+    require(
+        value >= 1.0,
+        name,
+        format!("must be a number ≥ 1, got {value}"),
+    )
+}
+
 /// `value` is > 0, where ∞ is allowed (it switches a feature off), or an error naming it.
 pub fn ensure_positive_or_infinite(name: &str, value: f64) -> Result<()> {
     require(

@@ -59,3 +59,45 @@ fn newton_plan_converges_safe_and_stays_safe_at_a_tighter_tolerance() {
     );
     assert!(is_safe(&truth.metrics), "{:?}", truth.metrics);
 }
+
+/// A trial point's rollout is held to `trial_work_factor` times its iterate's Newton work: past
+/// it the value is an evaluation error (the line search shortens the step), while derivatives,
+/// asked for at iterates, are never held back; XPBD is never held back.
+#[test]
+fn a_trial_rollout_past_its_work_bound_is_a_failed_evaluation() {
+    use clothopt::problem::{TaskOptions, TrajectoryProblem};
+    use optim::Problem;
+    let scene = newton_scene(6);
+    let model = Model::from_scene(&scene).unwrap();
+    let x0 = plan::initial_controls(&scene, &model)
+        .unwrap()
+        .data()
+        .to_vec();
+    let x1: Vec<f64> = x0.iter().map(|v| 1.5 * v).collect();
+    let work = |x: &[f64]| model.simulate_counted(&model_controls(&model, x), usize::MAX);
+    let (w0, w1) = (work(&x0).unwrap().1, work(&x1).unwrap().1);
+    assert!(w0 > 10 && w1 > 10, "{w0} {w1}");
+    let mut options = TaskOptions::for_model(&model);
+    // A bound below the trial's work: w1 > factor · w0.
+    options.trial_work_factor = 0.5 * w1 as f64 / w0 as f64;
+    let mut problem = TrajectoryProblem::new(&model, options.clone());
+    // Before any gradient there is no reference: values anywhere.
+    assert!(problem.objective(&x1).is_ok());
+    let mut g = vec![0.0; x0.len()];
+    problem.gradient(&x0, &mut g).unwrap();
+    let err = problem.objective(&x1).unwrap_err().to_string();
+    assert!(err.contains("iterations"), "{err}");
+    assert_eq!(problem.simulations, 3);
+    // Derivatives at the same point are not held back.
+    problem.gradient(&x1, &mut g).unwrap();
+    assert_eq!((problem.simulations, problem.gradient_evaluations), (4, 2));
+    // A factor that covers the trial's work lets it through.
+    options.trial_work_factor = 2.0 * w1 as f64 / w0 as f64;
+    let mut problem = TrajectoryProblem::new(&model, options);
+    problem.gradient(&x0, &mut g).unwrap();
+    assert!(problem.objective(&x1).is_ok());
+}
+
+fn model_controls(model: &Model, x: &[f64]) -> autodiff::Tensor {
+    autodiff::Tensor::new(model.task.horizon, 3 * model.n_controls(), x.to_vec())
+}

@@ -106,4 +106,18 @@ pub enum ClothError {
         /// Its distance less the thickness (≤ 0).
         gap: f64,
     },
+    /// A Newton rollout asked to stay within a number of iterations
+    /// ([`crate::Model::simulate_counted`]) passed it.
+    #[error(
+        "Newton rollout stopped at step {step} after {iterations} iterations: it would take more \
+         than the {bound} allowed"
+    )]
+    NewtonWorkExceeded {
+        /// The step (1-based) whose solve would have passed the bound.
+        step: usize,
+        /// Newton iterations taken (the bound).
+        iterations: usize,
+        /// The bound.
+        bound: usize,
+    },
 }

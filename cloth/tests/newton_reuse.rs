@@ -223,3 +223,32 @@ fn chord_steps_do_not_change_the_gradients_beyond_the_tolerance() {
     let rel = norm(&diff) / norm(b.data());
     assert!(rel < 1e-7, "{rel:.3e}");
 }
+
+#[test]
+fn a_counted_rollout_stops_past_its_bound_and_names_the_step() {
+    let (model, u) = on_the_floor();
+    let (states, stats) = model.simulate_newton(&u, &settings(&model)).unwrap();
+    let work: usize = stats.iter().map(|s| s.iterations).sum();
+    // Unbounded: the same states and the rollout's Newton iterations.
+    let (counted, w) = model.simulate_counted(&u, usize::MAX).unwrap();
+    assert_eq!(w, work);
+    assert!(states.iter().zip(&counted).all(|(a, b)| bitwise_eq(a, b)));
+    // A bound the first two steps pass: stops in step 2, at the bound.
+    let bound = stats[0].iterations + stats[1].iterations - 1;
+    match model.simulate_counted(&u, bound) {
+        Err(cloth::ClothError::NewtonWorkExceeded {
+            step,
+            iterations,
+            bound: b,
+        }) => {
+            assert_eq!((step, b, iterations), (2, bound, bound));
+        }
+        other => panic!("expected NewtonWorkExceeded, got {other:?}"),
+    }
+    // Exactly the rollout's work is within the bound.
+    assert!(model.simulate_counted(&u, work).is_ok());
+    // XPBD counts no work and is never stopped.
+    let mut xpbd = model.clone();
+    xpbd.solver = Solver::Xpbd;
+    assert_eq!(xpbd.simulate_counted(&u, 0).unwrap().1, 0);
+}

@@ -904,3 +904,59 @@ fn failing_initial_hessian_falls_back_to_the_identity() {
     assert_eq!(sol.status, Status::Converged, "{}", sol.message);
     assert!(sol.x.iter().all(|v| (v - 1.0).abs() < 1e-5), "{:?}", sol.x);
 }
+
+/// Rosenbrock with an inactive linear constraint `x₀ + x₁ ≤ 10`, recording every point whose
+/// objective is evaluated.
+struct RecordedRosenbrock {
+    inner: Rosenbrock,
+    points: Vec<Vec<f64>>,
+}
+
+impl Problem for RecordedRosenbrock {
+    fn num_variables(&self) -> usize {
+        2
+    }
+    fn num_inequalities(&self) -> usize {
+        1
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        self.points.push(x.to_vec());
+        self.inner.objective(x)
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        self.inner.gradient(x, g)
+    }
+    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        c[0] = 10.0 - x[0] - x[1];
+        Ok(())
+    }
+    fn inequality_jacobian(&mut self, _x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
+        j.set(0, 0, -1.0);
+        j.set(0, 1, -1.0);
+        Ok(())
+    }
+}
+
+/// Under linear constraints the second-order correction of a rejected full step is that step
+/// again (to rounding): it is not evaluated a second time (for a planner, a whole simulation).
+#[test]
+fn a_rejected_step_is_not_evaluated_again_as_its_own_correction() {
+    let mut p = RecordedRosenbrock {
+        inner: Rosenbrock { n: 2 },
+        points: Vec::new(),
+    };
+    let sol = solver().solve(&mut p, &rosenbrock_start(2)).unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    assert!((sol.x[0] - 1.0).abs() < 1e-5 && (sol.x[1] - 1.0).abs() < 1e-5);
+    let mut near_repeats = 0;
+    for (i, a) in p.points.iter().enumerate() {
+        let repeats = p.points[..i].iter().any(|b| {
+            a != b
+                && a.iter()
+                    .zip(b)
+                    .all(|(u, v)| (u - v).abs() <= 1e-12 * u.abs().max(1.0))
+        });
+        near_repeats += usize::from(repeats);
+    }
+    assert_eq!(near_repeats, 0, "of {} evaluations", p.points.len());
+}

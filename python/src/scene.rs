@@ -274,7 +274,8 @@ impl Scene {
 
     /// optimize(delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp",
     /// search="auto", starts=6, safety="per_step", step_only=None, swept=None, kappa=None,
-    /// reuse_band=None, tol=1e-4, feasibility_tol=1e-8, allow_unsafe_start=False,
+    /// reuse_band=None, trial_work_factor=None, tol=1e-4, feasibility_tol=1e-8,
+    /// allow_unsafe_start=False,
     /// time_limit=None, start=None, timing=True, check=None, check_rounds=3,
     /// target_model="bfgs") -> Plan
     ///
@@ -288,12 +289,14 @@ impl Scene {
     /// wall-clock time out of the result (as `--no-timing`); `check` ("xpbd:N", "newton" or
     /// "newton:TOL") re-simulates the plan under that physics and re-plans with a raised margin
     /// up to `check_rounds` times where it is unsafe there (as `--check`); `target_model`
-    /// "bfgs" or "gauss_newton" (as `--target-model`). Raises ValueError for a bad setting
+    /// "bfgs" or "gauss_newton" (as `--target-model`); `trial_work_factor` bounds a line-search
+    /// trial's Newton rollout (as `--trial-work-factor`). Raises ValueError for a bad setting
     /// (named as here, e.g. `delta must be a finite number ≥ 0, got -1`). The GIL is released
     /// while it runs.
     #[pyo3(signature = (
         delta=None, *, alpha=None, beta=None, iterations=200, solver="sqp", search="auto",
         starts=6, safety="per_step", step_only=None, swept=None, kappa=None, reuse_band=None,
+        trial_work_factor=None,
         tol=1e-4,
         feasibility_tol=clothopt::result::FEASIBILITY_TOLERANCE, allow_unsafe_start=false,
         time_limit=None, start=None, timing=true, check=None, check_rounds=3,
@@ -315,6 +318,7 @@ impl Scene {
         swept: Option<bool>,
         kappa: Option<f64>,
         reuse_band: Option<f64>,
+        trial_work_factor: Option<f64>,
         tol: f64,
         feasibility_tol: f64,
         allow_unsafe_start: bool,
@@ -335,6 +339,7 @@ impl Scene {
             step_only: step_only_choice(step_only, swept)?,
             kappa,
             reuse_band,
+            trial_work_factor,
             solver: choice("solver", solver)?,
             search: choice::<SearchMode>("search", search)?,
             starts,

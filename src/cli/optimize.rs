@@ -64,6 +64,11 @@ pub struct OptimizeArgs {
     /// a backward pass per iterate while it predicts their change (length units; default off).
     #[arg(long, allow_negative_numbers = true)]
     reuse_band: Option<f64>,
+    /// Newton physics: a line-search trial whose rollout would take more than this many times
+    /// the Newton iterations of its iterate's rollout is stopped and counts as a step too long
+    /// (default 4; `inf` never stops one).
+    #[arg(long, allow_negative_numbers = true)]
+    trial_work_factor: Option<f64>,
     /// The solver.
     #[arg(long, value_enum, default_value_t = Optimizer::Sqp)]
     solver: Optimizer,
@@ -143,6 +148,7 @@ fn request(args: &OptimizeArgs) -> OptimizeRequest {
         step_only: args.step_only && !args.swept,
         kappa: args.kappa,
         reuse_band: args.reuse_band,
+        trial_work_factor: args.trial_work_factor,
         solver: args.solver,
         search: args.search,
         starts: args.starts,

@@ -31,7 +31,9 @@ mod safety;
 mod target;
 
 pub use labels::RowLabel;
-pub use options::{SafetyForm, TaskOptions, DEFAULT_STRAIN_KAPPA, GOAL_KAPPA};
+pub use options::{
+    SafetyForm, TaskOptions, DEFAULT_STRAIN_KAPPA, DEFAULT_TRIAL_WORK_FACTOR, GOAL_KAPPA,
+};
 pub use safety::start_inside_margin;
 pub use target::TargetModel;
 
@@ -50,6 +52,8 @@ type BoxedStepCost<'a> = Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> +
 /// Forward results at one point.
 struct Forward {
     x: Vec<f64>,
+    /// Newton iterations of the rollout (0 under XPBD).
+    work: usize,
     states: Vec<Tensor>,
     smooth: f64,
     /// Per-step soft-min rows (per-step and aggregate forms).
@@ -110,6 +114,9 @@ pub struct TrajectoryProblem<'a> {
     pub simulations: usize,
     /// Gradient evaluations (backward passes over the rollout) so far.
     pub gradient_evaluations: usize,
+    /// Newton iterations of the rollout at the last point whose gradient was evaluated: the
+    /// reference of [`TaskOptions::trial_work_factor`].
+    iterate_work: Option<usize>,
 }
 
 impl<'a> TrajectoryProblem<'a> {
@@ -131,6 +138,7 @@ impl<'a> TrajectoryProblem<'a> {
             initial_hessian: None,
             simulations: 0,
             gradient_evaluations: 0,
+            iterate_work: None,
         }
     }
 
@@ -216,11 +224,25 @@ impl<'a> TrajectoryProblem<'a> {
         )
     }
 
-    fn ensure_forward(&mut self, x: &[f64]) -> Result<&Forward, EvalError> {
+    /// The forward pass at `x` (cached): the rollout and every cost and row on it. A `trial`
+    /// (values asked for, not derivatives) is bounded in work by
+    /// [`TaskOptions::trial_work_factor`].
+    fn ensure_forward(&mut self, x: &[f64], trial: bool) -> Result<&Forward, EvalError> {
         if self.forward.as_ref().is_none_or(|f| f.x != x) {
             let controls = self.controls(x);
             self.simulations += 1;
-            let states = self.model.simulate(&controls).map_err(eval_error)?;
+            // A trial's rollout stops past its work bound (`TaskOptions::trial_work_factor`).
+            let bound = self.iterate_work.filter(|_| trial).map_or(usize::MAX, |w| {
+                let b = (w.max(1) as f64 * self.options.trial_work_factor).ceil();
+                if b < usize::MAX as f64 {
+                    b as usize
+                } else {
+                    usize::MAX
+                }
+            });
+            let (states, work) = (self.model)
+                .simulate_counted(&controls, bound)
+                .map_err(eval_error)?;
             let mut tape = Tape::new();
             let mut smooth = 0.0;
             let mut safety = vec![0.0; self.safety_rows()];
@@ -273,6 +295,7 @@ impl<'a> TrajectoryProblem<'a> {
             };
             self.forward = Some(Forward {
                 x: x.to_vec(),
+                work,
                 states,
                 smooth,
                 per_step,
@@ -325,9 +348,10 @@ impl<'a> TrajectoryProblem<'a> {
             .as_ref()
             .is_some_and(|b| b.x == x && wanted.iter().zip(&b.computed).all(|(&w, &c)| c || !w));
         if !cached {
-            self.ensure_forward(x)?;
+            self.ensure_forward(x, false)?;
             let backward = self.pull_back(x, wanted)?;
             self.gradient_evaluations += 1;
+            self.iterate_work = self.forward.as_ref().map(|f| f.work);
             self.backward = Some(backward);
         }
         self.backward
@@ -509,7 +533,7 @@ impl<'a> TrajectoryProblem<'a> {
 
     /// The states of the last simulated rollout at `x` (simulating if needed).
     pub fn states(&mut self, x: &[f64]) -> Result<Vec<Tensor>, EvalError> {
-        Ok(self.ensure_forward(x)?.states.clone())
+        Ok(self.ensure_forward(x, false)?.states.clone())
     }
 }
 
@@ -557,7 +581,7 @@ impl Problem for TrajectoryProblem<'_> {
     }
 
     fn residual(&mut self, x: &[f64], _j: usize, r: &mut [f64]) -> Result<(), EvalError> {
-        r.copy_from_slice(&self.ensure_forward(x)?.target);
+        r.copy_from_slice(&self.ensure_forward(x, true)?.target);
         Ok(())
     }
 
@@ -580,7 +604,7 @@ impl Problem for TrajectoryProblem<'_> {
     }
 
     fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
-        Ok(self.ensure_forward(x)?.smooth)
+        Ok(self.ensure_forward(x, true)?.smooth)
     }
 
     fn gradient(&mut self, x: &[f64], grad: &mut [f64]) -> Result<(), EvalError> {
@@ -598,7 +622,7 @@ impl Problem for TrajectoryProblem<'_> {
 
     fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
         let (k, s, g) = (self.safety_rows(), self.strain_rows(), self.goal_rows());
-        let forward = self.ensure_forward(x)?;
+        let forward = self.ensure_forward(x, true)?;
         c[..k].copy_from_slice(&forward.safety);
         c[k..k + s].copy_from_slice(&forward.strain);
         c[k + s..k + s + g].copy_from_slice(&forward.goal);

@@ -72,7 +72,18 @@ pub struct TaskOptions {
     pub goal_radius: Option<f64>,
     /// How the SQP models the target term `G` ([`TargetModel`]; default [`TargetModel::Bfgs`]).
     pub target_model: TargetModel,
+    /// A trial point's rollout (one the optimizer asks values at, not yet derivatives) may take
+    /// at most this many times the Newton iterations of the rollout at the last point whose
+    /// gradient was evaluated (its iterate); past that the rollout stops and the trial counts as
+    /// a failed evaluation, so the line search shortens the step. Where the cloth presses on
+    /// itself or a collider, a long trial step's rollout can cost 10–40× an iterate's
+    /// (`docs/performance.md`). Default [`DEFAULT_TRIAL_WORK_FACTOR`]; `f64::INFINITY` never
+    /// stops one. No effect under XPBD, whose rollouts cost the same for any controls.
+    pub trial_work_factor: f64,
 }
+
+/// Default [`TaskOptions::trial_work_factor`].
+pub const DEFAULT_TRIAL_WORK_FACTOR: f64 = 4.0;
 
 /// Sharpness of the soft maximum over the targets' squared relative distances in the goal row.
 pub const GOAL_KAPPA: f64 = 100.0;
@@ -94,6 +105,7 @@ impl TaskOptions {
             strain_kappa: DEFAULT_STRAIN_KAPPA,
             goal_radius: None,
             target_model: TargetModel::default(),
+            trial_work_factor: DEFAULT_TRIAL_WORK_FACTOR,
         }
     }
 

@@ -78,8 +78,43 @@ impl Model {
         settings: &NewtonSettings,
         budget: usize,
     ) -> Result<NewtonRollout, ClothError> {
+        self.newton_rollout(controls, settings, budget, usize::MAX)
+    }
+
+    /// [`Model::simulate`] that also counts the solver's work, the Newton iterations of the
+    /// rollout (0 under XPBD, whose cost does not depend on the controls), and gives up once they
+    /// would pass `max_newton_iterations`. A planner's line search uses it
+    /// to cut short a trial whose rollout costs far more than its iterate's (`TaskOptions`'s
+    /// trial work factor in the `clothopt` package).
+    ///
+    /// # Errors
+    /// As [`Model::simulate`]; [`ClothError::NewtonWorkExceeded`] past the bound.
+    pub fn simulate_counted(
+        &self,
+        controls: &Controls,
+        max_newton_iterations: usize,
+    ) -> Result<(Vec<Tensor>, usize), ClothError> {
+        match &self.solver {
+            crate::Solver::Newton(settings) => {
+                let r = self.newton_rollout(controls, settings, 0, max_newton_iterations)?;
+                Ok((r.states, r.stats.iter().map(|s| s.iterations).sum()))
+            }
+            _ => Ok((self.simulate(controls)?, 0)),
+        }
+    }
+
+    /// [`Model::simulate_newton_keeping`], giving up with [`ClothError::NewtonWorkExceeded`]
+    /// where its Newton iterations would pass `max_iterations`.
+    fn newton_rollout(
+        &self,
+        controls: &Controls,
+        settings: &NewtonSettings,
+        budget: usize,
+        max_iterations: usize,
+    ) -> Result<NewtonRollout, ClothError> {
         self.check_controls(controls)?;
         let mut system = NewtonSystem::new(self)?;
+        system.work_bound = max_iterations;
         let horizon = self.task.horizon;
         let mut states = Vec::with_capacity(horizon + 1);
         let mut stats = Vec::with_capacity(horizon);

@@ -65,6 +65,11 @@ pub struct NewtonSystem {
     /// `dir` holds the Newton direction from conjugate gradients: set by `newton_matrix`
     /// (`super::pcg`), taken by the next `newton_direction`.
     pub(super) pcg_direction: bool,
+    /// Newton iterations the solves may take in all ([`Model::simulate_counted`]); unbounded
+    /// by default.
+    pub(super) work_bound: usize,
+    /// Newton iterations of the solves so far.
+    pub(super) work_done: usize,
 }
 
 impl NewtonSystem {
@@ -87,6 +92,8 @@ impl NewtonSystem {
             dir: vec![0.0; n],
             recent: Vec::new(),
             pcg_direction: false,
+            work_bound: usize::MAX,
+            work_done: 0,
         })
     }
 
@@ -283,6 +290,7 @@ impl NewtonSystem {
     ) -> Result<(Option<Tensor>, StepStats), ClothError> {
         let (before, self_before) = (self.factor.counts(), self.pattern.self_counts());
         let (x, mut stats) = self.solve_core(start, xt, step, settings, convex_only)?;
+        self.work_done += stats.iterations;
         let FactorCounts {
             factorized, failed, ..
         } = self.factor.counts().since(before);
@@ -407,6 +415,13 @@ impl NewtonSystem {
         if run.convex_only && !test.exact_pd {
             return Ok(Some(End::LeftConvex));
         }
+        if self.work_done + run.stats.iterations >= self.work_bound {
+            return Err(ClothError::NewtonWorkExceeded {
+                step: run.step,
+                iterations: self.work_done + run.stats.iterations,
+                bound: self.work_bound,
+            });
+        }
         run.stats.iterations += 1;
         if !test.exact_pd {
             run.stats.projected += 1;
@@ -445,16 +460,19 @@ impl NewtonSystem {
     /// ([`NewtonSystem::chord_step`]).
     fn chord_steps(&mut self, run: &mut Run<'_>) {
         let mut fresh = false;
-        while let Some(phi_t) = self.chord_step(
-            &mut run.x,
-            &mut run.trial,
-            run.xt_d,
-            (run.r0, run.phi),
-            &run.chord_set,
-            run.settings,
-            &mut run.stats,
-            fresh,
-        ) {
+        while self.work_done + run.stats.iterations < self.work_bound {
+            let Some(phi_t) = self.chord_step(
+                &mut run.x,
+                &mut run.trial,
+                run.xt_d,
+                (run.r0, run.phi),
+                &run.chord_set,
+                run.settings,
+                &mut run.stats,
+                fresh,
+            ) else {
+                break;
+            };
             run.phi = phi_t;
             fresh = true;
         }

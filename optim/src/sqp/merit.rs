@@ -5,7 +5,7 @@
 use crate::bfgs::DampedBfgs;
 use crate::error::EvalError;
 use crate::eval::{Evaluator, PointDerivatives, PointValues, Reuse};
-use crate::linalg::{dot, norm2, symv};
+use crate::linalg::{dot, norm2, norm_inf, symv};
 use crate::problem::{NormData, Problem};
 use crate::qp::QpSubproblem;
 
@@ -139,9 +139,14 @@ fn accept<P: Problem + ?Sized>(
     })
 }
 
+/// A second-order correction smaller than this fraction of the step (largest coordinate) is not
+/// tried: the corrected point is the rejected trial to about as many digits as the merit's value.
+const MIN_CORRECTION: f64 = 1e-9;
+
 /// The second-order-corrected point and its values: re-solves the QP with the constraint values at
 /// the rejected full step `x + d` (`trial`), i.e. `c(x+d) + J(x)(d̂ − d) ≥ 0`, and evaluates `x + d̂`.
-/// `None` if the corrected QP or the evaluation fails.
+/// `None` if the corrected QP or the evaluation fails, or the correction is below
+/// [`MIN_CORRECTION`].
 fn second_order_correction<P: Problem + ?Sized>(
     ev: &mut Evaluator<'_, P>,
     pt: &PointValues,
@@ -159,6 +164,12 @@ fn second_order_correction<P: Problem + ?Sized>(
     qp.update_constraint_values(&c_hat, &h_hat).ok()?;
     let sol = qp.solve();
     if !sol.outcome.is_usable() || sol.d.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    // A correction too small to change the merit beyond its test's rounding allowance would
+    // evaluate the rejected trial again (a whole simulation, for a planner).
+    let correction = sol.d.iter().zip(d).map(|(a, b)| (a - b).abs());
+    if correction.fold(0.0, f64::max) <= MIN_CORRECTION * norm_inf(d) {
         return None;
     }
     let mut xs: Vec<f64> = pt.x.iter().zip(&sol.d).map(|(x, di)| x + di).collect();
