@@ -226,13 +226,14 @@ fn settings(load_steps: usize, load_halvings: usize) -> NewtonSettings {
     }
 }
 
-/// `base` without chord steps: Newton's path as it was when the knife-edge controls of these
-/// tests were found. Where a solve's end depends on the last bits of its path (a jump between
-/// minima, the end of a branch at a fold), chord steps move the knife edge by round-off: at
-/// `STALL` and `FOLD` their rollouts do not jump under the same perturbations.
+/// `base` without chord steps and shifts: Newton's path as it was when the knife-edge controls
+/// of these tests were found. Where a solve's end depends on the last bits of its path (a jump
+/// between minima, the end of a branch at a fold), chord steps and shifted Hessians move the
+/// knife edge: at `STALL` and `FOLD` their rollouts do not jump under the same perturbations.
 fn newton_path(base: NewtonSettings) -> NewtonSettings {
     NewtonSettings {
         chord_steps: false,
+        shift_stalled: false,
         ..base
     }
 }

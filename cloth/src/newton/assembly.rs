@@ -53,7 +53,7 @@ pub struct Pattern {
     /// Row of each stored entry.
     pub row_idx: Vec<usize>,
     /// Index of each degree of freedom's diagonal entry.
-    diag: Vec<usize>,
+    pub(super) diag: Vec<usize>,
     /// Every stored 3 × 3 particle block: (row block, column block, value index of each entry,
     /// row-major; a diagonal block's upper entries point at their lower mirror).
     blocks: Vec<(u32, u32, [u32; 9])>,

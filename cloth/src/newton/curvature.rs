@@ -1,5 +1,6 @@
-//! Leaving a saddle of `Φ`: a direction of negative curvature of the exact Hessian, and the
-//! step along it.
+//! Where the exact Hessian is indefinite: leaving a saddle of `Φ` (a direction of negative
+//! curvature of the exact Hessian, and the step along it), and shifting a stalled iteration's
+//! Hessian.
 //!
 //! Where Newton's iteration comes to rest at a stationary point that is not a minimizer (a
 //! symmetric cloth under a symmetric load stays symmetric, and past a buckling load its symmetric
@@ -17,6 +18,13 @@
 //! round-off cannot flip (the pull's component and the mode's largest coordinate can: at a
 //! symmetric saddle both are ties decided by the last bits of the state, which any change of the
 //! solver's arithmetic moves).
+//!
+//! Away from the tolerance, where the exact Hessian is indefinite, the iteration takes the
+//! per-term semidefinite projection ([`super::psd`]). Where a whole projected step leaves the
+//! residual nearly where it was (the projection stiffens the soft modes the cloth moves along,
+//! as when it crumples on the ground), the solve shifts the exact Hessian by a multiple of its
+//! mean diagonal instead, the smallest of a geometric sequence that factorizes
+//! ([`NewtonSystem::shift_exact`]).
 
 use super::assembly::{HessianKind, Pattern};
 use super::factor::Factor;
@@ -227,7 +235,39 @@ pub(super) fn escape_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f6
 /// Saddles one solve leaves at most (a guard against cycling between saddles).
 const MAX_SADDLE_ESCAPES: usize = 8;
 
+/// A whole step with the projected Hessian that leaves the KKT residual above this fraction of
+/// where it started has stalled (the solve then shifts the exact Hessian instead).
+pub(super) const STALLED_PROJECTION: f64 = 0.9;
+/// The first shift of the exact Hessian, in units of its mean diagonal.
+pub(super) const FIRST_SHIFT: f64 = 1e-3;
+/// Factorizations tried per shifted Newton matrix (the shift grows 4× each).
+const SHIFT_TRIES: usize = 12;
+
 impl NewtonSystem {
+    /// Factorizes the exact Hessian in `values` (not positive definite) shifted by `μ` times the
+    /// mean of its diagonal's magnitudes, `μ` from a quarter of the `last` shift up by 4× until
+    /// the factorization succeeds (at most [`SHIFT_TRIES`] tries): that `μ`, or `None`, with
+    /// `values` as they were, when none does.
+    pub(super) fn shift_exact(&mut self, last: f64) -> Option<f64> {
+        let diag = &self.pattern.diag;
+        let base: Vec<f64> = diag.iter().map(|&i| self.values[i]).collect();
+        let mean = base.iter().map(|v| v.abs()).sum::<f64>() / base.len().max(1) as f64;
+        let mut mu = 0.25 * last;
+        for _ in 0..SHIFT_TRIES {
+            for (&i, &b) in diag.iter().zip(&base) {
+                self.values[i] = b + mu * mean;
+            }
+            if self.factor.factorize(&self.pattern, &self.values) {
+                return Some(mu);
+            }
+            mu *= 4.0;
+        }
+        for (&i, &b) in diag.iter().zip(&base) {
+            self.values[i] = b;
+        }
+        None
+    }
+
     /// At `x`, a stationary point of `Φ` for `xt` that is not a minimizer: moves `x` along the
     /// exact Hessian's unstable mode, the way and by the length that lower `Φ` the most
     /// ([`escape_length`]; at a tie, the way [`orient`] picks); returns the new `Φ`, or `None` (and

@@ -20,6 +20,7 @@
 
 use super::assembly::{HessianKind, Pattern};
 use super::contact::Contacts;
+use super::curvature::{FIRST_SHIFT, STALLED_PROJECTION};
 use super::factor::Factor;
 use super::factor::FactorCounts;
 pub use super::stats::StepStats;
@@ -350,6 +351,8 @@ impl NewtonSystem {
             stay_projected: false,
             chord: false,
             chord_set: Vec::new(),
+            projected_from: None,
+            shift: None,
         };
         loop {
             match self.iteration(&mut run)? {
@@ -423,13 +426,30 @@ impl NewtonSystem {
             });
         }
         run.stats.iterations += 1;
+        // A whole projected step that left the residual nearly where it was: the projection
+        // stiffens the soft modes the iterate moves along, so the solve shifts the exact Hessian
+        // instead from now on.
+        if let Some(before) = run.projected_from.take() {
+            if test.res > STALLED_PROJECTION * before
+                && run.shift.is_none()
+                && run.settings.shift_stalled
+            {
+                run.shift = Some(FIRST_SHIFT);
+            }
+        }
         if !test.exact_pd {
             run.stats.projected += 1;
-            if test.exact_tried {
-                self.assemble_at(run.x.data(), run.xt_d, HessianKind::Projected);
-            }
-            if !self.newton_matrix(true, run.settings, &mut run.stats) {
-                return Err(run.not_converged());
+            let shift = run.shift.filter(|_| test.exact_tried);
+            let shifted = shift.and_then(|last| self.shift_exact(last));
+            if shifted.is_some() {
+                run.shift = shifted;
+            } else {
+                if test.exact_tried {
+                    self.assemble_at(run.x.data(), run.xt_d, HessianKind::Projected);
+                }
+                if !self.newton_matrix(true, run.settings, &mut run.stats) {
+                    return Err(run.not_converged());
+                }
             }
         }
         self.newton_direction();
@@ -453,6 +473,12 @@ impl NewtonSystem {
             return Err(run.not_converged());
         };
         self.take_step(run, phi_t, test.exact_pd, alpha);
+        if run.shift.is_some() {
+            // The next iteration assembles the exact Hessian, to shift it if need be.
+            run.stay_projected = false;
+        } else if !test.exact_pd && alpha == 1.0 {
+            run.projected_from = Some(test.res);
+        }
         Ok(None)
     }
 
@@ -637,6 +663,11 @@ struct Run<'a> {
     chord: bool,
     /// The contacts' active set of that factorization.
     chord_set: Vec<bool>,
+    /// The residual where the last whole step with the projected Hessian started.
+    projected_from: Option<f64>,
+    /// Once the projected Hessian has stalled: the last shift of the exact one that factorized
+    /// (in units of its mean diagonal).
+    shift: Option<f64>,
 }
 
 impl Run<'_> {
