@@ -28,6 +28,7 @@
 //! The search lives in the root package: `optim` stays problem-agnostic.
 
 mod carry;
+mod lay;
 mod obstacles;
 pub mod routes;
 
