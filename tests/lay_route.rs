@@ -63,7 +63,11 @@ fn a_towel_behind_a_rail_is_carried_over_it_and_laid_on_the_table() {
     let model = Model::from_scene(&scene).unwrap();
     let guess = initial_controls(&scene, &model).unwrap();
     let guess_states = model.simulate(&guess).unwrap();
-    let routes = carried(&model, &guess, &guess_states);
+    let (routes, built) = carried(&model, &guess, &guess_states);
+    assert!(
+        (1..=4).contains(&built),
+        "{built} rollouts built the lay route"
+    );
     assert_eq!(
         routes[0].route,
         "lay",

@@ -98,7 +98,7 @@ pub fn propose(
             continue;
         };
         if i == 0 {
-            out.extend(geometry.laid(&states));
+            out.extend(geometry.laid(&states, &std::cell::Cell::new(0)));
         }
         out.extend(geometry.carried(name, base, &states));
         detours.push(geometry.detours(name, base, &states));
@@ -130,10 +130,12 @@ pub fn propose(
 /// When the rollout `states` of the controls `initial` rests the cloth on a collider, the carry
 /// routes ([`super::carry`]) of `initial` (`initial guess, carried`) and of the straight path
 /// (`straight, carried`; its end is the grippers' targets), each once; none otherwise. The lay
-/// route ([`super::lay`], `lay`) first, where the task has one.
-pub fn carried(model: &Model, initial: &Controls, states: &[Tensor]) -> Vec<Candidate> {
+/// route ([`super::lay`], `lay`) first, where the task has one. Also returns how many rollouts
+/// building them took (the lay route's corrections for the cloth's lag).
+pub fn carried(model: &Model, initial: &Controls, states: &[Tensor]) -> (Vec<Candidate>, usize) {
     let geometry = Geometry::new(model, 0.0, false);
-    let mut out: Vec<Candidate> = geometry.laid(states).into_iter().collect();
+    let rollouts = std::cell::Cell::new(0);
+    let mut out: Vec<Candidate> = geometry.laid(states, &rollouts).into_iter().collect();
     let bases = [
         ("initial guess", paths_of(model, initial)),
         ("straight", geometry.straight_paths()),
@@ -149,7 +151,7 @@ pub fn carried(model: &Model, initial: &Controls, states: &[Tensor]) -> Vec<Cand
             }
         }
     }
-    out
+    (out, rollouts.get())
 }
 
 /// What the proposals need to know about the scene.
@@ -253,11 +255,15 @@ impl<'a> Geometry<'a> {
     }
 
     /// The lay route ([`super::lay`]) from the grippers' starts to the straight path's ends, with
-    /// the hang measured on `states` (the initial guess's rollout), where the task has one.
-    fn laid(&self, states: &[Tensor]) -> Option<Candidate> {
+    /// the hang measured on `states` (the initial guess's rollout), where the task has one;
+    /// `rollouts` counts the rollouts it took.
+    fn laid(&self, states: &[Tensor], rollouts: &std::cell::Cell<usize>) -> Option<Candidate> {
         let straight = self.straight_paths();
         let ends = straight.last()?;
-        let rollout = |paths: &Paths| self.model.simulate(&controls_of(paths)).ok();
+        let rollout = |paths: &Paths| {
+            rollouts.set(rollouts.get() + 1);
+            self.model.simulate(&controls_of(paths)).ok()
+        };
         let paths = lay_route(self.model, (&straight[0], ends), states, rollout)?;
         Some(Candidate {
             route: "lay".into(),
