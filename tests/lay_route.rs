@@ -65,7 +65,7 @@ fn a_towel_behind_a_rail_is_carried_over_it_and_laid_on_the_table() {
     let guess_states = model.simulate(&guess).unwrap();
     let (routes, built) = carried(&model, &guess, &guess_states);
     assert!(
-        (1..=4).contains(&built),
+        (1..=8).contains(&built),
         "{built} rollouts built the lay route"
     );
     assert_eq!(
@@ -108,8 +108,8 @@ fn a_towel_behind_a_rail_is_carried_over_it_and_laid_on_the_table() {
         "rail clearance {lay_clear:.4} (guess {guess_clear:.4}), largest error {lay_error:.4} \
          (guess {guess_error:.4})"
     );
-    // Measured: clearance 0.038 (the margin δ + tolerance is 0.04), the guess's 0.0003; largest
-    // error 0.093, the guess's 0.57.
+    // Measured: clearance 0.043 (the margin δ + tolerance is 0.04), the guess's 0.0003; largest
+    // error 0.052, the guess's 0.57.
     assert!(
         lay_clear > 0.02 && guess_clear < 0.005,
         "{lay_clear} {guess_clear}"

@@ -53,6 +53,9 @@ const LAG_CORRECTIONS: usize = 3;
 /// A lag within this fraction of the task tolerance is left uncorrected.
 const LAG_FRACTION: f64 = 0.25;
 
+/// Leads tried beside the best corrected one, in task tolerances (one rollout each).
+const LEAD_PROBES: [f64; 4] = [-1.0, -0.5, 0.5, 1.0];
+
 /// What a lay route is built from (module docs). Heights are along `up`.
 #[derive(Clone, Debug)]
 pub struct LaySpec<'a> {
@@ -331,7 +334,10 @@ pub fn surface_top(sdf: &Union, q: V, up: V, margin: f64, (lo, hi): (f64, f64)) 
 /// moves farther by that shortfall (of the *leading* free particles, whose targets lie within
 /// the tolerance of the farthest along the lay direction) and the route is built again, up to
 /// [`LAG_CORRECTIONS`] times or until the shortfall is within [`LAG_FRACTION`] of the tolerance;
-/// of these, the route whose rollout ends with the smallest largest target error is returned.
+/// then, unless the best so far lands every target within the tolerance, the leads
+/// [`LEAD_PROBES`] tolerances beside it are tried (the landing switches between equilibria within
+/// centimetres). Of these, the route whose rollout ends with the smallest largest target error is
+/// returned.
 /// `None` unless the targets lie flat (their heights within the task tolerance), some free
 /// target lies on a collider, the cloth hangs more than the tolerance below its grippers, and the
 /// route keeps the limits.
@@ -368,7 +374,7 @@ pub fn lay_route(
         return None;
     }
     let free_points: Vec<[f64; 3]> = free.iter().map(|(_, q)| [q.x, q.y, q.z]).collect();
-    let mut spec = LaySpec {
+    let spec = LaySpec {
         starts,
         ends,
         free_targets: &free_points,
@@ -411,38 +417,61 @@ pub fn lay_route(
         .filter(|(_, q)| (q - ce).dot(&d) >= reach - tolerance)
         .collect();
     let at = |x: &Tensor, p: usize| V::from_fn(|j, _| x.get(p, j));
-    let mut best: Option<(f64, Paths)> = None;
-    for _ in 0..=LAG_CORRECTIONS {
-        let Some(lay) = lay_paths(&spec, floor).filter(inside) else {
-            break;
-        };
+    // One route per lead: its paths, its rollout's largest target error (infinite when it cannot
+    // be simulated) and the leading particles' shortfall at its touch step.
+    let attempt = |lead: f64| -> Option<(Paths, f64, Option<f64>)> {
+        let lay = lay_paths(
+            &LaySpec {
+                lead,
+                ..spec.clone()
+            },
+            floor,
+        )
+        .filter(inside)?;
         let Some(states) = rollout(&lay.paths) else {
-            // A route that cannot be simulated is left to the planner to judge only uncorrected.
-            if best.is_none() {
-                best = Some((f64::INFINITY, lay.paths));
-            }
-            break;
+            return Some((lay.paths, f64::INFINITY, None));
         };
         let last = states.last()?;
         let error = targets
             .iter()
             .map(|&(p, q)| (at(last, p) - q).norm())
             .fold(0.0, f64::max);
-        if best.as_ref().is_none_or(|b| error < b.0) {
-            best = Some((error, lay.paths));
-        }
         let x = states.get(lay.touch)?;
         let short = leading
             .iter()
             .map(|&&(p, q)| (q - at(x, p)).dot(&d))
             .sum::<f64>()
             / leading.len() as f64;
-        if short.abs() <= LAG_FRACTION * tolerance {
-            break;
+        Some((lay.paths, error, Some(short)))
+    };
+    // (error, lead, paths) of the best route so far.
+    let mut best: Option<(f64, f64, Paths)> = None;
+    let keep = |best: &mut Option<(f64, f64, Paths)>, lead: f64, paths: Paths, error: f64| {
+        if best.as_ref().is_none_or(|b| error < b.0) {
+            *best = Some((error, lead, paths));
         }
-        spec.lead += short;
+    };
+    let mut lead = 0.0;
+    for _ in 0..=LAG_CORRECTIONS {
+        let Some((paths, error, short)) = attempt(lead) else {
+            break;
+        };
+        keep(&mut best, lead, paths, error);
+        match short {
+            Some(short) if short.abs() > LAG_FRACTION * tolerance => lead += short,
+            _ => break,
+        }
     }
-    best.map(|b| b.1)
+    // The landing switches between equilibria within centimetres of the touch point: unless the
+    // best route already lands within the tolerance, probe either side of its lead.
+    let centre = best.as_ref().filter(|b| b.0 > tolerance).map(|b| b.1);
+    for offset in centre.map_or(&[][..], |_| &LEAD_PROBES[..]) {
+        let lead = centre.unwrap_or(0.0) + offset * tolerance;
+        if let Some((paths, error, _)) = attempt(lead) {
+            keep(&mut best, lead, paths, error);
+        }
+    }
+    best.map(|b| b.2)
 }
 
 /// The largest depth, along `up`, of any particle below the centroid of the `held` particles,

@@ -5,7 +5,7 @@
 //!    ([`routes::carried`]: the grippers lifted on half circles, along the guess or the straight
 //!    path, where the start's rollout rests the cloth on a collider; and the lay route of a
 //!    hanging cloth to be laid flat, [`lay`]) when its rollout is safer or, as safe, has the
-//!    lower `L`: a few rollouts decide it (up to four more to build the lay route), and the
+//!    lower `L`: a few rollouts decide it (up to eight more to build the lay route), and the
 //!    guess becomes a candidate route. With
 //!    [`SearchMode::Auto`] an achieved task ends the search here: no extra work. Under a deadline this plan gets half the time,
 //!    and the goal stage after it half of the rest, so that a guess the planner stalls on
