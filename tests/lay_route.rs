@@ -1,4 +1,4 @@
-//! The lay route (`src/search/lay.rs`): a towel hanging behind a rail is lifted over it and laid
+//! The lay route (`src/search/lay/`): a towel hanging behind a rail is lifted over it and laid
 //! on the table behind it, within the scene's step limit, and is offered only where it fits.
 
 use autodiff::Tensor;

@@ -130,7 +130,7 @@ pub fn propose(
 /// When the rollout `states` of the controls `initial` rests the cloth on a collider, the carry
 /// routes ([`super::carry`]) of `initial` (`initial guess, carried`) and of the straight path
 /// (`straight, carried`; its end is the grippers' targets), each once; none otherwise. The lay
-/// route (`lay.rs`, `lay`) first, where the task has one. Also returns how many rollouts
+/// route (`lay/`, `lay`) first, where the task has one. Also returns how many rollouts
 /// building them took (the lay route's corrections for the cloth's lag).
 pub fn carried(model: &Model, initial: &Controls, states: &[Tensor]) -> (Vec<Candidate>, usize) {
     let geometry = Geometry::new(model, 0.0, false);
@@ -254,7 +254,7 @@ impl<'a> Geometry<'a> {
         })
     }
 
-    /// The lay route (`lay.rs`) from the grippers' starts to the straight path's ends, with
+    /// The lay route (`lay/`) from the grippers' starts to the straight path's ends, with
     /// the hang measured on `states` (the initial guess's rollout), where the task has one;
     /// `rollouts` counts the rollouts it took.
     fn laid(&self, states: &[Tensor], rollouts: &std::cell::Cell<usize>) -> Option<Candidate> {
