@@ -3,9 +3,10 @@
 //!
 //! 1. Plan from the given start ([`crate::plan::plan`]), or from a carry route
 //!    ([`routes::carried`]: the grippers lifted on half circles, along the guess or the straight
-//!    path) when the start's rollout rests the cloth on a collider and the carry route's rollout
-//!    is safer or, as safe, has the lower `L`: up to three rollouts decide it, and the guess
-//!    becomes a candidate route. With
+//!    path, where the start's rollout rests the cloth on a collider; and the lay route of a
+//!    hanging cloth to be laid flat, `lay/`) when its rollout is safer or, as safe, has the
+//!    lower `L`: a few rollouts decide it (up to eight more to build the lay route), and the
+//!    guess becomes a candidate route. With
 //!    [`SearchMode::Auto`] an achieved task ends the search here: no extra work. Under a deadline this plan gets half the time,
 //!    and the goal stage after it half of the rest, so that a guess the planner stalls on
 //!    leaves the other routes time.
@@ -28,6 +29,7 @@
 //! The search lives in the root package: `optim` stays problem-agnostic.
 
 mod carry;
+mod lay;
 mod obstacles;
 pub mod routes;
 
@@ -197,9 +199,10 @@ const GOAL_FRACTION: f64 = 0.98;
 
 /// The first plan's start (its route's name, its controls, and the rollouts simulated to choose
 /// it): the initial guess `start`, or a carry route ([`routes::carried`]: the guess's or the
-/// straight path's) when the guess's rollout rests the cloth on a collider and the carry route's
-/// rollout ranks before the guess's by (safe at `δ`, `L`). A guess that drags the cloth across a table or itself is a poor start
-/// that the gradient cannot repair; lifting it is one rollout away.
+/// straight path's, when the guess's rollout rests the cloth on a collider; the lay route, where
+/// the task has one) whose rollout ranks before the guess's by (safe at `δ`, `L`). A guess that
+/// drags the cloth across a table or itself is a poor start that the gradient cannot repair;
+/// lifting it is one rollout away.
 fn first_start(
     model: &Model,
     start: &Controls,
@@ -224,8 +227,8 @@ fn first_start(
         let (route, u) = guess();
         return (route, u, 1);
     };
-    let carried = routes::carried(model, start, &states);
-    let rollouts = 1 + carried.len();
+    let (carried, building) = routes::carried(model, start, &states);
+    let rollouts = 1 + building + carried.len();
     let mut best = (score(&states, start), None);
     for carry in carried {
         if let Ok(carry_states) = model.simulate(&carry.controls) {

@@ -24,6 +24,7 @@
 //! up to the cloth's size) complete the set. Everything is deterministic.
 
 use super::carry::carry_paths;
+use super::lay::lay_route;
 use super::obstacles::in_the_way;
 use autodiff::Tensor;
 use cloth::sdf::{SignedDistance, Union};
@@ -89,12 +90,16 @@ pub fn propose(
         });
     }
     // Per base path: its carry route where its rollout rests the cloth on a collider, and its
-    // detours, ordered by rank (best direction per segment first).
+    // detours, ordered by rank (best direction per segment first); the lay route (from the
+    // guess's rollout) first.
     let mut detours: Vec<Vec<Candidate>> = Vec::new();
-    for (name, base) in &bases {
+    for (i, (name, base)) in bases.iter().enumerate() {
         let Ok(states) = model.simulate(&controls_of(base)) else {
             continue;
         };
+        if i == 0 {
+            out.extend(geometry.laid(&states, &std::cell::Cell::new(0)));
+        }
         out.extend(geometry.carried(name, base, &states));
         detours.push(geometry.detours(name, base, &states));
     }
@@ -124,10 +129,13 @@ pub fn propose(
 
 /// When the rollout `states` of the controls `initial` rests the cloth on a collider, the carry
 /// routes ([`super::carry`]) of `initial` (`initial guess, carried`) and of the straight path
-/// (`straight, carried`; its end is the grippers' targets), each once; none otherwise.
-pub fn carried(model: &Model, initial: &Controls, states: &[Tensor]) -> Vec<Candidate> {
+/// (`straight, carried`; its end is the grippers' targets), each once; none otherwise. The lay
+/// route (`lay/`, `lay`) first, where the task has one. Also returns how many rollouts
+/// building them took (the lay route's corrections for the cloth's lag).
+pub fn carried(model: &Model, initial: &Controls, states: &[Tensor]) -> (Vec<Candidate>, usize) {
     let geometry = Geometry::new(model, 0.0, false);
-    let mut out: Vec<Candidate> = Vec::new();
+    let rollouts = std::cell::Cell::new(0);
+    let mut out: Vec<Candidate> = geometry.laid(states, &rollouts).into_iter().collect();
     let bases = [
         ("initial guess", paths_of(model, initial)),
         ("straight", geometry.straight_paths()),
@@ -143,7 +151,7 @@ pub fn carried(model: &Model, initial: &Controls, states: &[Tensor]) -> Vec<Cand
             }
         }
     }
-    out
+    (out, rollouts.get())
 }
 
 /// What the proposals need to know about the scene.
@@ -243,6 +251,23 @@ impl<'a> Geometry<'a> {
         Some(Candidate {
             route: format!("{name}, carried"),
             controls: controls_of(&carry),
+        })
+    }
+
+    /// The lay route (`lay/`) from the grippers' starts to the straight path's ends, with
+    /// the hang measured on `states` (the initial guess's rollout), where the task has one;
+    /// `rollouts` counts the rollouts it took.
+    fn laid(&self, states: &[Tensor], rollouts: &std::cell::Cell<usize>) -> Option<Candidate> {
+        let straight = self.straight_paths();
+        let ends = straight.last()?;
+        let rollout = |paths: &Paths| {
+            rollouts.set(rollouts.get() + 1);
+            self.model.simulate(&controls_of(paths)).ok()
+        };
+        let paths = lay_route(self.model, (&straight[0], ends), states, rollout)?;
+        Some(Candidate {
+            route: "lay".into(),
+            controls: controls_of(&paths),
         })
     }
 
