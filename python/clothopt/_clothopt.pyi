@@ -67,6 +67,7 @@ class Scene:
         swept: Optional[bool] = None,
         kappa: Optional[float] = None,
         reuse_band: Optional[float] = None,
+        trial_work_factor: Optional[float] = None,
         tol: float = 1e-4,
         feasibility_tol: float = 1e-8,
         allow_unsafe_start: bool = False,
