@@ -512,6 +512,7 @@ impl Scene {
                     load_steps: physics.load_steps.unwrap_or(d.load_steps),
                     load_halvings: physics.load_halvings.unwrap_or(halvings),
                     linear_solver: physics.linear_solver.setting(),
+                    shift_stalled: physics.shift_stalled.unwrap_or(d.shift_stalled),
                     ..d
                 })
             }

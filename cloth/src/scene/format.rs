@@ -343,6 +343,10 @@ pub struct Physics {
     /// [`crate::LinearSolver`].
     #[serde(default, skip_serializing_if = "LinearSolverKind::is_direct")]
     pub linear_solver: LinearSolverKind,
+    /// Newton only: shift the exact Hessian where the projected one stalls (default true), see
+    /// [`crate::NewtonSettings::shift_stalled`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shift_stalled: Option<bool>,
     /// Self-collision of the cloth (absent: none), see `cloth/src/contact/self_collision.rs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub self_collision: Option<SelfCollisionSpec>,
