@@ -232,13 +232,9 @@ impl<'a> TrajectoryProblem<'a> {
             let controls = self.controls(x);
             self.simulations += 1;
             // A trial's rollout stops past its work bound (`TaskOptions::trial_work_factor`).
+            // (A float-to-integer cast saturates: an infinite factor is no bound.)
             let bound = self.iterate_work.filter(|_| trial).map_or(usize::MAX, |w| {
-                let b = (w.max(1) as f64 * self.options.trial_work_factor).ceil();
-                if b < usize::MAX as f64 {
-                    b as usize
-                } else {
-                    usize::MAX
-                }
+                (w.max(1) as f64 * self.options.trial_work_factor).ceil() as usize
             });
             let (states, work) = (self.model)
                 .simulate_counted(&controls, bound)

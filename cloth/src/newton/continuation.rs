@@ -99,7 +99,7 @@ impl Model {
                 let r = self.newton_rollout(controls, settings, 0, max_newton_iterations)?;
                 Ok((r.states, r.stats.iter().map(|s| s.iterations).sum()))
             }
-            _ => Ok((self.simulate(controls)?, 0)),
+            crate::Solver::Xpbd => Ok((self.simulate(controls)?, 0)),
         }
     }
 

@@ -237,9 +237,24 @@ const MAX_SADDLE_ESCAPES: usize = 8;
 
 /// A whole step with the projected Hessian that leaves the KKT residual above this fraction of
 /// where it started has stalled (the solve then shifts the exact Hessian instead).
-pub(super) const STALLED_PROJECTION: f64 = 0.9;
+const STALLED_PROJECTION: f64 = 0.9;
 /// The first shift of the exact Hessian, in units of its mean diagonal.
-pub(super) const FIRST_SHIFT: f64 = 1e-3;
+const FIRST_SHIFT: f64 = 1e-3;
+
+/// A solve's shift state after an iterate with residual `res`: `shift` as it was, or, where
+/// shifting is `enabled` and the whole projected step that started at residual `projected_from`
+/// left the residual above [`STALLED_PROJECTION`] of that (the projection stiffens the soft
+/// modes the iterate moves along), [`FIRST_SHIFT`]: from then on the solve shifts the exact
+/// Hessian instead of projecting it.
+pub(super) fn shift_after(
+    shift: Option<f64>,
+    projected_from: Option<f64>,
+    res: f64,
+    enabled: bool,
+) -> Option<f64> {
+    let stalled = projected_from.is_some_and(|before| res > STALLED_PROJECTION * before);
+    shift.or((enabled && stalled).then_some(FIRST_SHIFT))
+}
 /// Factorizations tried per shifted Newton matrix (the shift grows 4× each).
 const SHIFT_TRIES: usize = 12;
 

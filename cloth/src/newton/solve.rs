@@ -20,7 +20,7 @@
 
 use super::assembly::{HessianKind, Pattern};
 use super::contact::Contacts;
-use super::curvature::{FIRST_SHIFT, STALLED_PROJECTION};
+use super::curvature::shift_after;
 use super::factor::Factor;
 use super::factor::FactorCounts;
 pub use super::stats::StepStats;
@@ -426,17 +426,13 @@ impl NewtonSystem {
             });
         }
         run.stats.iterations += 1;
-        // A whole projected step that left the residual nearly where it was: the projection
-        // stiffens the soft modes the iterate moves along, so the solve shifts the exact Hessian
-        // instead from now on.
-        if let Some(before) = run.projected_from.take() {
-            if test.res > STALLED_PROJECTION * before
-                && run.shift.is_none()
-                && run.settings.shift_stalled
-            {
-                run.shift = Some(FIRST_SHIFT);
-            }
-        }
+        let stalled_from = run.projected_from.take();
+        run.shift = shift_after(
+            run.shift,
+            stalled_from,
+            test.res,
+            run.settings.shift_stalled,
+        );
         if !test.exact_pd {
             run.stats.projected += 1;
             let shift = run.shift.filter(|_| test.exact_tried);
