@@ -83,6 +83,15 @@ impl Watch {
         }
     }
 
+    /// Records why the run stops when its deadline has passed or its flag is raised, as the
+    /// next [`Watch::observe`] would: for a solver stopped inside an iteration (a line-search
+    /// trial declined at the deadline), which calls back no more.
+    pub fn notice(&mut self) {
+        if self.stopped.is_none() {
+            self.stopped = self.expired();
+        }
+    }
+
     /// Records `info` and says whether the solver may go on.
     pub fn observe(&mut self, info: &IterationInfo) -> ControlFlow<()> {
         let feasible = info.constraint_violation <= self.tol_feasibility;

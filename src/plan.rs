@@ -203,8 +203,11 @@ pub fn plan(
         watch.borrow_mut().observe(info)
     };
     let warm = smooth_stage(model, start, options, &mut callback)?;
-    let mut problem =
-        TrajectoryProblem::new(model, options.task.clone()).with_initial_hessian(warm.hessian);
+    let mut problem = TrajectoryProblem::new(model, options.task.clone())
+        .with_initial_hessian(warm.hessian)
+        .with_stop(options.deadline, options.stop.clone());
+    // A stage a line-search trial stopped (at the deadline) did not call back after it.
+    watch.borrow_mut().notice();
     let stopped_early = watch.borrow().stopped.is_some();
     let sharp_skipped = warm.settled.is_some() && !stopped_early;
     let mut solution = sharp_stage(
@@ -215,6 +218,7 @@ pub fn plan(
         stopped_early,
         &mut callback,
     )?;
+    watch.borrow_mut().notice();
     let wall_s = clock.elapsed().as_secs_f64();
     let mut stages: Vec<Stage> = warm.stage.into_iter().collect();
     if !sharp_skipped {
@@ -346,11 +350,13 @@ fn smooth_stage(
     };
     let mut task = options.task.clone();
     task.kappa = kappa;
-    let mut warm =
-        TrajectoryProblem::new(model, task).with_initial_hessian(options.initial_hessian.clone());
+    let mut warm = TrajectoryProblem::new(model, task)
+        .with_initial_hessian(options.initial_hessian.clone())
+        .with_stop(options.deadline, options.stop.clone());
     let settings = sqp_settings(options, 10.0 * options.tol_optimality)?;
     let solution =
         SqpSolver::new(settings)?.solve_with_callback(&mut warm, start.data(), callback)?;
+    warm.lift_stop();
     let settled = (!sharp_stage_needed(&mut warm, &solution)?).then(|| {
         format!(
             "{}; the κ = {} stage was not run: no safety row is active at this plan, so it would start where the progress test stopped (its rows are looser there)",
@@ -397,7 +403,7 @@ fn sharp_stage(
     stopped_early: bool,
     callback: &mut impl FnMut(&IterationInfo) -> ControlFlow<()>,
 ) -> Result<optim::Solution> {
-    Ok(match (options.solver, settled) {
+    let solution = match (options.solver, settled) {
         _ if stopped_early => not_run(x0, Status::Interrupted, String::new()),
         (_, Some(message)) => {
             let mut solution = not_run(x0, Status::NoProgress, message);
@@ -419,7 +425,9 @@ fn sharp_stage(
                 .build()?;
             LbfgsSolver::new(settings)?.solve_with_callback(problem, x0, callback)?
         }
-    })
+    };
+    problem.lift_stop();
+    Ok(solution)
 }
 
 /// A stage as the result lists it: its κ (`None` without soft-min rows), iterations and status.

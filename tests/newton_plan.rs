@@ -74,8 +74,12 @@ fn a_trial_rollout_past_its_work_bound_is_a_failed_evaluation() {
         .data()
         .to_vec();
     let x1: Vec<f64> = x0.iter().map(|v| 1.5 * v).collect();
-    let work = |x: &[f64]| model.simulate_counted(&model_controls(&model, x), usize::MAX);
-    let (w0, w1) = (work(&x0).unwrap().1, work(&x1).unwrap().1);
+    let work = |x: &[f64]| {
+        let limits = cloth::RolloutLimits::default();
+        let (_, per_step) = model.simulate_counted(&model_controls(&model, x), &limits)?;
+        Ok::<usize, cloth::ClothError>(per_step.iter().sum())
+    };
+    let (w0, w1) = (work(&x0).unwrap(), work(&x1).unwrap());
     assert!(w0 > 10 && w1 > 10, "{w0} {w1}");
     let mut options = TaskOptions::for_model(&model);
     // A bound below the trial's work: w1 > factor · w0.
@@ -96,6 +100,37 @@ fn a_trial_rollout_past_its_work_bound_is_a_failed_evaluation() {
     let mut problem = TrajectoryProblem::new(&model, options);
     problem.gradient(&x0, &mut g).unwrap();
     assert!(problem.objective(&x1).is_ok());
+}
+
+/// Past the run's deadline a trial's value is declined as an interruption (the solver returns
+/// its last iterate instead of shortening the step), under Newton and XPBD alike; iterates'
+/// derivatives are completed; once the stop is lifted (the plan's verdict) values are computed.
+#[test]
+fn a_trial_past_the_deadline_interrupts_the_run() {
+    use clothopt::problem::{TaskOptions, TrajectoryProblem};
+    use optim::Problem;
+    for physics in [SolverKind::Newton, SolverKind::Xpbd] {
+        let mut scene = newton_scene(4);
+        scene.physics.solver = physics;
+        let model = Model::from_scene(&scene).unwrap();
+        let x0 = plan::initial_controls(&scene, &model)
+            .unwrap()
+            .data()
+            .to_vec();
+        let x1: Vec<f64> = x0.iter().map(|v| 1.5 * v).collect();
+        let mut problem = TrajectoryProblem::new(&model, TaskOptions::for_model(&model))
+            .with_stop(Some(std::time::Instant::now()), None);
+        let mut g = vec![0.0; x0.len()];
+        problem.gradient(&x0, &mut g).unwrap();
+        let err = problem.objective(&x1).unwrap_err();
+        assert!(err.is_interrupt(), "{physics:?}: {err}");
+        assert!(err.to_string().contains("deadline"), "{err}");
+        // Derivatives are never declined; after the lift, values neither.
+        problem.gradient(&x1, &mut g).unwrap();
+        let x2: Vec<f64> = x0.iter().map(|v| 0.5 * v).collect();
+        problem.lift_stop();
+        assert!(problem.objective(&x2).is_ok(), "{physics:?}");
+    }
 }
 
 fn model_controls(model: &Model, x: &[f64]) -> autodiff::Tensor {

@@ -110,14 +110,21 @@ pub enum ClothError {
     /// ([`crate::Model::simulate_counted`]) passed it.
     #[error(
         "Newton rollout stopped at step {step} after {iterations} iterations: it would take more \
-         than the {bound} allowed"
+         than the {bound} allowed by the end of that step"
     )]
     NewtonWorkExceeded {
         /// The step (1-based) whose solve would have passed the bound.
         step: usize,
         /// Newton iterations taken (the bound).
         iterations: usize,
-        /// The bound.
+        /// The bound: the iterations allowed by the end of that step.
         bound: usize,
+    },
+    /// A counted rollout ([`crate::Model::simulate_counted`]) was asked to stop: its deadline
+    /// passed or its stop flag was raised ([`crate::RolloutLimits`]).
+    #[error("rollout stopped at step {step}: its deadline passed or it was interrupted")]
+    RolloutStopped {
+        /// The step (1-based) that was being solved.
+        step: usize,
     },
 }

@@ -49,6 +49,7 @@ pub use obj::{ObjError, ObjMesh};
 pub use registry::{ConstraintRegistry, CustomInput};
 pub use rollout::grad::{RecordedRollout, StepCost};
 pub use rollout::layers::LayerGap;
+pub use rollout::limits::RolloutLimits;
 pub use rollout::metrics::{null_as_infinity, Evaluation, Metrics};
 pub use rollout::penetration::Penetration;
 pub use scene::Scene;

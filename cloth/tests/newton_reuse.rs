@@ -11,7 +11,7 @@ use cloth::internals::NewtonSystem;
 use cloth::scene::{ContactModel, ObstacleRole, SolverKind};
 use cloth::StepCost;
 use cloth::StepStats;
-use cloth::{Model, Scene};
+use cloth::{Model, RolloutLimits, Scene};
 use cloth::{NewtonSettings, Solver};
 use common::{assert_minimizers, bitwise_eq, plane, small_scene, BendKind, XorShift};
 
@@ -228,27 +228,65 @@ fn chord_steps_do_not_change_the_gradients_beyond_the_tolerance() {
 fn a_counted_rollout_stops_past_its_bound_and_names_the_step() {
     let (model, u) = on_the_floor();
     let (states, stats) = model.simulate_newton(&u, &settings(&model)).unwrap();
-    let work: usize = stats.iter().map(|s| s.iterations).sum();
-    // Unbounded: the same states and the rollout's Newton iterations.
-    let (counted, w) = model.simulate_counted(&u, usize::MAX).unwrap();
-    assert_eq!(w, work);
+    let per_step: Vec<usize> = stats.iter().map(|s| s.iterations).collect();
+    let work: usize = per_step.iter().sum();
+    assert!(per_step[0] >= 2, "{per_step:?}");
+    // Unbounded: the same states and each step's Newton iterations.
+    let (counted, w) = model
+        .simulate_counted(&u, &RolloutLimits::default())
+        .unwrap();
+    assert_eq!(w, per_step);
     assert!(states.iter().zip(&counted).all(|(a, b)| bitwise_eq(a, b)));
-    // A bound the first two steps pass: stops in step 2, at the bound.
-    let bound = stats[0].iterations + stats[1].iterations - 1;
-    match model.simulate_counted(&u, bound) {
-        Err(cloth::ClothError::NewtonWorkExceeded {
-            step,
-            iterations,
-            bound: b,
-        }) => {
-            assert_eq!((step, b, iterations), (2, bound, bound));
-        }
-        other => panic!("expected NewtonWorkExceeded, got {other:?}"),
-    }
-    // Exactly the rollout's work is within the bound.
-    assert!(model.simulate_counted(&u, work).is_ok());
-    // XPBD counts no work and is never stopped.
+    let expect_exceeded =
+        |limits: &RolloutLimits, at: (usize, usize)| match model.simulate_counted(&u, limits) {
+            Err(cloth::ClothError::NewtonWorkExceeded {
+                step,
+                iterations,
+                bound,
+            }) => assert_eq!((step, iterations), at, "bound {bound}"),
+            other => panic!("expected NewtonWorkExceeded, got {other:?}"),
+        };
+    // A total bound the first two steps pass: stops in step 2, at the bound.
+    let bound = per_step[0] + per_step[1] - 1;
+    expect_exceeded(&RolloutLimits::total(bound), (2, bound));
+    // A schedule holding step 1 below its work stops there, however loose the total.
+    let schedule = RolloutLimits {
+        cumulative_iterations: vec![per_step[0] - 1, usize::MAX],
+        ..RolloutLimits::default()
+    };
+    expect_exceeded(&schedule, (1, per_step[0] - 1));
+    // Exactly the rollout's work, in all or step by step, is within the bound.
+    assert!(model
+        .simulate_counted(&u, &RolloutLimits::total(work))
+        .is_ok());
+    let cumulative: Vec<usize> = per_step
+        .iter()
+        .scan(0, |sum, w| {
+            *sum += w;
+            Some(*sum)
+        })
+        .collect();
+    let exact = RolloutLimits {
+        cumulative_iterations: cumulative,
+        ..RolloutLimits::default()
+    };
+    assert!(model.simulate_counted(&u, &exact).is_ok());
+    // A deadline already past stops the rollout before its first step, naming it.
+    let past = RolloutLimits {
+        deadline: Some(std::time::Instant::now()),
+        ..RolloutLimits::default()
+    };
+    let stopped = |m: &Model| {
+        matches!(
+            m.simulate_counted(&u, &past),
+            Err(cloth::ClothError::RolloutStopped { step: 1 })
+        )
+    };
+    assert!(stopped(&model));
+    // XPBD counts no work and is never held to it, but stops at the deadline too.
     let mut xpbd = model.clone();
     xpbd.solver = Solver::Xpbd;
-    assert_eq!(xpbd.simulate_counted(&u, 0).unwrap().1, 0);
+    let zero = xpbd.simulate_counted(&u, &RolloutLimits::total(0)).unwrap();
+    assert_eq!(zero.1, vec![0; per_step.len()]);
+    assert!(stopped(&xpbd));
 }

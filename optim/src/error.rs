@@ -46,6 +46,7 @@ pub enum OptimError {
 #[error("{message}")]
 pub struct EvalError {
     message: String,
+    interrupt: bool,
 }
 
 impl EvalError {
@@ -53,7 +54,23 @@ impl EvalError {
     pub fn new(message: impl Into<String>) -> Self {
         Self {
             message: message.into(),
+            interrupt: false,
         }
+    }
+
+    /// An evaluation the problem declined because the run must stop (its deadline passed, the
+    /// user interrupted it): the SQP does not shorten the step but ends the run
+    /// [`Interrupted`](crate::Status::Interrupted), returning its last iterate.
+    pub fn interrupted(message: impl Into<String>) -> Self {
+        Self {
+            message: message.into(),
+            interrupt: true,
+        }
+    }
+
+    /// True for an error made by [`EvalError::interrupted`].
+    pub fn is_interrupt(&self) -> bool {
+        self.interrupt
     }
 
     /// The reason given when the error was created.

@@ -112,6 +112,9 @@ pub(crate) struct Evaluator<'p, P: Problem + ?Sized> {
     pub h_scale: Vec<f64>,
     /// Inequality rows at least this far above zero may keep their previous Jacobian rows.
     pub reuse_margin: Option<f64>,
+    /// Why the problem declined an evaluation because the run must stop, if it did
+    /// ([`EvalError::interrupted`]).
+    pub interruption: Option<String>,
 }
 
 impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
@@ -155,6 +158,7 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
             c_scale: vec![1.0; problem_m],
             h_scale: vec![1.0; problem_q],
             reuse_margin: None,
+            interruption: None,
         })
     }
 
@@ -165,9 +169,20 @@ impl<'p, P: Problem + ?Sized> Evaluator<'p, P> {
         }
     }
 
-    /// Objective, norm terms and constraints at `x`.
+    /// Objective, norm terms and constraints at `x`. An error that interrupts the run
+    /// ([`EvalError::interrupted`]) is also kept in [`Evaluator::interruption`].
     pub(crate) fn values(&mut self, x: &[f64]) -> Result<PointValues, EvalError> {
         self.function_evaluations += 1;
+        let values = self.evaluate_values(x);
+        if let Err(e) = &values {
+            if e.is_interrupt() {
+                self.interruption = Some(e.to_string());
+            }
+        }
+        values
+    }
+
+    fn evaluate_values(&mut self, x: &[f64]) -> Result<PointValues, EvalError> {
         let f = self.problem.objective(x)?;
         if !f.is_finite() {
             return Err(EvalError::new(format!("objective is not finite ({f})")));

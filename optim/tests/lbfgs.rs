@@ -160,21 +160,29 @@ impl Problem for Elliptic {
 fn callback_sees_each_iteration_once_across_a_memory_reset() {
     let mut seen = Vec::new();
     let sol = solver()
-        .solve_with_callback(
-            &mut FailsAfter {
-                problem: Elliptic,
-                budget: 4,
-            },
-            &[1.0, 1.0],
-            |info| {
-                seen.push(info.iteration);
-                ControlFlow::Continue(())
-            },
-        )
+        .solve_with_callback(&mut FailsAfter::new(Elliptic, 4), &[1.0, 1.0], |info| {
+            seen.push(info.iteration);
+            ControlFlow::Continue(())
+        })
         .unwrap();
     // The line search fails with a non-empty memory, which is reset and the iteration repeated.
     assert_eq!(sol.status, Status::EvaluationFailed, "{}", sol.message);
     assert!(sol.iterations >= 1);
     let expected: Vec<usize> = (0..=sol.iterations).collect();
     assert_eq!(seen, expected);
+}
+
+#[test]
+fn an_interrupting_evaluation_ends_the_run_at_once() {
+    let mut problem = FailsAfter::interrupting(Elliptic, 4);
+    let sol = solver().solve(&mut problem, &[1.0, 1.0]).unwrap();
+    assert_eq!(sol.status, Status::Interrupted, "{}", sol.message);
+    assert!(sol.message.contains("out of time"), "{}", sol.message);
+    // One declined trial ends the run: no memory reset, no further trials (with plain failures,
+    // the test above, the line search tries again and the run ends `evaluation_failed`).
+    assert_eq!(problem.failed, 1);
+    assert!(
+        sol.objective < 11.0,
+        "the last accepted iterate, not the start"
+    );
 }

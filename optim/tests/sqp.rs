@@ -178,11 +178,8 @@ fn callback_sees_each_iteration_once_across_a_hessian_reset() {
     let mut seen = Vec::new();
     let sol = solver()
         .solve_with_callback(
-            &mut FailsAfter {
-                // min x₀² + 10 x₁²  s.t.  x₀ + x₁ ≥ 1, its objective failing after 4 evaluations.
-                problem: AboveLine { w: 10.0, s: 1.0 },
-                budget: 4,
-            },
+            // min x₀² + 10 x₁²  s.t.  x₀ + x₁ ≥ 1, its objective failing after 4 evaluations.
+            &mut FailsAfter::new(AboveLine { w: 10.0, s: 1.0 }, 4),
             &[3.0, -1.0],
             |info| {
                 seen.push(info.iteration);
@@ -195,6 +192,19 @@ fn callback_sees_each_iteration_once_across_a_hessian_reset() {
     assert!(sol.iterations >= 1);
     let expected: Vec<usize> = (0..=sol.iterations).collect();
     assert_eq!(seen, expected);
+}
+
+#[test]
+fn an_interrupting_evaluation_ends_the_run_at_once() {
+    // The same problem, its evaluations declined after 4 as a planner's deadline declines them.
+    let mut problem = FailsAfter::interrupting(AboveLine { w: 10.0, s: 1.0 }, 4);
+    let sol = solver().solve(&mut problem, &[3.0, -1.0]).unwrap();
+    assert_eq!(sol.status, Status::Interrupted, "{}", sol.message);
+    assert!(sol.message.contains("out of time"), "{}", sol.message);
+    // One declined trial ends the run: no shorter step, no Hessian reset (with plain failures,
+    // the test above, the line search halves and the run ends `evaluation_failed`).
+    assert_eq!(problem.failed, 1);
+    assert_eq!(sol.function_evaluations, 5);
 }
 
 /// `min (x₀ − 0.3)² + x₁²  s.t.  x₀² + x₁² ≥ 1,  x₀ ≤ 2`, from (0.1, 0): the linearization

@@ -65,8 +65,8 @@ pub struct OptimizeArgs {
     #[arg(long, allow_negative_numbers = true)]
     reuse_band: Option<f64>,
     /// Newton physics: a line-search trial whose rollout would take more than this many times
-    /// the Newton iterations of its iterate's rollout is stopped and counts as a step too long
-    /// (default 4; `inf` never stops one).
+    /// the Newton iterations of its iterate's rollout (step by step) is stopped and counts as a
+    /// step too long (default `inf`: never; 2–4 pays where contact makes trials costly).
     #[arg(long, allow_negative_numbers = true)]
     trial_work_factor: Option<f64>,
     /// The solver.

@@ -42,9 +42,11 @@ use crate::control_rows::{
 };
 use autodiff::{soft_min_value, soft_min_weights, RowIndex, Tape, Tensor, Var};
 use cloth::StepCost;
-use cloth::{ClothError, Controls, Model};
+use cloth::{ClothError, Controls, Model, RolloutLimits};
 use optim::{DenseMatrix, EvalError, Jacobian, NormTerm, Problem, ResidualNorm};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use std::time::Instant;
 
 /// An owned per-step cost (see [`StepCost`]).
 type BoxedStepCost<'a> = Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> + Sync + 'a>;
@@ -52,8 +54,8 @@ type BoxedStepCost<'a> = Box<dyn Fn(&mut Tape, usize, Var, Var) -> Option<Var> +
 /// Forward results at one point.
 struct Forward {
     x: Vec<f64>,
-    /// Newton iterations of the rollout (0 under XPBD).
-    work: usize,
+    /// Newton iterations of each step of the rollout (0 under XPBD).
+    work: Vec<usize>,
     states: Vec<Tensor>,
     smooth: f64,
     /// Per-step soft-min rows (per-step and aggregate forms).
@@ -114,9 +116,12 @@ pub struct TrajectoryProblem<'a> {
     pub simulations: usize,
     /// Gradient evaluations (backward passes over the rollout) so far.
     pub gradient_evaluations: usize,
-    /// Newton iterations of the rollout at the last point whose gradient was evaluated: the
-    /// reference of [`TaskOptions::trial_work_factor`].
-    iterate_work: Option<usize>,
+    /// Newton iterations of each step of the rollout at the last point whose gradient was
+    /// evaluated: the reference of [`TaskOptions::trial_work_factor`].
+    iterate_work: Option<Vec<usize>>,
+    /// The run's deadline and stop flag: a trial's rollout stops at them
+    /// ([`TrajectoryProblem::with_stop`]).
+    stop: RolloutLimits,
 }
 
 impl<'a> TrajectoryProblem<'a> {
@@ -139,6 +144,7 @@ impl<'a> TrajectoryProblem<'a> {
             simulations: 0,
             gradient_evaluations: 0,
             iterate_work: None,
+            stop: RolloutLimits::default(),
         }
     }
 
@@ -148,6 +154,24 @@ impl<'a> TrajectoryProblem<'a> {
     pub fn with_initial_hessian(mut self, hessian: Option<DenseMatrix>) -> Self {
         self.initial_hessian = hessian;
         self
+    }
+
+    /// Stops trial rollouts (values at points that are not iterates) once `deadline` has passed
+    /// or `stop` is raised: such an evaluation ends with [`EvalError::interrupted`], and the
+    /// solver returns its last iterate. Iterates' derivatives are always completed.
+    pub fn with_stop(mut self, deadline: Option<Instant>, stop: Option<Arc<AtomicBool>>) -> Self {
+        self.stop = RolloutLimits {
+            deadline,
+            stop,
+            ..RolloutLimits::default()
+        };
+        self
+    }
+
+    /// Lifts [`TrajectoryProblem::with_stop`]'s deadline and flag: the solver has returned, and
+    /// what follows (the plan's verdict) evaluates the problem to the end.
+    pub fn lift_stop(&mut self) {
+        self.stop = RolloutLimits::default();
     }
 
     /// The model.
@@ -231,13 +255,19 @@ impl<'a> TrajectoryProblem<'a> {
         if self.forward.as_ref().is_none_or(|f| f.x != x) {
             let controls = self.controls(x);
             self.simulations += 1;
-            // A trial's rollout stops past its work bound (`TaskOptions::trial_work_factor`).
-            // (A float-to-integer cast saturates: an infinite factor is no bound.)
-            let bound = self.iterate_work.filter(|_| trial).map_or(usize::MAX, |w| {
-                (w.max(1) as f64 * self.options.trial_work_factor).ceil() as usize
-            });
+            // A trial's rollout stops past its work schedule (`TaskOptions::trial_work_factor`)
+            // and at the run's deadline.
+            let limits = match (trial, &self.iterate_work) {
+                (false, _) => RolloutLimits::default(),
+                (true, work) => RolloutLimits {
+                    cumulative_iterations: work
+                        .as_deref()
+                        .map_or_else(Vec::new, |w| self.options.trial_schedule(w)),
+                    ..self.stop.clone()
+                },
+            };
             let (states, work) = (self.model)
-                .simulate_counted(&controls, bound)
+                .simulate_counted(&controls, &limits)
                 .map_err(eval_error)?;
             let mut tape = Tape::new();
             let mut smooth = 0.0;
@@ -347,7 +377,7 @@ impl<'a> TrajectoryProblem<'a> {
             self.ensure_forward(x, false)?;
             let backward = self.pull_back(x, wanted)?;
             self.gradient_evaluations += 1;
-            self.iterate_work = self.forward.as_ref().map(|f| f.work);
+            self.iterate_work = self.forward.as_ref().map(|f| f.work.clone());
             self.backward = Some(backward);
         }
         self.backward
@@ -534,7 +564,10 @@ impl<'a> TrajectoryProblem<'a> {
 }
 
 fn eval_error(e: ClothError) -> EvalError {
-    EvalError::new(e.to_string())
+    match e {
+        ClothError::RolloutStopped { .. } => EvalError::interrupted(e.to_string()),
+        _ => EvalError::new(e.to_string()),
+    }
 }
 
 impl Problem for TrajectoryProblem<'_> {

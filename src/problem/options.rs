@@ -74,16 +74,21 @@ pub struct TaskOptions {
     pub target_model: TargetModel,
     /// A trial point's rollout (one the optimizer asks values at, not yet derivatives) may take
     /// at most this many times the Newton iterations of the rollout at the last point whose
-    /// gradient was evaluated (its iterate); past that the rollout stops and the trial counts as
-    /// a failed evaluation, so the line search shortens the step. Where the cloth presses on
-    /// itself or a collider, a long trial step's rollout can cost 10–40× an iterate's
-    /// (`docs/performance.md`). Default [`DEFAULT_TRIAL_WORK_FACTOR`]; `f64::INFINITY` never
-    /// stops one. No effect under XPBD, whose rollouts cost the same for any controls.
+    /// gradient was evaluated (its iterate), step by step ([`TaskOptions::trial_schedule`]);
+    /// past that the rollout stops and the trial counts as a failed evaluation, so the line
+    /// search shortens the step. Where the cloth presses on itself or a collider, a long trial
+    /// step's rollout can cost 10–40× an iterate's (`docs/performance.md`). Default
+    /// [`DEFAULT_TRIAL_WORK_FACTOR`] (∞: never stops one). No effect under XPBD, whose rollouts
+    /// cost the same for any controls.
     pub trial_work_factor: f64,
 }
 
-/// Default [`TaskOptions::trial_work_factor`].
-pub const DEFAULT_TRIAL_WORK_FACTOR: f64 = 4.0;
+/// Default [`TaskOptions::trial_work_factor`]: off. Measured (`docs/performance.md`): a factor of
+/// 4 (2) brings the fold's first SQP iteration from a plain guess to 60 s (33 s) from about 130 s,
+/// the same iterates; but where nearby controls' rollouts differ 5× in work (u_obstacle under
+/// Newton, 289–1,423 iterations) it stops trials the line search would have accepted, and that
+/// plan took 67–168 SQP iterations and 251–1,130 simulations instead of 55 and 99.
+pub const DEFAULT_TRIAL_WORK_FACTOR: f64 = f64::INFINITY;
 
 /// Sharpness of the soft maximum over the targets' squared relative distances in the goal row.
 pub const GOAL_KAPPA: f64 = 100.0;
@@ -117,5 +122,52 @@ impl TaskOptions {
                 self.safety,
                 Some(SafetyForm::PerStep | SafetyForm::Aggregate)
             )
+    }
+
+    /// The Newton iterations a trial's rollout may have taken by the end of each step, given its
+    /// iterate's per step (`work`): [`TaskOptions::trial_work_factor`] times the iterate's up to
+    /// that step plus one mean step. A trial that goes wrong early (a step whose solve would take
+    /// hundreds of iterations where its iterate's took tens) stops there, not at the rollout's
+    /// total. (A float-to-integer cast saturates: an infinite factor is no bound.)
+    pub fn trial_schedule(&self, work: &[usize]) -> Vec<usize> {
+        let mean = work.iter().sum::<usize>() as f64 / work.len().max(1) as f64;
+        let mut done = 0;
+        work.iter()
+            .map(|w| {
+                done += w;
+                (self.trial_work_factor * (done as f64 + mean.max(1.0))).ceil() as usize
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_trial_schedule_follows_the_iterates_work_step_by_step() {
+        let options = TaskOptions {
+            delta: 0.1,
+            alpha: 0.0,
+            beta: 0.0,
+            safety: None,
+            swept: false,
+            kappa: 3000.0,
+            strain_kappa: DEFAULT_STRAIN_KAPPA,
+            goal_radius: None,
+            target_model: TargetModel::default(),
+            trial_work_factor: 4.0,
+        };
+        // Steps of 10, 2 and 30 iterations (mean 14): 4 · (10 + 14), 4 · (12 + 14), 4 · (42 + 14).
+        assert_eq!(options.trial_schedule(&[10, 2, 30]), [96, 104, 224]);
+        let unbounded = TaskOptions {
+            trial_work_factor: f64::INFINITY,
+            ..options
+        };
+        assert!(unbounded
+            .trial_schedule(&[5])
+            .iter()
+            .all(|&b| b == usize::MAX));
     }
 }

@@ -9,6 +9,7 @@ use super::NewtonSettings;
 use crate::controls::Controls;
 use crate::error::ClothError;
 use crate::model::Model;
+use crate::rollout::limits::RolloutLimits;
 use crate::scene::MAX_LOAD_HALVINGS;
 use crate::xpbd::sim::check_finite;
 use autodiff::Tensor;
@@ -78,43 +79,50 @@ impl Model {
         settings: &NewtonSettings,
         budget: usize,
     ) -> Result<NewtonRollout, ClothError> {
-        self.newton_rollout(controls, settings, budget, usize::MAX)
+        self.newton_rollout(controls, settings, budget, &RolloutLimits::default())
     }
 
-    /// [`Model::simulate`] that also counts the solver's work, the Newton iterations of the
-    /// rollout (0 under XPBD, whose cost does not depend on the controls), and gives up once they
-    /// would pass `max_newton_iterations`. A planner's line search uses it
-    /// to cut short a trial whose rollout costs far more than its iterate's (`TaskOptions`'s
-    /// trial work factor in the `clothopt` package).
+    /// [`Model::simulate`] that also counts the solver's work, each step's Newton iterations
+    /// (zeros under XPBD, whose cost does not depend on the controls), and gives up past
+    /// `limits`: a planner's line search uses it to cut short a trial whose rollout costs far
+    /// more than its iterate's (`TaskOptions`'s trial work factor in the `clothopt` package), or
+    /// that runs past the planner's deadline.
     ///
     /// # Errors
-    /// As [`Model::simulate`]; [`ClothError::NewtonWorkExceeded`] past the bound.
+    /// As [`Model::simulate`]; [`ClothError::NewtonWorkExceeded`] past the schedule of
+    /// iterations; [`ClothError::RolloutStopped`] past the deadline or once the flag is raised
+    /// (XPBD checks them before the rollout only).
     pub fn simulate_counted(
         &self,
         controls: &Controls,
-        max_newton_iterations: usize,
-    ) -> Result<(Vec<Tensor>, usize), ClothError> {
+        limits: &RolloutLimits,
+    ) -> Result<(Vec<Tensor>, Vec<usize>), ClothError> {
         match &self.solver {
             crate::Solver::Newton(settings) => {
-                let r = self.newton_rollout(controls, settings, 0, max_newton_iterations)?;
-                Ok((r.states, r.stats.iter().map(|s| s.iterations).sum()))
+                let r = self.newton_rollout(controls, settings, 0, limits)?;
+                Ok((r.states, r.stats.iter().map(|s| s.iterations).collect()))
             }
-            crate::Solver::Xpbd => Ok((self.simulate(controls)?, 0)),
+            crate::Solver::Xpbd => {
+                if limits.halted() {
+                    return Err(ClothError::RolloutStopped { step: 1 });
+                }
+                Ok((self.simulate(controls)?, vec![0; self.task.horizon]))
+            }
         }
     }
 
-    /// [`Model::simulate_newton_keeping`], giving up with [`ClothError::NewtonWorkExceeded`]
-    /// where its Newton iterations would pass `max_iterations`.
+    /// [`Model::simulate_newton_keeping`], giving up past `limits`
+    /// ([`Model::simulate_counted`]).
     fn newton_rollout(
         &self,
         controls: &Controls,
         settings: &NewtonSettings,
         budget: usize,
-        max_iterations: usize,
+        limits: &RolloutLimits,
     ) -> Result<NewtonRollout, ClothError> {
         self.check_controls(controls)?;
         let mut system = NewtonSystem::new(self)?;
-        system.work_bound = max_iterations;
+        system.limits = limits.clone();
         let horizon = self.task.horizon;
         let mut states = Vec::with_capacity(horizon + 1);
         let mut stats = Vec::with_capacity(horizon);
@@ -122,6 +130,10 @@ impl Model {
         let mut kept_bytes = 0;
         states.push(self.rest.clone());
         for t in 0..horizon {
+            if limits.halted() {
+                return Err(ClothError::RolloutStopped { step: t + 1 });
+            }
+            system.work_bound = limits.iterations_by(t + 1);
             let u = self.step_controls(controls, t);
             let (x, s) = self.solve_step_newton(&mut system, &states[t], &u, t + 1, settings)?;
             check_finite(&x, t + 1)?;
@@ -231,5 +243,23 @@ impl Model {
             smallest = 1;
         }
         Ok((x, stats))
+    }
+}
+
+impl NewtonSystem {
+    /// Whether step `step`'s solve, `iterations` into it, may take another Newton iteration
+    /// within the counted rollout's limits ([`Model::simulate_counted`]).
+    pub(super) fn within_limits(&self, step: usize, iterations: usize) -> Result<(), ClothError> {
+        if self.work_done + iterations >= self.work_bound {
+            return Err(ClothError::NewtonWorkExceeded {
+                step,
+                iterations: self.work_done + iterations,
+                bound: self.work_bound,
+            });
+        }
+        if self.limits.halted() {
+            return Err(ClothError::RolloutStopped { step });
+        }
+        Ok(())
     }
 }

@@ -21,13 +21,13 @@
 use super::assembly::{HessianKind, Pattern};
 use super::contact::Contacts;
 use super::curvature::shift_after;
-use super::factor::Factor;
-use super::factor::FactorCounts;
+use super::factor::{Factor, FactorCounts};
 pub use super::stats::StepStats;
 use super::{check_supported, NewtonSettings};
 use crate::error::ClothError;
 use crate::geometry::euclidean as norm;
 use crate::model::Model;
+use crate::rollout::limits::RolloutLimits;
 use crate::xpbd::sim::check_finite;
 use autodiff::Tensor;
 
@@ -66,9 +66,11 @@ pub struct NewtonSystem {
     /// `dir` holds the Newton direction from conjugate gradients: set by `newton_matrix`
     /// (`super::pcg`), taken by the next `newton_direction`.
     pub(super) pcg_direction: bool,
-    /// Newton iterations the solves may take in all ([`Model::simulate_counted`]); unbounded
-    /// by default.
+    /// Newton iterations the solves may have taken by the end of the current step
+    /// ([`Model::simulate_counted`]); unbounded by default.
     pub(super) work_bound: usize,
+    /// The deadline and stop flag of a counted rollout ([`Model::simulate_counted`]).
+    pub(super) limits: RolloutLimits,
     /// Newton iterations of the solves so far.
     pub(super) work_done: usize,
 }
@@ -94,6 +96,7 @@ impl NewtonSystem {
             recent: Vec::new(),
             pcg_direction: false,
             work_bound: usize::MAX,
+            limits: RolloutLimits::default(),
             work_done: 0,
         })
     }
@@ -418,13 +421,7 @@ impl NewtonSystem {
         if run.convex_only && !test.exact_pd {
             return Ok(Some(End::LeftConvex));
         }
-        if self.work_done + run.stats.iterations >= self.work_bound {
-            return Err(ClothError::NewtonWorkExceeded {
-                step: run.step,
-                iterations: self.work_done + run.stats.iterations,
-                bound: self.work_bound,
-            });
-        }
+        self.within_limits(run.step, run.stats.iterations)?;
         run.stats.iterations += 1;
         let stalled_from = run.projected_from.take();
         run.shift = shift_after(

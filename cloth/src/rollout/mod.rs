@@ -6,6 +6,7 @@
 //!   continuous safety rows);
 //! - [`tapes`]: recording tapes kept between evaluations;
 //! - [`penetration`]: how deep the particles go into the colliders;
+//! - [`limits`]: what a counted rollout may spend (Newton iterations, a deadline);
 //! - [`checkpoints`]: block checkpoints the plain forward keeps for the backward pass;
 //! - [`metrics`]: what an evaluation returns (`Metrics`, `Evaluation`);
 //! - [`grad`]: metrics of a rollout, and gradients of any per-step costs by reverse mode
@@ -15,6 +16,7 @@ pub mod checkpoints;
 pub mod cost;
 pub mod grad;
 pub mod layers;
+pub mod limits;
 pub mod metrics;
 pub mod penetration;
 pub mod strain;

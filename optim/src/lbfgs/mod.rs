@@ -152,6 +152,13 @@ impl LbfgsSolver {
         };
         match accepted {
             Ok(step) => self.take_step(it, memory, step),
+            Err(_) if ev.interruption.is_some() => Next::Stop(
+                Status::Interrupted,
+                format!(
+                    "stopped during a line search: {}",
+                    ev.interruption.take().unwrap_or_default()
+                ),
+            ),
             Err(all_failed) => {
                 if !memory.fresh {
                     memory.reset();

@@ -13,6 +13,10 @@ pub(super) fn evaluate<P: Problem + ?Sized>(
     ev: &mut Evaluator<'_, P>,
     x: &[f64],
 ) -> Result<(f64, Vec<f64>), EvalError> {
+    // After an interrupting error the line search's further trials do not reach the problem.
+    if let Some(why) = &ev.interruption {
+        return Err(EvalError::interrupted(why.clone()));
+    }
     let v = ev.values(x)?;
     // No constraints (checked by the solver): only the gradient is evaluated.
     let dv = ev.derivatives(x)?;

@@ -115,6 +115,10 @@ impl SqpSolver {
                     ev.function_evaluations
                 ),
             ),
+            Search::Interrupted(why) => Next::Stop(
+                Status::Interrupted,
+                format!("stopped during a line search: {why}"),
+            ),
             Search::Failed {
                 all_evaluations_failed,
                 last_error,

@@ -24,6 +24,8 @@ pub(super) enum Search {
         last_error: Option<String>,
     },
     Budget,
+    /// An evaluation said the run must stop ([`EvalError::interrupted`]).
+    Interrupted(String),
 }
 
 impl SqpSolver {
@@ -58,6 +60,7 @@ impl SqpSolver {
             ev.project(&mut xt);
             let vt = match ev.values(&xt) {
                 Ok(v) => v,
+                Err(e) if e.is_interrupt() => return Search::Interrupted(e.to_string()),
                 Err(e) => {
                     failures += 1;
                     last_error = Some(e.to_string());
@@ -69,6 +72,7 @@ impl SqpSolver {
             if phit <= threshold(alpha) {
                 match accept(ev, pt, dv, &xt, vt, alpha) {
                     Ok(accepted) => return accepted,
+                    Err(e) if e.is_interrupt() => return Search::Interrupted(e.to_string()),
                     Err(e) => {
                         failures += 1;
                         last_error = Some(e.to_string());
