@@ -164,4 +164,22 @@ mod tests {
         assert!(w.observe(&info(1.0, 0.0, 1.0)).is_break());
         assert_eq!(w.stopped.map(StopReason::status), Some("time_limit"));
     }
+
+    #[test]
+    fn noticing_records_a_stop_found_inside_an_iteration() {
+        // A solver stopped by a declined line-search trial calls back no more: the watch is told.
+        let mut w = Watch::new(None, None, 1e-6);
+        w.notice();
+        assert_eq!(w.stopped, None, "no deadline, no flag: nothing to record");
+        let mut w = Watch::new(Some(Instant::now()), None, 1e-6);
+        w.notice();
+        assert_eq!(w.stopped, Some(StopReason::TimeLimit));
+        // The first reason stays.
+        let flag = Arc::new(AtomicBool::new(true));
+        let mut w = Watch::new(None, Some(flag.clone()), 1e-6);
+        w.notice();
+        w.deadline = Some(Instant::now());
+        w.notice();
+        assert_eq!(w.stopped, Some(StopReason::Interrupted));
+    }
 }

@@ -120,6 +120,8 @@ fn a_trial_past_the_deadline_interrupts_the_run() {
         let x1: Vec<f64> = x0.iter().map(|v| 1.5 * v).collect();
         let mut problem = TrajectoryProblem::new(&model, TaskOptions::for_model(&model))
             .with_stop(Some(std::time::Instant::now()), None);
+        // The starting point is no trial: before any gradient its values are computed.
+        assert!(problem.objective(&x0).is_ok(), "{physics:?}");
         let mut g = vec![0.0; x0.len()];
         problem.gradient(&x0, &mut g).unwrap();
         let err = problem.objective(&x1).unwrap_err();

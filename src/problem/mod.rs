@@ -156,9 +156,10 @@ impl<'a> TrajectoryProblem<'a> {
         self
     }
 
-    /// Stops trial rollouts (values at points that are not iterates) once `deadline` has passed
-    /// or `stop` is raised: such an evaluation ends with [`EvalError::interrupted`], and the
-    /// solver returns its last iterate. Iterates' derivatives are always completed.
+    /// Stops trial rollouts (values at points that are not iterates, once an iterate's gradient
+    /// was evaluated) once `deadline` has passed or `stop` is raised: such an evaluation ends
+    /// with [`EvalError::interrupted`], and the solver returns its last iterate. The starting
+    /// point and iterates' derivatives are always completed.
     pub fn with_stop(mut self, deadline: Option<Instant>, stop: Option<Arc<AtomicBool>>) -> Self {
         self.stop = RolloutLimits {
             deadline,
@@ -256,15 +257,13 @@ impl<'a> TrajectoryProblem<'a> {
             let controls = self.controls(x);
             self.simulations += 1;
             // A trial's rollout stops past its work schedule (`TaskOptions::trial_work_factor`)
-            // and at the run's deadline.
+            // and at the run's deadline; the starting point (no iterate yet) is not a trial.
             let limits = match (trial, &self.iterate_work) {
-                (false, _) => RolloutLimits::default(),
-                (true, work) => RolloutLimits {
-                    cumulative_iterations: work
-                        .as_deref()
-                        .map_or_else(Vec::new, |w| self.options.trial_schedule(w)),
+                (true, Some(work)) => RolloutLimits {
+                    cumulative_iterations: self.options.trial_schedule(work),
                     ..self.stop.clone()
                 },
+                _ => RolloutLimits::default(),
             };
             let (states, work) = (self.model)
                 .simulate_counted(&controls, &limits)
