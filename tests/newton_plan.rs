@@ -67,13 +67,7 @@ fn newton_plan_converges_safe_and_stays_safe_at_a_tighter_tolerance() {
 fn a_trial_rollout_past_its_work_bound_is_a_failed_evaluation() {
     use clothopt::problem::{TaskOptions, TrajectoryProblem};
     use optim::Problem;
-    let scene = newton_scene(6);
-    let model = Model::from_scene(&scene).unwrap();
-    let x0 = plan::initial_controls(&scene, &model)
-        .unwrap()
-        .data()
-        .to_vec();
-    let x1: Vec<f64> = x0.iter().map(|v| 1.5 * v).collect();
+    let (model, x0, x1) = guess_and_longer(&newton_scene(6));
     let work = |x: &[f64]| {
         let limits = cloth::RolloutLimits::default();
         let (_, per_step) = model.simulate_counted(&model_controls(&model, x), &limits)?;
@@ -112,12 +106,7 @@ fn a_trial_past_the_deadline_interrupts_the_run() {
     for physics in [SolverKind::Newton, SolverKind::Xpbd] {
         let mut scene = newton_scene(4);
         scene.physics.solver = physics;
-        let model = Model::from_scene(&scene).unwrap();
-        let x0 = plan::initial_controls(&scene, &model)
-            .unwrap()
-            .data()
-            .to_vec();
-        let x1: Vec<f64> = x0.iter().map(|v| 1.5 * v).collect();
+        let (model, x0, x1) = guess_and_longer(&scene);
         let mut problem = TrajectoryProblem::new(&model, TaskOptions::for_model(&model))
             .with_stop(Some(std::time::Instant::now()), None);
         // The starting point is no trial: before any gradient its values are computed.
@@ -133,6 +122,17 @@ fn a_trial_past_the_deadline_interrupts_the_run() {
         problem.lift_stop();
         assert!(problem.objective(&x2).is_ok(), "{physics:?}");
     }
+}
+
+/// `scene`'s model, its initial guess and the guess's step 1.5 times as long.
+fn guess_and_longer(scene: &Scene) -> (Model, Vec<f64>, Vec<f64>) {
+    let model = Model::from_scene(scene).unwrap();
+    let x0 = plan::initial_controls(scene, &model)
+        .unwrap()
+        .data()
+        .to_vec();
+    let x1 = x0.iter().map(|v| 1.5 * v).collect();
+    (model, x0, x1)
 }
 
 fn model_controls(model: &Model, x: &[f64]) -> autodiff::Tensor {
