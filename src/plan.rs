@@ -13,7 +13,7 @@ pub use crate::result::{
     controls_from_nested, controls_to_nested, gripper_positions, is_safe, mesh_triangles,
     state_points, states_of, PlanResult, Stage, FEASIBILITY_TOLERANCE, SAFETY_TOLERANCE,
 };
-use crate::safety_check::check_safety;
+use crate::safety_check::{check_safety, physics_hint};
 use crate::start_check::judge_start;
 // The rollout's strain and its warning, from `crate::strain`: re-exported for this module's callers.
 pub use crate::strain::{strain_report, strain_warning, StrainReport, STRAIN_WARNING_THRESHOLD};
@@ -242,6 +242,8 @@ pub fn plan(
     let controls = problem.controls(&solution.x);
     let evaluation = rescore(model, &controls, options)?;
     let safety = safety_report(model, options, &evaluation);
+    let tol = options.tol_feasibility;
+    warnings.extend(physics_hint(model, &safety, &evaluation.metrics, tol));
     let rows = row_facts(&mut problem, &solution)?;
     warnings.extend(plan_warnings(
         model,

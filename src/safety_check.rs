@@ -123,6 +123,43 @@ pub fn check_safety(
     }
 }
 
+/// Under XPBD, a hint for a plan whose rollout leaves contacts unresolved — the cloth's layers
+/// within half the thickness or passing through each other, or particles inside the colliders by
+/// more than `tol_feasibility` (the failures of `report` and `metrics` that [`check_safety`]
+/// names): XPBD projects contacts and self-collision a fixed number of sweeps per step, so some
+/// stay unresolved whatever the controls, while Newton's contact and self-contact barriers keep
+/// every iterate apart. `None` under Newton, without such failures, or where Newton cannot solve
+/// the model.
+pub fn physics_hint(
+    model: &Model,
+    report: &SafetyReport,
+    metrics: &Metrics,
+    tol_feasibility: f64,
+) -> Option<String> {
+    if !matches!(model.solver, cloth::Solver::Xpbd) || model.supports_newton().is_err() {
+        return None;
+    }
+    let layers = match (&model.self_collision, &report.layers) {
+        (Some(sc), Some(l)) => {
+            l.first_crossing_step.is_some()
+                || l.nearest.is_some_and(|p| p.distance < 0.5 * sc.thickness)
+        }
+        _ => false,
+    };
+    let colliders = metrics.max_penetration.is_some_and(|p| {
+        p.depth > tol_feasibility && !model.controls.as_slice().contains(&p.particle)
+    });
+    let what = match (layers, colliders) {
+        (true, true) => "the cloth's layers and the colliders",
+        (true, false) => "the cloth's layers",
+        (false, true) => "the colliders",
+        (false, false) => return None,
+    };
+    Some(format!(
+        "XPBD (this scene's physics) projects contacts a fixed number of sweeps per step and leaves some unresolved whatever the controls, here against {what}; Newton physics (--physics newton, or physics.solver \"newton\" in the scene) keeps the cloth apart with contact barriers and may give a safe plan"
+    ))
+}
+
 /// The smallest signed distance to the safety obstacles along every particle's straight motion
 /// between consecutive states (module docs); `None` without safety obstacles.
 fn between_steps(model: &Model, states: &[Tensor], delta: f64) -> Option<PathMinimum> {

@@ -51,6 +51,17 @@ pub use settings::{
 use crate::error::ClothError;
 use crate::model::Model;
 
+impl Model {
+    /// Whether Newton's method can solve this model ([`check_supported`]); the error names the
+    /// first constraint group it cannot.
+    ///
+    /// # Errors
+    /// [`ClothError::NewtonUnsupported`].
+    pub fn supports_newton(&self) -> Result<(), ClothError> {
+        check_supported(self)
+    }
+}
+
 /// Rejects models Newton's method cannot solve: a rigid constraint group (compliance 0) other
 /// than contact rows ([`contact::is_contact`]), or a particle with two contact rows.
 ///
