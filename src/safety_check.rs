@@ -32,7 +32,7 @@ use autodiff::Tensor;
 use cloth::nalgebra::Vector3;
 use cloth::sdf::surface::surface_minimum;
 use cloth::sdf::SignedDistance;
-use cloth::{Metrics, Model};
+use cloth::{Metrics, Model, Penetration};
 
 /// The safety report of a rollout `states` (with its `metrics`) planned with `task`: the checks
 /// of the module docs, failures beyond `tol_feasibility` for the colliders and
@@ -79,7 +79,7 @@ pub fn check_safety(
     }
     let layers = layers(model, states);
     if let (Some(sc), Some(l)) = (&model.self_collision, layers) {
-        if let Some(p) = l.nearest.filter(|p| p.distance < 0.5 * sc.thickness) {
+        if let Some(p) = too_near(sc.thickness, &l) {
             failures.push(format!(
                 "the cloth's layers come {:.4} apart at step {} (vertex {}, triangle {}), less than half the thickness {}",
                 p.distance, p.step, p.vertex, p.triangle, sc.thickness
@@ -104,14 +104,11 @@ pub fn check_safety(
             ));
         }
     }
-    if let Some(p) = metrics.max_penetration {
-        let gripper = model.controls.as_slice().contains(&p.particle);
-        if p.depth > tol_feasibility && !gripper {
-            failures.push(format!(
-                "particle {} is {:.4} inside the colliders at step {}",
-                p.particle, p.depth, p.step
-            ));
-        }
+    if let Some(p) = penetrating(model, metrics, tol_feasibility) {
+        failures.push(format!(
+            "particle {} is {:.4} inside the colliders at step {}",
+            p.particle, p.depth, p.step
+        ));
     }
     SafetyReport {
         check,
@@ -141,14 +138,11 @@ pub fn physics_hint(
     }
     let layers = match (&model.self_collision, &report.layers) {
         (Some(sc), Some(l)) => {
-            l.first_crossing_step.is_some()
-                || l.nearest.is_some_and(|p| p.distance < 0.5 * sc.thickness)
+            l.first_crossing_step.is_some() || too_near(sc.thickness, l).is_some()
         }
         _ => false,
     };
-    let colliders = metrics.max_penetration.is_some_and(|p| {
-        p.depth > tol_feasibility && !model.controls.as_slice().contains(&p.particle)
-    });
+    let colliders = penetrating(model, metrics, tol_feasibility).is_some();
     let what = match (layers, colliders) {
         (true, true) => "the cloth's layers and the colliders",
         (true, false) => "the cloth's layers",
@@ -158,6 +152,20 @@ pub fn physics_hint(
     Some(format!(
         "XPBD (this scene's physics) projects contacts a fixed number of sweeps per step and leaves some unresolved whatever the controls, here against {what}; Newton physics (--physics newton, or physics.solver \"newton\" in the scene) keeps the cloth apart with contact barriers and may give a safe plan"
     ))
+}
+
+/// The layers' nearest pair when it is nearer than half the `thickness` (the layer check's
+/// failure at a step).
+fn too_near(thickness: f64, layers: &LayerClearance) -> Option<LayerPair> {
+    layers.nearest.filter(|p| p.distance < 0.5 * thickness)
+}
+
+/// The deepest particle inside the colliders when it is deeper than `tol_feasibility` and not a
+/// gripper (the penetration check's failure).
+fn penetrating(model: &Model, metrics: &Metrics, tol_feasibility: f64) -> Option<Penetration> {
+    metrics
+        .max_penetration
+        .filter(|p| p.depth > tol_feasibility && !model.controls.as_slice().contains(&p.particle))
 }
 
 /// The smallest signed distance to the safety obstacles along every particle's straight motion

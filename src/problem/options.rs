@@ -84,8 +84,8 @@ pub struct TaskOptions {
 }
 
 /// Default [`TaskOptions::trial_work_factor`]: off. Measured (`docs/performance.md`): a factor of
-/// 4 (2) brings the fold's first SQP iteration from a plain guess to 60 s (33 s) from about 130 s,
-/// the same iterates; but where nearby controls' rollouts differ 5× in work (u_obstacle under
+/// 4 (2) brings the fold's first SQP iteration from a plain guess to 60 s (33–37 s) from 127 s
+/// unbounded, the same iterates; but where nearby controls' rollouts differ 5× in work (u_obstacle under
 /// Newton, 289–1,423 iterations) it stops trials the line search would have accepted, and that
 /// plan took 67–168 SQP iterations and 251–1,130 simulations instead of 55 and 99.
 pub const DEFAULT_TRIAL_WORK_FACTOR: f64 = f64::INFINITY;

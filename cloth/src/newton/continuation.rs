@@ -133,7 +133,6 @@ impl Model {
             if limits.halted() {
                 return Err(ClothError::RolloutStopped { step: t + 1 });
             }
-            system.work_bound = limits.iterations_by(t + 1);
             let u = self.step_controls(controls, t);
             let (x, s) = self.solve_step_newton(&mut system, &states[t], &u, t + 1, settings)?;
             check_finite(&x, t + 1)?;
@@ -250,11 +249,12 @@ impl NewtonSystem {
     /// Whether step `step`'s solve, `iterations` into it, may take another Newton iteration
     /// within the counted rollout's limits ([`Model::simulate_counted`]).
     pub(super) fn within_limits(&self, step: usize, iterations: usize) -> Result<(), ClothError> {
-        if self.work_done + iterations >= self.work_bound {
+        let bound = self.limits.iterations_by(step);
+        if self.work_done + iterations >= bound {
             return Err(ClothError::NewtonWorkExceeded {
                 step,
                 iterations: self.work_done + iterations,
-                bound: self.work_bound,
+                bound,
             });
         }
         if self.limits.halted() {

@@ -66,10 +66,8 @@ pub struct NewtonSystem {
     /// `dir` holds the Newton direction from conjugate gradients: set by `newton_matrix`
     /// (`super::pcg`), taken by the next `newton_direction`.
     pub(super) pcg_direction: bool,
-    /// Newton iterations the solves may have taken by the end of the current step
-    /// ([`Model::simulate_counted`]); unbounded by default.
-    pub(super) work_bound: usize,
-    /// The deadline and stop flag of a counted rollout ([`Model::simulate_counted`]).
+    /// What a counted rollout may spend ([`Model::simulate_counted`]): Newton iterations by
+    /// the end of each step, a deadline, a stop flag; none by default.
     pub(super) limits: RolloutLimits,
     /// Newton iterations of the solves so far.
     pub(super) work_done: usize,
@@ -95,7 +93,6 @@ impl NewtonSystem {
             dir: vec![0.0; n],
             recent: Vec::new(),
             pcg_direction: false,
-            work_bound: usize::MAX,
             limits: RolloutLimits::default(),
             work_done: 0,
         })
@@ -479,7 +476,7 @@ impl NewtonSystem {
     /// ([`NewtonSystem::chord_step`]).
     fn chord_steps(&mut self, run: &mut Run<'_>) {
         let mut fresh = false;
-        while self.work_done + run.stats.iterations < self.work_bound {
+        while self.work_done + run.stats.iterations < self.limits.iterations_by(run.step) {
             let Some(phi_t) = self.chord_step(
                 &mut run.x,
                 &mut run.trial,
