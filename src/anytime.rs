@@ -1,9 +1,10 @@
 //! Runs that respect the user's time: a deadline, an interrupt flag, and the best feasible iterate
 //! seen so far (what a stopped run returns).
 
+use cloth::RolloutLimits;
 use optim::IterationInfo;
 use std::ops::ControlFlow;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -42,8 +43,8 @@ pub struct Best {
 /// the stop flag is raised. Once stopped, it stops every later stage at its first iteration.
 #[derive(Debug)]
 pub struct Watch {
-    deadline: Option<Instant>,
-    stop: Option<Arc<AtomicBool>>,
+    /// The deadline and the stop flag (no iteration schedule).
+    limits: RolloutLimits,
     tol_feasibility: f64,
     /// The best feasible iterate so far.
     pub best: Option<Best>,
@@ -60,8 +61,11 @@ impl Watch {
         tol_feasibility: f64,
     ) -> Self {
         Watch {
-            deadline,
-            stop,
+            limits: RolloutLimits {
+                deadline,
+                stop,
+                ..RolloutLimits::default()
+            },
             tol_feasibility,
             best: None,
             stopped: None,
@@ -70,13 +74,9 @@ impl Watch {
 
     /// True when the deadline has passed or the stop flag is raised (without recording it).
     pub fn expired(&self) -> Option<StopReason> {
-        if self
-            .stop
-            .as_ref()
-            .is_some_and(|s| s.load(Ordering::Relaxed))
-        {
+        if self.limits.stop_raised() {
             Some(StopReason::Interrupted)
-        } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
+        } else if self.limits.past_deadline() {
             Some(StopReason::TimeLimit)
         } else {
             None
@@ -121,6 +121,7 @@ impl Watch {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::sync::atomic::Ordering;
 
     fn info(objective: f64, violation: f64, x: f64) -> IterationInfo {
         IterationInfo {
@@ -178,7 +179,7 @@ mod tests {
         let flag = Arc::new(AtomicBool::new(true));
         let mut w = Watch::new(None, Some(flag.clone()), 1e-6);
         w.notice();
-        w.deadline = Some(Instant::now());
+        w.limits.deadline = Some(Instant::now());
         w.notice();
         assert_eq!(w.stopped, Some(StopReason::Interrupted));
     }

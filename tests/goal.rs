@@ -84,7 +84,8 @@ fn the_goal_stage_reaches_targets_the_objective_trades_away() {
     let report = on.search.as_ref().expect("a search report");
     let kept: Vec<_> = report.candidates.iter().filter(|c| c.kept).collect();
     assert_eq!(kept.len(), 1);
-    assert_eq!(kept[0].stage, "goal");
+    // From the first plan's Hessian, or from the identity after that ended short.
+    assert!(kept[0].stage.starts_with("goal"), "{:?}", kept[0]);
     // The constrained plan pays for the targets in L, never more than the first plan's G saves.
     assert!(on.metrics.l >= off.metrics.l - 1e-9);
 }
@@ -200,27 +201,52 @@ fn a_plan_hands_its_hessian_to_the_next() {
     assert!((warm.metrics.l - cold.metrics.l).abs() <= 1e-6 * cold.metrics.l);
 }
 
-/// With `SearchOptions::goal_hessian`, a goal stage from the first plan's Hessian gets at most the
-/// iterations of that plan's last stage; here (the targets far from where the first plan ends) it
-/// ends short of them, and the stage is planned again from the identity, which reaches them.
-#[test]
-fn a_warm_goal_stage_that_ends_short_is_planned_again_from_the_identity() {
-    let scene = reluctant_scene(0.05);
-    let model = Model::from_scene(&scene).unwrap();
-    let start = initial_controls(&scene, &model).unwrap();
-    let options = PlanOptions::for_model(&model);
-    let search = SearchOptions {
-        goal_hessian: true,
-        ..SearchOptions::default()
-    };
-    let result = plan_with_search(&model, &scene, &start, &options, &search, |_| {}).unwrap();
+/// The reluctant scene planned with the search on, its tolerance `tolerances` times the largest
+/// target error of its first plan; returns the first plan's and the search's candidates.
+fn goal_stages_at(tolerances: f64) -> (PlanResult, Vec<clothopt::result::CandidateReport>) {
+    let (_, first) = search(&reluctant_scene(0.05), SearchMode::Off);
+    let scene = reluctant_scene(tolerances * first.task.max_target_error);
+    let (_, result) = search(&scene, SearchMode::Auto);
     assert!(result.task.achieved, "{:?}", result.task);
-    let report = result.search.as_ref().expect("a search report");
-    let stage = |name: &str| report.candidates.iter().find(|c| c.stage == name);
+    (
+        result.clone(),
+        result.search.expect("a search report").candidates,
+    )
+}
+
+/// A narrow miss (largest error 1.5 tolerances) is corrected from the first plan's Hessian
+/// (`SearchOptions::goal_hessian`, the default): the warm goal stage gets at most the first plan's
+/// iterations, and where it ends short the stage is planned again from the identity.
+#[test]
+fn a_near_miss_is_corrected_from_the_plans_hessian() {
+    assert!(SearchOptions::default().goal_hessian);
+    let (result, candidates) = goal_stages_at(1.0 / 1.5);
+    let stage = |name: &str| candidates.iter().find(|c| c.stage == name);
     let first = stage("first").expect("the first plan");
     let warm = stage("goal").expect("the warm goal stage");
-    let again = stage("goal_identity").expect("the goal stage from the identity");
-    assert!(!(warm.achieved && warm.safe), "{warm:?}");
     assert!(warm.iterations <= first.iterations, "{warm:?} {first:?}");
-    assert!(again.kept && again.achieved && again.safe, "{again:?}");
+    // Planned again from the identity only when the warm stage ended short: not safe and
+    // achieved, or at its budget (as here: achieved and safe, 68 iterations, not converged).
+    match stage("goal_identity") {
+        Some(_) => assert!(!(warm.achieved && warm.safe) || warm.status == "iteration_limit"),
+        None => assert!(warm.kept && warm.achieved && warm.safe, "{warm:?}"),
+    }
+    assert!(result.task.achieved);
+}
+
+/// A far miss (the reluctant scene's targets 0.6 m off, tolerance 0.05) starts its goal stage from
+/// the identity with the full budget: here it takes more iterations than the first plan, which
+/// a warm start could not, and there is no second goal stage.
+#[test]
+fn a_far_miss_is_corrected_from_the_identity() {
+    let (_, first) = search(&reluctant_scene(0.05), SearchMode::Off);
+    assert!(first.task.max_target_error > 2.0 * 0.05, "{:?}", first.task);
+    let (_, result) = search(&reluctant_scene(0.05), SearchMode::Auto);
+    let candidates = result.search.expect("a search report").candidates;
+    let goal = candidates
+        .iter()
+        .find(|c| c.stage == "goal")
+        .expect("a goal stage");
+    assert!(goal.iterations > first.iterations, "{goal:?}");
+    assert!(candidates.iter().all(|c| c.stage != "goal_identity"));
 }

@@ -40,10 +40,19 @@ impl RolloutLimits {
 
     /// True once the deadline has passed or the stop flag is raised.
     pub fn halted(&self) -> bool {
+        self.stop_raised() || self.past_deadline()
+    }
+
+    /// True once the stop flag is raised.
+    pub fn stop_raised(&self) -> bool {
         self.stop
             .as_ref()
             .is_some_and(|s| s.load(Ordering::Relaxed))
-            || self.deadline.is_some_and(|d| Instant::now() >= d)
+    }
+
+    /// True once the deadline has passed.
+    pub fn past_deadline(&self) -> bool {
+        self.deadline.is_some_and(|d| Instant::now() >= d)
     }
 }
 

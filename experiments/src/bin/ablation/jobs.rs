@@ -93,10 +93,13 @@ pub(crate) fn run_job(job: Job, task: &Task, args: &Args, progress: &Progress) -
     options.task.alpha = alpha;
     options.task.beta = beta;
     options.task.safety = None;
-    // The paper's formulation: G in the smooth objective (L-BFGS needs it there; SQP learns its
-    // curvature by BFGS). Pinned so that the ablation stays reproducible whatever
-    // `--target-model` defaults to.
-    options.task.target_model = TargetModel::Bfgs;
+    // The paper's formulation unless `--target-model` says otherwise: G in the smooth objective
+    // (L-BFGS needs it there; SQP learns its curvature by BFGS). Pinned so that the ablation
+    // stays reproducible whatever `clothopt optimize --target-model` defaults to.
+    options.task.target_model = match job.solver {
+        Optimizer::Lbfgs => TargetModel::Bfgs,
+        _ => args.target_model,
+    };
     options.solver = job.solver;
     options.iterations = task.settings.iterations;
     options.step_bound = task.settings.step_bound;

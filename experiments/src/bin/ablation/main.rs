@@ -24,6 +24,7 @@ use cloth::{Controls, Model, Scene};
 use clothopt::figures::RolloutFigure;
 use clothopt::plan::{self, Optimizer, PlanOptions};
 use clothopt::plot::{self, BarChart, TrajectoryFigure, View3d};
+use clothopt::problem::TargetModel;
 use clothopt::result::PlanResult;
 use experiments::report::{write_json, Verdict};
 use indicatif::MultiProgress;
@@ -66,6 +67,9 @@ struct Args {
     /// Print one line per SQP iteration to stderr instead of progress bars.
     #[arg(long)]
     verbose: bool,
+    /// How the SQP models the target term G (default: the paper's, `bfgs`).
+    #[arg(long, value_enum, default_value_t = TargetModel::Bfgs)]
+    target_model: TargetModel,
 }
 
 /// An objective variant: which regularization terms it keeps.
