@@ -20,6 +20,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, ValueEnum};
+use cloth::scene::SolverKind;
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::RolloutFigure;
 use clothopt::plan::{self, Optimizer, PlanOptions};
@@ -70,6 +71,19 @@ struct Args {
     /// How the SQP models the target term G (default: the paper's, `bfgs`).
     #[arg(long, value_enum, default_value_t = TargetModel::Bfgs)]
     target_model: TargetModel,
+    /// The simulator (default: the paper's, `xpbd`). `newton` solves each step's equilibrium
+    /// to tolerance, with the smooth contact model where a task has colliders (`drop`'s ground).
+    #[arg(long, value_enum, default_value_t = Physics::Xpbd)]
+    physics: Physics,
+}
+
+/// `--physics`: the paper's simulator or converged physics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Physics {
+    /// XPBD with the scene's sweeps and its (rigid) contact model.
+    Xpbd,
+    /// Newton with the smooth contact model.
+    Newton,
 }
 
 /// An objective variant: which regularization terms it keeps.
@@ -175,7 +189,12 @@ struct Task {
 
 /// Compiles `name`'s built-in scene with the example's per-task settings.
 fn load_task(name: &str, args: &Args) -> Result<Task> {
-    let scene = Scene::builtin(name).with_context(|| format!("task {name}"))?;
+    let mut scene = Scene::builtin(name).with_context(|| format!("task {name}"))?;
+    if args.physics == Physics::Newton {
+        scene.physics.solver = SolverKind::Newton;
+        // Newton's default contact model for a scene with colliders: the smooth one.
+        scene.physics.contact = None;
+    }
     let model = Model::from_scene(&scene)?;
     let mut settings = TaskSettings::for_task(name, &model);
     settings.step_bound = args.step_bound.unwrap_or(settings.step_bound);
@@ -483,9 +502,12 @@ fn run(args: Args) -> Result<()> {
             ))
         );
     }
-    let (ground, other): (Vec<&Run>, Vec<&Run>) = rough
-        .iter()
-        .partition(|r| !tasks[r.job.task].model.colliders.is_empty());
+    // Rigid contact (XPBD's projection) makes the rollout piecewise smooth; the smooth model
+    // (`--physics newton`) does not.
+    let (ground, other): (Vec<&Run>, Vec<&Run>) = rough.iter().partition(|r| {
+        let model = &tasks[r.job.task].model;
+        !model.colliders.is_empty() && model.contact_barrier.is_none()
+    });
     if !ground.is_empty() {
         println!(
             "  not converged: {} — with a ground the rollout is only piecewise smooth (the \
