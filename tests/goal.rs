@@ -250,3 +250,31 @@ fn a_far_miss_is_corrected_from_the_identity() {
     assert!(goal.iterations > first.iterations, "{goal:?}");
     assert!(candidates.iter().all(|c| c.stage != "goal_identity"));
 }
+
+/// `SearchOptions::near_miss` names itself when out of range; at ∞ every miss starts warm, the
+/// reluctant scene's far one too (its goal stage then gets at most the first plan's iterations).
+#[test]
+fn the_near_miss_bound_is_checked_and_widens_the_warm_start() {
+    for bad in [0.0, -1.0, f64::NAN] {
+        let search = SearchOptions {
+            near_miss: bad,
+            ..SearchOptions::default()
+        };
+        let error = search.validate().unwrap_err().to_string();
+        assert!(error.contains("near_miss"), "{error}");
+    }
+    let scene = reluctant_scene(0.05);
+    let model = Model::from_scene(&scene).unwrap();
+    let start = initial_controls(&scene, &model).unwrap();
+    let options = PlanOptions::for_model(&model);
+    let search = SearchOptions {
+        near_miss: f64::INFINITY,
+        ..SearchOptions::default()
+    };
+    let result = plan_with_search(&model, &scene, &start, &options, &search, |_| {}).unwrap();
+    let candidates = result.search.expect("a search report").candidates;
+    let stage = |name: &str| candidates.iter().find(|c| c.stage == name).cloned();
+    let first = stage("first").expect("the first plan");
+    let warm = stage("goal").expect("the warm goal stage");
+    assert!(warm.iterations <= first.iterations, "{warm:?} {first:?}");
+}

@@ -78,13 +78,25 @@ pub struct SearchOptions {
     pub seed: u64,
     /// Start a goal stage from the best plan's quasi-Newton Hessian ([`PlanResult::hessian`])
     /// instead of the identity when that plan's last stage converged and it misses its targets
-    /// narrowly (largest error at most [`NEAR_MISS_TOLERANCES`] tolerances), for at most the
+    /// narrowly (largest error at most [`SearchOptions::near_miss`] tolerances), for at most the
     /// iterations that plan took (a correction should not cost more than the plan it corrects),
     /// and plan the stage again from the identity when that ends short of a safe, achieved plan.
     /// Default true: u_obstacle's goal stage takes 13 iterations instead of 90, to the same plan
     /// (`docs/performance.md`).
     pub goal_hessian: bool,
+    /// The largest target error, in tolerances, that counts as a near miss for
+    /// [`SearchOptions::goal_hessian`] (> 0; ∞: every miss). Default [`DEFAULT_NEAR_MISS`].
+    pub near_miss: f64,
 }
+
+/// A goal stage corrects a *near miss* from the plan's quasi-Newton Hessian when the plan's
+/// largest target error is at most this many tolerances: its targets then move by about one
+/// tolerance, within the region the plan's curvature model was learnt in; farther misses start
+/// from the identity. Measured (`docs/performance.md`): u_obstacle's first plan misses by 1.1
+/// tolerances and the warm stage takes 13 iterations instead of 90; misses of 3.5 to 26
+/// tolerances (five route scenes) cost the warm start 0–120 more iterations than the identity
+/// on four of them, and save 100 on one (`long_soft`, 3.8).
+pub const DEFAULT_NEAR_MISS: f64 = 2.0;
 
 impl Default for SearchOptions {
     fn default() -> Self {
@@ -96,16 +108,23 @@ impl Default for SearchOptions {
             polish: 2,
             seed: 0,
             goal_hessian: true,
+            near_miss: DEFAULT_NEAR_MISS,
         }
     }
 }
 
 impl SearchOptions {
-    /// Checks the counts, naming the first bad one.
+    /// Checks the counts and the near-miss bound, naming the first bad one.
     pub fn validate(&self) -> crate::Result<()> {
         crate::validate::ensure_iterations("cheap_iterations", self.cheap_iterations)?;
         crate::validate::ensure_iterations("max_candidates", self.max_candidates)?;
-        crate::validate::ensure_iterations("polish", self.polish)
+        crate::validate::ensure_iterations("polish", self.polish)?;
+        crate::validate::ensure_positive_or_infinite("near_miss", self.near_miss)
+    }
+
+    /// The near-miss bound in tolerances when goal stages may start warm, else `None`.
+    fn warm_goal_within(&self) -> Option<f64> {
+        self.goal_hessian.then_some(self.near_miss)
     }
 }
 
@@ -201,15 +220,6 @@ const TIME_SHARE: f64 = 0.5;
 /// Radius of the goal stage's goal row, as a fraction of the task tolerance.
 const GOAL_FRACTION: f64 = 0.98;
 
-/// A goal stage corrects a *near miss*, and starts from the plan's quasi-Newton Hessian
-/// ([`SearchOptions::goal_hessian`]), when the plan's largest target error is at most this many
-/// tolerances: its targets then move by about one tolerance, within the region the plan's
-/// curvature model was learnt in. Farther misses start from the identity. Measured
-/// (`docs/performance.md`): u_obstacle's first plan misses by 1.1 tolerances and the warm stage
-/// takes 13 iterations instead of 90; misses of 3.5 to 26 tolerances (five route scenes) cost
-/// the warm start 0–120 more iterations than the identity.
-const NEAR_MISS_TOLERANCES: f64 = 2.0;
-
 /// The first plan's start (its route's name, its controls, and the rollouts simulated to choose
 /// it): the initial guess `start`, or a carry route ([`routes::carried`]: the guess's or the
 /// straight path's, when the guess's rollout rests the cloth on a collider; the lay route, where
@@ -285,12 +295,12 @@ fn tally(route: &str, stage: &str, result: PlanResult, (best, best_report, repor
 /// The goal stage: when the best plan so far is safe but misses its targets, plan again from it
 /// with the targets as a constraint ([`crate::problem::TaskOptions::goal_radius`] at
 /// [`GOAL_FRACTION`] of the tolerance) instead of only a cost (from that plan's quasi-Newton
-/// Hessian with `hessian`, [`SearchOptions::goal_hessian`]), and keep the result if it ranks
-/// above. Where the targets cannot be reached safely the stage ends infeasible and is not kept.
+/// Hessian when it misses by at most `warm_within` tolerances, [`SearchOptions::goal_hessian`]),
+/// and keep the result if it ranks above. Where the targets cannot be reached safely the stage ends infeasible and is not kept.
 fn goal_stage(
     model: &Model,
     scene: &Scene,
-    (options, hessian): (&PlanOptions, bool),
+    (options, warm_within): (&PlanOptions, Option<f64>),
     route: &str,
     progress: &mut impl FnMut(Progress<'_>),
     (best, best_report, reports): Tally<'_>,
@@ -306,8 +316,9 @@ fn goal_stage(
     // iterations that plan took (a correction that costs more than the plan is not paying off).
     let full_budget = goal.iterations;
     let converged = best.stages.last().is_some_and(|s| s.status == "converged");
-    let near_miss = best.task.max_target_error <= NEAR_MISS_TOLERANCES * model.task.tolerance;
-    if let (true, true, true, Some(b)) = (hessian, converged, near_miss, &best.hessian) {
+    let near_miss =
+        warm_within.is_some_and(|k| best.task.max_target_error <= k * model.task.tolerance);
+    if let (true, true, Some(b)) = (converged, near_miss, &best.hessian) {
         goal.initial_hessian = Some(b.clone());
         goal.iterations = full_budget.min(best.iterations.max(1));
     }
@@ -475,7 +486,7 @@ pub fn plan_with_search(
     goal_stage(
         model,
         scene,
-        (&time_share(options), search.goal_hessian),
+        (&time_share(options), search.warm_goal_within()),
         &first_route,
         &mut progress,
         (&mut best, &mut best_report, &mut reports),
@@ -515,7 +526,7 @@ pub fn plan_with_search(
             goal_stage(
                 model,
                 scene,
-                (options, search.goal_hessian),
+                (options, search.warm_goal_within()),
                 &route,
                 &mut progress,
                 (&mut best, &mut best_report, &mut reports),
