@@ -24,8 +24,9 @@
 //!    tolerance, `L`), where near safe allows a tenth of the tolerance of violation, since a cheap
 //!    stage often stops just short of feasibility — are planned in full from where they stopped
 //!    (and from their quasi-Newton Hessian: the full plan's first stage goes on with the cheap
-//!    stage's problem), each only while its cheap result ranks above the best plan so far by the same ranking (the
-//!    first plan included), so a search that finds nothing better costs one cheap stage.
+//!    stage's problem), each only while its cheap result ranks above the best plan so far by the
+//!    same ranking (the first plan included), so a search that finds nothing better costs one
+//!    cheap stage.
 //!    A polished plan that becomes the best gets its own goal stage.
 //! 6. Keep the best of every stage by the same ranking.
 //!
@@ -296,7 +297,8 @@ fn tally(route: &str, stage: &str, result: PlanResult, (best, best_report, repor
 /// with the targets as a constraint ([`crate::problem::TaskOptions::goal_radius`] at
 /// [`GOAL_FRACTION`] of the tolerance) instead of only a cost (from that plan's quasi-Newton
 /// Hessian when it misses by at most `warm_within` tolerances, [`SearchOptions::goal_hessian`]),
-/// and keep the result if it ranks above. Where the targets cannot be reached safely the stage ends infeasible and is not kept.
+/// and keep the result if it ranks above. Where the targets cannot be reached safely the stage
+/// ends infeasible and is not kept.
 fn goal_stage(
     model: &Model,
     scene: &Scene,
@@ -316,9 +318,9 @@ fn goal_stage(
     // iterations that plan took (a correction that costs more than the plan is not paying off).
     let full_budget = goal.iterations;
     let converged = best.stages.last().is_some_and(|s| s.status == "converged");
-    let near_miss =
+    let narrow =
         warm_within.is_some_and(|k| best.task.max_target_error <= k * model.task.tolerance);
-    if let (true, true, Some(b)) = (converged, near_miss, &best.hessian) {
+    if let (true, true, Some(b)) = (converged, narrow, &best.hessian) {
         goal.initial_hessian = Some(b.clone());
         goal.iterations = full_budget.min(best.iterations.max(1));
     }
