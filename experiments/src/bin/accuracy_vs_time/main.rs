@@ -12,6 +12,7 @@
 //!
 //! `cargo run --release -p experiments --bin accuracy_vs_time [-- --out FILE --png-dir DIR --quick --jax PYTHON]`
 
+mod growth;
 mod jax;
 mod newton;
 mod plots;
@@ -73,6 +74,14 @@ struct Args {
     /// XPBD iteration counts of the Newton rows.
     #[arg(long, value_delimiter = ',', default_value = "100,1000")]
     newton_xpbd_iterations: Vec<usize>,
+    /// Only the cost-growth rows: forward + ∇L of Newton (default tolerance) and XPBD
+    /// (100 sweeps) at these mesh sizes (e.g. `10,20,40,60,80,100`), each in a fresh process,
+    /// plotted against the particle count (`accuracy_cost_growth.png`); no other rows.
+    #[arg(long, value_delimiter = ',')]
+    growth_sizes: Vec<usize>,
+    /// Thread counts of the cost-growth rows.
+    #[arg(long, value_delimiter = ',', default_value = "1")]
+    growth_threads: Vec<usize>,
     /// The JAX benchmark script run by --jax.
     #[arg(long, default_value = "/work/shared/anchors/jax_ref/bench_jax.py")]
     jax_script: PathBuf,
@@ -174,6 +183,21 @@ fn main() -> Result<()> {
         );
     }
 
+    if !args.growth_sizes.is_empty() {
+        for &t in &args.growth_threads {
+            ensure_iterations("--growth-threads", t)?;
+        }
+        let rows = growth::sweep(&args.growth_sizes, &args.growth_threads, &cfg)?;
+        growth::print_table(&rows);
+        if let Some(out) = &args.out {
+            growth::write(out, &rows)?;
+            println!("wrote {}", out.display());
+        }
+        if let Some(dir) = &args.png_dir {
+            println!("wrote {}", growth::draw(dir, &rows)?.display());
+        }
+        return Ok(());
+    }
     if !args.newton_sizes.is_empty() {
         let rows = newton::sweep(
             &args.newton_sizes,

@@ -92,6 +92,36 @@ pub struct MeshRow {
     /// Newton's tolerance when the row is Newton's (`n_iter` then unused).
     #[serde(default)]
     pub tolerance: Option<f64>,
+    /// Newton's work in one forward pass (Newton rows; the forward is then timed through
+    /// [`cloth::Model::simulate_newton`]).
+    #[serde(default)]
+    pub newton: Option<NewtonCounts>,
+}
+
+/// What one Newton forward pass did, summed over its steps.
+#[derive(Serialize, Deserialize, Clone, Copy)]
+pub struct NewtonCounts {
+    /// Newton iterations (chord steps included).
+    pub iterations: usize,
+    /// Successful sparse Cholesky factorizations.
+    pub factorizations: usize,
+    /// Factorizations that found the matrix not positive definite.
+    pub failed_factorizations: usize,
+    /// Load increments rejected by the branch following.
+    pub rejected_loads: usize,
+}
+
+impl NewtonCounts {
+    /// The sums over `steps`.
+    pub fn of(steps: &[cloth::StepStats]) -> NewtonCounts {
+        let sum = |f: fn(&cloth::StepStats) -> usize| steps.iter().map(f).sum();
+        NewtonCounts {
+            iterations: sum(|s| s.iterations),
+            factorizations: sum(|s| s.factorizations),
+            failed_factorizations: sum(|s| s.failed_factorizations),
+            rejected_loads: sum(|s| s.rejected_loads),
+        }
+    }
 }
 
 /// The JAX reference at one setting, beside ours.

@@ -10,6 +10,7 @@ use experiments::child;
 use experiments::measure::{proc_status_kb, time_runs, Timing};
 use std::time::Instant;
 
+use crate::rows::NewtonCounts;
 use crate::rows::{AccuracyRow, MeshRow, PlanRow};
 use crate::{Config, MESH_BUDGET_S, MESH_N_ITER};
 
@@ -133,7 +134,19 @@ pub fn measure_mesh(
             Ok(ev)
         })?;
         let hwm1 = proc_status_kb("VmHWM");
-        let fwd = time_runs(reps, budget_s, || Ok(model.evaluate(&start, delta, false)?))?;
+        // Newton's forward is timed through the rollout that counts its work (the metrics,
+        // which `evaluate` adds, cost microseconds beside it).
+        let mut counts = None;
+        let fwd = match model.solver {
+            cloth::Solver::Newton(settings) => time_runs(reps, budget_s, || {
+                let (_, stats) = model.simulate_newton(&start, &settings)?;
+                counts = Some(NewtonCounts::of(&stats));
+                Ok(())
+            })?,
+            cloth::Solver::Xpbd => {
+                time_runs(reps, budget_s, || Ok(model.evaluate(&start, delta, false)?))?
+            }
+        };
         Ok(MeshRow {
             scene: "u_obstacle".into(),
             n,
@@ -146,6 +159,7 @@ pub fn measure_mesh(
             peak_rss_mb: hwm1.map(|k| k / 1024.0),
             rss_growth_mb: hwm0.zip(hwm1).map(|(a, b)| (b - a) / 1024.0),
             tolerance,
+            newton: counts,
         })
     })?;
     println!("{}", serde_json::to_string(&row)?);
