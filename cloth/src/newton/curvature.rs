@@ -288,26 +288,30 @@ impl NewtonSystem {
 
     /// At `x`, a stationary point of `Φ` for `xt` that is not a minimizer: moves `x` along the
     /// exact Hessian's unstable mode, the way and by the length that lower `Φ` the most
-    /// ([`escape_length`]; at a tie, the way [`orient`] picks); returns the new `Φ`, or `None` (and
-    /// leaves `x`) when no direction of negative curvature is found, none lowers `Φ`, or the
-    /// solve has left [`MAX_SADDLE_ESCAPES`] saddles already.
+    /// ([`escape_length`]; at a tie, the way [`orient`] picks) and returns the new `Φ`
+    /// ([`Escape::Left`]); leaves `x` where it is when no direction of negative curvature is
+    /// found or the solve has left [`MAX_SADDLE_ESCAPES`] saddles already
+    /// ([`Escape::NoDirection`]), or when no length along the mode lowers `Φ` by more than its
+    /// round-off ([`Escape::TooShallow`]).
     pub(super) fn leave_saddle(
         &mut self,
         x: &mut Tensor,
         xt_d: &[f64],
         stats: &mut StepStats,
-    ) -> Option<f64> {
+    ) -> Escape {
         if stats.escapes == MAX_SADDLE_ESCAPES {
-            return None;
+            return Escape::NoDirection;
         }
         self.assemble_at(x.data(), xt_d, HessianKind::Exact);
         let exact = self.values.clone();
         self.assemble_at(x.data(), xt_d, HessianKind::Projected);
         if !self.factor.factorize(&self.pattern, &self.values) {
-            return None;
+            return Escape::NoDirection;
         }
         let p = &self.pattern;
-        let mut v = negative_curvature(p, &exact, &self.values, &self.factor)?;
+        let Some(mut v) = negative_curvature(p, &exact, &self.values, &self.factor) else {
+            return Escape::NoDirection;
+        };
         self.contacts.project_tangent(&mut v);
         // M (x̃ − x) in degree-of-freedom order.
         let diff: Vec<f64> = xt_d.iter().zip(x.data()).map(|(a, b)| a - b).collect();
@@ -332,12 +336,28 @@ impl NewtonSystem {
             contacts.project(trial.data_mut());
             p.energy(trial.data(), xt_d)
         };
-        let eta = escape_length(f64::EPSILON.sqrt() * x_max, phi0, &mut phi_at)?;
+        let Some(eta) = escape_length(f64::EPSILON.sqrt() * x_max, phi0, &mut phi_at) else {
+            return Escape::TooShallow;
+        };
         let phi_t = phi_at(eta);
         x.data_mut().copy_from_slice(trial.data());
         stats.escapes += 1;
-        Some(phi_t)
+        Escape::Left(phi_t)
     }
+}
+
+/// How [`NewtonSystem::leave_saddle`] ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Escape {
+    /// `x` moved off the saddle; `Φ` there.
+    Left(f64),
+    /// No direction of negative curvature was found (or the solve may leave no more saddles).
+    NoDirection,
+    /// The unstable mode was found, but no step along it lowers `Φ` by more than its round-off:
+    /// the saddle is too shallow to leave in `f64`. The iterates after it stay within round-off of
+    /// it (their steps are of the size of the residual), so each would find the same mode and
+    /// the same flat `Φ`: the solve gives up at once ([`crate::ClothError::NewtonSaddle`]).
+    TooShallow,
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@
 
 use super::assembly::{HessianKind, Pattern};
 use super::contact::Contacts;
-use super::curvature::shift_after;
+use super::curvature::{shift_after, Escape};
 use super::factor::{Factor, FactorCounts};
 pub use super::stats::StepStats;
 use super::{check_supported, NewtonSettings};
@@ -225,8 +225,8 @@ impl NewtonSystem {
             return Ok(None);
         }
         match self.leave_saddle(x, xt_d, stats) {
-            Some(phi) => Ok(Some(phi)),
-            None => Err(ClothError::NewtonSaddle {
+            Escape::Left(phi) => Ok(Some(phi)),
+            Escape::NoDirection | Escape::TooShallow => Err(ClothError::NewtonSaddle {
                 step,
                 residual: stats.residual,
             }),
@@ -402,13 +402,21 @@ impl NewtonSystem {
             if test.exact_pd {
                 return Ok(Some(End::Minimizer));
             }
-            // Within the tolerance but at a saddle of Φ: leave it along its unstable mode
-            // (or, when none is found, keep descending).
+            // Within the tolerance but at a saddle of Φ: leave it along its unstable mode (or,
+            // when none is found, keep descending; where the mode is found but Φ is flat along
+            // it to round-off, give up: the next iterates could only find the same).
             run.stats.at_saddle += 1;
             if !run.convex_only {
-                if let Some(phi_t) = self.leave_saddle(&mut run.x, run.xt_d, &mut run.stats) {
-                    (run.phi, run.stay_projected) = (phi_t, false);
-                    return Ok(None);
+                match self.leave_saddle(&mut run.x, run.xt_d, &mut run.stats) {
+                    Escape::Left(phi_t) => {
+                        (run.phi, run.stay_projected) = (phi_t, false);
+                        return Ok(None);
+                    }
+                    Escape::TooShallow => {
+                        let (step, residual) = (run.step, run.stats.residual);
+                        return Err(ClothError::NewtonSaddle { step, residual });
+                    }
+                    Escape::NoDirection => {}
                 }
             }
         }
