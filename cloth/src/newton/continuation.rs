@@ -42,6 +42,12 @@ impl NewtonKept {
         self.factors.iter().flatten().count()
     }
 
+    /// Searches for a saddle's unstable mode during the rollout (Lanczos runs), rejected load
+    /// increments' included.
+    pub fn saddle_searches(&self) -> usize {
+        self.system.saddle_searches
+    }
+
     /// Bytes of the kept factorizations (factors and matrices).
     pub fn bytes(&self) -> usize {
         self.factors

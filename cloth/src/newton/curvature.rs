@@ -308,6 +308,7 @@ impl NewtonSystem {
         if !self.factor.factorize(&self.pattern, &self.values) {
             return Escape::NoDirection;
         }
+        self.saddle_searches += 1;
         let p = &self.pattern;
         let Some(mut v) = negative_curvature(p, &exact, &self.values, &self.factor) else {
             return Escape::NoDirection;

@@ -71,6 +71,8 @@ pub struct NewtonSystem {
     pub(super) limits: RolloutLimits,
     /// Newton iterations of the solves so far.
     pub(super) work_done: usize,
+    /// Searches for a saddle's unstable mode so far (`leave_saddle`'s Lanczos runs).
+    pub(super) saddle_searches: usize,
 }
 
 impl NewtonSystem {
@@ -95,6 +97,7 @@ impl NewtonSystem {
             pcg_direction: false,
             limits: RolloutLimits::default(),
             work_done: 0,
+            saddle_searches: 0,
         })
     }
 
@@ -224,12 +227,10 @@ impl NewtonSystem {
         if minimizer {
             return Ok(None);
         }
+        let residual = stats.residual;
         match self.leave_saddle(x, xt_d, stats) {
             Escape::Left(phi) => Ok(Some(phi)),
-            Escape::NoDirection | Escape::TooShallow => Err(ClothError::NewtonSaddle {
-                step,
-                residual: stats.residual,
-            }),
+            _ => Err(ClothError::NewtonSaddle { step, residual }),
         }
     }
 
@@ -402,9 +403,8 @@ impl NewtonSystem {
             if test.exact_pd {
                 return Ok(Some(End::Minimizer));
             }
-            // Within the tolerance but at a saddle of Φ: leave it along its unstable mode (or,
-            // when none is found, keep descending; where the mode is found but Φ is flat along
-            // it to round-off, give up: the next iterates could only find the same).
+            // Within the tolerance but at a saddle of Φ: leave it along its unstable mode (none
+            // found: keep descending; Φ flat along it to round-off: give up, `Escape`).
             run.stats.at_saddle += 1;
             if !run.convex_only {
                 match self.leave_saddle(&mut run.x, run.xt_d, &mut run.stats) {
