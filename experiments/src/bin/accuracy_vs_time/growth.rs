@@ -4,10 +4,11 @@
 //! count, with the work of Newton's forward pass (iterations, factorizations) beside its walls.
 
 use anyhow::Result;
-use clothopt::plot::{draw_xy, Series, XyFigure};
+use clothopt::plot::Series;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
+use crate::plots::draw_log_log;
 use crate::rows::MeshRow;
 use crate::sweep::spawn_mesh_with;
 use crate::{Config, MESH_N_ITER};
@@ -152,18 +153,10 @@ pub fn draw(dir: &Path, rows: &[GrowthRow]) -> Result<PathBuf> {
             });
         }
     }
-    let path = dir.join("accuracy_cost_growth.png");
-    draw_xy(
-        &XyFigure {
-            title: "u_obstacle: cost against mesh size (labels: n for an n × n cloth)".into(),
-            x_label: "particles".into(),
-            y_label: "time of one pass [s] (median, fresh process)".into(),
-            series,
-            log_x: true,
-            log_y: true,
-            ref_lines: vec![],
-        },
-        &path,
-    )?;
-    Ok(path)
+    let labels = [
+        "u_obstacle: cost against mesh size (labels: n for an n × n cloth)".into(),
+        "particles".into(),
+        "time of one pass [s] (median, fresh process)".into(),
+    ];
+    draw_log_log(dir, "accuracy_cost_growth.png", labels, series)
 }

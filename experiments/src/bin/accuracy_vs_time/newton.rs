@@ -15,7 +15,7 @@ use anyhow::Result;
 use cloth::scene::SolverKind;
 use cloth::{Model, Scene};
 use clothopt::plan;
-use clothopt::plot::{draw_xy, Series, XyFigure};
+use clothopt::plot::Series;
 use clothopt::result::is_safe;
 use serde::Serialize;
 
@@ -297,19 +297,10 @@ pub fn draw(dir: &std::path::Path, rows: &[SolverRow]) -> Result<std::path::Path
             }
         })
         .collect();
-    let path = dir.join("accuracy_newton_vs_xpbd.png");
-    draw_xy(
-        &XyFigure {
-            title: "u_obstacle: ∇L error vs cost (labels: Newton tolerance, XPBD iterations)"
-                .into(),
-            x_label: "time of one forward + ∇L pass [ms] (median, 1 thread)".into(),
-            y_label: format!("relative error of ∇L vs Newton at tolerance {REFERENCE_TOLERANCE:e}"),
-            series,
-            log_x: true,
-            log_y: true,
-            ref_lines: vec![],
-        },
-        &path,
-    )?;
-    Ok(path)
+    let labels = [
+        "u_obstacle: ∇L error vs cost (labels: Newton tolerance, XPBD iterations)".into(),
+        "time of one forward + ∇L pass [ms] (median, 1 thread)".into(),
+        format!("relative error of ∇L vs Newton at tolerance {REFERENCE_TOLERANCE:e}"),
+    ];
+    crate::plots::draw_log_log(dir, "accuracy_newton_vs_xpbd.png", labels, series)
 }

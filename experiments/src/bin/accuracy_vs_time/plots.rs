@@ -27,6 +27,28 @@ fn labelled(points: Vec<(f64, f64, String)>, name: String) -> Series {
     }
 }
 
+/// Draws `series` on log–log axes into `dir/file` with the figure's `[title, x label, y label]`;
+/// returns the file's path.
+pub fn draw_log_log(
+    dir: &Path,
+    file: &str,
+    [title, x_label, y_label]: [String; 3],
+    series: Vec<Series>,
+) -> Result<PathBuf> {
+    let path = dir.join(file);
+    let figure = XyFigure {
+        title,
+        x_label,
+        y_label,
+        series,
+        log_x: true,
+        log_y: true,
+        ref_lines: vec![],
+    };
+    draw_xy(&figure, &path)?;
+    Ok(path)
+}
+
 /// Draws the PNGs into the existing directory `dir`; returns their paths.
 pub fn draw_plots(
     dir: &Path,
