@@ -3,7 +3,7 @@
 //! refined to n × n (0 keeps the scene's grid), per-step iteration and factorization counts, then
 //! `reps` timings interleaved with XPBD at the scene's iterations.
 //! `RAYON_NUM_THREADS=1 cargo run --release -p cloth --example newton_counts -- 40 3 [flags]`
-//! Flags: `--no-chord` (no chord steps), `--halvings H` (`physics.load_halvings`), `--budget MIB`
+//! Prints the saddle searches (Lanczos runs) beside the escapes. Flags: `--no-chord` (no chord steps), `--halvings H` (`physics.load_halvings`), `--budget MIB`
 //! (`Model::checkpoint_budget`), `--ref` (∇L error against tolerance 1e-12), `--newton-only`
 //! (time Newton alone, for `perf record`), `--pcg` (conjugate gradients preconditioned with a
 //! reused factorization, default tolerance and iterations; `--pcg TOL,MAX` to choose them),
@@ -74,9 +74,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         settings.linear_solver, tot.pcg_solves, tot.pcg_iterations, tot.pcg_fallbacks
     );
     println!(
-        "chord {} failed {} projected {} loads {} rejected {} escapes {} saddle {}; kept {} steps {:.1} MB; forward {:.3} s",
+        "chord {} failed {} projected {} loads {} rejected {} escapes {} saddle {} searches {}; kept {} steps {:.1} MB; forward {:.3} s",
         tot.chord_steps, tot.failed_factorizations, tot.projected, tot.loads, tot.rejected_loads,
-        tot.escapes, tot.at_saddle, r.kept.steps(), r.kept.bytes() as f64 / 1e6, tf
+        tot.escapes, tot.at_saddle, r.kept.saddle_searches(), r.kept.steps(), r.kept.bytes() as f64 / 1e6, tf
     );
     let ev = newton.evaluate_loss_gradient(&u, delta)?;
     let g = ev.grad_l.unwrap();
