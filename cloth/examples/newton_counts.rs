@@ -3,7 +3,8 @@
 //! refined to n × n (0 keeps the scene's grid), per-step iteration and factorization counts, then
 //! `reps` timings interleaved with XPBD at the scene's iterations.
 //! `RAYON_NUM_THREADS=1 cargo run --release -p cloth --example newton_counts -- 40 3 [flags]`
-//! Prints the saddle searches (Lanczos runs) beside the escapes. Flags: `--no-chord` (no chord steps), `--halvings H` (`physics.load_halvings`), `--budget MIB`
+//! Prints the saddle searches (Lanczos runs) beside the escapes.
+//! Flags: `--no-chord` (no chord steps), `--halvings H` (`physics.load_halvings`), `--budget MIB`
 //! (`Model::checkpoint_budget`), `--ref` (∇L error against tolerance 1e-12), `--newton-only`
 //! (time Newton alone, for `perf record`), `--pcg` (conjugate gradients preconditioned with a
 //! reused factorization, default tolerance and iterations; `--pcg TOL,MAX` to choose them),
