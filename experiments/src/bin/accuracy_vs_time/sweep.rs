@@ -10,8 +10,7 @@ use experiments::child;
 use experiments::measure::{proc_status_kb, time_runs, Timing};
 use std::time::Instant;
 
-use crate::rows::NewtonCounts;
-use crate::rows::{AccuracyRow, MeshRow, PlanRow};
+use crate::rows::{AccuracyRow, MeshRow, NewtonCounts, PlanRow};
 use crate::{Config, MESH_BUDGET_S, MESH_N_ITER};
 
 /// The scene's stretch edges and rest lengths, for the constraint residual.
