@@ -6,10 +6,16 @@
 //! - `newton_pcg_forward_grad_l`: the same with `physics.linear_solver = "pcg"` (Newton's systems
 //!   by conjugate gradients preconditioned with a reused factorization).
 //!
+//! and the parts of one Newton iteration at the converged state of step 5 (`newton_parts`, n = 20
+//! and 40): `gradient` (`∇Φ` assembled), `hessian` (`∇Φ` and the exact Hessian assembled),
+//! `factorize` (the exact Hessian assembled and factorized) and `solve` (one solve with that
+//! factorization), which price the iterations of a rollout.
+//!
 //! Single thread: `RAYON_NUM_THREADS=1 cargo bench -p cloth --bench newton`.
 
+use cloth::internals::{HessianKind, NewtonSystem};
 use cloth::scene::{LinearSolverKind, SolverKind};
-use cloth::{Model, Scene};
+use cloth::{Model, Scene, Solver};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 
@@ -39,5 +45,51 @@ fn newton(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, newton);
+fn newton_parts(c: &mut Criterion) {
+    let mut group = c.benchmark_group("u_obstacle/newton_parts");
+    group.sample_size(20);
+    for n in [20, 40] {
+        let mut scene = Scene::builtin("u_obstacle")
+            .expect("built-in scene")
+            .refined(n, n)
+            .expect("refined scene");
+        scene.physics.solver = SolverKind::Newton;
+        let model = Model::from_scene(&scene).expect("model");
+        let Solver::Newton(settings) = model.solver else {
+            unreachable!("a Newton scene")
+        };
+        let (states, _) = model
+            .simulate_newton(&scene.initial_controls(), &settings)
+            .expect("converged");
+        // Two states a round-off apart, alternated, so that every factorization is new work.
+        let x = states[5].data().to_vec();
+        let mut y = x.clone();
+        y[3] += 1e-9;
+        let mut system = NewtonSystem::new(&model).expect("Newton system");
+        let mut grad = vec![0.0; system.pattern.n_dof];
+        let mut values = vec![0.0; system.pattern.nnz()];
+        group.bench_with_input(BenchmarkId::new("gradient", n), &n, |b, _| {
+            b.iter(|| system.pattern.assemble(&x, &x, &mut grad, None))
+        });
+        group.bench_with_input(BenchmarkId::new("hessian", n), &n, |b, _| {
+            let kind = HessianKind::Exact;
+            b.iter(|| (system.pattern).assemble(&x, &x, &mut grad, Some((&mut values, kind))))
+        });
+        let mut flip = false;
+        group.bench_with_input(BenchmarkId::new("factorize", n), &n, |b, _| {
+            b.iter(|| {
+                flip = !flip;
+                let at = if flip { &x } else { &y };
+                assert!(system.factorize_exact(at, at), "a minimizer's Hessian");
+            })
+        });
+        let mut rhs = vec![1.0; system.pattern.n_dof];
+        group.bench_with_input(BenchmarkId::new("solve", n), &n, |b, _| {
+            b.iter(|| system.factor.solve_in_place(black_box(&mut rhs), 1))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, newton, newton_parts);
 criterion_main!(benches);

@@ -28,11 +28,11 @@ use crate::geometry::dot;
 
 /// Conjugate gradients give up when an iteration shrinks the residual `‖r‖` by less than this
 /// factor (tested before the preconditioner is applied to the new residual, so giving up costs no
-/// solve that is not used): each iteration costs a solve with the preconditioner, about a third
-/// of a factorization at `u_obstacle` 40 × 40, so a slower contraction will not beat a fresh
-/// factorization. Measured there (forward pass, tolerance 1e-2, 4 iterations): 0.5 gives 85
-/// factorizations and 329 iterations, 0.8 76 and 401, none (1.5) 74 and 458, at the same wall
-/// time within the noise.
+/// solve that is not used). Each iteration costs a solve with the preconditioner and a product
+/// with the matrix (at `u_obstacle` 40 × 40 a solve is about a sixteenth of a factorization:
+/// criterion `newton_parts`, 0.64 against 10.3 ms). Measured there (forward pass, tolerance
+/// 1e-2, 4 iterations): 0.5 gives 85 factorizations and 329 iterations, 0.8 76 and 401, none
+/// (1.5) 74 and 458, at the same wall time within the noise.
 pub const STALL: f64 = 0.5;
 
 /// How conjugate gradients ended.
