@@ -2,15 +2,17 @@
 //! 100 iterations) on pools of the given thread counts, alternated round by round so both see
 //! the same machine load; prints each run and, per thread count, the median and the minimum.
 //!
-//! `cargo run --release -p cloth --example threads -- [n] [rounds] [threads,…]`, by default
-//! `100 3 1,2`. With one round and one thread count it doubles as a peak-memory probe
-//! (`/usr/bin/time -f %M`).
+//! `cargo run --release -p cloth --example threads -- [n] [rounds] [threads,…] [--forward]`, by
+//! default `100 3 1,2`; `--forward` times the forward pass alone (`Model::simulate`) instead. With
+//! one round and one thread count it doubles as a peak-memory probe (`/usr/bin/time -f %M`).
 
 use cloth::{Model, Scene};
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let forward_only = args.iter().any(|a| a == "--forward");
+    args.retain(|a| a != "--forward");
     let n: usize = args.first().map_or(Ok(100), |a| a.parse())?;
     let rounds: usize = args.get(1).map_or(Ok(3), |a| a.parse())?;
     let threads: Vec<usize> = match args.get(2) {
@@ -29,7 +31,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for round in 0..rounds {
         for ((pool, &t), times) in pools.iter().zip(&threads).zip(&mut times) {
             let start = Instant::now();
-            pool.install(|| model.evaluate_loss_gradient(&u, delta))?;
+            if forward_only {
+                pool.install(|| model.simulate(&u))?;
+            } else {
+                pool.install(|| model.evaluate_loss_gradient(&u, delta))?;
+            }
             let s = start.elapsed().as_secs_f64();
             println!("n = {n}, round {round}, {t} thread(s): {s:.3} s");
             times.push(s);
