@@ -970,3 +970,136 @@ fn a_rejected_step_is_not_evaluated_again_as_its_own_correction() {
     }
     assert_eq!(near_repeats, 0, "of {} evaluations", p.points.len());
 }
+
+/// `min x₀⁴ + x₁²  s.t.  x₀² + x₁² ≤ 4`, every evaluated point recorded.
+struct QuarticInDisk {
+    points: Vec<Vec<f64>>,
+}
+
+impl Problem for QuarticInDisk {
+    fn num_variables(&self) -> usize {
+        2
+    }
+    fn num_inequalities(&self) -> usize {
+        1
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        self.points.push(x.to_vec());
+        Ok(x[0].powi(4) + x[1] * x[1])
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        g[0] = 4.0 * x[0].powi(3);
+        g[1] = 2.0 * x[1];
+        Ok(())
+    }
+    fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
+        c[0] = 4.0 - x[0] * x[0] - x[1] * x[1];
+        Ok(())
+    }
+    fn inequality_jacobian(&mut self, x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
+        j.set(0, 0, -2.0 * x[0]);
+        j.set(0, 1, -2.0 * x[1]);
+        Ok(())
+    }
+}
+
+/// From (1, 1) the first full step (−4, −2) lands at (−3, −1): outside the disk, and with the
+/// objective up from 2 to 82. A second-order correction repairs only the row's curvature (here it
+/// would evaluate (−4.5, −2.5), objective 410), so it is not tried: every point the first line
+/// search evaluates lies on the step's ray.
+#[test]
+fn no_correction_is_evaluated_when_the_objective_alone_fails_the_test() {
+    let mut p = QuarticInDisk { points: Vec::new() };
+    let mut first_search_end = None;
+    let sol = solver()
+        .solve_with_callback(&mut p, &[1.0, 1.0], |info| {
+            if info.iteration == 1 {
+                first_search_end = Some(info.function_evaluations);
+            }
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    let end = first_search_end.expect("a second iteration");
+    let trials = &p.points[1..end];
+    assert!(trials.len() >= 2, "the full step is rejected: {trials:?}");
+    for x in trials {
+        // On the ray (1 − 4α, 1 − 2α): x₀ − 1 = 2 (x₁ − 1).
+        assert!(
+            (x[0] - 1.0 - 2.0 * (x[1] - 1.0)).abs() < 1e-8,
+            "{x:?} off the ray"
+        );
+    }
+}
+
+/// Powell's example of the Maratos effect (Nocedal & Wright, Example 15.4):
+/// `min 2(x₀² + x₁² − 1) − x₀  s.t.  x₀² + x₁² = 1`, with the Lagrangian's exact Hessian (the
+/// identity) as the initial one; every evaluated point recorded.
+struct Maratos {
+    points: Vec<Vec<f64>>,
+}
+
+impl Problem for Maratos {
+    fn num_variables(&self) -> usize {
+        2
+    }
+    fn num_equalities(&self) -> usize {
+        1
+    }
+    fn initial_hessian(&self) -> Option<DenseMatrix> {
+        DenseMatrix::from_row_major(2, 2, vec![1.0, 0.0, 0.0, 1.0])
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        self.points.push(x.to_vec());
+        Ok(2.0 * (x[0] * x[0] + x[1] * x[1] - 1.0) - x[0])
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        g[0] = 4.0 * x[0] - 1.0;
+        g[1] = 4.0 * x[1];
+        Ok(())
+    }
+    fn equalities(&mut self, x: &[f64], h: &mut [f64]) -> Result<(), EvalError> {
+        h[0] = x[0] * x[0] + x[1] * x[1] - 1.0;
+        Ok(())
+    }
+    fn equality_jacobian(&mut self, x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
+        j.set(0, 0, 2.0 * x[0]);
+        j.set(0, 1, 2.0 * x[1]);
+        Ok(())
+    }
+}
+
+/// From a point of the circle the full step raises both the objective and the violation (the
+/// Maratos effect), yet the second-order correction is tried (the model predicts it passes, as
+/// the objective's rise is the row's curvature) and taken whole.
+#[test]
+fn the_correction_still_overcomes_the_maratos_effect() {
+    let theta: f64 = 0.4;
+    let mut p = Maratos { points: Vec::new() };
+    let mut first = None;
+    let sol = solver()
+        .solve_with_callback(&mut p, &[theta.cos(), theta.sin()], |info| {
+            if info.iteration == 1 {
+                first = Some(info.clone());
+            }
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message);
+    assert!(
+        (sol.x[0] - 1.0).abs() < 1e-6 && sol.x[1].abs() < 1e-6,
+        "{:?}",
+        sol.x
+    );
+    let first = first.expect("a second iteration");
+    // The start, the rejected full step, its correction.
+    assert_eq!(first.function_evaluations, 3, "{:?}", p.points);
+    assert_eq!(first.step_length, 1.0);
+    let h = |x: &[f64]| (x[0] * x[0] + x[1] * x[1] - 1.0).abs();
+    assert!(
+        h(&p.points[1]) > 0.1,
+        "the full step leaves the circle: {:?}",
+        p.points[1]
+    );
+    assert!(h(&p.points[2]) < 0.1 * h(&p.points[1]), "{:?}", p.points[2]);
+}

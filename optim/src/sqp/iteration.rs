@@ -87,6 +87,7 @@ impl SqpSolver {
             pred,
             &step.penalty,
             &mut step.qp,
+            &state.bfgs,
         );
         self.conclude(ev, state, search)
     }

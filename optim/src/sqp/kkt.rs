@@ -13,14 +13,20 @@ pub(super) fn linearized_violations(
     dv: &PointDerivatives,
     d: &[f64],
 ) -> Vec<f64> {
-    let mut jd = vec![0.0; pt.c.len()];
+    violations_after(&pt.c, &pt.h, dv, d)
+}
+
+/// Per row, the violation of the rows whose values are `c`, `h` and whose Jacobians are `dv`'s,
+/// moved linearly by `d`: `max(0, −(cᵢ + Jᵢd))`, then `|h_j + J_{h,j}d|`.
+pub(super) fn violations_after(c: &[f64], h: &[f64], dv: &PointDerivatives, d: &[f64]) -> Vec<f64> {
+    let mut jd = vec![0.0; c.len()];
     dv.jc.mul_vec(d, &mut jd);
-    let mut hd = vec![0.0; pt.h.len()];
+    let mut hd = vec![0.0; h.len()];
     dv.jh.mul_vec(d, &mut hd);
-    pt.c.iter()
+    c.iter()
         .zip(&jd)
         .map(|(c, a)| (-(c + a)).max(0.0))
-        .chain(pt.h.iter().zip(&hd).map(|(h, a)| (h + a).abs()))
+        .chain(h.iter().zip(&hd).map(|(h, a)| (h + a).abs()))
         .collect()
 }
 

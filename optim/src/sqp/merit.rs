@@ -9,7 +9,7 @@ use crate::linalg::{dot, norm2, norm_inf, symv};
 use crate::problem::{NormData, Problem};
 use crate::qp::QpSubproblem;
 
-use super::kkt::linearized_violations;
+use super::kkt::{linearized_violations, violations_after};
 use super::SqpSolver;
 
 /// Outcome of the merit line search.
@@ -40,6 +40,7 @@ impl SqpSolver {
         pred: f64,
         penalty: &[f64],
         qp: &mut QpSubproblem,
+        bfgs: &DampedBfgs,
     ) -> Search {
         let s = &self.settings;
         let phi0 = pt.merit(penalty);
@@ -89,8 +90,14 @@ impl SqpSolver {
                 && ev.function_evaluations < s.max_function_evaluations
             {
                 tried_soc = true;
-                if let Some((xs, vs)) = second_order_correction(ev, pt, dv, d, &vt, qp) {
-                    if vs.merit(penalty) <= threshold(1.0) {
+                let rejected = Rejected {
+                    d,
+                    values: &vt,
+                    weights: penalty,
+                    threshold: threshold(1.0),
+                };
+                if let Some((xs, vs)) = second_order_correction(ev, pt, dv, bfgs, &rejected, qp) {
+                    if vs.merit(penalty) <= rejected.threshold {
                         if let Ok(accepted) = accept(ev, pt, dv, &xs, vs, 1.0) {
                             return accepted;
                         }
@@ -147,18 +154,35 @@ fn accept<P: Problem + ?Sized>(
 /// tried: the corrected point is the rejected trial to about as many digits as the merit's value.
 const MIN_CORRECTION: f64 = 1e-9;
 
+/// A rejected full step, for [`second_order_correction`].
+struct Rejected<'a> {
+    /// The step.
+    d: &'a [f64],
+    /// The values at `x + d`.
+    values: &'a PointValues,
+    /// The merit's penalty weights.
+    weights: &'a [f64],
+    /// The largest merit the full step's test accepts.
+    threshold: f64,
+}
+
 /// The second-order-corrected point and its values: re-solves the QP with the constraint values at
-/// the rejected full step `x + d` (`trial`), i.e. `c(x+d) + J(x)(d̂ − d) ≥ 0`, and evaluates `x + d̂`.
-/// `None` if the corrected QP or the evaluation fails, or the correction is below
-/// [`MIN_CORRECTION`].
+/// the rejected full step `x + d`, i.e. `c(x+d) + J(x)(d̂ − d) ≥ 0`, and evaluates `x + d̂`.
+/// `None` (nothing evaluated) if the corrected QP fails, the correction is below
+/// [`MIN_CORRECTION`], or the QP's model says the corrected point fails the full step's test: its
+/// merit predicted as the rejected trial's objective plus the model's change from `d` to `d̂`
+/// ([`model_terms`]) plus the violation left by the corrected linearization. A correction repairs
+/// the rows' curvature; when the objective's own rise is what failed the test, the prediction says
+/// so and the evaluation (a whole simulation, for a planner) is saved.
 fn second_order_correction<P: Problem + ?Sized>(
     ev: &mut Evaluator<'_, P>,
     pt: &PointValues,
     dv: &PointDerivatives,
-    d: &[f64],
-    trial: &PointValues,
+    bfgs: &DampedBfgs,
+    rejected: &Rejected<'_>,
     qp: &mut QpSubproblem,
 ) -> Option<(Vec<f64>, PointValues)> {
+    let (d, trial) = (rejected.d, rejected.values);
     let mut jd = vec![0.0; ev.m];
     dv.jc.mul_vec(d, &mut jd);
     let c_hat: Vec<f64> = trial.c.iter().zip(&jd).map(|(c, a)| c - a).collect();
@@ -176,10 +200,46 @@ fn second_order_correction<P: Problem + ?Sized>(
     if correction.fold(0.0, f64::max) <= MIN_CORRECTION * norm_inf(d) {
         return None;
     }
+    let left = violations_after(&c_hat, &h_hat, dv, &sol.d);
+    let ((quad_hat, norms_hat), (quad, norms)) = (
+        model_terms(pt, dv, bfgs, &ev.norms, &sol.d),
+        model_terms(pt, dv, bfgs, &ev.norms, d),
+    );
+    let predicted = trial.objective() + (quad_hat + norms_hat) - (quad + norms)
+        + left
+            .iter()
+            .zip(rejected.weights)
+            .map(|(v, w)| v * w)
+            .sum::<f64>();
+    if predicted > rejected.threshold {
+        return None;
+    }
     let mut xs: Vec<f64> = pt.x.iter().zip(&sol.d).map(|(x, di)| x + di).collect();
     ev.project(&mut xs);
     let vs = ev.values(&xs).ok()?;
     Some((xs, vs))
+}
+
+/// The QP model's objective terms for the step `d`: `gᵀd + ½dᵀBd` and `Σ w‖r + Ad‖` (`A` the
+/// Jacobian at `x` of a residual norm's residual).
+fn model_terms(
+    pt: &PointValues,
+    dv: &PointDerivatives,
+    bfgs: &DampedBfgs,
+    norms: &[NormData],
+    d: &[f64],
+) -> (f64, f64) {
+    let n = d.len();
+    let mut bd = vec![0.0; n];
+    symv(bfgs.matrix(), n, d, &mut bd);
+    let quad = dot(&dv.g, d) + 0.5 * dot(d, &bd);
+    let norms_new: f64 = norms
+        .iter()
+        .zip(&pt.residuals)
+        .zip(&dv.norm_jac)
+        .map(|((nd, r), jac)| nd.weight * norm2(&nd.model_residual(&pt.x, r, jac, d)))
+        .sum();
+    (quad, norms_new)
 }
 
 /// `m(0) − m(d)` for the ℓ1 model `f + gᵀd + ½dᵀBd + Σw‖r + Ad‖ + ν·linviol(d)` (`A` the
@@ -192,17 +252,8 @@ pub(super) fn predicted_reduction(
     d: &[f64],
     weights: &[f64],
 ) -> f64 {
-    let n = d.len();
-    let mut bd = vec![0.0; n];
-    symv(bfgs.matrix(), n, d, &mut bd);
-    let quad = dot(&dv.g, d) + 0.5 * dot(d, &bd);
-    let norms_new: f64 = norms
-        .iter()
-        .zip(&pt.residuals)
-        .zip(&dv.norm_jac)
-        .map(|((nd, r), jac)| nd.weight * norm2(&nd.model_residual(&pt.x, r, jac, d)))
-        .sum();
     let lin = linearized_violations(pt, dv, d);
     let lin_weighted: f64 = lin.iter().zip(weights).map(|(v, w)| v * w).sum();
+    let (quad, norms_new) = model_terms(pt, dv, bfgs, norms, d);
     -quad + (pt.f_norms - norms_new) + (pt.weighted_violation(weights) - lin_weighted)
 }
