@@ -83,7 +83,8 @@ pub struct SqpSettings {
     /// Smallest step length tried in the line search before it is declared failed. Default 1e-10.
     pub min_step_length: f64,
     /// Try a second-order correction (re-solve the QP with the constraint values at the trial point)
-    /// when the full step is rejected (counters the Maratos effect). Default true.
+    /// when the full step is rejected (counters the Maratos effect); the corrected point is evaluated
+    /// only when the QP's model predicts that it passes the merit test. Default true.
     pub second_order_correction: bool,
     /// Powell damping threshold of the BFGS update (`sᵀy ≥ θ sᵀBs` is enforced). Default 0.2.
     pub bfgs_damping: f64,

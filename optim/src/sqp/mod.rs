@@ -14,7 +14,8 @@
 //! 3. The KKT residual at `x` is computed *explicitly* from the problem's gradients and the QP's
 //!    multipliers; `Converged` is reported only if it and the violation are within tolerance.
 //! 4. Backtracking on the ℓ1 merit `φ = f + Σw‖Ax+b‖ + Σ νᵢ violᵢ` with the Armijo condition on the QP's
-//!    predicted reduction; if the full step is rejected, one second-order correction is tried. A failed
+//!    predicted reduction; if the full step is rejected, one second-order correction is tried (its
+//!    point evaluated only when the QP's model predicts it passes the test). A failed
 //!    evaluation counts as a rejected trial and halves the step.
 //! 5. Damped BFGS update with `y = ∇ₓL(x⁺, λ) − ∇ₓL(x, λ)` of the smooth part.
 //!
