@@ -2,9 +2,12 @@
 //! 100 iterations) on pools of the given thread counts, alternated round by round so both see
 //! the same machine load; prints each run and, per thread count, the median and the minimum.
 //!
-//! `cargo run --release -p cloth --example threads -- [n] [rounds] [threads,…] [--forward]`, by
-//! default `100 3 1,2`; `--forward` times the forward pass alone (`Model::simulate`) instead. With
-//! one round and one thread count it doubles as a peak-memory probe (`/usr/bin/time -f %M`).
+//! `cargo run --release -p cloth --example threads -- [n] [rounds] [threads,…] [--forward]
+//! [--seeds K]`, by default `100 3 1,2`; `--forward` times the forward pass alone
+//! (`Model::simulate`) instead; `--seeds K` times `Model::gradients` of `K` costs at once from a
+//! simulated rollout (the planner's multi-seed pull-back; each cost is the loss), after the
+//! forward. With one round and one thread count it doubles as a peak-memory probe
+//! (`/usr/bin/time -f %M`).
 
 use cloth::{Model, Scene};
 use std::time::Instant;
@@ -13,6 +16,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let forward_only = args.iter().any(|a| a == "--forward");
     args.retain(|a| a != "--forward");
+    let seeds: Option<usize> = match args.iter().position(|a| a == "--seeds") {
+        Some(i) => {
+            let k = args.get(i + 1).ok_or("--seeds needs a count")?.parse()?;
+            args.drain(i..i + 2);
+            Some(k)
+        }
+        None => None,
+    };
     let n: usize = args.first().map_or(Ok(100), |a| a.parse())?;
     let rounds: usize = args.get(1).map_or(Ok(3), |a| a.parse())?;
     let threads: Vec<usize> = match args.get(2) {
@@ -23,6 +34,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     scene.physics.iterations = 100;
     let model = Model::from_scene(&scene)?;
     let (u, delta) = (scene.initial_controls(), scene.task.delta);
+    let beta = model.task.beta;
+    let loss = |tape: &mut autodiff::Tape, t: usize, _: autodiff::Var, x: autodiff::Var| {
+        model.record_loss(tape, t, x, beta)
+    };
     let pools = threads
         .iter()
         .map(|&t| rayon::ThreadPoolBuilder::new().num_threads(t).build())
@@ -30,8 +45,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut times = vec![Vec::new(); threads.len()];
     for round in 0..rounds {
         for ((pool, &t), times) in pools.iter().zip(&threads).zip(&mut times) {
+            let states = match seeds {
+                Some(_) => Some(pool.install(|| model.simulate(&u))?),
+                None => None,
+            };
             let start = Instant::now();
-            if forward_only {
+            if let (Some(k), Some(states)) = (seeds, &states) {
+                let costs: Vec<cloth::StepCost<'_>> = vec![&loss; k];
+                pool.install(|| model.gradients(states, &u, &costs));
+            } else if forward_only {
                 pool.install(|| model.simulate(&u))?;
             } else {
                 pool.install(|| model.evaluate_loss_gradient(&u, delta))?;
