@@ -12,18 +12,32 @@
 use cloth::{Model, Scene};
 use std::time::Instant;
 
+/// What each round times.
+#[derive(Clone, Copy)]
+enum Timed {
+    /// `Model::evaluate_loss_gradient`.
+    ForwardAndGradient,
+    /// `Model::simulate`.
+    Forward,
+    /// `Model::gradients` of this many costs from a simulated rollout.
+    Seeds(usize),
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
-    let forward_only = args.iter().any(|a| a == "--forward");
-    args.retain(|a| a != "--forward");
-    let seeds: Option<usize> = match args.iter().position(|a| a == "--seeds") {
-        Some(i) => {
-            let k = args.get(i + 1).ok_or("--seeds needs a count")?.parse()?;
-            args.drain(i..i + 2);
-            Some(k)
+    let mut timed = Timed::ForwardAndGradient;
+    if let Some(i) = args.iter().position(|a| a == "--forward") {
+        args.remove(i);
+        timed = Timed::Forward;
+    }
+    if let Some(i) = args.iter().position(|a| a == "--seeds") {
+        if matches!(timed, Timed::Forward) {
+            return Err("--forward and --seeds exclude each other".into());
         }
-        None => None,
-    };
+        let k = args.get(i + 1).ok_or("--seeds needs a count")?.parse()?;
+        args.drain(i..i + 2);
+        timed = Timed::Seeds(k);
+    }
     let n: usize = args.first().map_or(Ok(100), |a| a.parse())?;
     let rounds: usize = args.get(1).map_or(Ok(3), |a| a.parse())?;
     let threads: Vec<usize> = match args.get(2) {
@@ -45,18 +59,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut times = vec![Vec::new(); threads.len()];
     for round in 0..rounds {
         for ((pool, &t), times) in pools.iter().zip(&threads).zip(&mut times) {
-            let states = match seeds {
-                Some(_) => Some(pool.install(|| model.simulate(&u))?),
-                None => None,
+            // The rollout the seeds are pulled back through, simulated before the clock starts.
+            let states = match timed {
+                Timed::Seeds(_) => Some(pool.install(|| model.simulate(&u))?),
+                _ => None,
             };
             let start = Instant::now();
-            if let (Some(k), Some(states)) = (seeds, &states) {
-                let costs: Vec<cloth::StepCost<'_>> = vec![&loss; k];
-                pool.install(|| model.gradients(states, &u, &costs));
-            } else if forward_only {
-                pool.install(|| model.simulate(&u))?;
-            } else {
-                pool.install(|| model.evaluate_loss_gradient(&u, delta))?;
+            match (timed, &states) {
+                (Timed::Seeds(k), Some(states)) => {
+                    let costs: Vec<cloth::StepCost<'_>> = vec![&loss; k];
+                    pool.install(|| model.gradients(states, &u, &costs));
+                }
+                (Timed::Forward, _) => drop(pool.install(|| model.simulate(&u))?),
+                _ => drop(pool.install(|| model.evaluate_loss_gradient(&u, delta))?),
             }
             let s = start.elapsed().as_secs_f64();
             println!("n = {n}, round {round}, {t} thread(s): {s:.3} s");

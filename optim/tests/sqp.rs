@@ -1005,7 +1005,7 @@ impl Problem for QuarticInDisk {
 
 /// From (1, 1) the first full step (−4, −2) lands at (−3, −1): outside the disk, and with the
 /// objective up from 2 to 82. A second-order correction repairs only the row's curvature (here it
-/// would evaluate (−4.5, −2.5), objective 410), so it is not tried: every point the first line
+/// would evaluate (−4.5, −2.5), objective 416), so it is not tried: every point the first line
 /// search evaluates lies on the step's ray.
 #[test]
 fn no_correction_is_evaluated_when_the_objective_alone_fails_the_test() {

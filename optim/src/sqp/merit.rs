@@ -206,11 +206,7 @@ fn second_order_correction<P: Problem + ?Sized>(
         model_terms(pt, dv, bfgs, &ev.norms, d),
     );
     let predicted = trial.objective() + (quad_hat + norms_hat) - (quad + norms)
-        + left
-            .iter()
-            .zip(rejected.weights)
-            .map(|(v, w)| v * w)
-            .sum::<f64>();
+        + weighted_sum(&left, rejected.weights);
     if predicted > rejected.threshold {
         return None;
     }
@@ -252,8 +248,12 @@ pub(super) fn predicted_reduction(
     d: &[f64],
     weights: &[f64],
 ) -> f64 {
-    let lin = linearized_violations(pt, dv, d);
-    let lin_weighted: f64 = lin.iter().zip(weights).map(|(v, w)| v * w).sum();
+    let lin_weighted = weighted_sum(&linearized_violations(pt, dv, d), weights);
     let (quad, norms_new) = model_terms(pt, dv, bfgs, norms, d);
     -quad + (pt.f_norms - norms_new) + (pt.weighted_violation(weights) - lin_weighted)
+}
+
+/// `Σ wᵢ vᵢ`: per-row violations weighted by the merit's penalty weights.
+fn weighted_sum(violations: &[f64], weights: &[f64]) -> f64 {
+    violations.iter().zip(weights).map(|(v, w)| v * w).sum()
 }
