@@ -429,6 +429,52 @@ impl Constraint for DihedralBending {
     }
 }
 
+/// Quadratic (isometric) bending on the two triangles sharing the edge `p₀p₁`, with opposite
+/// vertices `p₂` (first triangle) and `p₃` (second), after Bergou et al., "A quadratic bending
+/// model for inextensible surfaces" (2006): `C = (Σᵢ wᵢ pᵢ)ₐ`, one instance per coordinate axis
+/// `a`, with `wᵢ = √(3/(A₀ + A₁))·Kᵢ` from the rest triangles' areas and cotangent weights
+/// ([`IsometricBending::weights`]). `½k Σₐ C²` is the discrete Willmore energy of the stencil for
+/// a cloth whose rest shape is flat and which bends without stretching. Every instance is linear
+/// in the positions, so the model has no singular configuration: it stays smooth through a
+/// crease folded flat, where the distance model's pair of particles meets and the dihedral
+/// angle passes ±π.
+#[derive(Clone, Debug)]
+pub struct IsometricBending {
+    /// The weights `wᵢ` of `p₀ … p₃` per instance.
+    pub weights: Vec<[f64; 4]>,
+    /// The coordinate axis (0, 1 or 2) per instance.
+    pub axis: Vec<usize>,
+}
+
+impl IsometricBending {
+    /// The weights `√(3/(A₀ + A₁))·K` of a stencil at rest, `K = (c₀₃ + c₀₄, c₀₁ + c₀₂,
+    /// −c₀₁ − c₀₃, −c₀₂ − c₀₄)` with `c₀ⱼ` the cotangent of the angle between the shared edge and
+    /// edge `j` (Bergou et al. 2006, eq. 7), and `A₀`, `A₁` the triangles' areas; `None` for a
+    /// degenerate triangle. The weights sum to 0, and `Σᵢ Kᵢ pᵢ = 0` when the four points lie in a
+    /// plane (the cotangent Laplacian's linear precision).
+    pub fn weights(p: &[Vector3<f64>; 4]) -> Option<[f64; 4]> {
+        let e0 = p[1] - p[0];
+        let (e1, e2) = (p[2] - p[0], p[3] - p[0]);
+        let (e3, e4) = (p[2] - p[1], p[3] - p[1]);
+        let cot = |u: &Vector3<f64>, v: &Vector3<f64>| u.dot(v) / u.cross(v).norm();
+        let (c01, c02) = (cot(&e0, &e1), cot(&e0, &e2));
+        let (c03, c04) = (cot(&-e0, &e3), cot(&-e0, &e4));
+        let area = 0.5 * (e0.cross(&e1).norm() + e0.cross(&e2).norm());
+        let scale = (3.0 / area).sqrt();
+        let k = [c03 + c04, c01 + c02, -c01 - c03, -c02 - c04].map(|k| scale * k);
+        k.iter().all(|k| k.is_finite()).then_some(k)
+    }
+}
+
+impl Constraint for IsometricBending {
+    const ARITY: usize = 4;
+    #[inline(always)]
+    fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
+        let (w, a) = (&self.weights[instance], self.axis[instance]);
+        p[0][a] * w[0] + p[1][a] * w[1] + p[2][a] * w[2] + p[3][a] * w[3]
+    }
+}
+
 /// A physical collider on single particles: `C = SDF(p) ≥ 0` for a signed-distance field.
 #[derive(Clone, Debug)]
 pub struct Collision<S> {

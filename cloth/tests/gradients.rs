@@ -1,8 +1,8 @@
 //! Finite-difference property tests of `dL/dU` and `dC/dU` from `Model::evaluate(.., true)`.
 //!
 //! Small random scenes: a 4×4 or 3×5 hanging cloth, `T = 3`, 20 Gauss–Seidel iterations, random
-//! controls `|u| ≤ 0.1`, random stiffness (stretch 1e2–1e5, bending none / distance / dihedral
-//! 1e0–1e3, all log-uniform); without obstacles, with a safety sphere set near the cloth, and with
+//! controls `|u| ≤ 0.1`, random stiffness (stretch 1e2–1e5, bending none / distance / dihedral /
+//! isometric 1e0–1e3, all log-uniform); without obstacles, with a safety sphere set near the cloth, and with
 //! a (slightly tilted) ground-plane collider that the cloth touches.
 //!
 //! # What is compared, and how
@@ -66,14 +66,15 @@ const FLOOR: f64 = 1e-8;
 /// Tolerance where a collider activation flips inside the FD stencil (a kink of the rollout).
 const REL_KINK: f64 = 1e-4;
 
-/// Strategy for the bending model: none, distance or dihedral, stiffness 1e0–1e3.
+/// Strategy for the bending model: none, distance, dihedral or isometric, stiffness 1e0–1e3.
 fn bending() -> impl Strategy<Value = BendKind> {
-    (0..3usize, 0.0..3.0f64).prop_map(|(kind, e)| {
+    (0..4usize, 0.0..3.0f64).prop_map(|(kind, e)| {
         let k = 10f64.powf(e);
         match kind {
             0 => BendKind::None,
             1 => BendKind::Distance(k),
-            _ => BendKind::Dihedral(k),
+            2 => BendKind::Dihedral(k),
+            _ => BendKind::Isometric(k),
         }
     })
 }

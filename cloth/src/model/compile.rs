@@ -3,7 +3,9 @@
 //! task and the step solver.
 
 use super::{ConstraintGroup, Model, TaskSpec};
-use crate::constraint::{Collision, Constraint, DihedralBending, Distance, MAX_ARITY};
+use crate::constraint::{
+    Collision, Constraint, DihedralBending, Distance, IsometricBending, MAX_ARITY,
+};
 use crate::contact::barrier::{Barrier, ColliderBarrier};
 use crate::contact::friction::FrictionalContact;
 use crate::contact::self_barrier::{PairKind, SelfBarrier};
@@ -164,6 +166,10 @@ impl Model {
                         flatten(&quads),
                         k,
                     )?;
+                }
+                BendingModel::Isometric => {
+                    let (bending, stencils) = isometric_bending(&model, &mesh.dihedral_quads())?;
+                    model.add_constraints("bending", bending, flatten(&stencils), k)?;
                 }
             }
         }
@@ -518,4 +524,45 @@ impl Scene {
             }
         }
     }
+}
+
+/// The isometric bending instances of `quads` (three per stencil, one per axis) and their
+/// particles, from the rest positions: an error names the first stencil that is degenerate or
+/// not flat at rest (the model's energy is the bending of a flat rest shape).
+fn isometric_bending(
+    model: &Model,
+    quads: &[[usize; 4]],
+) -> Result<(IsometricBending, Vec<[usize; 4]>), ClothError> {
+    let mut bending = IsometricBending {
+        weights: Vec::with_capacity(3 * quads.len()),
+        axis: Vec::with_capacity(3 * quads.len()),
+    };
+    let mut stencils = Vec::with_capacity(3 * quads.len());
+    for q in quads {
+        let p = q.map(|i| model.rest_point(i));
+        let invalid = |reason: String| ClothError::InvalidConstraint {
+            name: "bending".into(),
+            reason,
+        };
+        let w = IsometricBending::weights(&p).ok_or_else(|| {
+            invalid(format!(
+                "isometric bending: a triangle on edge ({}, {}) is degenerate at rest",
+                q[0], q[1]
+            ))
+        })?;
+        let angle = DihedralBending::angle(&p);
+        if angle.abs() > 1e-6 {
+            return Err(invalid(format!(
+                "isometric bending needs a flat rest shape, but the triangles on edge ({}, {}) \
+                 meet at {angle:.2e} rad from flat at rest (use the dihedral model)",
+                q[0], q[1]
+            )));
+        }
+        for axis in 0..3 {
+            bending.weights.push(w);
+            bending.axis.push(axis);
+            stencils.push(*q);
+        }
+    }
+    Ok((bending, stencils))
 }

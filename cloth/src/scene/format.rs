@@ -226,6 +226,10 @@ pub enum BendingModel {
     /// Dihedral-angle constraint on each interior edge's two triangles
     /// ([`crate::ClothMesh::dihedral_quads`]). JSON `"dihedral"`.
     Dihedral,
+    /// Quadratic bending on each interior edge's two triangles
+    /// ([`crate::constraint::IsometricBending`], Bergou et al. 2006): linear in the positions, so
+    /// smooth through creases folded flat; needs a flat rest shape. JSON `"isometric"`.
+    Isometric,
 }
 
 /// A constraint stiffness `k`: a positive finite number, or rigid (JSON string `"inf"`).

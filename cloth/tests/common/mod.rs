@@ -41,6 +41,7 @@ pub enum BendKind {
     None,
     Distance(f64),
     Dihedral(f64),
+    Isometric(f64),
 }
 
 /// A small hanging cloth (`rows × cols`, side 1, in the plane `y = −1.5`, top at `z = 2`),
@@ -72,6 +73,10 @@ pub fn small_scene(
         }),
         BendKind::Dihedral(k) => Some(Bending {
             model: BendingModel::Dihedral,
+            stiffness: Stiffness::Finite(k),
+        }),
+        BendKind::Isometric(k) => Some(Bending {
+            model: BendingModel::Isometric,
             stiffness: Stiffness::Finite(k),
         }),
     };
