@@ -495,7 +495,11 @@ fn stiffness_extremes() {
 #[test]
 fn ten_cloth_widths_in_one_step() {
     // Corner 0 jumps 10 cloth widths in x in step 1: every edge near it is overstretched ~10×.
-    for bending in [BendingModel::Distance, BendingModel::Dihedral] {
+    for bending in [
+        BendingModel::Distance,
+        BendingModel::Dihedral,
+        BendingModel::Isometric,
+    ] {
         let mut scene = small(4, 4, 3, 20);
         scene.material.bending = Some(Bending {
             model: bending,
@@ -517,7 +521,11 @@ fn inverted_triangles() {
     // The gripped corners swap sides (x: −0.5 ↔ 0.5) in the first step: the top edge of every
     // triangle is mirrored, so the cloth turns inside out (dihedral bending sees inverted
     // triangles; the distance constraints pass through zero length on the way).
-    for bending in [BendingModel::Distance, BendingModel::Dihedral] {
+    for bending in [
+        BendingModel::Distance,
+        BendingModel::Dihedral,
+        BendingModel::Isometric,
+    ] {
         let mut scene = small(4, 4, 3, 40);
         scene.material.bending = Some(Bending {
             model: bending,
@@ -622,6 +630,7 @@ fn tiny_and_odd_meshes() {
             None,
             Some(BendingModel::Distance),
             Some(BendingModel::Dihedral),
+            Some(BendingModel::Isometric),
         ] {
             let mut scene = small(rows, cols, 3, 20);
             scene.material.bending = bending.map(|model| Bending {

@@ -20,13 +20,14 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, ValueEnum};
-use cloth::scene::SolverKind;
+use cloth::scene::{Bending, BendingModel, SolverKind, Stiffness};
 use cloth::{Controls, Model, Scene};
 use clothopt::figures::RolloutFigure;
 use clothopt::plan::{self, Optimizer, PlanOptions};
 use clothopt::plot::{self, BarChart, TrajectoryFigure, View3d};
 use clothopt::problem::TargetModel;
 use clothopt::result::PlanResult;
+use clothopt::validate::ensure_positive;
 use experiments::report::{write_json, Verdict};
 use indicatif::MultiProgress;
 use std::path::PathBuf;
@@ -75,6 +76,11 @@ struct Args {
     /// to tolerance, with the smooth contact model where a task has colliders (`drop`'s ground).
     #[arg(long, value_enum, default_value_t = Physics::Xpbd)]
     physics: Physics,
+    /// Replace each task's bending (the paper's distance model) by the isometric model at this
+    /// stiffness (energy units; `cloth::constraint::IsometricBending`), which stays smooth
+    /// where the cloth creases (default: the scene's).
+    #[arg(long)]
+    isometric_bending: Option<f64>,
 }
 
 /// `--physics`: the paper's simulator or converged physics.
@@ -194,6 +200,13 @@ fn load_task(name: &str, args: &Args) -> Result<Task> {
         scene.physics.solver = SolverKind::Newton;
         // Newton's default contact model for a scene with colliders: the smooth one.
         scene.physics.contact = None;
+    }
+    if let Some(k) = args.isometric_bending {
+        ensure_positive("--isometric-bending", k)?;
+        scene.material.bending = Some(Bending {
+            model: BendingModel::Isometric,
+            stiffness: Stiffness::Finite(k),
+        });
     }
     let model = Model::from_scene(&scene)?;
     let mut settings = TaskSettings::for_task(name, &model);
