@@ -473,6 +473,25 @@ impl Constraint for IsometricBending {
         let (w, a) = (&self.weights[instance], self.axis[instance]);
         p[0][a] * w[0] + p[1][a] * w[1] + p[2][a] * w[2] + p[3][a] * w[3]
     }
+
+    /// `∇C`: the weights on the instance's axis, 0 on the other coordinates.
+    #[inline(always)]
+    fn gradient<R: Real>(&self, instance: usize, x: &[R], g: &mut [R]) -> R {
+        let (w, a) = (&self.weights[instance], self.axis[instance]);
+        g[..12].fill(R::zero());
+        for (i, &wi) in w.iter().enumerate() {
+            g[3 * i + a] = R::cst(wi);
+        }
+        x[a] * w[0] + x[3 + a] * w[1] + x[6 + a] * w[2] + x[9 + a] * w[3]
+    }
+
+    /// `∇²C·v = 0`: the constraint is linear.
+    #[inline(always)]
+    fn hessian_vectors(&self, _instance: usize, _x: &[f64], vs: &mut [RowVector]) {
+        for v in vs.iter_mut() {
+            v[..12].fill(0.0);
+        }
+    }
 }
 
 /// A physical collider on single particles: `C = SDF(p) ≥ 0` for a signed-distance field.

@@ -2,7 +2,7 @@
 //! [`Constraint::hessian_vectors`]) against the generic dual path ([`Generic`]), which stays the
 //! reference.
 //!
-//! Every built-in: [`Distance`], [`DihedralBending`], [`Collision`] with a [`SphereSet`], a
+//! Every built-in: [`Distance`], [`DihedralBending`], [`IsometricBending`], [`Collision`] with a [`SphereSet`], a
 //! [`Plane`] and a [`Union`] of both, and the self-contacts `VertexTriangle` and `EdgeEdge`
 //! (nearly parallel edges among them). Inputs are random, and half of them near-degenerate: nearly
 //! coincident particles (offsets down to 1e-12), flat and folded (`φ ≈ 0`, `φ ≈ ±π`) dihedrals,
@@ -18,7 +18,7 @@
 mod common;
 
 use cloth::constraint::{
-    hessian_vector, Collision, Constraint, DihedralBending, Distance, Generic,
+    hessian_vector, Collision, Constraint, DihedralBending, Distance, Generic, IsometricBending,
 };
 use cloth::sdf::{Plane, SphereSet, Union};
 use common::XorShift;
@@ -163,6 +163,16 @@ proptest! {
         let mut rng = XorShift::new(seed);
         let c = DihedralBending { rest: vec![rng.uniform(-3.0, 3.0)] };
         check(&c, &quad(&mut rng), &rng.direction(12))?;
+    }
+
+    #[test]
+    fn isometric_matches_generic(seed in any::<u64>()) {
+        let mut rng = XorShift::new(seed);
+        let weights: [f64; 4] = std::array::from_fn(|_| rng.uniform(-5.0, 5.0));
+        for axis in 0..3 {
+            let c = IsometricBending { weights: vec![weights], axis: vec![axis] };
+            check(&c, &quad(&mut rng), &rng.direction(12))?;
+        }
     }
 
     #[test]
