@@ -10,7 +10,7 @@
 
 mod common;
 
-use cloth::constraint::{Constraint, DihedralBending, Distance, IsometricBending};
+use cloth::constraint::{Constraint, DihedralBending, IsometricBending};
 use cloth::scene::{Bending, BendingModel, Stiffness};
 use cloth::{Model, Scene};
 use common::XorShift;
@@ -112,9 +112,6 @@ fn the_energy_is_smooth_through_a_crease_folded_flat() {
     ];
     let w = IsometricBending::weights(&rest).unwrap();
     let dihedral = DihedralBending { rest: vec![0.0] };
-    let distance = Distance {
-        rest: vec![2f64.sqrt()],
-    };
     for h in [1e-2, 1e-4, 1e-6] {
         let (before, after) = (folded(&rest, pi - h), folded(&rest, pi + h));
         let iso = (energy(w, &after) - energy(w, &before)).abs();
@@ -131,8 +128,6 @@ fn the_energy_is_smooth_through_a_crease_folded_flat() {
         // (p₂ − p₃)/|p₂ − p₃| is undefined at the fold.
         let gap = (before[2] - before[3]).norm();
         assert!(gap < 1.5 * h, "pair at {gap} (h = {h})");
-        let c = distance.c(0, &[before[2], before[3]]);
-        assert!((c + 2f64.sqrt()).abs() < 1.5 * h, "distance constraint {c}");
     }
 }
 

@@ -113,3 +113,11 @@ fn newton_safety_terms_are_active_in_the_gradient_test() {
     assert!(e.metrics.c < 0.0, "C = {}", e.metrics.c);
     check(&model, &u, 7, 0.3).unwrap();
 }
+
+#[test]
+fn newton_gradients_with_isometric_bending() {
+    let model = newton_model(&scene(3), false);
+    let values: Vec<f64> = (0..18).map(|k| 0.1 * ((k as f64) * 0.7).sin()).collect();
+    let u = common::controls_from(&model, &values);
+    check(&model, &u, 5, 0.3).unwrap();
+}

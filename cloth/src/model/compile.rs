@@ -538,12 +538,12 @@ fn isometric_bending(
         axis: Vec::with_capacity(3 * quads.len()),
     };
     let mut stencils = Vec::with_capacity(3 * quads.len());
+    let invalid = |reason: String| ClothError::InvalidConstraint {
+        name: "bending".into(),
+        reason,
+    };
     for q in quads {
         let p = q.map(|i| model.rest_point(i));
-        let invalid = |reason: String| ClothError::InvalidConstraint {
-            name: "bending".into(),
-            reason,
-        };
         let w = IsometricBending::weights(&p).ok_or_else(|| {
             invalid(format!(
                 "isometric bending: a triangle on edge ({}, {}) is degenerate at rest",

@@ -27,7 +27,6 @@ use clothopt::plan::{self, Optimizer, PlanOptions};
 use clothopt::plot::{self, BarChart, TrajectoryFigure, View3d};
 use clothopt::problem::TargetModel;
 use clothopt::result::PlanResult;
-use clothopt::validate::ensure_positive;
 use experiments::report::{write_json, Verdict};
 use indicatif::MultiProgress;
 use std::path::PathBuf;
@@ -202,7 +201,6 @@ fn load_task(name: &str, args: &Args) -> Result<Task> {
         scene.physics.contact = None;
     }
     if let Some(k) = args.isometric_bending {
-        ensure_positive("--isometric-bending", k)?;
         scene.material.bending = Some(Bending {
             model: BendingModel::Isometric,
             stiffness: Stiffness::Finite(k),
@@ -301,6 +299,9 @@ fn run(args: Args) -> Result<()> {
     }
     if let Some(t) = args.tol_optimality {
         clothopt::validate::ensure_positive("--tol-optimality", t)?;
+    }
+    if let Some(k) = args.isometric_bending {
+        clothopt::validate::ensure_positive("--isometric-bending", k)?;
     }
     if args.jobs == 0 {
         bail!("--jobs must be at least 1");
