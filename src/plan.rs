@@ -8,11 +8,11 @@ use crate::error::{Error, Result};
 use crate::outcome::{row_facts, task_outcome, PlanFacts, RowFacts, TaskOutcome};
 use crate::problem::{TaskOptions, TrajectoryProblem};
 // The result of a run and its converters, from `crate::result`: re-exported for this module's callers.
-use crate::result::SafetyReport;
 pub use crate::result::{
     controls_from_nested, controls_to_nested, gripper_positions, is_safe, mesh_triangles,
     state_points, states_of, PlanResult, Stage, FEASIBILITY_TOLERANCE, SAFETY_TOLERANCE,
 };
+use crate::result::{PhysicsReport, SafetyReport};
 use crate::safety_check::{check_safety, physics_hint};
 use crate::start_check::judge_start;
 // The rollout's strain and its warning, from `crate::strain`: re-exported for this module's callers.
@@ -623,6 +623,12 @@ fn rollout_result(
         strain: strain_report(model, &evaluation.states),
         gripper_positions: gripper_positions(model, &evaluation.states),
         states: Some(evaluation.states.iter().map(state_points).collect()),
+        physics: Some(PhysicsReport::of(
+            scene,
+            model,
+            &evaluation.states,
+            controls,
+        )),
         metrics: evaluation.metrics,
         task,
         safety,

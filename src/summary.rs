@@ -16,8 +16,9 @@ impl PlanResult {
 
     fn write_summary(&self, s: &mut String, timing: bool) -> std::fmt::Result {
         let m = &self.metrics;
+        let caveat = self.physics.as_ref().and_then(|p| p.caveat());
         let verdict = if self.task.achieved {
-            "task achieved".to_string()
+            format!("task achieved{}", caveat.unwrap_or_default())
         } else {
             format!("task NOT achieved ({})", self.task.reason.name())
         };
@@ -63,6 +64,9 @@ impl PlanResult {
                 "iterations {} ({per_stage})  simulations {}  gradients {}{wall}",
                 self.iterations, self.evaluations, self.gradient_evaluations
             )?,
+        }
+        if let Some(physics) = &self.physics {
+            writeln!(s, "{}", physics.summary_line())?;
         }
         if let Some(check) = &self.check {
             writeln!(s, "{}", check.summary())?;

@@ -108,7 +108,7 @@ fn malformed_json() {
     );
     println!("{err}");
     rejects_scene("empty", "", None, &["invalid scene JSON", "EOF"]);
-    let trailing = substituted("\"iterations\": 100", "\"iterations\": 100,");
+    let trailing = substituted("\"solver\": \"xpbd\"", "\"solver\": \"xpbd\",");
     rejects_scene(
         "trailing comma",
         &trailing,

@@ -42,7 +42,7 @@ fn gripper_scene() -> Scene {
       "cloth": {"rows": 3, "cols": 3, "top_left": [-0.3, -0.6, 0.5], "right": [0.6, 0, 0],
                 "down": [0, 0, -0.2]},
       "material": {"stretch": 1e3},
-      "physics": {"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 10},
+      "physics": {"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 10, "solver": "xpbd"},
       "controls": [[0, 0], [0, 2]],
       "obstacles": [
         {"type": "spheres", "centers": [[-0.3, -0.2, 0.45]], "radii": [0.1], "role": "collider"},

@@ -1,5 +1,5 @@
-//! The `fold` built-in through the planner, cheaply: a κ warm-up stopped by the progress test after
-//! its first iteration (a window of one iteration, any decrease below 100%) with no safety row
+//! The fold under XPBD from its hand-made arc (`examples/scenes/fold/fold_xpbd.json`) through the
+//! planner, cheaply: a κ warm-up stopped by the progress test after its first iteration (a window of one iteration, any decrease below 100%) with no safety row
 //! active is the plan — the sharp stage is not run — and that plan reaches every target but is not
 //! called safe (the cloth sinks 0.3 mm into the table, more than the feasibility tolerance, and its
 //! layers pass through each other), and its
@@ -16,7 +16,11 @@ use optim::{Solution, Status};
 
 #[test]
 fn a_warm_up_without_progress_and_far_from_the_mug_is_the_fold_plan() {
-    let scene = Scene::builtin("fold").unwrap();
+    let scene = Scene::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/fold/fold_xpbd.json"
+    ))
+    .unwrap();
     assert!(scene.physics.self_collision.is_some());
     let model = Model::from_scene(&scene).unwrap();
     let start = initial_controls(&scene, &model).unwrap();
@@ -83,7 +87,7 @@ fn a_warm_up_without_progress_and_far_from_the_mug_is_the_fold_plan() {
         clothopt::safety_check::physics_hint(m, &report, &result.metrics, tol)
     };
     let mut newton = scene.clone();
-    newton.physics.solver = cloth::scene::SolverKind::Newton;
+    newton.physics.solver = Some(cloth::scene::SolverKind::Newton);
     let newton = Model::from_scene(&newton).unwrap();
     assert!(hint(&newton, options.tol_feasibility, result.safety.layers).is_none());
     assert!(hint(&model, 1.0, None).is_none());
@@ -131,7 +135,14 @@ fn ended(x: Vec<f64>, status: Status) -> Solution {
 #[test]
 fn the_sharp_stage_is_skipped_only_after_no_progress_with_every_safety_row_inactive() {
     for (name, rows_active) in [("fold", false), ("u_obstacle", true)] {
-        let scene = Scene::builtin(name).unwrap();
+        let scene = match name {
+            "fold" => Scene::load(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/examples/scenes/fold/fold_xpbd.json"
+            ))
+            .unwrap(),
+            _ => Scene::builtin(name).unwrap(),
+        };
         let model = Model::from_scene(&scene).unwrap();
         let x = initial_controls(&scene, &model).unwrap().data().to_vec();
         let mut task = TaskOptions::for_model(&model);
@@ -152,7 +163,11 @@ fn the_sharp_stage_is_skipped_only_after_no_progress_with_every_safety_row_inact
 
 #[test]
 fn bad_progress_options_are_named() {
-    let scene = Scene::builtin("fold").unwrap();
+    let scene = Scene::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/scenes/fold/fold_xpbd.json"
+    ))
+    .unwrap();
     let model = Model::from_scene(&scene).unwrap();
     let start = initial_controls(&scene, &model).unwrap();
     let mut cases = Vec::new();

@@ -19,7 +19,7 @@ fn rail_scene(horizon: usize) -> Scene {
       "cloth": {{"rows": 7, "cols": 7, "top_left": [-0.15, -0.65, 1.3], "right": [0.3, 0.0, 0.0],
                 "down": [0.0, 0.0, -0.3], "particle_mass": 0.000988}},
       "material": {{"stretch": 1000.0, "bending": {{"model": "distance", "stiffness": 1.0}}}},
-      "physics": {{"dt": 0.1, "gravity": [0.0, 0.0, -9.81], "iterations": 100}},
+      "physics": {{"dt": 0.1, "gravity": [0.0, 0.0, -9.81], "iterations": 100, "solver": "xpbd"}},
       "controls": [[0, 0], [0, 6]],
       "obstacles": [
         {{"type": "box", "center": [0.0, 0.0, 0.375], "half_extents": [0.6, 0.4, 0.375],

@@ -15,7 +15,7 @@ use clothopt::result::{controls_from_nested, is_safe};
 /// `u_obstacle` at `n × n` particles on Newton physics with the default settings.
 fn newton_scene(n: usize) -> Scene {
     let mut scene = Scene::builtin("u_obstacle").unwrap().refined(n, n).unwrap();
-    scene.physics.solver = SolverKind::Newton;
+    scene.physics.solver = Some(SolverKind::Newton);
     scene
 }
 
@@ -105,7 +105,7 @@ fn a_trial_past_the_deadline_interrupts_the_run() {
     use optim::Problem;
     for physics in [SolverKind::Newton, SolverKind::Xpbd] {
         let mut scene = newton_scene(4);
-        scene.physics.solver = physics;
+        scene.physics.solver = Some(physics);
         let (model, x0, x1) = guess_and_longer(&scene);
         let mut problem = TrajectoryProblem::new(&model, TaskOptions::for_model(&model))
             .with_stop(Some(std::time::Instant::now()), None);

@@ -120,7 +120,7 @@ fn a_plan_failing_its_check_is_replanned_with_a_larger_margin_until_it_passes() 
     let again = check_plan(&scene, newton, &controls, delta, result.delta).unwrap();
     assert_eq!(&again, last);
     let mut newton_scene = scene.clone();
-    newton_scene.physics.solver = cloth::scene::SolverKind::Newton;
+    newton_scene.physics.solver = Some(cloth::scene::SolverKind::Newton);
     newton_scene.physics.tolerance = Some(1e-12);
     let truth = Model::from_scene(&newton_scene)
         .unwrap()

@@ -25,7 +25,7 @@ fn newton(c: &mut Criterion) {
     for n in [10, 20, 40] {
         let base = Scene::builtin("u_obstacle").expect("built-in scene");
         let mut scene = base.refined(n, n).expect("refined scene");
-        scene.physics.solver = SolverKind::Newton;
+        scene.physics.solver = Some(SolverKind::Newton);
         let model = Model::from_scene(&scene).expect("model");
         let (u, delta) = (scene.initial_controls(), scene.task.delta);
         group.bench_with_input(BenchmarkId::new("newton_forward", n), &n, |b, _| {
@@ -53,7 +53,7 @@ fn newton_parts(c: &mut Criterion) {
             .expect("built-in scene")
             .refined(n, n)
             .expect("refined scene");
-        scene.physics.solver = SolverKind::Newton;
+        scene.physics.solver = Some(SolverKind::Newton);
         let model = Model::from_scene(&scene).expect("model");
         let Solver::Newton(settings) = model.solver else {
             unreachable!("a Newton scene")

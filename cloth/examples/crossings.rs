@@ -1,5 +1,5 @@
-//! Does the cloth pass through itself? The `fold` built-in's initial guess simulated without
-//! self-collision, with vertex–triangle contacts (the scene as shipped) and with edge–edge
+//! Does the cloth pass through itself? The fold under XPBD (`fold_xpbd.json`) from its arc,
+//! simulated without self-collision, with vertex–triangle contacts (the scene as shipped) and with edge–edge
 //! contacts too (`physics.self_collision.edge_edge`): per step, the edge–edge and vertex–triangle
 //! crossings between consecutive states (`cloth::crossings`) and the edge–triangle
 //! intersections of each state, the contact pairs, and the simulation's wall time.
@@ -11,7 +11,10 @@ use cloth::{Model, Scene};
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let shipped = Scene::builtin("fold")?;
+    let shipped = Scene::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/scenes/fold/fold_xpbd.json"
+    ))?;
     let mut none = shipped.clone();
     none.physics.self_collision = None;
     let mut edges = shipped.clone();

@@ -33,7 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let base = if n > 0 { base.refined(n, n)? } else { base };
     let mut ns = base.clone();
-    ns.physics.solver = SolverKind::Newton;
+    ns.physics.solver = Some(SolverKind::Newton);
     let mut newton = Model::from_scene(&ns)?;
     let Solver::Newton(mut settings) = newton.solver else {
         unreachable!()

@@ -40,6 +40,7 @@ pub use model::{ConstraintGroup, Model, TaskSpec, DEFAULT_CHECKPOINT_BUDGET};
 pub use nalgebra;
 pub use newton::continuation::{NewtonKept, NewtonRollout};
 pub use newton::factor::FactorCounts;
+pub use newton::residual::Equilibrium;
 pub use newton::solve::StepStats;
 pub use newton::{
     LinearSolver, NewtonSettings, Solver, DEFAULT_LOAD_HALVINGS, DEFAULT_MAX_ITERATIONS,

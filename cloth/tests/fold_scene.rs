@@ -99,6 +99,24 @@ fn the_fold_scene_is_what_the_issue_asks() {
     let from_file = Scene::load(fold_dir().join("fold.json")).unwrap();
     assert_eq!(scene, from_file);
     let model = Model::from_scene(&scene).unwrap();
+    // It names no solver: Newton with smooth contact (it has a collider), from a plain guess.
+    assert_eq!(scene.physics.solver, None);
+    let choice = scene.physics_choice();
+    assert_eq!(choice.solver, cloth::scene::SolverKind::Newton);
+    assert_eq!(choice.reason, cloth::scene::PhysicsReason::Colliders);
+    assert!(model.contact_barrier.is_some());
+    assert!(matches!(
+        scene.task.initial_controls,
+        cloth::scene::InitialControls::Constant(_)
+    ));
+    // The same task as the XPBD variant, which starts from a hand-made arc.
+    let mut xpbd = Scene::load(fold_dir().join("fold_xpbd.json")).unwrap();
+    assert_eq!(xpbd.physics.solver, Some(cloth::scene::SolverKind::Xpbd));
+    (xpbd.name, xpbd.description) = (scene.name.clone(), scene.description.clone());
+    xpbd.physics.solver = None;
+    xpbd.physics.iterations = scene.physics.iterations;
+    xpbd.task.initial_controls = scene.task.initial_controls.clone();
+    assert_eq!(xpbd, scene);
     // A square mesh cloth of at least 400 vertices, every vertex a target.
     assert!(scene.cloth.is_mesh());
     assert_eq!(model.n_particles(), N * N);
@@ -170,14 +188,18 @@ fn layer_gaps(x: &[[f64; 3]], radius: f64) -> Vec<f64> {
     gaps
 }
 
-/// The scene's initial guess (an arc over the fold line, then four steps holding still while the
-/// cloth settles) folds the towel with self-collision on: every vertex within the task tolerance
+/// Under XPBD (`fold_xpbd.json`), the hand-made arc over the fold line, then four steps holding
+/// still while the cloth settles, folds the towel with self-collision on: every vertex within the task tolerance
 /// of its folded position, and the folded half resting on the bottom half about one thickness
 /// above it. The same plan without self-collision lets the top layer sink into the bottom one,
 /// so the layer check measures the contacts.
 #[test]
 fn the_initial_guess_folds_the_towel_with_the_layers_a_thickness_apart() {
-    let scene = Scene::builtin("fold").unwrap();
+    let scene = Scene::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/scenes/fold/fold_xpbd.json"
+    ))
+    .unwrap();
     let model = Model::from_scene(&scene).unwrap();
     let h = scene.physics.self_collision.as_ref().unwrap().thickness;
     assert!(h > 0.0 && h <= SIDE / (N - 1) as f64, "thickness {h}");

@@ -93,7 +93,7 @@ fn friction_is_validated_with_its_field_named() {
     s.validate().unwrap();
     // Newton's rigid model has no friction: a named error.
     let mut s = tilted_scene(theta, Some(0.5), 2);
-    s.physics.solver = SolverKind::Newton;
+    s.physics.solver = Some(SolverKind::Newton);
     s.physics.contact = common::contact_model(ContactModel::Rigid);
     let msg = validation_error(&s);
     assert!(msg.contains("obstacles[0].friction"), "{msg}");

@@ -210,7 +210,7 @@ fn mesh_scene(role: ObstacleRole) -> Scene {
         "cloth": {"rows": 8, "cols": 8, "top_left": [-0.35, -0.35, 0.21], "right": [0.7, 0, 0],
                   "down": [0, 0.7, 0], "particle_mass": 1.0},
         "material": {"stretch": 1000.0, "bending": {"model": "distance", "stiffness": 10.0}},
-        "physics": {"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 20},
+        "physics": {"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 20, "solver": "xpbd"},
         "controls": [[0, 0], [0, 7]],
         "task": {"horizon": 4, "targets": [{"particle": [7, 7], "position": [0.3, 0.3, -0.2]}],
                  "alpha": 1.0, "beta": 0.001, "initial_controls": "zeros"}

@@ -12,7 +12,7 @@ use common::{small_scene, spheres, BendKind};
 
 fn newton_scene(scene: &Scene) -> Scene {
     let mut s = scene.clone();
-    s.physics.solver = SolverKind::Newton;
+    s.physics.solver = Some(SolverKind::Newton);
     s
 }
 
@@ -191,14 +191,16 @@ fn newton_settings_are_validated_with_their_json_path() {
         ),
         "{e}"
     );
-    // JSON: the default solver is not written, "newton" round-trips.
-    let json = serde_json::to_value(&base).unwrap();
+    // JSON: a solver the scene does not name is not written, "newton" round-trips.
+    let mut unnamed = base.clone();
+    unnamed.physics.solver = None;
+    let json = serde_json::to_value(&unnamed).unwrap();
     assert!(json["physics"].get("solver").is_none());
     let mut v = json.clone();
     v["physics"]["solver"] = serde_json::json!("newton");
     v["physics"]["tolerance"] = serde_json::json!(1e-9);
     let s: Scene = serde_json::from_value(v).unwrap();
-    assert_eq!(s.physics.solver, SolverKind::Newton);
+    assert_eq!(s.physics.solver, Some(SolverKind::Newton));
     assert_eq!(
         s.solver(),
         Solver::Newton(NewtonSettings {

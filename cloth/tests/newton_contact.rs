@@ -23,7 +23,7 @@ fn scene(obstacles: Vec<Obstacle>, solver: SolverKind, flat: bool) -> Scene {
         s.cloth.down = [0.0, 1.0, 0.0];
     }
     s.obstacles = obstacles;
-    s.physics.solver = solver;
+    s.physics.solver = Some(solver);
     // This file tests the rigid model (the default under Newton is the smooth one).
     s.physics.contact = common::contact_model(ContactModel::Rigid);
     s.validate().unwrap();

@@ -41,7 +41,7 @@ fn models() -> Vec<(String, Model)> {
     scenes
         .iter_mut()
         .map(|scene| {
-            scene.physics.solver = SolverKind::Newton;
+            scene.physics.solver = Some(SolverKind::Newton);
             scene.physics.contact = common::contact_model(ContactModel::Rigid);
             scene.physics.self_collision = None;
             let model = Model::from_scene(scene).unwrap_or_else(|e| panic!("{}: {e}", scene.name));
@@ -152,7 +152,7 @@ fn a_cloth_with_every_particle_held_has_an_empty_system() {
     let mut scene = small_scene(2, 2, 2, 10, 1e3, BendKind::None);
     scene.controls = vec![[0, 0].into(), [0, 1].into(), [1, 0].into(), [1, 1].into()];
     scene.task.initial_controls = cloth::scene::InitialControls::Zeros;
-    scene.physics.solver = SolverKind::Newton;
+    scene.physics.solver = Some(SolverKind::Newton);
     let model = Model::from_scene(&scene).unwrap();
     let p = Pattern::new(&model);
     assert_eq!((p.n_dof, p.nnz()), (0, 0));

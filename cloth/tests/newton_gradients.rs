@@ -77,7 +77,7 @@ fn scene(bending: u8) -> Scene {
         _ => BendKind::Isometric(2.0),
     };
     let mut s = small_scene(4, 4, 3, 10, 2e3, bend);
-    s.physics.solver = cloth::scene::SolverKind::Newton;
+    s.physics.solver = Some(cloth::scene::SolverKind::Newton);
     // A safety sphere the swing reaches: active relu terms in C.
     s.obstacles = vec![spheres(
         vec![[0.0, -1.2, 1.3]],

@@ -98,7 +98,7 @@ fn pcg_reports_negative_curvature() {
 /// `scene` under Newton with `solver`.
 fn newton_with(scene: &Scene, solver: LinearSolver, tolerance: f64) -> Model {
     let mut s = scene.clone();
-    s.physics.solver = SolverKind::Newton;
+    s.physics.solver = Some(SolverKind::Newton);
     let mut model = Model::from_scene(&s).unwrap();
     let Solver::Newton(settings) = model.solver else {
         unreachable!()
@@ -237,7 +237,7 @@ fn pcg_gradients_match_central_differences() {
 #[test]
 fn scene_field_linear_solver() {
     let mut scene = Scene::builtin("u_obstacle").unwrap();
-    scene.physics.solver = SolverKind::Newton;
+    scene.physics.solver = Some(SolverKind::Newton);
     let Solver::Newton(default) = scene.solver() else {
         unreachable!()
     };

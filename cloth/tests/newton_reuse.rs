@@ -27,7 +27,7 @@ fn settings(model: &Model) -> NewtonSettings {
 /// (so that no step is exactly symmetric).
 fn u_obstacle(n: usize, seed: u64) -> (Model, Tensor) {
     let mut scene = Scene::builtin("u_obstacle").unwrap().refined(n, n).unwrap();
-    scene.physics.solver = SolverKind::Newton;
+    scene.physics.solver = Some(SolverKind::Newton);
     let model = Model::from_scene(&scene).unwrap();
     let mut u = scene.initial_controls();
     let mut rng = XorShift::new(seed);
@@ -45,7 +45,7 @@ fn on_the_floor() -> (Model, Tensor) {
         [0.0, 0.0, 1.0],
         ObstacleRole::Collider,
     )];
-    s.physics.solver = SolverKind::Newton;
+    s.physics.solver = Some(SolverKind::Newton);
     s.physics.contact = common::contact_model(ContactModel::Rigid);
     s.validate().unwrap();
     let model = Model::from_scene(&s).unwrap();

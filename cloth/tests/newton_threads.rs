@@ -61,7 +61,7 @@ fn newton_evaluate_is_bitwise_identical_with_one_and_two_threads_on_u_obstacle()
             .unwrap()
             .refined(20, 20)
             .unwrap();
-        scene.physics.solver = SolverKind::Newton;
+        scene.physics.solver = Some(SolverKind::Newton);
         scene.physics.linear_solver = linear;
         scene.task.horizon = 3;
         scene.validate().unwrap();
@@ -84,7 +84,7 @@ fn newton_evaluate_is_bitwise_identical_with_one_and_two_threads_on_u_obstacle()
 #[test]
 fn newton_evaluate_is_bitwise_identical_with_one_and_two_threads_with_contacts() {
     let mut scene = Scene::builtin("drop").unwrap();
-    scene.physics.solver = SolverKind::Newton;
+    scene.physics.solver = Some(SolverKind::Newton);
     scene.validate().unwrap();
     let model = Model::from_scene(&scene).unwrap();
     // With noise: the cloth lands on the collider, so contact rows are active.

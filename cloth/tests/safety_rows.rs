@@ -23,7 +23,7 @@ fn scene(which: Option<usize>) -> Scene {
         "cloth": {"rows": 12, "cols": 12, "top_left": [-0.5, -0.9, 0.6], "right": [1, 0, 0],
                   "down": [0, 0, -0.8], "particle_mass": 1.0},
         "material": {"stretch": 1000.0, "bending": {"model": "distance", "stiffness": 10.0}},
-        "physics": {"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 20},
+        "physics": {"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 20, "solver": "xpbd"},
         "controls": [[0, 0], [0, 11]],
         "task": {"horizon": 5, "targets": [{"particle": [11, 11], "position": [0.5, 0.5, 0]}],
                  "alpha": 1.0, "beta": 0.001, "initial_controls": "zeros"}

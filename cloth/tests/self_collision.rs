@@ -27,7 +27,7 @@ pub fn fold_scene(n: usize, fold: usize, rest: usize, thickness: Option<f64>) ->
         "cloth": {{"rows": {n}, "cols": {n}, "top_left": [0, 0, 0], "right": [1, 0, 0],
                    "down": [0, 1, 0], "particle_mass": 1.0}},
         "material": {{"stretch": 10000.0, "bending": {{"model": "distance", "stiffness": 100.0}}}},
-        "physics": {{"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 50{sc}}},
+        "physics": {{"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 50, "solver": "xpbd"{sc}}},
         "controls": [[0, 0], [0, {last}]],
         "obstacles": [{{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "role": "collider"}}],
         "task": {{"horizon": {horizon}, "targets": [
@@ -396,7 +396,7 @@ fn a_bad_thickness_is_a_named_error_and_newton_takes_self_collision() {
     // Under Newton self-collision is a barrier (`tests/self_contact_newton.rs`), not an error.
     let mut scene = fold_scene(4, 2, 0, Some(0.01));
     scene.obstacles.clear();
-    scene.physics.solver = cloth::scene::SolverKind::Newton;
+    scene.physics.solver = Some(cloth::scene::SolverKind::Newton);
     scene.validate().unwrap();
     assert!(Model::from_scene(&scene).unwrap().self_barrier.is_some());
 }

@@ -63,7 +63,7 @@ fn strips(w: f64, h: f64, steps: usize, edges: bool) -> Scene {
         r#"{{
         "name": "strips", "cloth": {{"mesh": "strips.obj", "particle_mass": 1.0}},
         "material": {{"stretch": 1000.0}},
-        "physics": {{"dt": 0.1, "gravity": [0, 0, 0], "iterations": 30,
+        "physics": {{"dt": 0.1, "gravity": [0, 0, 0], "iterations": 30, "solver": "xpbd",
                      "self_collision": {{"thickness": {h}, "edge_edge": {edges}}}}},
         "controls": {controls:?},
         "task": {{"horizon": {steps}, "targets": [
@@ -282,7 +282,11 @@ fn brute_force(
 fn the_pair_search_lists_exactly_the_documented_pairs() {
     let mut checked = 0;
     // The strips, and a fold (grid cloth) with edge–edge rows, on every state.
-    let mut fold = Scene::builtin("fold").unwrap();
+    let mut fold = Scene::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../examples/scenes/fold/fold_xpbd.json"
+    ))
+    .unwrap();
     fold.physics.self_collision.as_mut().unwrap().edge_edge = true;
     fold.physics.iterations = 40;
     fold.validate().unwrap();

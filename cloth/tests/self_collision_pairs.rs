@@ -16,7 +16,7 @@ fn fold_scene(n: usize, fold: usize, h: f64) -> Scene {
         "cloth": {{"rows": {n}, "cols": {n}, "top_left": [0, 0, 0], "right": [1, 0, 0],
                    "down": [0, 1, 0], "particle_mass": 1.0}},
         "material": {{"stretch": 10000.0, "bending": {{"model": "distance", "stiffness": 100.0}}}},
-        "physics": {{"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 30,
+        "physics": {{"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 30, "solver": "xpbd",
                      "self_collision": {{"thickness": {h}}}}},
         "controls": [[0, 0], [0, {last}]],
         "obstacles": [{{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "role": "collider"}}],

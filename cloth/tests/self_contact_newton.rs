@@ -27,7 +27,7 @@ fn scene(thickness: f64) -> Scene {
         [0.0, 0.0, 1.0],
         ObstacleRole::Collider,
     )];
-    s.physics.solver = SolverKind::Newton;
+    s.physics.solver = Some(SolverKind::Newton);
     s.physics.contact = common::contact_model(ContactModel::Smooth);
     s.physics.self_collision = Some(SelfCollisionSpec {
         thickness,

@@ -24,7 +24,7 @@ fn scene(obstacles: Vec<Obstacle>, flat: bool) -> Scene {
         s.cloth.down = [0.0, 1.0, 0.0];
     }
     s.obstacles = obstacles;
-    s.physics.solver = SolverKind::Newton;
+    s.physics.solver = Some(SolverKind::Newton);
     s.physics.contact = common::contact_model(ContactModel::Smooth);
     s.validate().unwrap();
     s
@@ -149,7 +149,7 @@ fn naming_no_model_is_naming_the_default_bitwise() {
         (SolverKind::Newton, ContactModel::Smooth),
     ] {
         let mut s = scene(vec![behind("box", ObstacleRole::Collider)], false);
-        s.physics.solver = solver;
+        s.physics.solver = Some(solver);
         s.physics.contact = None;
         let plain = Model::from_scene(&s).unwrap();
         s.physics.contact = common::contact_model(model);
@@ -264,7 +264,7 @@ fn the_default_contact_model_is_smooth_under_newton_with_colliders() {
     s.physics.contact = None;
     assert_eq!(s.contact_model(), ContactModel::Smooth);
     assert!(Model::from_scene(&s).unwrap().contact_barrier.is_some());
-    s.physics.solver = SolverKind::Xpbd;
+    s.physics.solver = Some(SolverKind::Xpbd);
     assert_eq!(s.contact_model(), ContactModel::Rigid);
     let mut free = scene(vec![behind("sphere", ObstacleRole::Safety)], true);
     free.physics.contact = None;

@@ -90,7 +90,7 @@ impl PhysicsArgs {
     /// Writes the flags into the scene's `physics` (validated with the scene).
     pub fn apply(&self, scene: &mut Scene) -> Result<()> {
         if let Some(solver) = self.physics {
-            scene.physics.solver = solver;
+            scene.physics.solver = Some(solver);
         }
         if let Some(tol) = self.physics_tolerance {
             ensure_open_unit("--physics-tolerance", tol)?;

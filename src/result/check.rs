@@ -75,11 +75,11 @@ impl CheckPhysics {
         let mut s = scene.clone();
         match *self {
             CheckPhysics::Xpbd { iterations } => {
-                s.physics.solver = SolverKind::Xpbd;
+                s.physics.solver = Some(SolverKind::Xpbd);
                 s.physics.iterations = iterations;
             }
             CheckPhysics::Newton { tolerance } => {
-                s.physics.solver = SolverKind::Newton;
+                s.physics.solver = Some(SolverKind::Newton);
                 s.physics.tolerance = Some(tolerance);
             }
         }

@@ -4,7 +4,8 @@
 //! [`PlanResult`] holds the run's counts, metrics and arrays and one section per concern:
 //! `stages` ([`Stage`]), `task` (the verdict, [`task`]), `safety` (the verdict's checks of the
 //! motion between steps, the grippers and the colliders, [`safety`]), `strain` ([`strain`]),
-//! `search` (the route search, [`search`]) and `check` (other physics, [`check`]). [`convert`] turns the JSON's nested
+//! `search` (the route search, [`search`]), `check` (other physics, [`check`]) and `physics`
+//! (which solver ran and how far its states are from equilibrium, [`physics`]). [`convert`] turns the JSON's nested
 //! lists into the library's tensors and back; `json` reads `null` numbers and leaves untimed runs'
 //! times out. Nothing here plans: [`crate::plan`], [`crate::search`] and
 //! [`crate::physics_check`] fill these types in, and this module depends on none of them.
@@ -12,6 +13,7 @@
 pub mod check;
 pub mod convert;
 mod json;
+pub mod physics;
 pub mod safety;
 pub mod search;
 pub mod strain;
@@ -21,6 +23,7 @@ pub use check::{CheckPhysics, CheckRound, PhysicsCheck};
 pub use convert::{
     controls_from_nested, controls_to_nested, gripper_positions, mesh_triangles, state_points,
 };
+pub use physics::{EquilibriumReport, PhysicsReport, EQUILIBRIUM_TOLERANCE};
 pub use safety::{
     GripperClearance, LayerClearance, LayerPair, MotionCheck, PathMinimum, SafetyReport,
     SurfaceClearance, SURFACE_TOLERANCE,
@@ -82,6 +85,10 @@ pub struct PlanResult {
     /// The verdict's checks of the motion between the steps, the grippers and the colliders.
     #[serde(default)]
     pub safety: SafetyReport,
+    /// Which physics ran, why, and how far its states are from equilibrium (absent in results
+    /// written before it was reported).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub physics: Option<PhysicsReport>,
     /// The optimizer's stages: the smooth κ warm-up (when it ran), then the sharp stage.
     #[serde(default)]
     pub stages: Vec<Stage>,

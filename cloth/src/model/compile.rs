@@ -197,7 +197,7 @@ impl Model {
             let triangles = model.triangles.clone();
             let contacts = SelfCollision::new(sc.thickness, triangles, n);
             model.self_collision = Some(Arc::new(contacts.with_edge_edge(sc.edge_edge)));
-            if scene.physics.solver == SolverKind::Newton {
+            if scene.solver_kind() == SolverKind::Newton {
                 let barrier = SelfBarrier::new(
                     sc.thickness,
                     barrier_shape(scene, mean_edge),
@@ -504,7 +504,7 @@ impl Scene {
     /// work by ~60 where the cloth settles on a table (docs/physics.md "Smooth contact").
     pub fn solver(&self) -> Solver {
         let physics = &self.physics;
-        match physics.solver {
+        match self.solver_kind() {
             SolverKind::Xpbd => Solver::Xpbd,
             SolverKind::Newton => {
                 let d = NewtonSettings::default();

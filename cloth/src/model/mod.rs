@@ -162,8 +162,14 @@ impl Model {
         }
         if let Some(b) = &self.contact_barrier {
             parts.push(format!(
-                "smooth contact (d̂ {:e}, κ {:e})",
-                b.barrier.d_hat, b.barrier.kappa
+                "smooth contact (d̂ {:e}, κ {:e}{})",
+                b.barrier.d_hat,
+                b.barrier.kappa,
+                if b.friction.is_some() {
+                    ", friction"
+                } else {
+                    ""
+                }
             ));
         }
         if let Some(sc) = &self.self_collision {

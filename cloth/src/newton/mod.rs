@@ -18,6 +18,7 @@
 //! - [`continuation`]: the rollout, each step by branch following
 //!   ([`NewtonSettings::load_halvings`]), each step's final factorization kept for the gradients;
 //! - [`curvature`]: leaving a saddle of `Φ` along the exact Hessian's unstable mode;
+//! - [`residual`]: how far any solver's states are from equilibrium, on Newton's scale;
 //! - [`implicit`]: adjoints through `∂x_t/∂(x_{t−1}, u_t)`, one factorization per step for every
 //!   cost (the forward's own, where it was kept).
 //!
@@ -37,6 +38,7 @@ pub mod implicit;
 pub mod ordering;
 pub mod pcg;
 pub mod psd;
+pub mod residual;
 mod self_contact;
 pub mod settings;
 pub mod solve;

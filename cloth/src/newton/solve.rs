@@ -122,7 +122,7 @@ impl NewtonSystem {
     }
 
     /// Assembles `∇Φ` at `x` (and the contacts' active set), without a Hessian.
-    fn assemble_gradient_at(&mut self, x: &[f64], xt: &[f64]) {
+    pub(super) fn assemble_gradient_at(&mut self, x: &[f64], xt: &[f64]) {
         self.pattern.assemble(x, xt, &mut self.grad, None);
         if self.contacts.any() {
             self.contacts.activate(x, &self.grad);
@@ -184,7 +184,7 @@ impl NewtonSystem {
 
     /// The KKT residual `‖∇Φ‖` (normal components of active contacts removed) of the last
     /// [`NewtonSystem::assemble_at`].
-    fn residual(&self) -> f64 {
+    pub(super) fn residual(&self) -> f64 {
         if self.contacts.any() {
             self.contacts.residual_norm(&self.grad)
         } else {
@@ -367,7 +367,7 @@ impl NewtonSystem {
     /// The start of a solve for the predicted state `xt`: `start` with the control particles
     /// held at `xt` (and projected onto the contact rows), and the residual the tolerance is
     /// relative to ([`NewtonSystem::solve_from`]).
-    fn start_at(&mut self, start: &Tensor, xt: &Tensor) -> (Tensor, f64) {
+    pub(super) fn start_at(&mut self, start: &Tensor, xt: &Tensor) -> (Tensor, f64) {
         let xt_d = xt.data();
         self.pattern.assemble(xt_d, xt_d, &mut self.grad, None);
         let mut r0 = norm(&self.grad);

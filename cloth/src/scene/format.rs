@@ -193,6 +193,13 @@ fn default_particle_mass() -> f64 {
     1.0
 }
 
+/// Default of `physics.iterations`: the paper's 100 Gauss–Seidel sweeps per step.
+pub const DEFAULT_XPBD_ITERATIONS: usize = 100;
+
+fn default_iterations() -> usize {
+    DEFAULT_XPBD_ITERATIONS
+}
+
 /// Constraint stiffnesses.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -320,12 +327,15 @@ pub struct Physics {
     pub dt: f64,
     /// Gravitational acceleration.
     pub gravity: [f64; 3],
-    /// Gauss–Seidel iterations per time step (≥ 1; XPBD only).
+    /// Gauss–Seidel iterations per time step (≥ 1; XPBD only; default
+    /// [`DEFAULT_XPBD_ITERATIONS`]).
+    #[serde(default = "default_iterations")]
     pub iterations: usize,
-    /// The step solver: `"xpbd"` (default) or `"newton"` (converged physics, see
-    /// [`crate::Solver::Newton`]).
-    #[serde(default, skip_serializing_if = "SolverKind::is_xpbd")]
-    pub solver: SolverKind,
+    /// The step solver: `"xpbd"` or `"newton"` (converged physics, see
+    /// [`crate::Solver::Newton`]); absent, the one the scene calls for
+    /// ([`Scene::physics_choice`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver: Option<SolverKind>,
     /// Newton only: relative `‖∇Φ‖` at which a step has converged, in `(0, 1)`; default
     /// [`crate::DEFAULT_TOLERANCE`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -395,15 +405,14 @@ pub enum ContactModel {
 
 impl Scene {
     /// The contact model between the cloth and the colliders: the one `physics.contact.model`
-    /// names; when it names none, the smooth model under `physics.solver` `"newton"` for a scene
-    /// with colliders (it achieves more of the table set, docs/experiments.md "The table set"),
-    /// else the rigid one (XPBD's only model, and moot without colliders).
+    /// names; when it names none, the smooth model under Newton's method
+    /// ([`Scene::solver_kind`]) for a scene with colliders (it achieves more of the table set,
+    /// docs/experiments.md "The table set"), else the rigid one (XPBD's only model, and moot
+    /// without colliders).
     pub fn contact_model(&self) -> ContactModel {
         match &self.physics.contact {
             Some(c) => c.model,
-            None if self.physics.solver == SolverKind::Newton
-                && self.obstacles.iter().any(|o| o.role().is_collider()) =>
-            {
+            None if self.solver_kind() == SolverKind::Newton && self.has_colliders() => {
                 ContactModel::Smooth
             }
             None => ContactModel::Rigid,
@@ -490,10 +499,6 @@ impl SolverKind {
             SolverKind::Xpbd => "xpbd",
             SolverKind::Newton => "newton",
         }
-    }
-
-    fn is_xpbd(&self) -> bool {
-        *self == SolverKind::Xpbd
     }
 }
 

@@ -22,6 +22,7 @@ mod files;
 mod format;
 mod json;
 mod obstacles;
+mod physics_choice;
 mod validate;
 
 #[cfg(test)]
@@ -32,6 +33,7 @@ use std::path::{Path, PathBuf};
 pub use format::*;
 pub use json::to_json_pretty_compact;
 pub use obstacles::*;
+pub use physics_choice::{PhysicsChoice, PhysicsReason};
 
 use builtin::{builtin_list, BUILTIN_NAMES, BUILTIN_SOURCES};
 use json::{one_line, parse_error};

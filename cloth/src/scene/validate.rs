@@ -298,9 +298,9 @@ impl Scene {
             check_non_negative("physics.self_collision.thickness", sc.thickness)?;
         }
         if let Some(c) = &p.contact {
-            validate_contact(c, p.solver)?;
+            validate_contact(c, self.solver_kind())?;
         }
-        if p.solver == SolverKind::Newton {
+        if self.solver_kind() == SolverKind::Newton {
             self.validate_newton()?;
         }
         // The XPBD compliance α̃ = 1/(k·dt²) must be a finite number (a projection divides by it).

@@ -335,7 +335,7 @@ fn with_contact_model(text: &str, model: ContactModel) -> Result<Option<Value>> 
 fn supported(text: &str, base: &Path) -> Result<SolverKind> {
     let scene = Scene::from_json_str_in(text, base)?;
     Model::from_scene(&scene)?;
-    Ok(scene.physics.solver)
+    Ok(scene.solver_kind())
 }
 
 /// Makes the files a scene names (`cloth.mesh`, `task.target_mesh`, `obstacles[i].file`; see

@@ -196,7 +196,7 @@ struct Task {
 fn load_task(name: &str, args: &Args) -> Result<Task> {
     let mut scene = Scene::builtin(name).with_context(|| format!("task {name}"))?;
     if args.physics == Physics::Newton {
-        scene.physics.solver = SolverKind::Newton;
+        scene.physics.solver = Some(SolverKind::Newton);
         // Newton's default contact model for a scene with colliders: the smooth one.
         scene.physics.contact = None;
     }

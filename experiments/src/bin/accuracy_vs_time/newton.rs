@@ -69,7 +69,7 @@ pub struct SolverRow {
 /// `scene` solved by Newton to `tolerance`.
 fn with_newton(scene: &Scene, tolerance: f64) -> Scene {
     let mut s = scene.clone();
-    s.physics.solver = SolverKind::Newton;
+    s.physics.solver = Some(SolverKind::Newton);
     s.physics.tolerance = Some(tolerance);
     s
 }

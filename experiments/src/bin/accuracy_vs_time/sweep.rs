@@ -118,7 +118,7 @@ pub fn measure_mesh(
         .build()?;
     let mut scene = with_iterations(&Scene::builtin("u_obstacle")?.refined(n, n)?, iterations);
     if let Some(tol) = tolerance {
-        scene.physics.solver = cloth::scene::SolverKind::Newton;
+        scene.physics.solver = Some(cloth::scene::SolverKind::Newton);
         scene.physics.tolerance = Some(tol);
     }
     let model = Model::from_scene(&scene)?;
