@@ -34,7 +34,7 @@ fn entry(model: &Model, step: usize, gripper: usize, axis: usize) -> usize {
 /// Rest position of gripper `k`.
 fn rest_of(model: &Model, k: usize) -> [f64; 3] {
     let p = model.controls.as_slice()[k];
-    [0, 1, 2].map(|j| model.rest.get(p, j))
+    [0, 1, 2].map(|j| model.start.get(p, j))
 }
 
 /// `n·(p_k(t) − q)` as a linear row.

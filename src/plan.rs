@@ -12,7 +12,7 @@ pub use crate::result::{
     controls_from_nested, controls_to_nested, gripper_positions, is_safe, mesh_triangles,
     state_points, states_of, PlanResult, Stage, FEASIBILITY_TOLERANCE, SAFETY_TOLERANCE,
 };
-use crate::result::{PhysicsReport, SafetyReport};
+use crate::result::{Measures, PhysicsReport, SafetyReport};
 use crate::safety_check::{check_safety, physics_hint};
 use crate::start_check::judge_start;
 // The rollout's strain and its warning, from `crate::strain`: re-exported for this module's callers.
@@ -629,6 +629,7 @@ fn rollout_result(
             &evaluation.states,
             controls,
         )),
+        measures: evaluation.states.last().map(|x| Measures::of(model, x)),
         metrics: evaluation.metrics,
         task,
         safety,

@@ -106,6 +106,22 @@ impl PlanResult {
         ] {
             writeln!(s, "{k:>10} {v:>12.6}")?;
         }
+        if let Some(measures) = &self.measures {
+            if let Some(v) = measures.coverage {
+                writeln!(
+                    s,
+                    "{:>10} {v:>12.6}  (normalized, along gravity)",
+                    "coverage"
+                )?;
+            }
+            if let Some(v) = measures.mean_particle_distance {
+                writeln!(
+                    s,
+                    "{:>10} {v:>12.6}  (mean particle distance to its target)",
+                    "layout"
+                )?;
+            }
+        }
         if let Some(c) = self.safety.surface {
             writeln!(
                 s,

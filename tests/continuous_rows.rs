@@ -105,7 +105,7 @@ fn gripper_at(model: &Model, x: &[f64], t: usize, k: usize) -> Vector3<f64> {
     let p = model.controls.as_slice()[k];
     let w = 3 * model.n_controls();
     Vector3::from_fn(|j, _| {
-        model.rest.get(p, j) + (0..t).map(|s| x[s * w + 3 * k + j]).sum::<f64>()
+        model.start.get(p, j) + (0..t).map(|s| x[s * w + 3 * k + j]).sum::<f64>()
     })
 }
 

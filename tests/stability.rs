@@ -217,7 +217,7 @@ fn zero_length_edges_of_a_collapsed_cloth() {
     scene.cloth.down = [0.0, 0.0, -1e-300];
     scene.validate().unwrap();
     let model = Model::from_scene(&scene).unwrap();
-    let rest = &model.rest;
+    let rest = &model.start;
     assert!((1..9).all(|p| rest.row(p) == rest.row(0)), "coincident");
     // At zero controls the free particles start falling from one point: every constraint is
     // first projected with ‖·‖ at 0 (∇C = 0, skipped), then gravity separates them.
@@ -312,7 +312,7 @@ fn a_collider_sphere_centred_on_a_free_particle() {
     let mut scene = small(4, 4, 3, 20);
     scene.physics.gravity = [0.0; 3];
     let model0 = Model::from_scene(&scene).unwrap();
-    let c = model0.rest.row(5).to_vec();
+    let c = model0.start.row(5).to_vec();
     scene.obstacles = vec![spheres(
         vec![[c[0], c[1], c[2]]],
         vec![0.05],
@@ -691,7 +691,7 @@ fn ground_plane_exactly_at_a_particles_height() {
             friction: None,
         })];
         let model = Model::from_scene(&scene).unwrap();
-        assert_eq!(model.rest.get(12, 2), 1.0, "bottom row at the plane");
+        assert_eq!(model.start.get(12, 2), 1.0, "bottom row at the plane");
         let u = random_controls(&model, 13, 0.02);
         let name = format!("ground at particle height, g = {}", gravity[2]);
         let ev = evaluate_finite(&name, &model, &u, 0.0);

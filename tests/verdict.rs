@@ -124,7 +124,7 @@ fn a_bad_feasibility_tolerance_is_rejected_naming_the_flag() {
 /// front of the far corner's last triangle, then 0.05 behind it.
 fn through_itself(scene: &Scene) -> (cloth::Model, Vec<autodiff::Tensor>) {
     let model = cloth::Model::from_scene(scene).unwrap();
-    let rest = model.rest.clone();
+    let rest = model.start.clone();
     let p = |x: &autodiff::Tensor, i: usize| {
         cloth::nalgebra::Vector3::new(x.get(i, 0), x.get(i, 1), x.get(i, 2))
     };
@@ -189,9 +189,9 @@ fn a_thin_obstacle_through_the_cloth_between_its_particles_is_not_safe() {
     let model = cloth::Model::from_scene(&scene).unwrap();
     let p = |i: usize| {
         cloth::nalgebra::Vector3::new(
-            model.rest.get(i, 0),
-            model.rest.get(i, 1),
-            model.rest.get(i, 2),
+            model.start.get(i, 0),
+            model.start.get(i, 1),
+            model.start.get(i, 2),
         )
     };
     let [a, b, c] = model.triangles[5].map(p);
@@ -212,7 +212,7 @@ fn a_thin_obstacle_through_the_cloth_between_its_particles_is_not_safe() {
     scene.task.delta = 0.5 * (nearest - radius);
     scene.validate().unwrap();
     let model = cloth::Model::from_scene(&scene).unwrap();
-    let states = vec![model.rest.clone(), model.rest.clone()];
+    let states = vec![model.start.clone(), model.start.clone()];
     let mut task = clothopt::problem::TaskOptions::for_model(&model);
     task.swept = false;
     let metrics = cloth::Metrics::default();

@@ -140,7 +140,7 @@ fn with_spheres(centers: Vec<[f64; 3]>, radii: Vec<f64>) -> Model {
         .obstacles
         .push(spheres(centers, radii, ObstacleRole::Safety));
     let model = Model::from_scene(&scene).unwrap();
-    assert_eq!(model.rest.row(0), &[-0.5, -1.5, 2.0]);
+    assert_eq!(model.start.row(0), &[-0.5, -1.5, 2.0]);
     model
 }
 

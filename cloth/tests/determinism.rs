@@ -14,7 +14,7 @@ use common::{bitwise_eq, XorShift};
 /// returns the recorded states, the first the rest state.
 fn recorded_rollout(model: &Model, controls: &Tensor) -> (Vec<Tensor>, usize) {
     let mut tape = Tape::new();
-    let mut x = tape.leaf(model.rest.clone());
+    let mut x = tape.leaf(model.start.clone());
     let mut states = vec![tape.value(x).clone()];
     for t in 0..model.task.horizon {
         let u = tape.leaf(model.step_controls(controls, t));

@@ -17,7 +17,7 @@ use common::{plane, spheres};
 /// One `record_step` on a fresh tape (with its two leaves).
 fn recorded_step(model: &Model) -> Tape {
     let mut tape = Tape::new();
-    let x = tape.leaf(model.rest.clone());
+    let x = tape.leaf(model.start.clone());
     let u = tape.leaf(Tensor::zeros(model.n_controls(), 3));
     model.record_step(&mut tape, x, u);
     tape
@@ -104,7 +104,7 @@ fn without_bending_there_is_no_bending_group_and_225_fewer_projections() {
     // The elastic energy records one group instead of two (gather, map, sum + the add).
     let energy_nodes = |m: &Model| {
         let mut tape = Tape::new();
-        let x = tape.leaf(m.rest.clone());
+        let x = tape.leaf(m.start.clone());
         m.record_energy(&mut tape, x).unwrap();
         tape.len()
     };
@@ -134,7 +134,7 @@ fn zero_gravity_has_no_gravity_step_and_a_smaller_recorded_step() {
         .unwrap()
         .data()
         .iter()
-        .zip(b.rest.data())
+        .zip(b.start.data())
         .fold(0.0f64, |m, (x, r)| m.max((x - r).abs()));
     assert!(moved < 1e-12, "moved by {moved:e}");
 }
@@ -149,7 +149,7 @@ fn without_obstacles_there_is_no_sdf_work_and_c_is_zero() {
     assert!(m.group("collider").is_none());
     // Recording the safety terms adds nothing to the tape.
     let mut tape = Tape::new();
-    let x = tape.leaf(m.rest.clone());
+    let x = tape.leaf(m.start.clone());
     assert!(m.record_sdf(&mut tape, x).is_none());
     assert!(m.record_safety(&mut tape, x, 0.2).is_none());
     assert_eq!(tape.len(), 1);

@@ -123,7 +123,7 @@ fn the_fold_scene_is_what_the_issue_asks() {
     assert!(model.n_particles() >= 400);
     assert_eq!(model.task.targets.rows(), N * N);
     // Two grippers at the corners of one edge (the edge y = +0.2).
-    let rest = |p: usize| [0, 1, 2].map(|k| model.rest.get(p, k));
+    let rest = |p: usize| [0, 1, 2].map(|k| model.start.get(p, k));
     let grippers: Vec<[f64; 3]> = model.controls.as_slice().iter().map(|&p| rest(p)).collect();
     assert_eq!(grippers, vec![flat(N - 1, 0), flat(N - 1, N - 1)]);
     // A table with friction under the cloth, a mug (capsule) as a safety obstacle clear of it.

@@ -190,7 +190,7 @@ fn a_cloth_on_a_tilted_plane_slides_when_mu_is_below_tan_theta() {
 /// own kernel, so the states are `simulate`'s), with whether the row's particle was inside the
 /// table (`z < 0`, so the contact projected it).
 fn regimes(model: &Model, friction: &FrictionalContact, u: &Tensor) -> Vec<(Regime, bool)> {
-    let mut x_prev = model.rest.clone();
+    let mut x_prev = model.start.clone();
     let mut out = Vec::new();
     for t in 0..model.task.horizon {
         let mut x = model.begin_step(&x_prev, &model.step_controls(u, t));
@@ -339,7 +339,7 @@ fn frictional_rows_are_deterministic_across_paths_and_threads() {
     // Plain against recorded, step by step on one tape.
     let plain = model.simulate(&u).unwrap();
     let mut tape = Tape::new();
-    let mut x = tape.leaf(model.rest.clone());
+    let mut x = tape.leaf(model.start.clone());
     for (t, want) in plain.iter().enumerate().skip(1) {
         let ut = tape.leaf(model.step_controls(&u, t - 1));
         x = model.record_step(&mut tape, x, ut);

@@ -92,10 +92,10 @@ fn degenerate_geometry_stays_finite() {
     let mut scene = newton_scene(&small_scene(4, 4, 2, 10, 1e3, BendKind::Dihedral(1.0)));
     scene.physics.gravity = [0.0, 0.0, -9.8];
     let mut model = Model::from_scene(&scene).unwrap();
-    let mut rest = model.rest.clone();
+    let mut rest = model.start.clone();
     let p5 = rest.row(5).to_vec();
     rest.row_mut(6).copy_from_slice(&p5);
-    model.rest = rest;
+    model.start = rest;
     let u = model.zero_controls();
     match model.simulate(&u) {
         Ok(states) => {
@@ -117,7 +117,7 @@ fn degenerate_geometry_stays_finite() {
     // A particle exactly on a safety sphere's surface: the safety term's kink is outside Φ.
     let mut s = newton_scene(&small_scene(3, 3, 1, 10, 1e3, BendKind::None));
     let m = Model::from_scene(&s).unwrap();
-    let p = m.rest.row(4).to_vec();
+    let p = m.start.row(4).to_vec();
     s.obstacles = vec![spheres(
         vec![[p[0], p[1] + 0.1, p[2]]],
         vec![0.1],

@@ -229,7 +229,7 @@ proptest! {
 fn particles_exactly_on_the_surface_stay_finite() {
     let s = scene(vec![floor(ObstacleRole::Both)], SolverKind::Newton, true);
     let m = newton_model(&s);
-    assert!((0..25).all(|p| m.rest.get(p, 2) == 0.0));
+    assert!((0..25).all(|p| m.start.get(p, 2) == 0.0));
     let u = m.zero_controls();
     let e = m.evaluate(&u, 0.1, true).unwrap();
     assert!(e.grad_l.unwrap().data().iter().all(|v| v.is_finite()));

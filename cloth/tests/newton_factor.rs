@@ -87,7 +87,7 @@ fn factorization_in_the_pattern_order_solves_the_system_with_amd_fill() {
         // A state away from rest (sheared, so constraints are stretched and compressed), the
         // projected Hessian: positive definite.
         let x: Vec<f64> = model
-            .rest
+            .start
             .data()
             .chunks(3)
             .enumerate()
@@ -100,7 +100,7 @@ fn factorization_in_the_pattern_order_solves_the_system_with_amd_fill() {
         let mut values = vec![0.0; p.nnz()];
         p.assemble(
             &x,
-            model.rest.data(),
+            model.start.data(),
             &mut grad,
             Some((&mut values, HessianKind::Projected)),
         );

@@ -31,7 +31,7 @@ fn max_stretch_error(scene: &Scene, model: &Model, states: &[Tensor]) -> f64 {
         .flat_map(|x| {
             edges
                 .iter()
-                .map(move |&[i, j]| (len(x, i, j) - len(&model.rest, i, j)).abs())
+                .map(move |&[i, j]| (len(x, i, j) - len(&model.start, i, j)).abs())
         })
         .fold(0.0, f64::max)
 }

@@ -162,7 +162,7 @@ fn a_folded_cloth_keeps_its_layers_a_thickness_apart_and_without_self_collision_
 
 #[test]
 fn self_collision_is_absent_unless_the_scene_asks_for_it() {
-    let flat = |m: &Model| m.contact_sets(&m.rest, &m.step_controls(&m.zero_controls(), 0));
+    let flat = |m: &Model| m.contact_sets(&m.start, &m.step_controls(&m.zero_controls(), 0));
     // Every built-in but `fold` leaves it out; `fold` asks for it and gets it.
     for &(name, _) in Scene::builtin_names() {
         let scene = Scene::builtin(name).unwrap();
@@ -314,7 +314,7 @@ fn the_recorded_step_rebuilds_the_forward_contacts() {
     let u = fold_controls(&model, FOLD, 2.0 * H);
     let plain = model.simulate(&u).unwrap();
     let mut tape = autodiff::Tape::new();
-    let mut x = tape.leaf(model.rest.clone());
+    let mut x = tape.leaf(model.start.clone());
     for t in 0..model.task.horizon {
         let ut = tape.leaf(model.step_controls(&u, t));
         x = model.record_step(&mut tape, x, ut);

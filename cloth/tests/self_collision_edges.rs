@@ -336,7 +336,7 @@ fn rollouts_and_gradients_with_edge_rows_are_bitwise_identical_on_every_path_and
     assert!(pairs > 0);
     // The recorded path rebuilds the forward's contacts.
     let mut tape = Tape::new();
-    let mut x = tape.leaf(model.rest.clone());
+    let mut x = tape.leaf(model.start.clone());
     for t in 0..model.task.horizon {
         let ut = tape.leaf(model.step_controls(&u, t));
         x = model.record_step(&mut tape, x, ut);

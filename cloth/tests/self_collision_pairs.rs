@@ -127,7 +127,7 @@ fn the_grid_search_finds_exactly_the_brute_force_pairs() {
 fn a_crumpled_cloth_gets_exactly_the_brute_force_pairs() {
     // Every vertex displaced at random (a deterministic generator): triangles at every angle.
     let model = Model::from_scene(&fold_scene(10, 1, 0.05)).unwrap();
-    let mut x = model.rest.clone();
+    let mut x = model.start.clone();
     let mut seed = 11u64;
     let mut next = || {
         seed = seed

@@ -217,7 +217,7 @@ fn a_rest_state_on_a_collider_starts_half_the_reach_above_it() {
     let m = newton_model(&s);
     let d_hat = m.contact_barrier.as_ref().unwrap().barrier.d_hat;
     for p in 0..m.n_particles() {
-        let z = m.rest.row(p)[2];
+        let z = m.start.row(p)[2];
         let want = if m.inv_mass[p] > 0.0 {
             0.5 * d_hat
         } else {

@@ -65,6 +65,36 @@ pub fn last_json_line<T: DeserializeOwned>(text: &str, what: &str) -> Result<T> 
     serde_json::from_str(line).with_context(|| format!("unreadable JSON from {what}"))
 }
 
+/// Plans the scene file `file` in a `clothopt optimize` child (the binary `clothopt`) with
+/// `--time-limit time_limit --search search --out result_path`, so that what it returns is
+/// exactly what a user of the command line gets: the result, `optimize`'s exit code (0 achieved,
+/// 3 safe but not achieved, 4 no safe plan) and the child's wall-clock seconds. `what` names the
+/// run in the errors.
+pub fn plan_scene(
+    clothopt: &Path,
+    file: &Path,
+    time_limit: f64,
+    search: clothopt::result::SearchMode,
+    result_path: &Path,
+    what: &str,
+) -> Result<(clothopt::result::PlanResult, i32, f64)> {
+    let mut command = Command::new(clothopt);
+    command
+        .arg("optimize")
+        .arg(file)
+        .arg("--time-limit")
+        .arg(time_limit.to_string())
+        .args(["--search", search.name(), "--out"])
+        .arg(result_path);
+    let ((exit_code, _), wall_s) =
+        crate::measure::timed(|| run_accepting(&mut command, what, &[0, 3, 4]))?;
+    let text = std::fs::read_to_string(result_path)
+        .with_context(|| format!("{what}: no result at {}", result_path.display()))?;
+    let result = serde_json::from_str(&text)
+        .with_context(|| format!("{what}: unreadable result {}", result_path.display()))?;
+    Ok((result, exit_code, wall_s))
+}
+
 /// Whether `python` can `import jax`.
 pub fn jax_available(python: &Path) -> bool {
     Command::new(python)

@@ -36,6 +36,20 @@ pub fn fmt_opt(v: Option<f64>, prec: usize) -> String {
     v.map_or("—".into(), |v| format!("{v:.prec$}"))
 }
 
+/// An error on one line (serde's parse errors quote the source line below the message).
+pub fn one_line(e: &impl fmt::Display) -> String {
+    e.to_string()
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The last non-empty line of a child's error (its progress lines come first).
+pub fn last_line(text: &str) -> String {
+    let line = text.lines().rev().find(|l| !l.trim().is_empty());
+    line.unwrap_or(text).trim().to_string()
+}
+
 /// Writes `value` as JSON to `path` atomically (temp file + rename) and says so on stdout.
 pub fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
     clothopt::output::write_json_atomic(path, value)?;
@@ -69,5 +83,14 @@ mod tests {
             serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
         assert_eq!(back["runs"][1], 2);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn errors_print_on_one_line() {
+        assert_eq!(one_line(&"a\n  12 | b\n"), "a 12 | b");
+        assert_eq!(
+            last_line("x failed: [ 5 s] iteration 0\nerror: bad\n\n"),
+            "error: bad"
+        );
     }
 }

@@ -81,7 +81,7 @@ impl TrajectoryProblem<'_> {
 /// without safety obstacles).
 pub fn start_inside_margin(model: &Model, delta: f64) -> Vec<usize> {
     let mut tape = autodiff::Tape::new();
-    let rest = tape.leaf(model.rest.clone());
+    let rest = tape.leaf(model.start.clone());
     let Some(d) = model.record_sdf(&mut tape, rest) else {
         return Vec::new();
     };

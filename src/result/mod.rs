@@ -4,8 +4,9 @@
 //! [`PlanResult`] holds the run's counts, metrics and arrays and one section per concern:
 //! `stages` ([`Stage`]), `task` (the verdict, [`task`]), `safety` (the verdict's checks of the
 //! motion between steps, the grippers and the colliders, [`safety`]), `strain` ([`strain`]),
-//! `search` (the route search, [`search`]), `check` (other physics, [`check`]) and `physics`
-//! (which solver ran and how far its states are from equilibrium, [`physics`]). [`convert`] turns the JSON's nested
+//! `search` (the route search, [`search`]), `check` (other physics, [`check`]), `physics`
+//! (which solver ran and how far its states are from equilibrium, [`physics`]) and `measures`
+//! (the benchmarks' coverage and particle distance, [`measures`]). [`convert`] turns the JSON's nested
 //! lists into the library's tensors and back; `json` reads `null` numbers and leaves untimed runs'
 //! times out. Nothing here plans: [`crate::plan`], [`crate::search`] and
 //! [`crate::physics_check`] fill these types in, and this module depends on none of them.
@@ -13,6 +14,7 @@
 pub mod check;
 pub mod convert;
 mod json;
+pub mod measures;
 pub mod physics;
 pub mod safety;
 pub mod search;
@@ -23,6 +25,7 @@ pub use check::{CheckPhysics, CheckRound, PhysicsCheck};
 pub use convert::{
     controls_from_nested, controls_to_nested, gripper_positions, mesh_triangles, state_points,
 };
+pub use measures::Measures;
 pub use physics::{EquilibriumReport, PhysicsReport, EQUILIBRIUM_TOLERANCE};
 pub use safety::{
     GripperClearance, LayerClearance, LayerPair, MotionCheck, PathMinimum, SafetyReport,
@@ -85,6 +88,10 @@ pub struct PlanResult {
     /// The verdict's checks of the motion between the steps, the grippers and the colliders.
     #[serde(default)]
     pub safety: SafetyReport,
+    /// The cloth benchmarks' measures of the final state (normalized coverage, mean particle
+    /// distance; absent in results written before they were reported).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measures: Option<Measures>,
     /// Which physics ran, why, and how far its states are from equilibrium (absent in results
     /// written before it was reported).
     #[serde(default, skip_serializing_if = "Option::is_none")]

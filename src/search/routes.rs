@@ -187,7 +187,7 @@ impl<'a> Geometry<'a> {
         let up = normalized(sub(world_up, scale(travel, dot(world_up, travel))))
             .unwrap_or_else(|| any_perpendicular(travel));
         let left = cross(up, travel);
-        let size = extent(&model.rest);
+        let size = extent(&model.start);
         let avoid = in_the_way(model);
         let obstacles = obstacle_extent(&avoid);
         let clearance = model.task.tolerance;
@@ -528,7 +528,7 @@ fn gripper_starts(model: &Model) -> Vec<[f64; 3]> {
         .controls
         .as_slice()
         .iter()
-        .map(|&p| std::array::from_fn(|j| model.rest.get(p, j)))
+        .map(|&p| std::array::from_fn(|j| model.start.get(p, j)))
         .collect()
 }
 
@@ -539,7 +539,7 @@ fn mean_target_displacement(model: &Model) -> [f64; 3] {
     let mut d = [0.0; 3];
     for (i, &p) in targets.iter().enumerate() {
         for (j, dj) in d.iter_mut().enumerate() {
-            *dj += (model.task.target_positions.get(i, j) - model.rest.get(p, j)) / n;
+            *dj += (model.task.target_positions.get(i, j) - model.start.get(p, j)) / n;
         }
     }
     d

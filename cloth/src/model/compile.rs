@@ -90,7 +90,8 @@ impl Model {
         let task = &scene.task;
         let target_positions: Vec<f64> = scene.target_positions().into_iter().flatten().collect();
         let mut model = Model {
-            rest: Tensor::new(n, 3, rest_pos.iter().flatten().copied().collect()),
+            start: Tensor::new(n, 3, rest_pos.iter().flatten().copied().collect()),
+            rest_shape: Tensor::new(n, 3, rest_pos.iter().flatten().copied().collect()),
             triangles: mesh.triangles().into(),
             inv_mass,
             controls: Arc::new(RowIndex::single(controls)),
@@ -203,7 +204,7 @@ impl Model {
                     barrier_shape(scene, mean_edge),
                     scene.physics.dt * scene.physics.dt,
                     model.triangles.clone(),
-                    model.rest.data(),
+                    model.start.data(),
                     &model.inv_mass,
                 );
                 check_rest_apart(&model, &barrier)?;
@@ -227,7 +228,7 @@ impl Model {
     }
 
     fn rest_point(&self, p: usize) -> Vector3<f64> {
-        let r = self.rest.row(p);
+        let r = self.rest_shape.row(p);
         Vector3::new(r[0], r[1], r[2])
     }
 
@@ -407,7 +408,7 @@ fn settle_rest_outside(
 ) -> Result<(), ClothError> {
     let target = 0.5 * barrier.barrier.d_hat;
     for p in (0..model.n_particles()).filter(|&p| model.inv_mass[p] > 0.0) {
-        let r = model.rest.row(p);
+        let r = model.start.row(p);
         let mut q = Vector3::new(r[0], r[1], r[2]);
         let mut d = barrier.field.distance(&q);
         if d >= target {
@@ -451,7 +452,7 @@ fn settle_rest_outside(
             }
             .into());
         }
-        model.rest.row_mut(p).copy_from_slice(q.as_slice());
+        model.start.row_mut(p).copy_from_slice(q.as_slice());
     }
     Ok(())
 }
@@ -459,7 +460,7 @@ fn settle_rest_outside(
 /// Self-contact under Newton: the rest state must hold every part of the cloth farther than the
 /// thickness from every other (the barrier is infinite within it).
 fn check_rest_apart(model: &Model, barrier: &SelfBarrier) -> Result<(), ClothError> {
-    match barrier.penetration(model.rest.data()) {
+    match barrier.penetration(model.start.data()) {
         None => Ok(()),
         Some((pair, gap)) => Err(SceneError::Invalid {
             field: "physics.self_collision.thickness".into(),

@@ -62,8 +62,11 @@ pub struct TaskSpec {
 /// A compiled, ready-to-simulate scene.
 #[derive(Clone)]
 pub struct Model {
-    /// Rest (initial) positions, `N × 3`.
-    pub rest: Tensor,
+    /// The cloth's positions at step 0 (`N × 3`): its rest shape or `cloth.initial_state`, with
+    /// the particles a smooth collider's barrier reaches moved out to `d̂/2`.
+    pub start: Tensor,
+    /// The rest shape (`N × 3`), from which the constraints' rest values are measured.
+    pub rest_shape: Tensor,
     /// The cloth's triangles (particle indices; [`crate::ClothMesh::triangles`]), for
     /// figures and exports.
     pub triangles: Arc<[[usize; 3]]>,
@@ -120,7 +123,7 @@ pub struct Model {
 impl Model {
     /// Number of particles `N`.
     pub fn n_particles(&self) -> usize {
-        self.rest.rows()
+        self.start.rows()
     }
 
     /// Number of control particles.

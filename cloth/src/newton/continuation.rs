@@ -134,7 +134,7 @@ impl Model {
         let mut stats = Vec::with_capacity(horizon);
         let mut factors = Vec::with_capacity(horizon);
         let mut kept_bytes = 0;
-        states.push(self.rest.clone());
+        states.push(self.start.clone());
         for t in 0..horizon {
             if limits.halted() {
                 return Err(ClothError::RolloutStopped { step: t + 1 });

@@ -81,7 +81,7 @@ impl Model {
         in_pool(|| {
             let horizon = self.task.horizon;
             let mut states = Vec::with_capacity(horizon + 1);
-            states.push(self.rest.clone());
+            states.push(self.start.clone());
             let mut kept = Some(Vec::with_capacity(horizon));
             let mut bytes = 0;
             for t in 1..=horizon {

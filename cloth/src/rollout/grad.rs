@@ -488,7 +488,7 @@ impl Model {
         self.check_controls(controls)?;
         in_pool(|| {
             let mut states = Vec::with_capacity(horizon + 1);
-            states.push(self.rest.clone());
+            states.push(self.start.clone());
             let mut recordings = Some(Vec::with_capacity(horizon));
             let (mut total, mut scratch) = (0, StepScratch::default());
             let mut recorder = Recorder {

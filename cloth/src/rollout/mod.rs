@@ -14,6 +14,7 @@
 
 pub mod checkpoints;
 pub mod cost;
+pub mod coverage;
 pub mod grad;
 pub mod layers;
 pub mod limits;

@@ -208,7 +208,7 @@ impl Model {
         self.check_controls(controls)?;
         in_pool(|| {
             let mut states = Vec::with_capacity(self.task.horizon + 1);
-            states.push(self.rest.clone());
+            states.push(self.start.clone());
             let mut scratch = StepScratch::default();
             for t in 0..self.task.horizon {
                 let x = self.step(&states[t], &self.step_controls(controls, t), &mut scratch);

@@ -189,7 +189,7 @@ pub fn replay_watching(
     c: &dyn Fn(&[f64]) -> f64,
 ) -> (Vec<Tensor>, Vec<bool>, f64) {
     use autodiff::update::update_rows;
-    let mut states = vec![model.rest.clone()];
+    let mut states = vec![model.start.clone()];
     let mut pattern = Vec::new();
     let mut margin = f64::INFINITY;
     let sets: Vec<(&str, &cloth::ProjectionSet)> = model

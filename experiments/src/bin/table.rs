@@ -21,12 +21,11 @@ use anyhow::{ensure, Context, Result};
 use clap::{Parser, ValueEnum};
 use cloth::scene::SolverKind;
 use cloth::{Model, Scene};
-use clothopt::result::{PlanResult, Reason, SearchMode};
+use clothopt::result::{Reason, SearchMode};
 use clothopt::validate::ensure_positive;
 use experiments::child;
-use experiments::measure::timed;
-use experiments::report::{fmt_opt, write_json};
-use experiments::scene_set::load_set;
+use experiments::report::{fmt_opt, last_line, one_line, write_json};
+use experiments::scene_set::{absolute_files, scene_files, SceneFile};
 use serde::Serialize;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -144,13 +143,6 @@ struct Row {
     outcome: Outcome,
 }
 
-/// A scene file of the set: its path, name and text.
-struct SceneFile {
-    path: PathBuf,
-    name: String,
-    text: String,
-}
-
 fn main() -> Result<()> {
     let cli = Cli::parse();
     ensure_positive("--time-limit", cli.time_limit)?;
@@ -203,21 +195,6 @@ fn main() -> Result<()> {
     Ok(())
 }
 
-/// The scenes of the set (`--dir`, only `names` when given), each with its file's text.
-fn scene_files(dir: &Path, names: &[String]) -> Result<Vec<SceneFile>> {
-    let mut files = Vec::new();
-    for (path, scene) in load_set(dir, names, "--dir")? {
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        files.push(SceneFile {
-            path,
-            name: scene.name,
-            text,
-        });
-    }
-    Ok(files)
-}
-
 /// Plans `scene` under `model` in a `clothopt optimize` child, or says why the model is
 /// unsupported.
 fn run_one(
@@ -255,20 +232,14 @@ fn run_one(
         None => scratch.join(format!("{}.{}.result.json", scene.name, model.name())),
     };
     let what = format!("clothopt optimize {} ({})", scene.name, model.name());
-    let mut command = std::process::Command::new(clothopt);
-    command
-        .arg("optimize")
-        .arg(&file)
-        .arg("--time-limit")
-        .arg(cli.time_limit.to_string())
-        .args(["--search", cli.search.name(), "--out"])
-        .arg(&result_path);
-    // `optimize` exits 3 (safe, not achieved) and 4 (no safe plan) with a result written.
-    let ((exit_code, _), wall_s) = timed(|| child::run_accepting(&mut command, &what, &[0, 3, 4]))?;
-    let text = std::fs::read_to_string(&result_path)
-        .with_context(|| format!("{what}: no result at {}", result_path.display()))?;
-    let result: PlanResult = serde_json::from_str(&text)
-        .with_context(|| format!("{what}: unreadable result {}", result_path.display()))?;
+    let (result, exit_code, wall_s) = child::plan_scene(
+        clothopt,
+        &file,
+        cli.time_limit,
+        cli.search,
+        &result_path,
+        &what,
+    )?;
     let kept = cli.results_dir.is_some();
     if !kept {
         let _ = std::fs::remove_file(&result_path);
@@ -336,50 +307,6 @@ fn supported(text: &str, base: &Path) -> Result<SolverKind> {
     let scene = Scene::from_json_str_in(text, base)?;
     Model::from_scene(&scene)?;
     Ok(scene.solver_kind())
-}
-
-/// Makes the files a scene names (`cloth.mesh`, `task.target_mesh`, `obstacles[i].file`; see
-/// docs/scene-format.md) absolute, so that the scene reads them from anywhere.
-fn absolute_files(scene: &mut Value, base: &Path) -> Result<()> {
-    let base = base
-        .canonicalize()
-        .with_context(|| format!("cannot resolve {}", base.display()))?;
-    for pointer in ["/cloth/mesh", "/task/target_mesh"] {
-        if let Some(v) = scene.pointer_mut(pointer) {
-            absolutize(v, &base);
-        }
-    }
-    if let Some(obstacles) = scene.get_mut("obstacles").and_then(Value::as_array_mut) {
-        for o in obstacles {
-            if let Some(v) = o.get_mut("file") {
-                absolutize(v, &base);
-            }
-        }
-    }
-    Ok(())
-}
-
-/// A relative path string `v` joined to `base`.
-fn absolutize(v: &mut Value, base: &Path) {
-    if let Some(s) = v.as_str() {
-        if Path::new(s).is_relative() {
-            *v = Value::String(base.join(s).to_string_lossy().into_owned());
-        }
-    }
-}
-
-/// An error on one line (serde's parse errors quote the source line below the message).
-fn one_line(e: &impl std::fmt::Display) -> String {
-    e.to_string()
-        .split_whitespace()
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-/// The last non-empty line of a child's error (its progress lines come first).
-fn last_line(text: &str) -> String {
-    let line = text.lines().rev().find(|l| !l.trim().is_empty());
-    line.unwrap_or(text).trim().to_string()
 }
 
 /// One line of the table: the scene and model, then the plan's cells.
@@ -465,32 +392,5 @@ mod tests {
         let rigid = variant(named, ContactModel::Rigid).unwrap();
         assert_eq!(rigid["physics"]["contact"]["model"], "rigid");
         assert_eq!(rigid["physics"]["contact"]["d_hat"], 0.01);
-    }
-
-    #[test]
-    fn relative_files_become_absolute() {
-        let mut v: Value = serde_json::from_str(SCENE).unwrap();
-        let dir = std::env::temp_dir();
-        absolute_files(&mut v, &dir).unwrap();
-        let base = dir.canonicalize().unwrap();
-        assert_eq!(
-            v["cloth"]["mesh"],
-            base.join("towel.obj").to_string_lossy().as_ref()
-        );
-        assert_eq!(v["task"]["target_mesh"], "/abs/t.obj");
-        assert_eq!(
-            v["obstacles"][0]["file"],
-            base.join("vase.obj").to_string_lossy().as_ref()
-        );
-        assert!(v["obstacles"][1].get("file").is_none());
-    }
-
-    #[test]
-    fn errors_print_on_one_line() {
-        assert_eq!(one_line(&"a\n  12 | b\n"), "a 12 | b");
-        assert_eq!(
-            last_line("x failed: [ 5 s] iteration 0\nerror: bad\n\n"),
-            "error: bad"
-        );
     }
 }

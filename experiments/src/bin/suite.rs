@@ -1,0 +1,349 @@
+//! The task suite: every scene of a set (default `examples/scenes/tasks/`) planned by `clothopt
+//! optimize` under the physics it calls for (and, with `--physics`, under each solver named),
+//! each plan then simulated again to convergence (Newton at its default tolerance) to see whether
+//! its verdict holds there.
+//!
+//! ```sh
+//! cargo build --release --bin clothopt && cargo build --release -p experiments --bin suite
+//! target/release/suite --time-limit 120 --out suite.json --results-dir results
+//! target/release/suite --dir examples/scenes/rule --physics xpbd,newton   # the physics rule
+//! ```
+//!
+//! A row: the physics that ran and why, the verdict, the largest target error, the benchmarks'
+//! measures (normalized coverage, mean particle distance), the counts (SQP iterations,
+//! simulations), the child's wall time, how far the plan's states are from equilibrium, and the
+//! converged re-simulation's largest target error and verdict (targets within tolerance, margin
+//! kept, nothing inside a collider). A solver the simulator rejects for a scene is a row
+//! `unsupported: <its error>`; a plan whose child fails is a row `error: <its error>`.
+
+use anyhow::{Context, Result};
+use clap::{Parser, ValueEnum};
+use cloth::scene::SolverKind;
+use cloth::{Model, Scene};
+use clothopt::outcome::target_errors;
+use clothopt::result::{controls_from_nested, is_safe, PlanResult, SearchMode};
+use clothopt::validate::ensure_positive;
+use experiments::child;
+use experiments::report::{fmt_opt, last_line, one_line, write_json};
+use experiments::scene_set::{absolute_files, scene_files, SceneFile};
+use serde::Serialize;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+#[derive(Parser)]
+#[command(about = "The task suite: every scene planned, then simulated to convergence")]
+struct Cli {
+    /// Only these scenes (names as in the scene files; default every scene of `--dir`).
+    scenes: Vec<String>,
+    /// Directory of scene files.
+    #[arg(long, default_value = "examples/scenes/tasks")]
+    dir: PathBuf,
+    /// The physics of each plan, comma-separated: `scene` (what the scene calls for), `xpbd`,
+    /// `newton` (set as `physics.solver`).
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [Physics::Scene])]
+    physics: Vec<Physics>,
+    /// Seconds each plan may take (`optimize --time-limit`).
+    #[arg(long, default_value_t = 120.0, allow_negative_numbers = true)]
+    time_limit: f64,
+    /// Route search of each plan (`optimize --search`).
+    #[arg(long, value_enum, default_value_t = SearchMode::Auto)]
+    search: SearchMode,
+    /// The `clothopt` binary (default: the one beside this program).
+    #[arg(long)]
+    clothopt: Option<PathBuf>,
+    /// Keep each plan's result JSON here, as `<scene>.<physics>.json`.
+    #[arg(long)]
+    results_dir: Option<PathBuf>,
+    /// Write the settings and every row as JSON here (atomically).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// The physics a row plans on.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, ValueEnum, Serialize)]
+#[serde(rename_all = "snake_case")]
+enum Physics {
+    /// The scene as written: the solver it names, or the one it calls for.
+    Scene,
+    /// `physics.solver` `"xpbd"`.
+    Xpbd,
+    /// `physics.solver` `"newton"`.
+    Newton,
+}
+
+impl Physics {
+    fn name(self) -> &'static str {
+        match self {
+            Physics::Scene => "scene",
+            Physics::Xpbd => "xpbd",
+            Physics::Newton => "newton",
+        }
+    }
+
+    fn solver(self) -> Option<SolverKind> {
+        match self {
+            Physics::Scene => None,
+            Physics::Xpbd => Some(SolverKind::Xpbd),
+            Physics::Newton => Some(SolverKind::Newton),
+        }
+    }
+}
+
+/// What happened to one scene under one physics.
+#[derive(Serialize)]
+#[serde(tag = "outcome", rename_all = "snake_case")]
+enum Outcome {
+    /// The plan ran.
+    Planned(Box<Plan>),
+    /// The simulator rejected the physics for this scene.
+    Unsupported { message: String },
+    /// The planning child failed.
+    Error { message: String },
+}
+
+/// One plan's physics, verdict, measures and costs, and its converged re-simulation.
+#[derive(Serialize)]
+struct Plan {
+    /// The physics that ran (`newton (smooth contact)`, `xpbd, 100 sweeps per step`).
+    physics: String,
+    /// Why (the result's `physics.reason`).
+    reason: String,
+    achieved: bool,
+    /// The verdict's reason (`achieved`, `stalled`, `no_safe_plan`, …).
+    verdict: String,
+    max_target_error: f64,
+    targets_reached: usize,
+    targets: usize,
+    tolerance: f64,
+    /// Normalized coverage of the final state (`measures.coverage`).
+    coverage: Option<f64>,
+    /// Mean particle distance to the target layout (`measures.mean_particle_distance`).
+    mean_particle_distance: Option<f64>,
+    /// SQP iterations of the returned plan and the whole run's simulations.
+    iterations: usize,
+    simulations: usize,
+    /// Wall-clock seconds of the child process.
+    wall_s: f64,
+    /// The largest relative `‖∇Φ‖` of the plan's states (`physics.equilibrium.max_residual`).
+    equilibrium: Option<f64>,
+    /// The plan simulated by Newton at its default tolerance: largest target error, and whether
+    /// every target is within tolerance, the margin kept and no particle inside a collider.
+    converged_max_target_error: Option<f64>,
+    holds_converged: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    result_file: Option<PathBuf>,
+}
+
+/// One row of the table.
+#[derive(Serialize)]
+struct Row {
+    scene: String,
+    physics: Physics,
+    #[serde(flatten)]
+    outcome: Outcome,
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    ensure_positive("--time-limit", cli.time_limit)?;
+    let clothopt = child::clothopt_binary(cli.clothopt.as_deref())?;
+    let scenes = scene_files(&cli.dir, &cli.scenes)?;
+    eprintln!("planning with {}", clothopt.display());
+    if let Some(dir) = &cli.results_dir {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--results-dir: cannot create {}", dir.display()))?;
+    }
+    let scratch = std::env::temp_dir().join(format!("clothopt-suite-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch)
+        .with_context(|| format!("cannot create {}", scratch.display()))?;
+    let mut rows = Vec::new();
+    for scene in &scenes {
+        for &physics in &cli.physics {
+            eprintln!(
+                "{} ({}): planning, at most {} s …",
+                scene.name,
+                physics.name(),
+                cli.time_limit
+            );
+            let outcome = run_one(&cli, &clothopt, &scratch, scene, physics).unwrap_or_else(|e| {
+                Outcome::Error {
+                    message: last_line(&format!("{e:#}")),
+                }
+            });
+            rows.push(Row {
+                scene: scene.name.clone(),
+                physics,
+                outcome,
+            });
+        }
+    }
+    let _ = std::fs::remove_dir_all(&scratch);
+    print_table(&rows);
+    if let Some(out) = &cli.out {
+        let settings = serde_json::json!({
+            "dir": cli.dir, "clothopt": clothopt, "time_limit_s": cli.time_limit,
+            "search": cli.search, "physics": cli.physics,
+        });
+        write_json(
+            out,
+            &serde_json::json!({ "settings": settings, "rows": rows }),
+        )?;
+    }
+    Ok(())
+}
+
+/// Plans `scene` under `physics` in a `clothopt optimize` child, then simulates the plan to
+/// convergence; or says why the physics is unsupported.
+fn run_one(
+    cli: &Cli,
+    clothopt: &Path,
+    scratch: &Path,
+    scene: &SceneFile,
+    physics: Physics,
+) -> Result<Outcome> {
+    let base = scene.path.parent().unwrap_or(Path::new("."));
+    let mut value: Value = serde_json::from_str(&scene.text)?;
+    if let Some(solver) = physics.solver() {
+        value["physics"]["solver"] = Value::String(solver.name().into());
+    }
+    let text = serde_json::to_string_pretty(&value)?;
+    let loaded = Scene::from_json_str_in(&text, base)
+        .map_err(anyhow::Error::from)
+        .and_then(|s| {
+            Model::from_scene(&s)?;
+            Ok(s)
+        });
+    let loaded = match loaded {
+        Ok(s) => s,
+        Err(e) => {
+            return Ok(Outcome::Unsupported {
+                message: one_line(&e),
+            })
+        }
+    };
+    absolute_files(&mut value, base)?;
+    let file = scratch.join(format!("{}.{}.json", scene.name, physics.name()));
+    clothopt::output::write_json_atomic(&file, &value)?;
+    let result_path = match &cli.results_dir {
+        Some(dir) => dir.join(format!("{}.{}.json", scene.name, physics.name())),
+        None => scratch.join(format!("{}.{}.result.json", scene.name, physics.name())),
+    };
+    let what = format!("clothopt optimize {} ({})", scene.name, physics.name());
+    let (result, _, wall_s) = child::plan_scene(
+        clothopt,
+        &file,
+        cli.time_limit,
+        cli.search,
+        &result_path,
+        &what,
+    )?;
+    let kept = cli.results_dir.is_some();
+    if !kept {
+        let _ = std::fs::remove_file(&result_path);
+    }
+    let converged = converged_check(&loaded, &result).ok();
+    let p = result.physics.as_ref();
+    Ok(Outcome::Planned(Box::new(Plan {
+        physics: p.map_or("—".into(), |p| p.name()),
+        reason: p.map_or("—".into(), |p| p.reason.describe().into()),
+        achieved: result.task.achieved,
+        verdict: result.task.reason.name().into(),
+        max_target_error: result.task.max_target_error,
+        targets_reached: result.task.targets_reached,
+        targets: result.task.target_errors.len(),
+        tolerance: result.task.tolerance,
+        coverage: result.measures.as_ref().and_then(|m| m.coverage),
+        mean_particle_distance: result
+            .measures
+            .as_ref()
+            .and_then(|m| m.mean_particle_distance),
+        iterations: result.iterations,
+        simulations: result
+            .search
+            .as_ref()
+            .map_or(result.evaluations, |s| s.simulations),
+        wall_s,
+        equilibrium: p.and_then(|p| p.equilibrium.max_residual),
+        converged_max_target_error: converged.map(|c| c.0),
+        holds_converged: converged.map(|c| c.1),
+        result_file: kept.then_some(result_path),
+    })))
+}
+
+/// The plan of `result` simulated on `scene` by Newton at its default tolerance: the largest
+/// target error, and whether every target is within tolerance, the margin kept and no particle
+/// inside a collider (by more than the feasibility tolerance). An error where Newton cannot
+/// simulate the scene or the rollout fails.
+fn converged_check(scene: &Scene, result: &PlanResult) -> Result<(f64, bool)> {
+    let mut newton = scene.clone();
+    newton.physics.solver = Some(SolverKind::Newton);
+    newton.physics.tolerance = None;
+    let model = Model::from_scene(&newton)?;
+    let controls = controls_from_nested(&model, &result.controls)?;
+    let ev = model.evaluate(&controls, result.delta, false)?;
+    let errors = target_errors(&model, ev.states.last().context("an empty rollout")?);
+    let max = errors.iter().copied().fold(0.0, f64::max);
+    let inside = ev
+        .metrics
+        .max_penetration
+        .is_some_and(|p| p.depth > result.feasibility_tolerance);
+    let holds = max <= model.task.tolerance && is_safe(&ev.metrics) && !inside;
+    Ok((max, holds))
+}
+
+/// One line of the table: the scene and physics asked for, then the plan's cells.
+fn line(scene: &str, physics: &str, cells: [&str; 10]) -> String {
+    let [ran, verdict, error, coverage, distance, iters, sims, wall, equilibrium, converged] =
+        cells;
+    format!(
+        "{scene:<18} {physics:<7} {ran:<34} {verdict:<16} {error:>9} {coverage:>8} {distance:>9} \
+         {iters:>6} {sims:>6} {wall:>7} {equilibrium:>9} {converged}"
+    )
+}
+
+fn print_table(rows: &[Row]) {
+    let header = [
+        "physics that ran",
+        "verdict",
+        "error",
+        "coverage",
+        "particles",
+        "iters",
+        "sims",
+        "wall s",
+        "‖∇Φ‖ rel",
+        "converged: error, holds",
+    ];
+    println!("{}", line("scene", "asked", header));
+    for r in rows {
+        let (scene, physics) = (r.scene.as_str(), r.physics.name());
+        match &r.outcome {
+            Outcome::Planned(p) => {
+                let converged = match (p.converged_max_target_error, p.holds_converged) {
+                    (Some(e), Some(h)) => format!("{e:.4}, {}", if h { "yes" } else { "no" }),
+                    _ => "—".into(),
+                };
+                let cells = [
+                    p.physics.clone(),
+                    p.verdict.clone(),
+                    format!("{:.4}/{}", p.max_target_error, p.tolerance),
+                    fmt_opt(p.coverage, 3),
+                    fmt_opt(p.mean_particle_distance, 4),
+                    p.iterations.to_string(),
+                    p.simulations.to_string(),
+                    fmt_opt(Some(p.wall_s), 1),
+                    p.equilibrium.map_or("—".into(), |r| format!("{r:.1e}")),
+                    converged,
+                ];
+                println!(
+                    "{}",
+                    line(scene, physics, cells.each_ref().map(String::as_str))
+                );
+            }
+            Outcome::Unsupported { message } => {
+                println!("{scene:<18} {physics:<7} unsupported: {message}")
+            }
+            Outcome::Error { message } => println!("{scene:<18} {physics:<7} error: {message}"),
+        }
+    }
+}
