@@ -29,6 +29,7 @@ pub use viz as plot;
 pub mod start_check;
 pub mod strain;
 mod summary;
+pub mod target_check;
 pub mod validate;
 
 pub use error::{error_chain, Error, Result};

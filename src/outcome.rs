@@ -3,11 +3,13 @@
 //! A target is reached when its particle ends (at step `T` of the re-simulated rollout) within the
 //! task tolerance of its position. A task is *achieved* when every target is reached **and** the
 //! plan is safe. A plan that misses says which of the [`Reason`]s holds, checked in this order:
-//! no safe plan; the solver stopped early (iteration limit, stall); constraints active at the
-//! returned plan hold the cloth back (safety rows, or other rows such as collider planes); none is
-//! active, so the plan sits in a local minimum of `L`.
+//! no safe plan; a missed target inside a collider deeper than the tolerance (unreachable); the
+//! solver stopped early (iteration limit, stall); constraints active at the returned plan hold the
+//! cloth back (safety rows, or other rows such as collider planes); none is active, so the plan
+//! sits in a local minimum of `L`.
 
 use crate::problem::{RowLabel, TrajectoryProblem};
+use crate::target_check::unreachable_targets;
 // The `task` section of a result, from `crate::result`: re-exported for this module's callers.
 pub use crate::result::{Reason, TaskOutcome};
 use autodiff::Tensor;
@@ -61,6 +63,10 @@ pub fn task_outcome(model: &Model, final_state: &Tensor, facts: &PlanFacts<'_>) 
         reached,
         errors.len()
     );
+    let unreachable: Vec<(usize, f64)> = unreachable_targets(model)
+        .into_iter()
+        .filter(|&(i, _)| errors[i] > tolerance)
+        .collect();
     let (reason, explanation) = if !facts.safe {
         let why = if facts.failures.is_empty() {
             "the returned plan violates the safety margin or the optimizer's rows".to_string()
@@ -72,6 +78,20 @@ pub fn task_outcome(model: &Model, final_state: &Tensor, facts: &PlanFacts<'_>) 
         (
             Reason::Achieved,
             format!("every target within {tolerance:.4} (largest error {max:.4}), plan safe"),
+        )
+    } else if let Some(&(target, depth)) = unreachable.first() {
+        (
+            Reason::UnreachableTarget,
+            format!(
+                "{} missed target{} inside the colliders deeper than the tolerance (target \
+                 {target}: {depth:.4} deep), where no particle goes; {missed}",
+                unreachable.len(),
+                if unreachable.len() == 1 {
+                    " lies"
+                } else {
+                    "s lie"
+                }
+            ),
         )
     } else if facts.status == "iteration_limit" {
         (

@@ -44,13 +44,7 @@ pub fn start_intrusions(scene: &Scene, delta: f64) -> Vec<Intrusion> {
         let safety = obstacle.role().is_safety();
         let limit = if safety { delta } else { 0.0 };
         let mut deepest: Option<Intrusion> = None;
-        let kind = match obstacle {
-            Obstacle::Spheres(_) => "spheres",
-            Obstacle::Plane(_) => "plane",
-            Obstacle::Capsule(_) => "capsule",
-            Obstacle::Box(_) => "box",
-            Obstacle::Mesh(_) => "mesh",
-        };
+        let kind = obstacle.kind();
         let mut consider = |sphere: Option<usize>, particle: usize, distance: f64| {
             if distance < limit && deepest.as_ref().is_none_or(|d| distance < d.distance) {
                 deepest = Some(Intrusion {

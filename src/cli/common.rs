@@ -123,6 +123,9 @@ pub fn load_scene(name: &str, sweeps: Option<usize>, physics: &PhysicsArgs) -> R
         scene.physics.iterations = n;
     }
     physics.apply(&mut scene)?;
+    for warning in clothopt::target_check::buried_target_warnings(&scene) {
+        eprintln!("warning: {warning}");
+    }
     Ok(scene)
 }
 

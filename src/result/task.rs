@@ -18,6 +18,9 @@ pub enum Reason {
     /// The solver converged with no constraint active: a local minimum of `L = G + αT + βE`
     /// (another route, or smaller `α`/`β`, may reach the targets).
     LocalMinimum,
+    /// A target the plan misses lies inside a collider deeper than the task tolerance: no plan
+    /// brings its particle within the tolerance.
+    UnreachableTarget,
     /// The solver stopped at its iteration limit before converging.
     IterationLimit,
     /// The solver stopped without converging (negligible step, line-search failure, QP failure,
@@ -33,9 +36,10 @@ pub enum Reason {
 
 impl Reason {
     /// Every reason, in the order the verdict checks them (achieved first).
-    pub const ALL: [Reason; 8] = [
+    pub const ALL: [Reason; 9] = [
         Reason::Achieved,
         Reason::NoSafePlan,
+        Reason::UnreachableTarget,
         Reason::IterationLimit,
         Reason::Stopped,
         Reason::Stalled,
@@ -45,7 +49,7 @@ impl Reason {
     ];
 
     /// The name the result JSON and the summary give it: `achieved`, `no_safe_plan`,
-    /// `iteration_limit`, `stopped`, `stalled`, `safety_active`, `limits_active`,
+    /// `unreachable_target`, `iteration_limit`, `stopped`, `stalled`, `safety_active`, `limits_active`,
     /// `local_minimum`.
     pub fn name(self) -> &'static str {
         match self {
@@ -53,6 +57,7 @@ impl Reason {
             Reason::SafetyActive => "safety_active",
             Reason::LimitsActive => "limits_active",
             Reason::LocalMinimum => "local_minimum",
+            Reason::UnreachableTarget => "unreachable_target",
             Reason::IterationLimit => "iteration_limit",
             Reason::Stalled => "stalled",
             Reason::Stopped => "stopped",

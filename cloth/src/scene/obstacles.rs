@@ -33,6 +33,17 @@ impl Obstacle {
         }
     }
 
+    /// Its JSON `"type"`: `spheres`, `plane`, `capsule`, `box` or `mesh`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Obstacle::Spheres(_) => "spheres",
+            Obstacle::Plane(_) => "plane",
+            Obstacle::Capsule(_) => "capsule",
+            Obstacle::Box(_) => "box",
+            Obstacle::Mesh(_) => "mesh",
+        }
+    }
+
     /// The friction coefficient `"friction"` as written (`None` when absent).
     pub fn friction(&self) -> Option<f64> {
         match self {
