@@ -14,7 +14,7 @@ pub use crate::result::{
 };
 use crate::result::{Measures, PhysicsReport, SafetyReport};
 use crate::safety_check::{check_safety, physics_hint};
-use crate::start_check::judge_start;
+use crate::start_check::{judge_start, start_warning};
 use crate::target_check::buried_target_warnings;
 // The rollout's strain and its warning, from `crate::strain`: re-exported for this module's callers.
 pub use crate::strain::{strain_report, strain_warning, StrainReport, STRAIN_WARNING_THRESHOLD};
@@ -296,7 +296,8 @@ fn check_start(
         });
     }
     model.check_controls(start)?;
-    let (start_error, mut warnings) = judge_start(scene, options.task.delta);
+    let (start_error, mut warnings) = judge_start(scene, &model.start, options.task.delta);
+    warnings.extend(model.start_report.as_ref().and_then(start_warning));
     warnings.extend(buried_target_warnings(scene));
     if let Some(e) = start_error {
         if !options.allow_unsafe_start {

@@ -4,7 +4,9 @@
 //! cloth that starts inside an obstacle (or inside a safety obstacle's margin) cannot be made safe
 //! by any plan. [`start_intrusions`] finds, for every obstacle, its deepest intrusion at step 0.
 
+use autodiff::Tensor;
 use cloth::scene::{Obstacle, ParticleRef, Scene};
+use cloth::StartReport;
 
 /// The deepest intrusion of the rest state into one obstacle.
 #[derive(Clone, Debug, PartialEq)]
@@ -33,10 +35,15 @@ impl Intrusion {
     }
 }
 
-/// For each obstacle, the rest-state particle closest to (or deepest inside) it, when that
-/// particle is inside the obstacle or, for safety obstacles, within `delta` of it.
-pub fn start_intrusions(scene: &Scene, delta: f64) -> Vec<Intrusion> {
-    let rest = scene.rest_positions();
+/// For each obstacle, the particle of step 0 (`start`, `N × 3`: [`cloth::Model::start`])
+/// closest to (or deepest inside) it, when that particle is inside the obstacle or, for safety
+/// obstacles, within `delta` of it.
+pub fn start_intrusions(scene: &Scene, start: &Tensor, delta: f64) -> Vec<Intrusion> {
+    let rest: Vec<[f64; 3]> = start
+        .data()
+        .chunks_exact(3)
+        .map(|p| [p[0], p[1], p[2]])
+        .collect();
     let cols = scene.cloth.cols.max(1);
     let mesh = scene.cloth.is_mesh();
     let mut out = Vec::new();
@@ -90,10 +97,10 @@ pub fn start_intrusions(scene: &Scene, delta: f64) -> Vec<Intrusion> {
 
 /// The error for a start inside an obstacle, or `None`; and warnings for a start inside a safety
 /// margin but outside the obstacle.
-pub fn judge_start(scene: &Scene, delta: f64) -> (Option<String>, Vec<String>) {
+pub fn judge_start(scene: &Scene, start: &Tensor, delta: f64) -> (Option<String>, Vec<String>) {
     let mut error = None;
     let mut warnings = Vec::new();
-    for i in start_intrusions(scene, delta) {
+    for i in start_intrusions(scene, start, delta) {
         let at = match i.particle {
             ParticleRef::Grid([r, c]) => format!("particle [{r}, {c}]"),
             ParticleRef::Vertex(v) => format!("particle {v}"),
@@ -115,4 +122,31 @@ pub fn judge_start(scene: &Scene, delta: f64) -> (Option<String>, Vec<String>) {
         }
     }
     (error, warnings)
+}
+
+/// The warning a start placed from `cloth.initial_state` gets when placing it changed it:
+/// settled by quasi-static steps, or particles lifted out of the colliders' barrier reach.
+pub fn start_warning(report: &StartReport) -> Option<String> {
+    if report.settle_steps == 0 && report.lifted == 0 {
+        return None;
+    }
+    let mut how = Vec::new();
+    if report.lifted > 0 {
+        how.push(format!(
+            "{} particles within d̂/2 of a collider moved out to d̂/2",
+            report.lifted
+        ));
+    }
+    if report.settle_steps > 0 {
+        how.push(format!(
+            "settled by {} quasi-static steps of the scene's physics with the grippers held",
+            report.settle_steps
+        ));
+    }
+    let (moved, particle) = report.moved;
+    Some(format!(
+        "cloth.initial_state ({}) was not at rest: {}; step 0 lies up to {moved:.4e} from it          (particle {particle})",
+        report.source,
+        how.join(", then ")
+    ))
 }

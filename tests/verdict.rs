@@ -8,7 +8,7 @@
 mod common;
 
 use cloth::scene::{Obstacle, ObstacleRole, SphereSetSpec};
-use cloth::Scene;
+use cloth::{Model, Scene};
 use clothopt::start_check::{judge_start, start_intrusions};
 use common::{bin, files_in, run, scratch, stderr, stdout, write_scene};
 
@@ -30,7 +30,8 @@ fn start_inside() -> Scene {
 #[test]
 fn the_deepest_start_intrusion_is_found_per_obstacle() {
     let scene = start_inside();
-    let found = start_intrusions(&scene, 0.1);
+    let start = Model::from_scene(&scene).unwrap().start;
+    let found = start_intrusions(&scene, &start, 0.1);
     assert_eq!(found.len(), 1, "{found:?}");
     let i = &found[0];
     assert_eq!(
@@ -38,7 +39,7 @@ fn the_deepest_start_intrusion_is_found_per_obstacle() {
         (0, Some(1), [3, 0].into())
     );
     assert!((i.distance - (0.15 - 0.2)).abs() < 1e-12, "{}", i.distance);
-    let (error, _) = judge_start(&scene, 0.1);
+    let (error, _) = judge_start(&scene, &start, 0.1);
     let e = error.unwrap();
     assert!(
         e.contains("obstacles[0] (spheres), sphere 1") && e.contains("0.0500"),
@@ -50,7 +51,7 @@ fn the_deepest_start_intrusion_is_found_per_obstacle() {
     if let Obstacle::Spheres(set) = &mut outside.obstacles[0] {
         set.centers[1][2] = 0.75;
     }
-    let (error, warnings) = judge_start(&outside, 0.1);
+    let (error, warnings) = judge_start(&outside, &start, 0.1);
     assert!(error.is_none(), "{error:?}");
     assert_eq!(warnings.len(), 1, "{warnings:?}");
     assert!(
@@ -58,7 +59,7 @@ fn the_deepest_start_intrusion_is_found_per_obstacle() {
         "{}",
         warnings[0]
     );
-    assert_eq!(judge_start(&outside, 0.01), (None, Vec::new()));
+    assert_eq!(judge_start(&outside, &start, 0.01), (None, Vec::new()));
 }
 
 #[test]

@@ -29,13 +29,14 @@ mod obj;
 mod refine;
 mod registry;
 mod rollout;
+mod start;
 mod xpbd;
 
 pub use contact::crossings::{crossings, intersections, Crossings};
 pub use controls::{controls_from_steps, Controls, ControlsView};
 pub use error::ClothError;
 pub use mesh::ClothMesh;
-pub use model::{ConstraintGroup, Model, TaskSpec, DEFAULT_CHECKPOINT_BUDGET};
+pub use model::{ConstraintGroup, Model, StartReport, TaskSpec, DEFAULT_CHECKPOINT_BUDGET};
 /// The `nalgebra` this crate is built with: constraints take `nalgebra::Vector3<R>` points.
 pub use nalgebra;
 pub use newton::continuation::{NewtonKept, NewtonRollout};
@@ -54,6 +55,7 @@ pub use rollout::limits::RolloutLimits;
 pub use rollout::metrics::{null_as_infinity, Evaluation, Metrics};
 pub use rollout::penetration::Penetration;
 pub use scene::Scene;
+pub use start::REST_TOLERANCE;
 pub use xpbd::set::{Carry, ProjectionSet};
 
 /// The simulator's building blocks, for this crate's own tests, benches and examples (feature

@@ -35,6 +35,19 @@ impl Scene {
                 ),
             });
         }
+        if self
+            .cloth
+            .initial_state
+            .as_ref()
+            .is_some_and(|s| s.recipe.is_none())
+        {
+            return Err(SceneError::Invalid {
+                field: "cloth.initial_state".into(),
+                reason: format!(
+                    "positions given for the {r0} × {c0} grid cannot be refined (a recipe can)"
+                ),
+            });
+        }
         let map = |p: ParticleRef| match p {
             ParticleRef::Grid([r, c]) => {
                 ParticleRef::Grid([map_axis(r, r0, rows), map_axis(c, c0, cols)])
@@ -45,6 +58,16 @@ impl Scene {
         scene.cloth.rows = rows;
         scene.cloth.cols = cols;
         scene.controls = self.controls.iter().copied().map(map).collect();
+        if let Some(phases) = scene
+            .cloth
+            .initial_state
+            .as_mut()
+            .and_then(|s| s.recipe.as_mut())
+        {
+            for phase in phases {
+                phase.hold = phase.hold.iter().copied().map(map).collect();
+            }
+        }
         scene.task.targets.clear();
         for t in &self.task.targets {
             let particle = map(t.particle);

@@ -46,7 +46,13 @@ fn newton_model(scene: &Scene, user_constraint: bool) -> Model {
             .map(|t| {
                 let p: Vec<Vector3<f64>> = t
                     .iter()
-                    .map(|&i| Vector3::new(m.start.get(i, 0), m.start.get(i, 1), m.start.get(i, 2)))
+                    .map(|&i| {
+                        Vector3::new(
+                            m.rest_shape.get(i, 0),
+                            m.rest_shape.get(i, 1),
+                            m.rest_shape.get(i, 2),
+                        )
+                    })
                     .collect();
                 TriangleArea::area(&p)
             })

@@ -243,7 +243,7 @@ fn a_rest_state_on_a_collider_starts_half_the_reach_above_it() {
     let err = Model::from_scene(&s).err().expect("rejected").to_string();
     assert!(
         err.starts_with("physics.contact.model: ")
-            && err.contains("particle 1 of the rest state is")
+            && err.contains("particle 1 at step 0 is")
             && err.contains("inside a collider")
             && !err.contains("  ")
             && !err.contains("default"),

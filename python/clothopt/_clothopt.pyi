@@ -25,6 +25,11 @@ class Scene:
         """A scene from a dict in the scene JSON format; ValueError names a bad field."""
     def to_dict(self) -> dict[str, Any]:
         """The scene in the scene JSON format."""
+    def with_initial_state(self, positions: ArrayLike, settle: bool = True) -> Scene:
+        """The scene with the cloth starting at `positions` `(N, 3)` (its `cloth.initial_state`);
+        settled when not at rest (`settle=False`: refused); ValueError names a bad start."""
+    def start(self) -> F64Array:
+        """The cloth's positions at step 0, `(N, 3)`."""
     @property
     def name(self) -> str: ...
     @property

@@ -11,7 +11,7 @@ use clothopt::request::{load_scene, OptimizeRequest};
 use clothopt::result::{CheckPhysics, SearchMode};
 use clothopt::search::plan_with_search;
 use clothopt::validate::ensure_non_negative;
-use numpy::{AllowTypeChange, PyArray3, PyArrayLikeDyn};
+use numpy::{AllowTypeChange, IntoPyArray, PyArray3, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyType};
@@ -166,6 +166,50 @@ impl Scene {
         let text: String = py.import("json")?.call_method1("dumps", (d,))?.extract()?;
         let scene = cloth::Scene::from_json_str(&text).map_err(|e| to_py(e.into()))?;
         Scene::new(scene)
+    }
+
+    /// with_initial_state(positions, settle=True) -> Scene
+    ///
+    /// The same scene with the cloth starting at `positions` (array-like `(N, 3)`, particle order:
+    /// a grid's `r·cols + c`, a mesh's vertex order) instead of its rest shape: its
+    /// `cloth.initial_state`. A start that is not at rest is settled by quasi-static steps with
+    /// the grippers held (`settle=True`, said in a plan's warnings) or refused (`settle=False`);
+    /// one inside a collider or through itself raises ValueError naming `cloth.initial_state`.
+    #[pyo3(signature = (positions, settle=true))]
+    fn with_initial_state(
+        &self,
+        positions: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+        settle: bool,
+    ) -> PyResult<Self> {
+        let n = self.model.n_particles();
+        let view = positions.as_array();
+        if view.shape() != [n, 3] {
+            return Err(PyValueError::new_err(format!(
+                "positions: expected shape ({n}, 3) (particles, xyz), got {:?}",
+                view.shape()
+            )));
+        }
+        let data: Vec<f64> = view.iter().copied().collect();
+        let mut scene = self.scene.clone();
+        scene.cloth.initial_state = Some(cloth::scene::InitialState {
+            obj: None,
+            positions: Some(data.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect()),
+            recipe: None,
+            settle,
+            settle_steps: None,
+            obj_data: None,
+        });
+        scene.validate().map_err(|e| to_py(e.into()))?;
+        Scene::new(scene)
+    }
+
+    /// start() -> ndarray (N, 3): the cloth's positions at step 0 (its rest shape, or its
+    /// initial state as placed).
+    fn start<'py>(&self, py: Python<'py>) -> Bound<'py, numpy::PyArray2<f64>> {
+        let x = &self.model.start;
+        numpy::ndarray::Array2::from_shape_vec((x.rows(), 3), x.data().to_vec())
+            .expect("an N × 3 tensor")
+            .into_pyarray(py)
     }
 
     /// to_dict() -> dict: the scene in the scene JSON format.

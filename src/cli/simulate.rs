@@ -4,7 +4,8 @@ use super::common::{draw, load_controls, load_scene, PhysicsArgs, WatchArgs};
 use anyhow::Result;
 use cloth::Model;
 use clothopt::output::write_json_atomic;
-use clothopt::result::{controls_to_nested, mesh_triangles, state_points};
+use clothopt::result::{controls_to_nested, mesh_triangles, state_points, PhysicsReport};
+use clothopt::start_check::start_warning;
 use std::path::PathBuf;
 
 /// Simulate a control sequence and report the metrics.
@@ -35,9 +36,16 @@ pub fn run(args: SimulateArgs) -> Result<i32> {
     let scene = load_scene(&args.scene, args.sweeps, &args.physics)?;
     let model = Model::from_scene(&scene)?;
     let u = load_controls(&scene, &model, args.controls.as_deref())?;
+    if let Some(w) = model.start_report.as_ref().and_then(start_warning) {
+        eprintln!("warning: {w}");
+    }
     let ev = model.evaluate(&u, scene.task.delta, false)?;
     let m = ev.metrics;
     println!("scene {} — {}", scene.name, model.effects());
+    println!(
+        "{}",
+        PhysicsReport::of(&scene, &model, &ev.states, &u).summary_line()
+    );
     println!(
         "G {:.6}  T {:.6}  E {:.6}  L {:.6}  C {:.3e}  min SDF {:.4}  swept {:.4}",
         m.g, m.t, m.e, m.l, m.c, m.min_sdf, m.min_sdf_swept

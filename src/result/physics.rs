@@ -104,9 +104,9 @@ impl PhysicsReport {
                 format!("states at equilibrium (relative ‖∇Φ‖ ≤ {r:.1e})")
             }
             (Some(r), Some(t)) => format!(
-                "states NOT at equilibrium (relative ‖∇Φ‖ up to {r:.1e}, step {t}): the verdict \
-                 holds for this physics, not for the cloth simulated to convergence \
-                 (--check newton re-plans until it does)"
+                "states NOT at equilibrium (relative ‖∇Φ‖ up to {r:.1e}, step {t}): simulated \
+                 to convergence the cloth ends elsewhere (--check newton re-plans until a plan \
+                 holds there too)"
             ),
             _ => "equilibrium not measured".to_string(),
         };

@@ -14,7 +14,6 @@ use crate::contact::smooth_friction::FrictionParams;
 use crate::error::ClothError;
 use crate::newton::settings::{NewtonSettings, Solver};
 use crate::newton::terms::Terms;
-use crate::registry::ConstraintRegistry;
 use crate::rollout::strain::EdgeStrain;
 use crate::scene::{
     BendingModel, ContactModel, Obstacle, Scene, SceneError, SolverKind, Stiffness,
@@ -56,29 +55,18 @@ impl<C: Constraint> RowFn for Energy<C> {
 }
 
 impl Model {
-    /// Compiles a validated scene. A scene with `custom_constraints` needs their types:
-    /// [`Model::from_scene_with`].
-    pub fn from_scene(scene: &Scene) -> Result<Model, ClothError> {
-        Model::from_scene_with(scene, &ConstraintRegistry::new())
-    }
-
-    /// Compiles a validated scene whose `custom_constraints` use the types in `registry`
-    /// ([`Model::from_scene`] is this with an empty registry).
-    pub fn from_scene_with(
-        scene: &Scene,
-        registry: &ConstraintRegistry,
-    ) -> Result<Model, ClothError> {
-        let mut model = Model::from_scene_builtin(scene)?;
-        registry.apply(&mut model, scene)?;
-        Ok(model)
-    }
-
-    /// Compiles a validated scene's built-in effects (everything but `custom_constraints`).
-    pub(crate) fn from_scene_builtin(scene: &Scene) -> Result<Model, ClothError> {
+    /// Compiles a validated scene's built-in effects (everything but `custom_constraints`), the
+    /// cloth at step 0 at `start` (particle order) or else at its rest shape. Under smooth contact
+    /// every free particle of the rest shape within `d̂/2` of a collider (of a start, within
+    /// `d̂/100`) is moved out to `d̂/2` ([`settle_start_outside`]); under Newton's self-contact step 0 must keep the cloth's parts
+    /// farther apart than the thickness. [`Model::from_scene`] places the scene's initial state
+    /// with it (`crate::start`).
+    pub(crate) fn compile(scene: &Scene, start: Option<&[[f64; 3]]>) -> Result<Model, ClothError> {
         scene.validate()?;
         let mesh = scene.mesh();
         let rest_pos = scene.rest_positions();
         let n = rest_pos.len();
+        let start_pos = start.unwrap_or(&rest_pos);
         let controls = scene.control_indices();
         let mut inv_mass = vec![1.0 / scene.cloth.particle_mass; n];
         for &c in &controls {
@@ -90,7 +78,7 @@ impl Model {
         let task = &scene.task;
         let target_positions: Vec<f64> = scene.target_positions().into_iter().flatten().collect();
         let mut model = Model {
-            start: Tensor::new(n, 3, rest_pos.iter().flatten().copied().collect()),
+            start: Tensor::new(n, 3, start_pos.iter().flatten().copied().collect()),
             rest_shape: Tensor::new(n, 3, rest_pos.iter().flatten().copied().collect()),
             triangles: mesh.triangles().into(),
             inv_mass,
@@ -120,6 +108,7 @@ impl Model {
             self_collision: None,
             contact_barrier: None,
             self_barrier: None,
+            start_report: None,
         };
 
         let edges = mesh.stretch_edges();
@@ -178,7 +167,11 @@ impl Model {
         if !colliders.is_empty() && scene.contact_model() == ContactModel::Smooth {
             model.colliders = colliders.clone();
             let barrier = collider_barrier(scene, mean_edge, colliders);
-            settle_rest_outside(&mut model, &barrier, scene.physics.contact.is_some())?;
+            // A rest shape lies on the surfaces it touches; a given start may already rest at the
+            // barrier's height (below d̂/2), and only one nearer than d̂/100 is moved.
+            let below = if start.is_some() { 0.01 } else { 0.5 };
+            let named = scene.physics.contact.is_some();
+            settle_start_outside(&mut model, &barrier, below, named)?;
             model.contact_barrier = Some(Arc::new(barrier));
         } else if !colliders.is_empty() {
             let free: Vec<usize> = (0..n).filter(|&p| model.inv_mass[p] > 0.0).collect();
@@ -204,10 +197,10 @@ impl Model {
                     barrier_shape(scene, mean_edge),
                     scene.physics.dt * scene.physics.dt,
                     model.triangles.clone(),
-                    model.start.data(),
+                    model.rest_shape.data(),
                     &model.inv_mass,
                 );
-                check_rest_apart(&model, &barrier)?;
+                check_start_apart(&model, &barrier, start.is_some())?;
                 model.self_barrier = Some(Arc::new(barrier));
             }
         }
@@ -396,14 +389,15 @@ fn component_friction(obstacles: &[Obstacle]) -> Vec<f64> {
     buckets.concat()
 }
 
-/// Smooth contact: every free particle of the rest state that is nearer to the colliders than
-/// `d̂/2` — on a surface, or inside by less than `d̂` — starts at `d̂/2` outside, moved along the
-/// colliders' distance gradient (a cloth lying on a table under the rigid model lies at the
+/// Smooth contact: every free particle of step 0 that is nearer to the colliders than
+/// `below · d̂` — on a surface, or inside by less than `d̂` — starts at `d̂/2` outside, moved along
+/// the colliders' distance gradient (a cloth lying on a table under the rigid model lies at the
 /// barrier's resting height under the smooth one: about `0.4–0.7 d̂`). The constraints' rest
 /// lengths are those of the scene's geometry. A particle deeper inside is an error.
-fn settle_rest_outside(
+fn settle_start_outside(
     model: &mut Model,
     barrier: &ColliderBarrier,
+    below: f64,
     named: bool,
 ) -> Result<(), ClothError> {
     let target = 0.5 * barrier.barrier.d_hat;
@@ -411,7 +405,7 @@ fn settle_rest_outside(
         let r = model.start.row(p);
         let mut q = Vector3::new(r[0], r[1], r[2]);
         let mut d = barrier.field.distance(&q);
-        if d >= target {
+        if d >= below * barrier.barrier.d_hat {
             continue;
         }
         if d <= -barrier.barrier.d_hat {
@@ -419,7 +413,7 @@ fn settle_rest_outside(
                 field: "physics.contact.model".into(),
                 reason: format!(
                     "the smooth contact model needs the cloth outside the colliders, but \
-                     particle {p} of the rest state is {:e} inside a collider (more than \
+                     particle {p} at step 0 is {:e} inside a collider (more than \
                      physics.contact.d_hat {:e}); move the cloth or the colliders apart{}",
                     -d,
                     barrier.barrier.d_hat,
@@ -446,7 +440,7 @@ fn settle_rest_outside(
             return Err(SceneError::Invalid {
                 field: "physics.contact.model".into(),
                 reason: format!(
-                    "particle {p} of the rest state could not be moved out of the colliders \
+                    "particle {p} at step 0 could not be moved out of the colliders \
                      (signed distance {d:e}); move the cloth or the colliders apart"
                 ),
             }
@@ -457,27 +451,47 @@ fn settle_rest_outside(
     Ok(())
 }
 
-/// Self-contact under Newton: the rest state must hold every part of the cloth farther than the
-/// thickness from every other (the barrier is infinite within it).
-fn check_rest_apart(model: &Model, barrier: &SelfBarrier) -> Result<(), ClothError> {
+/// Self-contact under Newton: step 0 must hold every part of the cloth farther than the
+/// thickness from every other (the barrier is infinite within it). `initial` says that step 0 is
+/// the scene's `cloth.initial_state` (else its rest shape), for the error's field.
+fn check_start_apart(
+    model: &Model,
+    barrier: &SelfBarrier,
+    initial: bool,
+) -> Result<(), ClothError> {
     match barrier.penetration(model.start.data()) {
         None => Ok(()),
-        Some((pair, gap)) => Err(SceneError::Invalid {
-            field: "physics.self_collision.thickness".into(),
-            reason: format!(
-                "the rest state has particles {:?} {:e} closer than the thickness {} (a \
-                 {} pair); Newton's self-contact barrier needs them apart: choose a thickness \
-                 below the cloth's edge length",
-                pair.particles,
-                -gap,
-                barrier.thickness,
-                match pair.kind {
-                    PairKind::PointTriangle => "vertex–triangle",
-                    PairKind::EdgeEdge(_) => "edge–edge",
-                }
-            ),
+        Some((pair, gap)) => {
+            let (field, what, fix) = if initial {
+                (
+                    "cloth.initial_state",
+                    "the initial state",
+                    "give a start whose layers lie farther apart, or a smaller \
+                     physics.self_collision.thickness",
+                )
+            } else {
+                (
+                    "physics.self_collision.thickness",
+                    "the rest state",
+                    "choose a thickness below the cloth's edge length",
+                )
+            };
+            Err(SceneError::Invalid {
+                field: field.into(),
+                reason: format!(
+                    "{what} has particles {:?} {:e} closer than the thickness {} (a {} pair); \
+                     Newton's self-contact barrier needs them apart: {fix}",
+                    pair.particles,
+                    -gap,
+                    barrier.thickness,
+                    match pair.kind {
+                        PairKind::PointTriangle => "vertex–triangle",
+                        PairKind::EdgeEdge(_) => "edge–edge",
+                    }
+                ),
+            }
+            .into())
         }
-        .into()),
     }
 }
 

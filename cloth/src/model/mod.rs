@@ -118,6 +118,25 @@ pub struct Model {
     /// Self-collision under Newton's method: the barrier potential between parts of the cloth
     /// (`contact::self_barrier`); `None` otherwise.
     pub self_barrier: Option<Arc<SelfBarrier>>,
+    /// How step 0 was placed from `cloth.initial_state`; `None` for a cloth starting at rest in
+    /// its rest shape.
+    pub start_report: Option<StartReport>,
+}
+
+/// How a scene's `cloth.initial_state` became step 0 ([`Model::start`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StartReport {
+    /// Where the positions came from: `"positions"`, `"obj"` or `"recipe"`.
+    pub source: &'static str,
+    /// The recipe's held steps and its settling steps after letting go (0 without a recipe).
+    pub recipe_steps: usize,
+    /// Quasi-static steps (the grippers held) that settled the start; 0 when it was at rest.
+    pub settle_steps: usize,
+    /// Free particles within `d̂/2` of a collider moved out to `d̂/2` (smooth contact).
+    pub lifted: usize,
+    /// The largest distance of step 0's positions from the given (or the recipe's) ones, and its
+    /// particle.
+    pub moved: (f64, usize),
 }
 
 impl Model {

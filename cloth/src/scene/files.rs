@@ -56,7 +56,8 @@ impl Scene {
     ///
     /// A mesh cloth (`cloth.mesh`) must be a consistently oriented, possibly open, manifold of
     /// non-degenerate triangles using every vertex; `task.target_mesh` must have as many vertices
-    /// as the cloth and the same number of triangles.
+    /// as the cloth and the same number of triangles; `cloth.initial_state.obj`'s vertices are the
+    /// cloth's positions at step 0 (its faces are not read).
     pub fn load_files(&mut self, base: &Path) -> Result<(), SceneError> {
         self.load_files_from(&Source::Folder(base))
     }
@@ -70,6 +71,15 @@ impl Scene {
                 .and_then(|m| m.check_cloth(&path).map(|()| m))
                 .map_err(|e| invalid("cloth.mesh", e.to_string()))?;
             self.cloth.mesh_data = Some(mesh);
+        }
+        if let Some(state) = &mut self.cloth.initial_state {
+            // With another source beside it, validation names the conflict instead.
+            let alone = state.positions.is_none() && state.recipe.is_none();
+            if let Some(file) = state.obj.as_ref().filter(|_| alone) {
+                let (_, mesh) = source.read(file);
+                let mesh = mesh.map_err(|e| invalid("cloth.initial_state.obj", e.to_string()))?;
+                state.obj_data = Some(mesh.vertices);
+            }
         }
         if let Some(file) = &self.task.target_mesh {
             let (path, target) = source.read(file);

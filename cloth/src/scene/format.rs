@@ -5,6 +5,7 @@ use std::fmt;
 use serde::de::{self, Deserializer, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
 
+use super::initial_state::InitialState;
 use super::obstacles::Obstacle;
 
 /// A complete scene: cloth, material, physics, controls, obstacles and task.
@@ -62,6 +63,8 @@ pub struct ClothSpec {
     /// The mesh read from `mesh` when the scene was loaded ([`crate::Scene::load_files`]); `None`
     /// until then and for a grid.
     pub mesh_data: Option<crate::obj::ObjMesh>,
+    /// Where the cloth is at step 0 when not at its rest shape (`None`: at rest).
+    pub initial_state: Option<InitialState>,
 }
 
 impl ClothSpec {
@@ -89,6 +92,8 @@ struct ClothJson {
     mesh: Option<String>,
     #[serde(default = "default_particle_mass")]
     particle_mass: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    initial_state: Option<InitialState>,
 }
 
 impl TryFrom<ClothJson> for ClothSpec {
@@ -116,6 +121,7 @@ impl TryFrom<ClothJson> for ClothSpec {
                 particle_mass: j.particle_mass,
                 mesh: j.mesh,
                 mesh_data: None,
+                initial_state: j.initial_state,
             });
         }
         if let Some((name, _)) = grid_fields.iter().find(|(_, given)| !*given) {
@@ -132,6 +138,7 @@ impl TryFrom<ClothJson> for ClothSpec {
             particle_mass: j.particle_mass,
             mesh: None,
             mesh_data: None,
+            initial_state: j.initial_state,
         })
     }
 }
@@ -147,6 +154,7 @@ impl From<ClothSpec> for ClothJson {
             down: grid.then_some(c.down),
             mesh: c.mesh,
             particle_mass: c.particle_mass,
+            initial_state: c.initial_state,
         }
     }
 }

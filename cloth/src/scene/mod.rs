@@ -20,7 +20,9 @@
 mod builtin;
 mod files;
 mod format;
+mod initial_state;
 mod json;
+mod limits;
 mod obstacles;
 mod physics_choice;
 mod validate;
@@ -31,6 +33,7 @@ mod tests;
 use std::path::{Path, PathBuf};
 
 pub use format::*;
+pub use initial_state::{InitialState, Recipe, DEFAULT_SETTLE_STEPS};
 pub use json::to_json_pretty_compact;
 pub use obstacles::*;
 pub use physics_choice::{PhysicsChoice, PhysicsReason};

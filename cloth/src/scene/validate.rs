@@ -9,7 +9,7 @@ fn counted(n: usize, singular: &str, plural: &str) -> String {
     format!("{n} {}", if n == 1 { singular } else { plural })
 }
 
-fn check_finite(field: &str, x: f64) -> Result<(), SceneError> {
+pub(super) fn check_finite(field: &str, x: f64) -> Result<(), SceneError> {
     if x.is_finite() {
         Ok(())
     } else {
@@ -18,7 +18,7 @@ fn check_finite(field: &str, x: f64) -> Result<(), SceneError> {
 }
 
 /// Finite, with magnitude at most [`MAX_COORDINATE`].
-fn check_coordinate(field: &str, x: f64) -> Result<(), SceneError> {
+pub(super) fn check_coordinate(field: &str, x: f64) -> Result<(), SceneError> {
     check_finite(field, x)?;
     if x.abs() <= MAX_COORDINATE {
         Ok(())
@@ -30,14 +30,14 @@ fn check_coordinate(field: &str, x: f64) -> Result<(), SceneError> {
     }
 }
 
-fn check_vec3(field: &str, v: &[f64; 3]) -> Result<(), SceneError> {
+pub(super) fn check_vec3(field: &str, v: &[f64; 3]) -> Result<(), SceneError> {
     for (k, &x) in v.iter().enumerate() {
         check_coordinate(&format!("{field}[{k}]"), x)?;
     }
     Ok(())
 }
 
-fn check_positive(field: &str, x: f64) -> Result<(), SceneError> {
+pub(super) fn check_positive(field: &str, x: f64) -> Result<(), SceneError> {
     check_finite(field, x)?;
     if x > 0.0 {
         Ok(())
@@ -46,7 +46,7 @@ fn check_positive(field: &str, x: f64) -> Result<(), SceneError> {
     }
 }
 
-fn check_non_negative(field: &str, x: f64) -> Result<(), SceneError> {
+pub(super) fn check_non_negative(field: &str, x: f64) -> Result<(), SceneError> {
     check_finite(field, x)?;
     if x >= 0.0 {
         Ok(())
@@ -143,6 +143,7 @@ impl Scene {
     /// shape. No control particles at all is allowed.
     pub fn validate(&self) -> Result<(), SceneError> {
         self.validate_cloth()?;
+        self.validate_initial_state()?;
         self.validate_material()?;
         self.validate_physics()?;
         self.validate_controls()?;
@@ -354,7 +355,11 @@ impl Scene {
 
     /// Checks that a particle reference lies on the cloth and has its kind: `[row, col]` on a
     /// grid, a vertex index on a mesh cloth.
-    fn check_particle(&self, field: &str, particle: ParticleRef) -> Result<(), SceneError> {
+    pub(super) fn check_particle(
+        &self,
+        field: &str,
+        particle: ParticleRef,
+    ) -> Result<(), SceneError> {
         match (particle, self.cloth.is_mesh()) {
             (ParticleRef::Grid([r, c]), false) => {
                 if r >= self.cloth.rows {
@@ -617,72 +622,6 @@ impl Scene {
         }
         for (v, p) in vertices.iter().enumerate() {
             check_vec3(&format!("task.target_mesh (`{file}` vertex {})", v + 1), p)?;
-        }
-        Ok(())
-    }
-
-    fn validate_limits(&self) -> Result<(), SceneError> {
-        let limits = &self.task.limits;
-        if let Some(step) = limits.max_step {
-            check_positive("task.limits.max_step", step)?;
-            check_coordinate("task.limits.max_step", step)?;
-        }
-        if let Some(strain) = limits.max_strain {
-            check_positive("task.limits.max_strain", strain)?;
-            check_coordinate("task.limits.max_strain", strain)?;
-        }
-        let rest = self.rest_positions();
-        let grippers: Vec<(ParticleRef, [f64; 3])> = self
-            .controls
-            .iter()
-            .zip(self.control_indices())
-            .map(|(&rc, p)| (rc, rest[p]))
-            .collect();
-        if let Some(w) = &limits.workspace {
-            check_vec3("task.limits.workspace.min", &w.min)?;
-            check_vec3("task.limits.workspace.max", &w.max)?;
-            for j in 0..3 {
-                if w.min[j] > w.max[j] {
-                    return Err(invalid(
-                        format!("task.limits.workspace.min[{j}]"),
-                        format!("{} exceeds max[{j}] = {}", w.min[j], w.max[j]),
-                    ));
-                }
-            }
-            for (particle, p) in &grippers {
-                if (0..3).any(|j| p[j] < w.min[j] || p[j] > w.max[j]) {
-                    return Err(invalid(
-                        "task.limits.workspace",
-                        format!("control point {particle} starts outside it, at {p:?}"),
-                    ));
-                }
-            }
-        }
-        if let Some([lo, hi]) = limits.gripper_separation {
-            let field = "task.limits.gripper_separation";
-            check_non_negative(&format!("{field}[0]"), lo)?;
-            check_coordinate(&format!("{field}[0]"), lo)?;
-            check_positive(&format!("{field}[1]"), hi)?;
-            check_coordinate(&format!("{field}[1]"), hi)?;
-            if lo > hi {
-                return Err(invalid(
-                    field,
-                    format!("min {lo} exceeds max {hi} (expected [min, max])"),
-                ));
-            }
-            for (a, (ra, pa)) in grippers.iter().enumerate() {
-                for (rb, pb) in &grippers[a + 1..] {
-                    let d = norm3(&[pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]]);
-                    if d < lo || d > hi {
-                        return Err(invalid(
-                            field,
-                            format!(
-                                "control points {ra} and {rb} start {d} apart, outside [{lo}, {hi}]"
-                            ),
-                        ));
-                    }
-                }
-            }
         }
         Ok(())
     }
