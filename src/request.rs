@@ -213,6 +213,7 @@ mod tests {
             &[
                 "achieved",
                 "no_safe_plan",
+                "unreachable_target",
                 "iteration_limit",
                 "stopped",
                 "stalled",
