@@ -80,7 +80,7 @@ pub fn projected_area(points: &[[f64; 2]], triangles: &[[usize; 3]]) -> f64 {
     }
     let size = [hi[0] - lo[0], hi[1] - lo[1]];
     let longest = size[0].max(size[1]);
-    if !(longest > 0.0) || !longest.is_finite() {
+    if longest.is_nan() || longest <= 0.0 || !longest.is_finite() {
         return 0.0;
     }
     let cells = size.map(|s| ((s / longest * CELLS as f64).ceil() as usize).max(1));
