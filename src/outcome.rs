@@ -11,28 +11,10 @@
 use crate::problem::{RowLabel, TrajectoryProblem};
 use crate::target_check::unreachable_targets;
 // The `task` section of a result, from `crate::result`: re-exported for this module's callers.
-pub use crate::result::{Reason, TaskOutcome};
+pub use crate::result::{target_errors, Reason, TaskOutcome};
 use autodiff::Tensor;
 use cloth::Model;
 use optim::Problem;
-
-/// The final distance of each target particle from its position.
-pub fn target_errors(model: &Model, final_state: &Tensor) -> Vec<f64> {
-    let positions = &model.task.target_positions;
-    model
-        .task
-        .targets
-        .as_slice()
-        .iter()
-        .enumerate()
-        .map(|(i, &p)| {
-            (0..3)
-                .map(|j| (final_state.get(p, j) - positions.get(i, j)).powi(2))
-                .sum::<f64>()
-                .sqrt()
-        })
-        .collect()
-}
 
 /// What the verdict needs besides the rollout.
 #[derive(Clone, Debug)]

@@ -1,6 +1,7 @@
 //! The `measures` section of a result: the cloth benchmarks' measures of the final state, so that
 //! a plan can be compared with SoftGym's and DaXBench's numbers.
 
+use super::task::target_errors;
 use autodiff::Tensor;
 use cloth::Model;
 use serde::{Deserialize, Serialize};
@@ -28,20 +29,8 @@ impl Measures {
             && targets
                 .iter()
                 .all(|&p| !std::mem::replace(&mut named[p], true));
-        let mean_particle_distance = (every && n > 0).then(|| {
-            let positions = &model.task.target_positions;
-            let sum: f64 = targets
-                .iter()
-                .enumerate()
-                .map(|(i, &p)| {
-                    (0..3)
-                        .map(|j| (final_state.get(p, j) - positions.get(i, j)).powi(2))
-                        .sum::<f64>()
-                        .sqrt()
-                })
-                .sum();
-            sum / n as f64
-        });
+        let mean_particle_distance = (every && n > 0)
+            .then(|| target_errors(model, final_state).iter().sum::<f64>() / n as f64);
         Measures {
             coverage: model.coverage(final_state),
             mean_particle_distance,

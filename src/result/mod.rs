@@ -33,7 +33,7 @@ pub use safety::{
 };
 pub use search::{CandidateReport, SearchMode, SearchReport};
 pub use strain::{strain_report, StrainReport};
-pub use task::{Reason, TaskOutcome};
+pub use task::{target_errors, Reason, TaskOutcome};
 
 use crate::error::{Error, Result};
 use autodiff::Tensor;

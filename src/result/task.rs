@@ -1,7 +1,28 @@
-//! The `task` section of a result: the verdict — whether the plan achieved its task and, when it
-//! did not, why ([`crate::outcome`] reaches it).
+//! The `task` section of a result: how far each target ended from its position ([`target_errors`])
+//! and the verdict — whether the plan achieved its task and, when it did not, why
+//! ([`crate::outcome`] reaches it).
 
+use autodiff::Tensor;
+use cloth::Model;
 use serde::{Deserialize, Serialize};
+
+/// The final distance of each target particle from its position.
+pub fn target_errors(model: &Model, final_state: &Tensor) -> Vec<f64> {
+    let positions = &model.task.target_positions;
+    model
+        .task
+        .targets
+        .as_slice()
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| {
+            (0..3)
+                .map(|j| (final_state.get(p, j) - positions.get(i, j)).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .collect()
+}
 
 /// Why a task was or was not achieved.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -5,7 +5,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::format::{InitialControls, ParticleRef};
-use super::{invalid, Scene, SceneError, MAX_COORDINATE, MAX_HORIZON};
+use super::validate::check_vec3;
+use super::{invalid, Scene, SceneError, MAX_HORIZON};
 
 /// Default of `cloth.initial_state.settle_steps`.
 pub const DEFAULT_SETTLE_STEPS: usize = 500;
@@ -127,16 +128,7 @@ impl Scene {
                 ));
             }
             for (p, x) in positions.iter().enumerate() {
-                for (k, &v) in x.iter().enumerate() {
-                    if !(v.is_finite() && v.abs() <= MAX_COORDINATE) {
-                        return Err(invalid(
-                            format!("{field}.{name}[{p}][{k}]"),
-                            format!(
-                                "must be finite with magnitude at most {MAX_COORDINATE:e}, got {v}"
-                            ),
-                        ));
-                    }
-                }
+                check_vec3(&format!("{field}.{name}[{p}]"), x)?;
             }
         } else if s.obj.is_some() {
             return Err(invalid(
@@ -181,16 +173,7 @@ impl Scene {
                 ));
             }
             for (k, x) in v.iter().enumerate() {
-                for (j, &c) in x.iter().enumerate() {
-                    if !(c.is_finite() && c.abs() <= MAX_COORDINATE) {
-                        return Err(invalid(
-                            format!("{at}[{k}][{j}]"),
-                            format!(
-                                "must be finite with magnitude at most {MAX_COORDINATE:e}, got {c}"
-                            ),
-                        ));
-                    }
-                }
+                check_vec3(&format!("{at}[{k}]"), x)?;
             }
             Ok(())
         };

@@ -21,11 +21,10 @@ use clap::{Parser, ValueEnum};
 use cloth::scene::SolverKind;
 use cloth::{Model, Scene};
 use clothopt::outcome::target_errors;
-use clothopt::result::{controls_from_nested, is_safe, PlanResult, SearchMode};
-use clothopt::validate::ensure_positive;
-use experiments::child;
-use experiments::report::{fmt_opt, last_line, one_line, write_json};
-use experiments::scene_set::{absolute_files, scene_files, SceneFile};
+use clothopt::result::{controls_from_nested, is_safe, PlanResult};
+use experiments::plan_set::{self, PlanFlags, PlanSet};
+use experiments::report::fmt_opt;
+use experiments::scene_set::SceneFile;
 use serde::Serialize;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -45,18 +44,8 @@ struct Cli {
     /// Seconds each plan may take (`optimize --time-limit`).
     #[arg(long, default_value_t = 120.0, allow_negative_numbers = true)]
     time_limit: f64,
-    /// Route search of each plan (`optimize --search`).
-    #[arg(long, value_enum, default_value_t = SearchMode::Auto)]
-    search: SearchMode,
-    /// The `clothopt` binary (default: the one beside this program).
-    #[arg(long)]
-    clothopt: Option<PathBuf>,
-    /// Keep each plan's result JSON here, as `<scene>.<physics>.json`.
-    #[arg(long)]
-    results_dir: Option<PathBuf>,
-    /// Write the settings and every row as JSON here (atomically).
-    #[arg(long)]
-    out: Option<PathBuf>,
+    #[command(flatten)]
+    flags: PlanFlags,
 }
 
 /// The physics a row plans on.
@@ -87,18 +76,6 @@ impl Physics {
             Physics::Newton => Some(SolverKind::Newton),
         }
     }
-}
-
-/// What happened to one scene under one physics.
-#[derive(Serialize)]
-#[serde(tag = "outcome", rename_all = "snake_case")]
-enum Outcome {
-    /// The plan ran.
-    Planned(Box<Plan>),
-    /// The simulator rejected the physics for this scene.
-    Unsupported { message: String },
-    /// The planning child failed.
-    Error { message: String },
 }
 
 /// One plan's physics, verdict, measures and costs, and its converged re-simulation.
@@ -135,112 +112,37 @@ struct Plan {
 }
 
 /// One row of the table.
-#[derive(Serialize)]
-struct Row {
-    scene: String,
-    physics: Physics,
-    #[serde(flatten)]
-    outcome: Outcome,
-}
+type Row = plan_set::Row<Physics, Plan>;
+type Outcome = plan_set::Outcome<Plan>;
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
-    ensure_positive("--time-limit", cli.time_limit)?;
-    let clothopt = child::clothopt_binary(cli.clothopt.as_deref())?;
-    let scenes = scene_files(&cli.dir, &cli.scenes)?;
-    eprintln!("planning with {}", clothopt.display());
-    if let Some(dir) = &cli.results_dir {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("--results-dir: cannot create {}", dir.display()))?;
-    }
-    let scratch = std::env::temp_dir().join(format!("clothopt-suite-{}", std::process::id()));
-    std::fs::create_dir_all(&scratch)
-        .with_context(|| format!("cannot create {}", scratch.display()))?;
-    let mut rows = Vec::new();
-    for scene in &scenes {
-        for &physics in &cli.physics {
-            eprintln!(
-                "{} ({}): planning, at most {} s …",
-                scene.name,
-                physics.name(),
-                cli.time_limit
-            );
-            let outcome = run_one(&cli, &clothopt, &scratch, scene, physics).unwrap_or_else(|e| {
-                Outcome::Error {
-                    message: last_line(&format!("{e:#}")),
-                }
-            });
-            rows.push(Row {
-                scene: scene.name.clone(),
-                physics,
-                outcome,
-            });
-        }
-    }
-    let _ = std::fs::remove_dir_all(&scratch);
+    let set = PlanSet::new("suite", &cli.dir, &cli.scenes, cli.time_limit, &cli.flags)?;
+    let rows = set.rows(&cli.physics, Physics::name, |scene, physics| {
+        run_one(&set, scene, physics)
+    });
     print_table(&rows);
-    if let Some(out) = &cli.out {
-        let settings = serde_json::json!({
-            "dir": cli.dir, "clothopt": clothopt, "time_limit_s": cli.time_limit,
-            "search": cli.search, "physics": cli.physics,
-        });
-        write_json(
-            out,
-            &serde_json::json!({ "settings": settings, "rows": rows }),
-        )?;
-    }
-    Ok(())
+    let settings = serde_json::json!({
+        "dir": cli.dir, "clothopt": set.clothopt, "time_limit_s": cli.time_limit,
+        "search": cli.flags.search, "physics": cli.physics,
+    });
+    plan_set::write_rows(cli.flags.out.as_deref(), &settings, &rows)
 }
 
 /// Plans `scene` under `physics` in a `clothopt optimize` child, then simulates the plan to
 /// convergence; or says why the physics is unsupported.
-fn run_one(
-    cli: &Cli,
-    clothopt: &Path,
-    scratch: &Path,
-    scene: &SceneFile,
-    physics: Physics,
-) -> Result<Outcome> {
+fn run_one(set: &PlanSet, scene: &SceneFile, physics: Physics) -> Result<Outcome> {
     let base = scene.path.parent().unwrap_or(Path::new("."));
     let mut value: Value = serde_json::from_str(&scene.text)?;
     if let Some(solver) = physics.solver() {
         value["physics"]["solver"] = Value::String(solver.name().into());
     }
     let text = serde_json::to_string_pretty(&value)?;
-    let loaded = Scene::from_json_str_in(&text, base)
-        .map_err(anyhow::Error::from)
-        .and_then(|s| {
-            Model::from_scene(&s)?;
-            Ok(s)
-        });
-    let loaded = match loaded {
-        Ok(s) => s,
-        Err(e) => {
-            return Ok(Outcome::Unsupported {
-                message: one_line(&e),
-            })
-        }
+    let loaded = match plan_set::supported(&text, base) {
+        Ok(scene) => scene,
+        Err(message) => return Ok(Outcome::Unsupported { message }),
     };
-    absolute_files(&mut value, base)?;
-    let file = scratch.join(format!("{}.{}.json", scene.name, physics.name()));
-    clothopt::output::write_json_atomic(&file, &value)?;
-    let result_path = match &cli.results_dir {
-        Some(dir) => dir.join(format!("{}.{}.json", scene.name, physics.name())),
-        None => scratch.join(format!("{}.{}.result.json", scene.name, physics.name())),
-    };
-    let what = format!("clothopt optimize {} ({})", scene.name, physics.name());
-    let (result, _, wall_s) = child::plan_scene(
-        clothopt,
-        &file,
-        cli.time_limit,
-        cli.search,
-        &result_path,
-        &what,
-    )?;
-    let kept = cli.results_dir.is_some();
-    if !kept {
-        let _ = std::fs::remove_file(&result_path);
-    }
+    let (result, _, wall_s, result_file) = set.plan(scene, Some(value), physics.name())?;
     let converged = converged_check(&loaded, &result).ok();
     let p = result.physics.as_ref();
     Ok(Outcome::Planned(Box::new(Plan {
@@ -266,7 +168,7 @@ fn run_one(
         equilibrium: p.and_then(|p| p.equilibrium.max_residual),
         converged_max_target_error: converged.map(|c| c.0),
         holds_converged: converged.map(|c| c.1),
-        result_file: kept.then_some(result_path),
+        result_file,
     })))
 }
 
@@ -316,7 +218,7 @@ fn print_table(rows: &[Row]) {
     ];
     println!("{}", line("scene", "asked", header));
     for r in rows {
-        let (scene, physics) = (r.scene.as_str(), r.physics.name());
+        let (scene, physics) = (r.scene.as_str(), r.variant.name());
         match &r.outcome {
             Outcome::Planned(p) => {
                 let converged = match (p.converged_max_target_error, p.holds_converged) {
@@ -326,7 +228,7 @@ fn print_table(rows: &[Row]) {
                 let cells = [
                     p.physics.clone(),
                     p.verdict.clone(),
-                    format!("{:.4}/{}", p.max_target_error, p.tolerance),
+                    format!("{:.4}/{:.3}", p.max_target_error, p.tolerance),
                     fmt_opt(p.coverage, 3),
                     fmt_opt(p.mean_particle_distance, 4),
                     p.iterations.to_string(),

@@ -19,13 +19,10 @@
 
 use anyhow::{ensure, Context, Result};
 use clap::{Parser, ValueEnum};
-use cloth::scene::SolverKind;
-use cloth::{Model, Scene};
 use clothopt::result::{Reason, SearchMode};
-use clothopt::validate::ensure_positive;
-use experiments::child;
-use experiments::report::{fmt_opt, last_line, one_line, write_json};
-use experiments::scene_set::{absolute_files, scene_files, SceneFile};
+use experiments::plan_set::{self, PlanFlags, PlanSet};
+use experiments::report::fmt_opt;
+use experiments::scene_set::SceneFile;
 use serde::Serialize;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -44,19 +41,8 @@ struct Cli {
     /// Seconds each plan may take (`optimize --time-limit`).
     #[arg(long, default_value_t = 300.0, allow_negative_numbers = true)]
     time_limit: f64,
-    /// Route search of each plan (`optimize --search`).
-    #[arg(long, value_enum, default_value_t = SearchMode::Auto)]
-    search: SearchMode,
-    /// The `clothopt` binary (default: the one beside this program).
-    #[arg(long)]
-    clothopt: Option<PathBuf>,
-    /// Keep each plan's result JSON here, as `<scene>.<model>.json` (a controls file for
-    /// `clothopt simulate --controls` and `roughness --controls`).
-    #[arg(long)]
-    results_dir: Option<PathBuf>,
-    /// Write the settings and every row as JSON here (atomically).
-    #[arg(long)]
-    out: Option<PathBuf>,
+    #[command(flatten)]
+    flags: PlanFlags,
 }
 
 /// How the cloth touches the colliders: the scene's `physics.contact.model`.
@@ -87,18 +73,6 @@ struct Settings {
     time_limit_s: f64,
     search: SearchMode,
     models: Vec<ContactModel>,
-}
-
-/// What happened to one scene under one model.
-#[derive(Serialize)]
-#[serde(tag = "outcome", rename_all = "snake_case")]
-enum Outcome {
-    /// The plan ran; its verdict and costs.
-    Planned(Box<Plan>),
-    /// The simulator rejected the model for this scene.
-    Unsupported { message: String },
-    /// The planning child failed.
-    Error { message: String },
 }
 
 /// One plan's verdict and costs, as its result JSON spells them.
@@ -135,115 +109,41 @@ struct Plan {
 }
 
 /// One row of the table.
-#[derive(Serialize)]
-struct Row {
-    scene: String,
-    model: ContactModel,
-    #[serde(flatten)]
-    outcome: Outcome,
-}
+type Row = plan_set::Row<ContactModel, Plan>;
+type Outcome = plan_set::Outcome<Plan>;
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
-    ensure_positive("--time-limit", cli.time_limit)?;
     ensure!(!cli.models.is_empty(), "--models: name at least one model");
-    let clothopt = child::clothopt_binary(cli.clothopt.as_deref())?;
-    let scenes = scene_files(&cli.dir, &cli.scenes)?;
-    eprintln!("planning with {}", clothopt.display());
-    if let Some(dir) = &cli.results_dir {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("--results-dir: cannot create {}", dir.display()))?;
-    }
-    let scratch = std::env::temp_dir().join(format!("clothopt-table-{}", std::process::id()));
-    std::fs::create_dir_all(&scratch)
-        .with_context(|| format!("cannot create {}", scratch.display()))?;
-    let mut rows = Vec::new();
-    for scene in &scenes {
-        for &model in &cli.models {
-            eprintln!(
-                "{} ({}): planning, at most {} s …",
-                scene.name,
-                model.name(),
-                cli.time_limit
-            );
-            let outcome = run_one(&cli, &clothopt, &scratch, scene, model);
-            let outcome = outcome.unwrap_or_else(|e| Outcome::Error {
-                message: last_line(&format!("{e:#}")),
-            });
-            rows.push(Row {
-                scene: scene.name.clone(),
-                model,
-                outcome,
-            });
-        }
-    }
-    let _ = std::fs::remove_dir_all(&scratch);
+    let set = PlanSet::new("table", &cli.dir, &cli.scenes, cli.time_limit, &cli.flags)?;
+    let rows = set.rows(&cli.models, ContactModel::name, |scene, model| {
+        run_one(&set, scene, model)
+    });
     print_table(&rows);
-    if let Some(out) = &cli.out {
-        let settings = Settings {
-            dir: cli.dir.clone(),
-            clothopt: clothopt.clone(),
-            time_limit_s: cli.time_limit,
-            search: cli.search,
-            models: cli.models.clone(),
-        };
-        write_json(
-            out,
-            &serde_json::json!({ "settings": settings, "rows": rows }),
-        )?;
-    }
-    Ok(())
+    let settings = Settings {
+        dir: cli.dir.clone(),
+        clothopt: set.clothopt.clone(),
+        time_limit_s: cli.time_limit,
+        search: cli.flags.search,
+        models: cli.models.clone(),
+    };
+    plan_set::write_rows(cli.flags.out.as_deref(), &settings, &rows)
 }
 
 /// Plans `scene` under `model` in a `clothopt optimize` child, or says why the model is
 /// unsupported.
-fn run_one(
-    cli: &Cli,
-    clothopt: &Path,
-    scratch: &Path,
-    scene: &SceneFile,
-    model: ContactModel,
-) -> Result<Outcome> {
+fn run_one(set: &PlanSet, scene: &SceneFile, model: ContactModel) -> Result<Outcome> {
     let base = scene.path.parent().unwrap_or(Path::new("."));
     let variant = with_contact_model(&scene.text, model)?;
     let text = match &variant {
         Some(value) => serde_json::to_string_pretty(value)?,
         None => scene.text.clone(),
     };
-    let solver = match supported(&text, base) {
-        Ok(solver) => solver,
-        Err(e) => {
-            return Ok(Outcome::Unsupported {
-                message: one_line(&e),
-            })
-        }
+    let solver = match plan_set::supported(&text, base) {
+        Ok(scene) => scene.solver_kind(),
+        Err(message) => return Ok(Outcome::Unsupported { message }),
     };
-    let file = match variant {
-        None => scene.path.clone(),
-        Some(mut value) => {
-            absolute_files(&mut value, base)?;
-            let path = scratch.join(format!("{}.{}.json", scene.name, model.name()));
-            clothopt::output::write_json_atomic(&path, &value)?;
-            path
-        }
-    };
-    let result_path = match &cli.results_dir {
-        Some(dir) => dir.join(format!("{}.{}.json", scene.name, model.name())),
-        None => scratch.join(format!("{}.{}.result.json", scene.name, model.name())),
-    };
-    let what = format!("clothopt optimize {} ({})", scene.name, model.name());
-    let (result, exit_code, wall_s) = child::plan_scene(
-        clothopt,
-        &file,
-        cli.time_limit,
-        cli.search,
-        &result_path,
-        &what,
-    )?;
-    let kept = cli.results_dir.is_some();
-    if !kept {
-        let _ = std::fs::remove_file(&result_path);
-    }
+    let (result, exit_code, wall_s, result_file) = set.plan(scene, variant, model.name())?;
     Ok(Outcome::Planned(Box::new(Plan {
         solver: solver.to_string(),
         achieved: result.task.achieved,
@@ -267,7 +167,7 @@ fn run_one(
             .map_or(result.evaluations, |s| s.simulations),
         wall_s,
         plan_wall_s: result.wall_s,
-        result_file: kept.then_some(result_path),
+        result_file,
     })))
 }
 
@@ -301,14 +201,6 @@ fn with_contact_model(text: &str, model: ContactModel) -> Result<Option<Value>> 
     Ok(Some(value))
 }
 
-/// Whether the simulator takes the scene `text` (files relative to `base`): it loads, validates
-/// and compiles into a model.
-fn supported(text: &str, base: &Path) -> Result<SolverKind> {
-    let scene = Scene::from_json_str_in(text, base)?;
-    Model::from_scene(&scene)?;
-    Ok(scene.solver_kind())
-}
-
 /// One line of the table: the scene and model, then the plan's cells.
 fn line(scene: &str, model: &str, cells: [&str; 11]) -> String {
     let [solver, verdict, safe, reason, status, first, error, targets, iters, sims, wall] = cells;
@@ -334,7 +226,7 @@ fn print_table(rows: &[Row]) {
     ];
     println!("{}", line("scene", "model", header));
     for r in rows {
-        let (scene, model) = (r.scene.as_str(), r.model.name());
+        let (scene, model) = (r.scene.as_str(), r.variant.name());
         match &r.outcome {
             Outcome::Planned(p) => {
                 let reason = serde_json::to_value(p.reason)
