@@ -1,0 +1,111 @@
+//! Contact rollouts where users meet them: the task suite's `fold_half` (15 × 15 towel on a table
+//! with friction, self-contact, T = 14) and `lay_aside` (11 × 11 towel laid on a table, T = 12),
+//! under the physics they call for (Newton, smooth contact), at a plan's mid-point controls
+//! (`benches/data/*_mid.json`: half the controls a 120 s plan returned, so that the rollout is
+//! neither the trivial guess nor a converged plan):
+//! - `forward`: simulate and evaluate the metrics (`Model::evaluate`);
+//! - `forward_grad_l`: the same plus `dL/dU` by implicit differentiation.
+//!
+//! Before the timings it prints each rollout's counts (Newton iterations, chord steps,
+//! factorizations and failed ones, control stages, self-contact pair searches and filters,
+//! step filters, pattern rebuilds), which do not depend on the machine's load.
+//!
+//! `RAYON_NUM_THREADS=1 cargo bench -p cloth --bench tasks`. With `TASKS_ONCE=<scene>` the bench
+//! runs that scene's forward + ∇L once and exits (for `perf record` / callgrind).
+
+use autodiff::Tensor;
+use cloth::{Model, Scene, Solver, StepStats};
+use criterion::{criterion_group, BenchmarkId, Criterion};
+use std::hint::black_box;
+use std::path::PathBuf;
+
+/// The bench's scenes, each with its mid-point controls file.
+const TASKS: [&str; 2] = ["fold_half", "lay_aside"];
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The scene and its mid-point controls.
+fn task(name: &str) -> (Scene, Model, Tensor) {
+    let scene = Scene::load(root().join(format!("examples/scenes/tasks/{name}.json")))
+        .expect("the task scene");
+    let model = Model::from_scene(&scene).expect("its model");
+    let path = root().join(format!("cloth/benches/data/{name}_mid.json"));
+    let text = std::fs::read_to_string(&path).expect("the mid-point controls");
+    let value: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let steps: Vec<Vec<[f64; 3]>> =
+        serde_json::from_value(value["controls"].clone()).expect("controls[t][k] = [x, y, z]");
+    let u = cloth::controls_from_steps(&steps).expect("as many vectors at every step");
+    model
+        .check_controls(&u)
+        .expect("controls of the scene's shape");
+    (scene, model, u)
+}
+
+/// One rollout's counts, summed over its steps.
+fn counts(model: &Model, u: &Tensor) -> StepStats {
+    let Solver::Newton(settings) = &model.solver else {
+        panic!("the task scenes run Newton")
+    };
+    let (_, stats) = model.simulate_newton(u, settings).expect("converged");
+    stats.iter().fold(StepStats::default(), |mut sum, s| {
+        sum.add_work(s);
+        sum.loads += s.loads;
+        sum
+    })
+}
+
+fn tasks(c: &mut Criterion) {
+    let mut group = c.benchmark_group("tasks");
+    group.sample_size(10);
+    for name in TASKS {
+        let (scene, model, u) = task(name);
+        let s = counts(&model, &u);
+        eprintln!(
+            "{name}: {} Newton iterations ({} chord), {} factorizations ({} failed), {} loads, \
+             pair searches {} (grid {}), filtered {}, step filters {}, pattern rebuilds {} \
+             (reused {})",
+            s.iterations,
+            s.chord_steps,
+            s.factorizations,
+            s.failed_factorizations,
+            s.loads,
+            s.pair_searches,
+            s.grid_searches,
+            s.pair_filters,
+            s.step_filters,
+            s.pattern_rebuilds,
+            s.pattern_reuses
+        );
+        let delta = scene.task.delta;
+        group.bench_with_input(BenchmarkId::new("forward", name), &name, |b, _| {
+            b.iter(|| black_box(model.evaluate(&u, delta, false).expect("converged")))
+        });
+        group.bench_with_input(BenchmarkId::new("forward_grad_l", name), &name, |b, _| {
+            b.iter(|| black_box(model.evaluate_loss_gradient(&u, delta).expect("converged")))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, tasks);
+
+fn main() {
+    if let Ok(name) = std::env::var("TASKS_ONCE") {
+        let (scene, model, u) = task(&name);
+        let start = std::time::Instant::now();
+        black_box(
+            model
+                .evaluate_loss_gradient(&u, scene.task.delta)
+                .expect("converged"),
+        );
+        eprintln!(
+            "{name}: forward + ∇L {:.3} s",
+            start.elapsed().as_secs_f64()
+        );
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
