@@ -35,6 +35,10 @@ pub trait Constraint: Send + Sync + 'static {
     const ARITY: usize;
     /// True for `C ≥ 0` constraints, projected only when violated.
     const INEQUALITY: bool = false;
+    /// True when `C` is affine in the positions (`∇²C = 0`, `∇C` the same everywhere): Newton's
+    /// assembly then adds `k∇C∇Cᵀ`, the same at every state, from a sum made once per pattern.
+    /// Claiming it for a constraint that is not affine gives Newton a wrong Hessian.
+    const LINEAR: bool = false;
     /// The constraint function of `instance` at particle positions `p` (`p.len() == ARITY`).
     fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R;
 
@@ -468,6 +472,7 @@ impl IsometricBending {
 
 impl Constraint for IsometricBending {
     const ARITY: usize = 4;
+    const LINEAR: bool = true;
     #[inline(always)]
     fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
         let (w, a) = (&self.weights[instance], self.axis[instance]);

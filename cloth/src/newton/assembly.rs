@@ -60,6 +60,9 @@ pub struct Pattern {
     /// Column block `c`'s blocks are `blocks[block_start[c]..block_start[c + 1]]` (by row).
     block_start: Vec<usize>,
     groups: Vec<GroupPattern>,
+    /// The Hessian values of the linear groups' `k∇C∇Cᵀ` ([`ConstraintTerms::linear`]), the
+    /// same at every state: every assembly of a Hessian starts from them.
+    constant: Vec<f64>,
     /// Smooth contact: the barrier potential of every free particle, and the value indices of
     /// each particle's diagonal block (lower triangle, row-major; [`NONE`] above the diagonal).
     barrier: Option<(Arc<ColliderBarrier>, Vec<[u32; 9]>)>,
@@ -220,7 +223,7 @@ impl Pattern {
             }
         }
         block_start.push(block_list.len());
-        let groups = groups
+        let groups: Vec<GroupPattern> = groups
             .into_iter()
             .map(|terms| {
                 let d = 3 * terms.arity();
@@ -270,6 +273,7 @@ impl Pattern {
                 .collect();
             (b, diagonal)
         });
+        let constant = Pattern::linear_hessian(&groups, row_idx.len());
         Pattern {
             dof_of,
             mass,
@@ -280,6 +284,7 @@ impl Pattern {
             blocks: block_list,
             block_start,
             groups,
+            constant,
             barrier,
             friction,
             self_barrier,
@@ -442,7 +447,7 @@ impl Pattern {
     ) {
         grad.fill(0.0);
         if let Some((v, _)) = values.as_mut() {
-            v.fill(0.0);
+            v.copy_from_slice(&self.constant);
         }
         for (p, &m) in self.mass.iter().enumerate() {
             let d = self.dof_of[p];
@@ -460,12 +465,14 @@ impl Pattern {
         let (mut local, mut g, mut h) = ([0.0; MAX_DOF], [0.0; MAX_DOF], [0.0; MAX_DOF * MAX_DOF]);
         for gp in &self.groups {
             let terms = gp.terms.as_ref();
+            let linear = terms.linear();
             for k in 0..terms.count() {
                 let ps = terms.particles(k);
                 let d = gather_local(ps, x, &mut local);
                 let (g, h) = (&mut g[..d], &mut h[..d * d]);
-                // `∇²C` only where a Hessian is assembled (`∇C` is the same bits either way).
-                let c = if values.is_some() {
+                // `∇²C` only where a Hessian is assembled (`∇C` is the same bits either way); a
+                // linear group's Hessian is in `constant` already.
+                let c = if values.is_some() && !linear {
                     terms.second_order(k, &local[..d], g, h)
                 } else {
                     terms.first_order(k, &local[..d], g)
@@ -479,7 +486,7 @@ impl Pattern {
                         grad[da + a % 3] += s * c * g[a];
                     }
                 }
-                let Some((v, kind)) = values.as_mut() else {
+                let Some((v, kind)) = values.as_mut().filter(|_| !linear) else {
                     continue;
                 };
                 match kind {
@@ -552,6 +559,31 @@ impl Pattern {
                 }
             }
         }
+    }
+
+    /// The Hessian values (`nnz` of them) of the linear groups: `k∇C∇Cᵀ` per instance,
+    /// scattered as [`Pattern::assemble`] would at any state (`∇C` of an affine `C` is the same
+    /// everywhere; it is taken at the origin). Exact and projected alike: the block is
+    /// semidefinite.
+    fn linear_hessian(groups: &[GroupPattern], nnz: usize) -> Vec<f64> {
+        let mut values = vec![0.0; nnz];
+        let (zero, mut g, mut h) = ([0.0; MAX_DOF], [0.0; MAX_DOF], [0.0; MAX_DOF * MAX_DOF]);
+        for gp in groups.iter().filter(|gp| gp.terms.linear()) {
+            let d = 3 * gp.terms.arity();
+            for k in 0..gp.terms.count() {
+                let (g, h) = (&mut g[..d], &mut h[..d * d]);
+                gp.terms.first_order(k, &zero[..d], g);
+                h.fill(0.0);
+                local_hessian(gp.stiffness, 0.0, g, h);
+                let scatter = &gp.scatter[k * d * d..(k + 1) * d * d];
+                for (&i, &hv) in scatter.iter().zip(h.iter()) {
+                    if i != NONE {
+                        values[i as usize] += hv;
+                    }
+                }
+            }
+        }
+        values
     }
 
     /// `y −= H_cf z`: the exact Hessian's coupling of control-particle coordinates (rows of `y`,

@@ -17,6 +17,10 @@ pub trait ConstraintTerms: Send + Sync {
     fn arity(&self) -> usize;
     /// True for `C ≥ 0` constraints (an energy term only while `C < 0`).
     fn inequality(&self) -> bool;
+    /// True when `C` is affine in the positions ([`crate::constraint::Constraint::LINEAR`]).
+    fn linear(&self) -> bool {
+        false
+    }
     /// Number of instances.
     fn count(&self) -> usize;
     /// The particles of instance `k`.
@@ -56,6 +60,9 @@ impl<C: Constraint> ConstraintTerms for Terms<C> {
     }
     fn inequality(&self) -> bool {
         C::INEQUALITY
+    }
+    fn linear(&self) -> bool {
+        C::LINEAR && !C::INEQUALITY
     }
     fn count(&self) -> usize {
         self.particles.len() / C::ARITY
