@@ -120,6 +120,10 @@ pub enum ClothError {
         /// The bound: the iterations allowed by the end of that step.
         bound: usize,
     },
+    /// Derivatives with respect to a physical parameter ([`crate::Model::parameter_tangents`])
+    /// cannot be taken for this model.
+    #[error("parameter derivatives: {0}")]
+    ParameterDerivative(String),
     /// A counted rollout ([`crate::Model::simulate_counted`]) was asked to stop: its deadline
     /// passed or its stop flag was raised ([`crate::RolloutLimits`]).
     #[error("rollout stopped at step {step}: its deadline passed or it was interrupted")]

@@ -26,6 +26,7 @@ mod mesh;
 mod model;
 mod newton;
 mod obj;
+mod parameters;
 mod refine;
 mod registry;
 mod rollout;
@@ -48,6 +49,7 @@ pub use newton::{
     DEFAULT_PCG_MAX_ITERATIONS, DEFAULT_PCG_TOLERANCE, DEFAULT_TOLERANCE,
 };
 pub use obj::{ObjError, ObjMesh};
+pub use parameters::Parameter;
 pub use registry::{ConstraintRegistry, CustomInput};
 pub use rollout::grad::{RecordedRollout, StepCost};
 pub use rollout::layers::LayerGap;

@@ -436,6 +436,25 @@ impl Pattern {
         }
     }
 
+    /// `rhs −= D_xy ẏ` (`rhs` in degree-of-freedom order, `ẏ` full `N × 3` data): the same
+    /// coupling forward, for sensitivities ([`super::sensitivity`]). Nothing without friction.
+    pub fn sub_start_coupling_forward(&self, x: &[f64], dy: &[f64], rhs: &mut [f64]) {
+        let (Some((b, _)), Some((start, lagged))) = (&self.barrier, &self.friction) else {
+            return;
+        };
+        for (p, contacts) in lagged.iter().enumerate() {
+            let Some(d) = self.dof(p).filter(|_| !contacts.is_empty()) else {
+                continue;
+            };
+            let r = 3 * p..3 * p + 3;
+            let cross = b.friction_cross(&x[r.clone()], &start[r]);
+            for a in 0..3 {
+                let v: f64 = (0..3).map(|c| cross[3 * a + c] * dy[3 * p + c]).sum();
+                rhs[d + a] -= v;
+            }
+        }
+    }
+
     /// `∇Φ(x)` into `grad` (degree-of-freedom order) and, with `values`, the Hessian of `kind`
     /// into the pattern's values.
     pub fn assemble(

@@ -19,6 +19,7 @@
 //!   ([`NewtonSettings::load_halvings`]), each step's final factorization kept for the gradients;
 //! - [`curvature`]: leaving a saddle of `Φ` along the exact Hessian's unstable mode;
 //! - [`residual`]: how far any solver's states are from equilibrium, on Newton's scale;
+//! - `sensitivity`: how the converged states move with the physical parameters (forward);
 //! - [`implicit`]: adjoints through `∂x_t/∂(x_{t−1}, u_t)`, one factorization per step for every
 //!   cost (the forward's own, where it was kept).
 //!
@@ -40,6 +41,7 @@ pub mod pcg;
 pub mod psd;
 pub mod residual;
 mod self_contact;
+mod sensitivity;
 pub mod settings;
 pub mod solve;
 pub mod stats;

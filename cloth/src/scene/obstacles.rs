@@ -54,6 +54,20 @@ impl Obstacle {
             Obstacle::Mesh(m) => m.friction,
         }
     }
+
+    /// Multiplies the friction coefficient by `factor` (nothing where none is written).
+    pub fn scale_friction(&mut self, factor: f64) {
+        let mu = match self {
+            Obstacle::Spheres(s) => &mut s.friction,
+            Obstacle::Plane(p) => &mut p.friction,
+            Obstacle::Capsule(c) => &mut c.friction,
+            Obstacle::Box(b) => &mut b.friction,
+            Obstacle::Mesh(m) => &mut m.friction,
+        };
+        if let Some(mu) = mu {
+            *mu *= factor;
+        }
+    }
 }
 
 /// The points within `radius` of the segment `a–b`.

@@ -1,0 +1,162 @@
+//! Derivatives of Newton rollouts with respect to the physical parameters
+//! (`Model::parameter_tangents`) against central differences in the parameters' log-factors:
+//! stretch and bending stiffness, a custom constraint type's stiffness, mass, gravity and
+//! friction, in free space, on smooth contact with friction, and with rigid contact rows.
+
+mod common;
+
+use autodiff::Tensor;
+use cloth::scene::{ContactModel, ObstacleRole, SolverKind};
+use cloth::{Model, NewtonSettings, Parameter, Scene, Solver};
+use common::{behind, small_scene, BendKind};
+use proptest::prelude::*;
+
+/// The model of `scene` solved to 1e-12, starting at `start` when given.
+fn model(scene: &Scene, start: Option<&Tensor>) -> Model {
+    let mut m = Model::from_scene(scene).unwrap();
+    m.solver = Solver::Newton(NewtonSettings {
+        tolerance: 1e-12,
+        ..NewtonSettings::default()
+    });
+    if let Some(x0) = start {
+        m.start = x0.clone();
+    }
+    m
+}
+
+/// `Σ_t w_t · x_t` with weights from `seed` (the same for every call).
+fn weighted(states: &[Tensor], seed: u64) -> f64 {
+    let mut rng = common::XorShift::new(seed);
+    states[1..]
+        .iter()
+        .map(|x| {
+            rng.direction(x.data().len())
+                .iter()
+                .zip(x.data())
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// Checks every parameter's tangent of `Σ w·x` against a central difference of step `h` in its
+/// log-factor, the scene's barrier pinned and its start held.
+fn check(scene: &Scene, u: &Tensor, params: &[&str], seed: u64) -> Result<(), TestCaseError> {
+    let mut scene = scene.clone();
+    let base = model(&scene, None);
+    Parameter::pin_contact(&mut scene, &base);
+    let base = model(&scene, None);
+    let states = base.simulate(u).unwrap();
+    let params: Vec<Parameter> = params.iter().map(|p| Parameter::parse(p)).collect();
+    let tangents = base.parameter_tangents(&states, u, &params).unwrap();
+    let h: f64 = 1e-5;
+    for (j, p) in params.iter().enumerate() {
+        let at = |factor: f64| {
+            let mut s = scene.clone();
+            p.scale(&mut s, factor).unwrap();
+            let m = model(&s, Some(&base.start));
+            weighted(&m.simulate(u).unwrap(), seed)
+        };
+        let fd = (at(h.exp()) - at((-h).exp())) / (2.0 * h);
+        let per_step: Vec<Tensor> = tangents.iter().map(|t| t[j].clone()).collect();
+        let an = weighted(&per_step, seed);
+        let scale: f64 = per_step
+            .iter()
+            .map(|t| t.data().iter().map(|v| v.abs()).sum::<f64>())
+            .sum();
+        prop_assert!(scale > 0.0, "{p}: the tangent is zero");
+        prop_assert!(
+            (fd - an).abs() <= 1e-5 * scale + 1e-10,
+            "{p}: analytic {an:e}, central difference {fd:e} (scale {scale:e})"
+        );
+    }
+    Ok(())
+}
+
+/// Both grippers moving by `motion` every step, the first 0.01 more along x.
+fn controls(model: &Model, [dx, dy, dz]: [f64; 3]) -> Tensor {
+    let mut u = model.zero_controls();
+    for t in 0..model.task.horizon {
+        u.row_mut(t)
+            .copy_from_slice(&[dx + 0.01, dy, dz, dx, dy, dz]);
+    }
+    u
+}
+
+/// A 5 × 5 hanging cloth with distance bending, `T` 3, under Newton; `flat` lies it 0.01 above
+/// the plane z = 0 with friction `mu` under smooth contact.
+fn scene(flat: Option<f64>) -> Scene {
+    let mut s = small_scene(5, 5, 3, 100, 2e3, BendKind::Distance(20.0));
+    s.physics.solver = Some(SolverKind::Newton);
+    if let Some(mu) = flat {
+        s.cloth.top_left = [-0.5, -0.5, 0.01];
+        s.cloth.down = [0.0, 1.0, 0.0];
+        let mut floor = behind("plane", ObstacleRole::Collider);
+        if let cloth::scene::Obstacle::Plane(p) = &mut floor {
+            p.friction = Some(mu);
+        }
+        s.obstacles = vec![floor];
+        s.physics.contact = common::contact_model(ContactModel::Smooth);
+    }
+    s.validate().unwrap();
+    s
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 4, ..ProptestConfig::default() })]
+
+    /// A hanging cloth swung in free space.
+    #[test]
+    fn free_space_tangents_match_central_differences(
+        dx in -0.1f64..0.1, dy in -0.1f64..0.1, dz in -0.05f64..0.05, seed in 1u64..1000,
+    ) {
+        let s = scene(None);
+        let u = controls(&model(&s, None), [dx, dy, dz]);
+        check(&s, &u, &["stretch", "bending", "mass", "gravity"], seed)?;
+    }
+
+    /// A flat cloth dragged over a floor with friction, under smooth contact.
+    #[test]
+    fn smooth_contact_tangents_match_central_differences(
+        mu in 0.2f64..1.5, dx in 0.01f64..0.08, dy in -0.05f64..0.05, seed in 1u64..1000,
+    ) {
+        let s = scene(Some(mu));
+        let u = controls(&model(&s, None), [dx, dy, -0.02]);
+        check(&s, &u, &["stretch", "bending", "mass", "gravity", "friction"], seed)?;
+    }
+}
+
+/// Rigid contact rows: the tangents stay in the contact planes and match central differences.
+#[test]
+fn rigid_contact_tangents_match_central_differences() {
+    let mut s = scene(None);
+    s.obstacles = vec![behind("box", ObstacleRole::Collider)];
+    s.physics.contact = common::contact_model(ContactModel::Rigid);
+    s.validate().unwrap();
+    let u = controls(&model(&s, None), [0.0, 0.2, 0.0]);
+    check(&s, &u, &["stretch", "bending", "mass", "gravity"], 7).unwrap();
+}
+
+/// A parameter the model has nothing of, and XPBD, are errors naming why.
+#[test]
+fn missing_parameters_and_xpbd_are_named_errors() {
+    let s = scene(None);
+    let m = model(&s, None);
+    let u = m.zero_controls();
+    let states = m.simulate(&u).unwrap();
+    let err = m
+        .parameter_tangents(&states, &u, &[Parameter::Friction])
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("friction"), "{err}");
+    let err = Parameter::parse("shear").value(&s).unwrap_err().to_string();
+    assert!(err.contains("no parameter `shear`"), "{err}");
+    let mut x = s.clone();
+    x.physics.solver = Some(SolverKind::Xpbd);
+    let m = Model::from_scene(&x).unwrap();
+    let err = m
+        .parameter_tangents(&states, &u, &[Parameter::Mass])
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("newton"), "{err}");
+}
