@@ -67,6 +67,15 @@ pub enum Error {
     /// A result without the states asked of it (e.g. read from a file written without them).
     #[error("the result holds no states")]
     NoStates,
+    /// An observation file's bad value ([`crate::fit::observations`]): `field` is its path
+    /// (`points[3].particle`), after the file's name where it was read from one.
+    #[error("observations: {field}: {reason}")]
+    Observation {
+        /// The field, e.g. `points[3].step`.
+        field: String,
+        /// Why it is rejected.
+        reason: String,
+    },
     /// A file that could not be written.
     #[error("cannot write {}: {source}", path.display())]
     Write {

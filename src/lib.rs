@@ -14,6 +14,7 @@ mod error;
 pub mod export;
 #[cfg(feature = "figures")]
 pub mod figures;
+pub mod fit;
 pub mod outcome;
 pub mod output;
 pub mod physics_check;

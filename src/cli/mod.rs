@@ -4,6 +4,7 @@
 
 mod common;
 mod export;
+mod fit;
 mod grad;
 mod optimize;
 mod progress;
@@ -42,6 +43,12 @@ task.tolerance, plan safe); 1 error or bad input; 3 a safe plan was written but 
 achieved (the first line says why); 4 no safe plan was found (the result is still written)."
     )]
     Optimize(optimize::OptimizeArgs),
+    /// Fit material parameters (stiffness, mass, gravity, friction) to observed motion.
+    #[command(
+        after_help = "Exit codes: 0 the fit converged; 1 error or bad input (nothing is written); \
+3 the fit stopped short of convergence (the results are still written)."
+    )]
+    Fit(fit::FitArgs),
     /// Export a result: dense way-points of the control points (CSV) and/or one OBJ mesh per step.
     Export(export::ExportArgs),
 }
@@ -53,6 +60,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Simulate(args) => simulate::run(args),
         Command::Grad(args) => grad::run(args),
         Command::Optimize(args) => optimize::run(args),
+        Command::Fit(args) => fit::run(args),
         Command::Export(args) => export::run(args),
     }
 }
