@@ -12,9 +12,12 @@
 //! and smooth contact's barrier stiffness `κ`, whose default depends on the mass and gravity
 //! ([`Parameter::pin_contact`] writes the compiled value into the scene).
 
+use crate::controls::Controls;
 use crate::error::ClothError;
 use crate::model::Model;
 use crate::scene::{ContactModel, ContactSpec, Scene, SceneError, Stiffness};
+use crate::xpbd::set::Carry;
+use autodiff::Tensor;
 use std::fmt;
 
 /// A physical parameter of a scene, as a scale factor on its values.
@@ -181,6 +184,67 @@ impl Parameter {
         spec.model = ContactModel::Smooth;
         spec.d_hat.get_or_insert(barrier.d_hat);
         spec.stiffness.get_or_insert(barrier.kappa);
+    }
+}
+
+impl Model {
+    /// `∂x_t/∂ log θ_p` for every step `t` (0 at step 0: the start is held fixed) and parameter
+    /// `p`, of the rollout `states` of `controls` (simulated by this model): `result[t][p]`,
+    /// `N × 3`. Under Newton by the implicit function theorem at each step's minimizer
+    /// (`newton/sensitivity.rs`), under XPBD through the unrolled sweeps
+    /// (`xpbd/sensitivity.rs`); the controls are held fixed.
+    ///
+    /// # Errors
+    /// [`ClothError::ParameterDerivative`] for a parameter the model has nothing of;
+    /// [`ClothError::NewtonSaddle`] where a Newton step's exact Hessian is not positive definite.
+    pub fn parameter_tangents(
+        &self,
+        states: &[Tensor],
+        controls: &Controls,
+        params: &[Parameter],
+    ) -> Result<Vec<Vec<Tensor>>, ClothError> {
+        self.check_controls(controls)?;
+        if states.len() != self.task.horizon + 1 {
+            return Err(ClothError::ParameterDerivative(format!(
+                "{} states for a horizon of {} steps",
+                states.len(),
+                self.task.horizon
+            )));
+        }
+        for p in params {
+            self.check_parameter(p)?;
+        }
+        match self.solver {
+            crate::Solver::Newton(_) => self.newton_parameter_tangents(states, controls, params),
+            crate::Solver::Xpbd => Ok(self.xpbd_parameter_tangents(states, controls, params)),
+        }
+    }
+
+    /// Whether the model has something `p` scales: a group of that name with a finite
+    /// stiffness, gravity, or friction (smooth contact's under Newton, the friction rows under
+    /// XPBD).
+    fn check_parameter(&self, p: &Parameter) -> Result<(), ClothError> {
+        let has = match p {
+            Parameter::Stiffness(name) => {
+                (self.groups.iter()).any(|g| &g.name == name && g.terms.compliance() > 0.0)
+            }
+            Parameter::Mass => true,
+            Parameter::Gravity => self.gravity_step.is_some(),
+            Parameter::Friction => match self.solver {
+                crate::Solver::Newton(_) => {
+                    (self.contact_barrier.as_ref()).is_some_and(|b| b.friction.is_some())
+                }
+                crate::Solver::Xpbd => self.sets().any(|s| s.carry != Carry::Multiplier),
+            },
+        };
+        if has {
+            Ok(())
+        } else {
+            Err(ClothError::ParameterDerivative(format!(
+                "the model has no `{p}` to vary (a group of that name with a finite stiffness, \
+                 gravity, or a collider with friction > 0)"
+            )))
+        }
     }
 }
 

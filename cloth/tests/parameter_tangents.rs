@@ -1,23 +1,76 @@
-//! Derivatives of Newton rollouts with respect to the physical parameters
-//! (`Model::parameter_tangents`) against central differences in the parameters' log-factors:
-//! stretch and bending stiffness, a custom constraint type's stiffness, mass, gravity and
-//! friction, in free space, on smooth contact with friction, and with rigid contact rows.
+//! Derivatives of rollouts with respect to the physical parameters (`Model::parameter_tangents`)
+//! against central differences in the parameters' log-factors: stretch and bending stiffness, a
+//! custom constraint type's stiffness, mass, gravity and friction; under Newton in free space, on
+//! smooth contact with friction and with rigid contact rows; under XPBD in free space and on
+//! rigid contact with its friction rows.
 
 mod common;
 
-use autodiff::Tensor;
-use cloth::scene::{ContactModel, ObstacleRole, SolverKind};
-use cloth::{Model, NewtonSettings, Parameter, Scene, Solver};
+use autodiff::{Real, Tensor};
+use cloth::constraint::{norm, Constraint};
+use cloth::nalgebra::Vector3;
+use cloth::scene::{ContactModel, CustomConstraint, ObstacleRole, SolverKind, Stiffness};
+use cloth::{ConstraintRegistry, Model, NewtonSettings, Parameter, Scene, Solver};
 use common::{behind, small_scene, BendKind};
 use proptest::prelude::*;
 
-/// The model of `scene` solved to 1e-12, starting at `start` when given.
-fn model(scene: &Scene, start: Option<&Tensor>) -> Model {
-    let mut m = Model::from_scene(scene).unwrap();
-    m.solver = Solver::Newton(NewtonSettings {
-        tolerance: 1e-12,
-        ..NewtonSettings::default()
+/// A user's constraint type: triangle-area preservation `½|(p₁ − p₀) × (p₂ − p₀)| − A⁰`.
+struct TriangleArea {
+    rest: Vec<f64>,
+}
+
+fn area<R: Real>(p: &[Vector3<R>]) -> R {
+    norm(&(p[1] - p[0]).cross(&(p[2] - p[0]))) * 0.5
+}
+
+impl Constraint for TriangleArea {
+    const ARITY: usize = 3;
+    fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
+        area(p) - self.rest[instance]
+    }
+}
+
+fn registry() -> ConstraintRegistry {
+    let mut r = ConstraintRegistry::new();
+    r.register("triangle_area", |input| {
+        let rest = (input.rest.chunks_exact(3))
+            .map(|t| {
+                area(
+                    &t.iter()
+                        .map(|&[x, y, z]| Vector3::new(x, y, z))
+                        .collect::<Vec<_>>(),
+                )
+            })
+            .collect();
+        Ok(TriangleArea { rest })
     });
+    r
+}
+
+/// `scene` with every grid triangle's area held by `triangle_area` of stiffness 50.
+fn with_area(mut s: Scene) -> Scene {
+    let cols = s.cloth.cols;
+    let particles = (s.mesh().triangles().iter().flatten())
+        .map(|&p| [p / cols, p % cols])
+        .collect();
+    s.custom_constraints = vec![CustomConstraint {
+        kind: "triangle_area".into(),
+        particles,
+        stiffness: Stiffness::Finite(50.0),
+        params: serde_json::Value::Null,
+    }];
+    s
+}
+
+/// The model of `scene` (Newton solved to 1e-12), starting at `start` when given.
+fn model(scene: &Scene, start: Option<&Tensor>) -> Model {
+    let mut m = Model::from_scene_with(scene, &registry()).unwrap();
+    if let Solver::Newton(_) = m.solver {
+        m.solver = Solver::Newton(NewtonSettings {
+            tolerance: 1e-12,
+            ..NewtonSettings::default()
+        });
+    }
     if let Some(x0) = start {
         m.start = x0.clone();
     }
@@ -86,8 +139,13 @@ fn controls(model: &Model, [dx, dy, dz]: [f64; 3]) -> Tensor {
 /// A 5 × 5 hanging cloth with distance bending, `T` 3, under Newton; `flat` lies it 0.01 above
 /// the plane z = 0 with friction `mu` under smooth contact.
 fn scene(flat: Option<f64>) -> Scene {
-    let mut s = small_scene(5, 5, 3, 100, 2e3, BendKind::Distance(20.0));
-    s.physics.solver = Some(SolverKind::Newton);
+    scene_under(SolverKind::Newton, flat)
+}
+
+/// [`scene`] under `solver` (XPBD: 20 sweeps, rigid contact with its friction rows).
+fn scene_under(solver: SolverKind, flat: Option<f64>) -> Scene {
+    let mut s = small_scene(5, 5, 3, 20, 2e3, BendKind::Distance(20.0));
+    s.physics.solver = Some(solver);
     if let Some(mu) = flat {
         s.cloth.top_left = [-0.5, -0.5, 0.01];
         s.cloth.down = [0.0, 1.0, 0.0];
@@ -96,7 +154,9 @@ fn scene(flat: Option<f64>) -> Scene {
             p.friction = Some(mu);
         }
         s.obstacles = vec![floor];
-        s.physics.contact = common::contact_model(ContactModel::Smooth);
+        if solver == SolverKind::Newton {
+            s.physics.contact = common::contact_model(ContactModel::Smooth);
+        }
     }
     s.validate().unwrap();
     s
@@ -126,6 +186,38 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 4, ..ProptestConfig::default() })]
+
+    /// XPBD in free space, a user's constraint type included.
+    #[test]
+    fn xpbd_free_space_tangents_match_central_differences(
+        dx in -0.1f64..0.1, dy in -0.1f64..0.1, dz in -0.05f64..0.05, seed in 1u64..1000,
+    ) {
+        let s = with_area(scene_under(SolverKind::Xpbd, None));
+        let u = controls(&model(&s, None), [dx, dy, dz]);
+        check(&s, &u, &["stretch", "bending", "triangle_area", "mass", "gravity"], seed)?;
+    }
+
+    /// XPBD dragging a flat cloth over a floor: rigid contact rows with Coulomb friction.
+    #[test]
+    fn xpbd_friction_tangents_match_central_differences(
+        mu in 0.2f64..1.5, dx in 0.01f64..0.08, dy in -0.05f64..0.05, seed in 1u64..1000,
+    ) {
+        let s = scene_under(SolverKind::Xpbd, Some(mu));
+        let u = controls(&model(&s, None), [dx, dy, -0.02]);
+        check(&s, &u, &["stretch", "bending", "mass", "gravity", "friction"], seed)?;
+    }
+}
+
+/// A user's constraint type under Newton.
+#[test]
+fn custom_constraint_tangents_match_central_differences_under_newton() {
+    let s = with_area(scene(None));
+    let u = controls(&model(&s, None), [0.05, -0.03, 0.02]);
+    check(&s, &u, &["triangle_area", "stretch"], 3).unwrap();
+}
+
 /// Rigid contact rows: the tangents stay in the contact planes and match central differences.
 #[test]
 fn rigid_contact_tangents_match_central_differences() {
@@ -137,9 +229,9 @@ fn rigid_contact_tangents_match_central_differences() {
     check(&s, &u, &["stretch", "bending", "mass", "gravity"], 7).unwrap();
 }
 
-/// A parameter the model has nothing of, and XPBD, are errors naming why.
+/// A parameter the model has nothing of is an error naming it.
 #[test]
-fn missing_parameters_and_xpbd_are_named_errors() {
+fn missing_parameters_are_named_errors() {
     let s = scene(None);
     let m = model(&s, None);
     let u = m.zero_controls();
@@ -151,12 +243,4 @@ fn missing_parameters_and_xpbd_are_named_errors() {
     assert!(err.contains("friction"), "{err}");
     let err = Parameter::parse("shear").value(&s).unwrap_err().to_string();
     assert!(err.contains("no parameter `shear`"), "{err}");
-    let mut x = s.clone();
-    x.physics.solver = Some(SolverKind::Xpbd);
-    let m = Model::from_scene(&x).unwrap();
-    let err = m
-        .parameter_tangents(&states, &u, &[Parameter::Mass])
-        .unwrap_err()
-        .to_string();
-    assert!(err.contains("newton"), "{err}");
 }

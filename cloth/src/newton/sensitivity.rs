@@ -23,29 +23,13 @@ use crate::parameters::Parameter;
 use autodiff::Tensor;
 
 impl Model {
-    /// `∂x_t/∂ log θ_p` for every step `t` (0 at step 0: the start is held fixed) and parameter
-    /// `p`, of the rollout `states` of `controls` (simulated by this model to convergence):
-    /// `result[t][p]`, `N × 3`.
-    ///
-    /// # Errors
-    /// [`ClothError::ParameterDerivative`] under XPBD, or for a parameter the model has nothing
-    /// of; [`ClothError::NewtonSaddle`] where a step's exact Hessian is not positive definite.
-    pub fn parameter_tangents(
+    /// `∂x_t/∂ log θ_p` of a Newton rollout (see [`Model::parameter_tangents`]).
+    pub(crate) fn newton_parameter_tangents(
         &self,
         states: &[Tensor],
         controls: &Controls,
         params: &[Parameter],
     ) -> Result<Vec<Vec<Tensor>>, ClothError> {
-        if !matches!(self.solver, crate::Solver::Newton(_)) {
-            return Err(ClothError::ParameterDerivative(
-                "parameter derivatives need physics.solver \"newton\" (XPBD's are not \
-                 implemented)"
-                    .into(),
-            ));
-        }
-        for p in params {
-            self.check_parameter(p)?;
-        }
         let mut system = NewtonSystem::new(self)?;
         let (n, k, n_dof) = (self.n_particles(), params.len(), system.pattern.n_dof);
         let mut tangents = vec![vec![Tensor::zeros(n, 3); k]];
@@ -91,30 +75,6 @@ impl Model {
             });
         }
         Ok(tangents)
-    }
-
-    /// Whether the model has something `p` scales.
-    fn check_parameter(&self, p: &Parameter) -> Result<(), ClothError> {
-        let has = match p {
-            Parameter::Stiffness(name) => self
-                .groups
-                .iter()
-                .any(|g| &g.name == name && g.terms.compliance() > 0.0),
-            Parameter::Mass => true,
-            Parameter::Gravity => self.gravity_step.is_some(),
-            Parameter::Friction => self
-                .contact_barrier
-                .as_ref()
-                .is_some_and(|b| b.friction.is_some()),
-        };
-        if has {
-            Ok(())
-        } else {
-            Err(ClothError::ParameterDerivative(format!(
-                "the model has no `{p}` to vary (for friction: smooth contact with a collider of \
-                 friction > 0)"
-            )))
-        }
     }
 
     /// `∂(∇_f Φ)/∂ log θ` at `x` (full data; `xt` the step's predicted state) into `out` (degree
