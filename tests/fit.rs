@@ -4,7 +4,10 @@
 //! truth lies within two reported standard errors at least 80% of the time; bending on a cloth that never bends is
 //! flagged as not identifiable; bad observation files are rejected naming the field.
 
+mod common;
+
 use cloth::{ConstraintRegistry, Controls, Model, Parameter, Scene};
+use common::{bin, files_in, run, stderr, stdout};
 use clothopt::fit::synthetic::{synthetic, Sampling};
 use clothopt::fit::{fit, FitOptions, FitResult, FitStatus, Observations};
 
@@ -140,6 +143,22 @@ fn bending_of_a_cloth_that_never_bends_is_not_identifiable() {
     assert_eq!(r.status, FitStatus::Converged);
 }
 
+/// Under XPBD (rigid contact with its friction rows, 50 sweeps) the fit recovers the same three
+/// parameters of the lay from exact observations.
+#[test]
+fn exact_observations_recover_the_parameters_under_xpbd() {
+    let mut truth = scene("lay");
+    truth.physics.solver = Some(cloth::scene::SolverKind::Xpbd);
+    truth.physics.iterations = 50;
+    let r = fit_from_off(&truth, "lay", &PARAMS, 0.0, 0);
+    assert_eq!(r.status, FitStatus::Converged);
+    for name in PARAMS {
+        let want = Parameter::parse(name).value(&truth).unwrap();
+        let got = r.parameters[name].value;
+        assert!((got / want - 1.0).abs() <= 0.01, "{name}: fitted {got}, truth {want}");
+    }
+}
+
 #[test]
 fn bad_observation_files_name_the_field() {
     let s = scene("lay");
@@ -210,4 +229,63 @@ fn bad_observation_files_name_the_field() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("line 1 column"), "{err}");
+}
+
+/// `clothopt fit` writes the fit and the fitted scene; a bad observation file exits 1 naming the
+/// file and the field, and writes nothing.
+#[test]
+fn the_cli_fits_and_writes_the_fitted_scene_and_nothing_on_bad_input() {
+    let dir = common::scratch("fit", "cli");
+    let truth = scene("fold");
+    let model = Model::from_scene(&truth).unwrap();
+    let u = motion(&model, "fold");
+    let sampling = Sampling {
+        points: 20,
+        every: 2,
+        noise: 0.0,
+        seed: 0,
+    };
+    let (_, file) = synthetic(&model, &u, &sampling).unwrap();
+    let observed = dir.join("observed.json");
+    std::fs::write(&observed, file.to_string()).unwrap();
+    let mut start = truth.clone();
+    Parameter::parse("stretch").scale(&mut start, 2.5).unwrap();
+    let scene_path = dir.join("start.json");
+    std::fs::write(&scene_path, start.to_json_pretty()).unwrap();
+    let (out, fitted) = (dir.join("fit.json"), dir.join("fitted.json"));
+    let o = run(bin()
+        .args(["fit", scene_path.to_str().unwrap(), "--observed"])
+        .arg(&observed)
+        .args(["--params", "stretch,friction", "--out"])
+        .arg(&out)
+        .arg("--scene-out")
+        .arg(&fitted));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("converged"), "{}", stdout(&o));
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let stretch = result["parameters"]["stretch"]["value"].as_f64().unwrap();
+    assert!((stretch / 100.0 - 1.0).abs() < 1e-6, "{stretch}");
+    assert!(result["parameters"]["stretch"]["std_error"].is_number());
+    let fitted = Scene::load(&fitted).unwrap();
+    let k = Parameter::parse("stretch").value(&fitted).unwrap();
+    assert!((k / 100.0 - 1.0).abs() < 1e-6, "{k}");
+
+    let bad = dir.join("bad.json");
+    let mut broken = file.clone();
+    broken["points"][3]["particle"] = 99.into();
+    std::fs::write(&bad, broken.to_string()).unwrap();
+    let (out2, fitted2) = (dir.join("fit2.json"), dir.join("fitted2.json"));
+    let before = files_in(&dir);
+    let o = run(bin()
+        .args(["fit", scene_path.to_str().unwrap(), "--observed"])
+        .arg(&bad)
+        .args(["--params", "stretch", "--out"])
+        .arg(&out2)
+        .arg("--scene-out")
+        .arg(&fitted2));
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains("bad.json: points[3].particle"), "{err}");
+    assert_eq!(files_in(&dir), before, "nothing is written on failure");
 }

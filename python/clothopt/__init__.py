@@ -19,9 +19,9 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from ._clothopt import Plan, Rollout, Scene, builtin_scenes
+from ._clothopt import Fit, Plan, Rollout, Scene, builtin_scenes
 
-__all__ = ["Scene", "Rollout", "Plan", "builtin_scenes", "sweep", "jax", "torch"]
+__all__ = ["Scene", "Rollout", "Plan", "Fit", "builtin_scenes", "sweep", "jax", "torch"]
 
 _LAZY = {"jax", "torch", "sweeps"}
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from typing import Any, Optional, Union
+from typing import Any, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -84,6 +84,17 @@ class Scene:
         target_model: str = "bfgs",
     ) -> Plan:
         """Plans the task as `clothopt optimize` does (same defaults)."""
+    def fit(
+        self,
+        observed: Union[dict[str, Any], str, os.PathLike[str]],
+        params: Union[Sequence[str], str],
+        max_iterations: int = 50,
+        range: float = 1e3,
+    ) -> Fit:
+        """Fits material parameters to observed motion as `clothopt fit` does, from this scene's
+        values: `observed` the observation JSON (dict) or its file, `params` names ("stretch",
+        "bending", a custom constraint type, "mass", "gravity", "friction"), a list or
+        comma-separated. ValueError names a bad field, e.g. `points[0].particle`."""
 
 class Rollout:
     """A simulated control sequence."""
@@ -134,3 +145,44 @@ class Plan:
     def to_dict(self) -> dict[str, Any]: ...
     def save(self, path: Union[str, os.PathLike[str]]) -> None:
         """Writes the result JSON atomically."""
+
+class Fit:
+    """A material fit's result (the record `clothopt fit --out` writes) and the fitted scene."""
+
+    @property
+    def status(self) -> str:
+        """"converged", "stalled" or "iteration_limit"."""
+    @property
+    def converged(self) -> bool: ...
+    @property
+    def parameters(self) -> dict[str, dict[str, Any]]:
+        """By name: field, start, value, std_error, relative_std_error, identifiable, at_bound."""
+    @property
+    def noise(self) -> dict[str, Any]:
+        """`value` and `source` ("given" or "estimated")."""
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def simulations(self) -> int: ...
+    @property
+    def wall_s(self) -> float: ...
+    @property
+    def points(self) -> int: ...
+    @property
+    def rms_error_start(self) -> float: ...
+    @property
+    def rms_error(self) -> float: ...
+    @property
+    def max_error(self) -> float: ...
+    @property
+    def residual_per_step(self) -> list[Optional[float]]:
+        """Per step, the RMS distance of the points seen then (None where none was)."""
+    @property
+    def fitted_scene(self) -> Scene:
+        """The scene with the fitted values (its contact barrier pinned)."""
+    def to_json(self) -> str: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def save(self, path: Union[str, os.PathLike[str]]) -> None:
+        """Writes the result JSON atomically, as `--out`."""
+    def save_scene(self, path: Union[str, os.PathLike[str]]) -> None:
+        """Writes the fitted scene atomically, as `--scene-out` (the same bytes)."""

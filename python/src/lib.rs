@@ -23,6 +23,7 @@ fn _clothopt(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::Scene>()?;
     m.add_class::<results::Rollout>()?;
     m.add_class::<results::Plan>()?;
+    m.add_class::<results::Fit>()?;
     m.add_function(wrap_pyfunction!(builtin_scenes, m)?)?;
     Ok(())
 }

@@ -1,7 +1,10 @@
-//! `clothopt.Rollout` (a simulated control sequence) and `clothopt.Plan` (an optimizer's result).
+//! `clothopt.Rollout` (a simulated control sequence), `clothopt.Plan` (an optimizer's result) and
+//! `clothopt.Fit` (a material fit's).
 
 use crate::arrays::{controls_out, nested_out, states_out};
 use crate::errors::to_py;
+use crate::scene::Scene;
+use clothopt::fit::{FitResult, FitStatus};
 use clothopt::result::PlanResult;
 use numpy::PyArray3;
 use pyo3::prelude::*;
@@ -192,8 +195,7 @@ impl Plan {
     /// save(path) -> None: writes the result JSON to `path` atomically (temporary file and
     /// rename), as `clothopt optimize --out` does.
     fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
-        clothopt::output::write_json_atomic(&path, &self.result)
-            .map_err(|e| pyo3::exceptions::PyOSError::new_err(clothopt::error_chain(&e)))
+        clothopt::output::write_json_atomic(&path, &self.result).map_err(os_error)
     }
 
     fn __repr__(&self) -> String {
@@ -203,6 +205,150 @@ impl Plan {
             r.scene, r.status, r.task.achieved, r.metrics.l, r.metrics.min_sdf, r.delta, r.iterations
         )
     }
+}
+
+/// A material fit's result, the same record `clothopt fit --out` writes, and the fitted scene.
+///
+/// `status` ("converged", "stalled", "iteration_limit"), `parameters` (dict by name of `field`,
+/// `start`, `value`, `std_error`, `relative_std_error`, `identifiable`, `at_bound`), `noise`,
+/// tracking errors, `fitted_scene` (a `Scene`); `to_json()`, `to_dict()`, `save(path)` give the
+/// record, `save_scene(path)` the scene as `--scene-out` writes it.
+#[pyclass(module = "clothopt", frozen)]
+pub struct Fit {
+    result: FitResult,
+    /// The scene with the fitted values (and its contact barrier pinned), compiled.
+    #[pyo3(get)]
+    fitted_scene: Py<Scene>,
+}
+
+impl Fit {
+    /// Wraps a fit's result, compiling its fitted scene.
+    pub fn new(py: Python<'_>, result: FitResult) -> PyResult<Self> {
+        let fitted_scene = Py::new(py, Scene::new(result.fitted_scene.clone())?)?;
+        Ok(Fit {
+            result,
+            fitted_scene,
+        })
+    }
+}
+
+#[pymethods]
+impl Fit {
+    /// How the fit ended: "converged", "stalled" or "iteration_limit".
+    #[getter]
+    fn status(&self) -> PyResult<String> {
+        let value = serde_json::to_value(self.result.status).map_err(|e| to_py(e.into()))?;
+        Ok(value.as_str().unwrap_or_default().to_string())
+    }
+
+    /// Whether it converged (the CLI exits 0 then, 3 otherwise).
+    #[getter]
+    fn converged(&self) -> bool {
+        self.result.status == FitStatus::Converged
+    }
+
+    /// The fitted parameters by name, each a dict of `field`, `start`, `value`, `std_error`,
+    /// `relative_std_error` (None when not determined), `identifiable`, `at_bound`.
+    #[getter]
+    fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_value(py, &self.result.parameters)
+    }
+
+    /// The observations' noise: dict of `value` and `source` ("given" or "estimated").
+    #[getter]
+    fn noise<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_value(py, &self.result.noise)
+    }
+
+    /// Levenberg–Marquardt iterations.
+    #[getter]
+    fn iterations(&self) -> usize {
+        self.result.iterations
+    }
+
+    /// Rollouts simulated.
+    #[getter]
+    fn simulations(&self) -> usize {
+        self.result.simulations
+    }
+
+    /// Wall time (s).
+    #[getter]
+    fn wall_s(&self) -> f64 {
+        self.result.wall_s
+    }
+
+    /// Tracked points.
+    #[getter]
+    fn points(&self) -> usize {
+        self.result.points
+    }
+
+    /// RMS distance of the tracked points to their observations at the start.
+    #[getter]
+    fn rms_error_start(&self) -> f64 {
+        self.result.rms_error_start
+    }
+
+    /// RMS distance at the fit.
+    #[getter]
+    fn rms_error(&self) -> f64 {
+        self.result.rms_error
+    }
+
+    /// The largest distance at the fit.
+    #[getter]
+    fn max_error(&self) -> f64 {
+        self.result.max_error
+    }
+
+    /// Per step, the RMS distance of the points seen then (None where none was).
+    #[getter]
+    fn residual_per_step(&self) -> Vec<Option<f64>> {
+        self.result.residual_per_step.clone()
+    }
+
+    /// to_json() -> str: the result JSON, as `clothopt fit --out` writes it.
+    fn to_json(&self) -> PyResult<String> {
+        serde_json::to_string_pretty(&self.result).map_err(|e| to_py(e.into()))
+    }
+
+    /// to_dict() -> dict: the result JSON as a dict.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        json_value(py, &self.result)
+    }
+
+    /// save(path) -> None: writes the result JSON to `path` atomically, as `--out` does.
+    fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
+        clothopt::output::write_json_atomic(&path, &self.result).map_err(os_error)
+    }
+
+    /// save_scene(path) -> None: writes the fitted scene to `path` atomically, as
+    /// `--scene-out` does (the same bytes).
+    fn save_scene(&self, path: std::path::PathBuf) -> PyResult<()> {
+        let text = cloth::scene::to_json_pretty_compact(&self.result.fitted_scene)
+            .map_err(|e| to_py(e.into()))?;
+        clothopt::output::write_atomic(&path, format!("{text}\n").as_bytes()).map_err(os_error)
+    }
+
+    fn __repr__(&self) -> PyResult<String> {
+        let values: Vec<String> = (self.result.parameters.iter())
+            .map(|(name, p)| format!("{name}={:.6e}", p.value))
+            .collect();
+        Ok(format!(
+            "Fit(scene={:?}, status={:?}, {}, rms_error={:.3e}, iterations={})",
+            self.result.scene,
+            self.status()?,
+            values.join(", "),
+            self.result.rms_error,
+            self.result.iterations
+        ))
+    }
+}
+
+/// A failed write as an `OSError` with the CLI's message.
+fn os_error(e: clothopt::Error) -> PyErr {
+    pyo3::exceptions::PyOSError::new_err(clothopt::error_chain(&e))
 }
 
 /// A serializable value as plain Python objects (through JSON).

@@ -1,9 +1,10 @@
 //! `clothopt.Scene`: a validated scene and its compiled model; simulate, differentiate, optimize.
 
 use crate::arrays::{controls_in, controls_out};
-use crate::errors::{bad_argument, to_py};
-use crate::results::{Plan, Rollout};
-use cloth::Model;
+use crate::errors::{bad_argument, observation_file_error, to_py};
+use crate::results::{Fit, Plan, Rollout};
+use cloth::{ConstraintRegistry, Model, Parameter};
+use clothopt::fit::{fit, FitOptions, Observations};
 use clothopt::physics_check::{plan_with_check, CheckRequest};
 use clothopt::plan::{initial_controls, Optimizer};
 use clothopt::problem::{SafetyForm, TargetModel};
@@ -12,9 +13,10 @@ use clothopt::result::{CheckPhysics, SearchMode};
 use clothopt::search::plan_with_search;
 use clothopt::validate::ensure_non_negative;
 use numpy::{AllowTypeChange, IntoPyArray, PyArray3, PyArrayLikeDyn};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyType};
+use pyo3::types::{PyDict, PyString, PyType};
+use std::path::PathBuf;
 
 /// Controls as the Python API takes them: any float array-like `(T, K, 3)` or `(T, 3K)`.
 type ControlsArg<'py> = PyArrayLikeDyn<'py, f64, AllowTypeChange>;
@@ -30,7 +32,8 @@ pub struct Scene {
 }
 
 impl Scene {
-    fn new(scene: cloth::Scene) -> PyResult<Self> {
+    /// A scene, compiled.
+    pub(crate) fn new(scene: cloth::Scene) -> PyResult<Self> {
         let model = Model::from_scene(&scene).map_err(|e| to_py(e.into()))?;
         Ok(Scene { scene, model })
     }
@@ -125,6 +128,69 @@ fn step_only_choice(step_only: Option<bool>, swept: Option<bool>) -> PyResult<bo
         (None, Some(swept)) => Ok(!swept),
         (None, None) => Ok(false),
     }
+}
+
+/// Observations as `Scene.fit` takes them: the file's JSON, or the file.
+enum ObservedArg {
+    Text(String),
+    File(PathBuf),
+}
+
+/// A dict (the observation JSON as Python objects; NumPy arrays and scalars allowed) as JSON
+/// text, or a `str` / `os.PathLike` as the file's path.
+fn observed_arg(observed: &Bound<'_, PyAny>) -> PyResult<ObservedArg> {
+    let py = observed.py();
+    if observed.is_instance_of::<PyDict>() {
+        // `default` turns NumPy values (arrays, float64, int64) into lists and numbers.
+        let kwargs = PyDict::new(py);
+        let tolist = py
+            .import("operator")?
+            .call_method1("methodcaller", ("tolist",))?;
+        kwargs.set_item("default", tolist)?;
+        let text = (py.import("json")?)
+            .call_method("dumps", (observed,), Some(&kwargs))
+            .map_err(|e| {
+                PyTypeError::new_err(format!("observed: not writable as JSON: {}", e.value(py)))
+            })?;
+        return Ok(ObservedArg::Text(text.extract()?));
+    }
+    observed
+        .extract::<PathBuf>()
+        .map(ObservedArg::File)
+        .map_err(|_| {
+            PyTypeError::new_err(format!(
+                "observed: expected the observation JSON as a dict, or its file's path, got {}",
+                type_name(observed)
+            ))
+        })
+}
+
+/// The parameter names of `params`: a list of names or one string, each split at commas as
+/// `--params` is.
+fn parameter_names(params: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+    let items: Vec<String> = if params.is_instance_of::<PyString>() {
+        vec![params.extract()?]
+    } else {
+        params.extract().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "params: expected a list of parameter names or a comma-separated string, got {}",
+                type_name(params)
+            ))
+        })?
+    };
+    Ok(items
+        .iter()
+        .flat_map(|s| s.split(','))
+        .map(|p| p.trim().to_string())
+        .collect())
+}
+
+/// The Python type name of `value`, for an error.
+fn type_name(value: &Bound<'_, PyAny>) -> String {
+    value
+        .get_type()
+        .name()
+        .map_or_else(|_| "?".into(), |n| n.to_string())
 }
 
 /// `True` or `False`, as Python spells them.
@@ -428,6 +494,50 @@ impl Scene {
             result.warnings.push(warning);
         }
         Ok(Plan::new(result))
+    }
+
+    /// fit(observed, params, max_iterations=50, range=1e3) -> Fit
+    ///
+    /// Fits material parameters to observed motion exactly as `clothopt fit` does, starting
+    /// from this scene's values: `observed` is the observation JSON as a dict (NumPy arrays
+    /// allowed) or its file's path; `params` names the parameters ("stretch", "bending", a
+    /// custom constraint type, "mass", "gravity", "friction") as a list or comma-separated;
+    /// each stays within `[v/range, v·range]`. Raises ValueError with the CLI's message for a
+    /// bad observation (naming the field, e.g. `observations: points[0].particle: …`), parameter
+    /// or setting, FileNotFoundError for a missing file. The GIL is released while it runs.
+    #[pyo3(signature = (
+        observed, params, max_iterations=FitOptions::default().max_iterations,
+        range=FitOptions::default().range
+    ), text_signature = "($self, observed, params, max_iterations=50, range=1e3)")]
+    fn fit(
+        &self,
+        py: Python<'_>,
+        observed: &Bound<'_, PyAny>,
+        params: &Bound<'_, PyAny>,
+        max_iterations: usize,
+        range: f64,
+    ) -> PyResult<Fit> {
+        let observed = observed_arg(observed)?;
+        let params: Vec<Parameter> = (parameter_names(params)?.iter())
+            .map(|p| Parameter::parse(p))
+            .collect();
+        let options = FitOptions {
+            max_iterations,
+            range,
+            ..FitOptions::default()
+        };
+        let result = py.detach(|| {
+            let observed = match &observed {
+                ObservedArg::Text(text) => {
+                    Observations::parse(text, &self.scene, &self.model).map_err(to_py)?
+                }
+                ObservedArg::File(path) => Observations::read(path, &self.scene, &self.model)
+                    .map_err(|e| observation_file_error(path, e))?,
+            };
+            let registry = ConstraintRegistry::new();
+            fit(&self.scene, &registry, &observed, &params, &options).map_err(to_py)
+        })?;
+        Fit::new(py, result)
     }
 
     fn __repr__(&self) -> String {

@@ -187,9 +187,8 @@ impl Problem<'_> {
 /// Fits `params` of `scene` (custom constraint types from `registry`) to `observed`.
 ///
 /// # Errors
-/// A parameter the scene has nothing of ([`cloth::Parameter::value`]); a scene that does not run
-/// Newton's method (parameter derivatives need it); a rollout at the scene's own values that
-/// fails; bad options (naming them).
+/// A parameter the scene has nothing of ([`cloth::Parameter::value`]); a rollout at the scene's
+/// own values that fails; bad options (naming them).
 pub fn fit(
     scene: &Scene,
     registry: &ConstraintRegistry,
