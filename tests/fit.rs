@@ -7,9 +7,9 @@
 mod common;
 
 use cloth::{ConstraintRegistry, Controls, Model, Parameter, Scene};
-use common::{bin, files_in, run, stderr, stdout};
 use clothopt::fit::synthetic::{synthetic, Sampling};
 use clothopt::fit::{fit, FitOptions, FitResult, FitStatus, Observations};
+use common::{bin, files_in, run, stderr, stdout};
 
 fn scene(name: &str) -> Scene {
     Scene::load(format!(
@@ -155,7 +155,10 @@ fn exact_observations_recover_the_parameters_under_xpbd() {
     for name in PARAMS {
         let want = Parameter::parse(name).value(&truth).unwrap();
         let got = r.parameters[name].value;
-        assert!((got / want - 1.0).abs() <= 0.01, "{name}: fitted {got}, truth {want}");
+        assert!(
+            (got / want - 1.0).abs() <= 0.01,
+            "{name}: fitted {got}, truth {want}"
+        );
     }
 }
 
