@@ -5,7 +5,7 @@
 //!
 //! Run an experiment with `cargo run --release -p experiments --bin NAME -- ARGS`; the binaries
 //! are `safety`, `ablation`, `accuracy_vs_time`, `routes`, `roughness`, `speed_vs_jax`, `table`,
-//! `suite` and `plan_speed`.
+//! `suite`, `plan_speed` and `fit`.
 
 pub mod child;
 pub mod measure;
