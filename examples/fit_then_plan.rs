@@ -25,7 +25,7 @@ fn main() -> Result<()> {
 
     // 1. The recording: the grippers lowered 0.25 m while drawn 0.3 m across the table, the
     //    towel seen at 24 particles every 2nd step with 1 mm of noise.
-    let motion = recorded_motion(&real_model);
+    let motion = recorded_motion(dir, &real_model)?;
     let sampling = Sampling {
         points: 24,
         every: 2,
@@ -113,14 +113,11 @@ fn plan_and_play(name: &str, scene: &Scene, real: &Model) -> Result<()> {
     Ok(())
 }
 
-/// The grippers lowered 0.25 while drawn 0.3 along +y, in equal steps over the horizon.
-fn recorded_motion(model: &Model) -> Controls {
-    let horizon = model.task.horizon as f64;
-    let step = [0.0, 0.3 / horizon, -0.25 / horizon];
-    let mut u = model.zero_controls();
-    for t in 0..model.task.horizon {
-        let row: Vec<f64> = (0..model.n_controls()).flat_map(|_| step).collect();
-        u.row_mut(t).copy_from_slice(&row);
-    }
-    u
+/// The recorded motion `lay_motion.json` (a controls file): the grippers lowered 0.25 m while
+/// drawn 0.3 m along +y.
+fn recorded_motion(dir: &str, model: &Model) -> Result<Controls> {
+    let text = std::fs::read_to_string(format!("{dir}/lay_motion.json"))?;
+    let file: serde_json::Value = serde_json::from_str(&text)?;
+    let steps: Vec<Vec<[f64; 3]>> = serde_json::from_value(file["controls"].clone())?;
+    Ok(controls_from_nested(model, &steps)?)
 }

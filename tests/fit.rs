@@ -19,30 +19,18 @@ fn scene(name: &str) -> Scene {
     .unwrap()
 }
 
-/// The recorded motion: `lay` lowers the grippers 0.25 while drawing them 0.3 across the table;
-/// `fold` carries the near edge over on a half circle of radius 0.15 to 0.8 π; `lift` raises the
-/// hanging cloth 0.1 straight up.
+/// A recorded motion of `examples/scenes/fit/` (`<kind>_motion.json`): `lay` lowers the grippers
+/// 0.25 while drawing them 0.3 across the table; `fold` carries the near edge over on a half
+/// circle of radius 0.15 to 0.8 π; `lift` raises the hanging cloth 0.1 straight up.
 fn motion(model: &Model, kind: &str) -> Controls {
-    let horizon = model.task.horizon;
-    let mut u = model.zero_controls();
-    let at = |t: usize| -> [f64; 3] {
-        let f = t as f64 / horizon as f64;
-        match kind {
-            "lay" => [0.0, 0.3 * f, -0.25 * f],
-            "fold" => {
-                let a = 0.8 * std::f64::consts::PI * f;
-                [0.0, 0.15 - 0.15 * a.cos(), 0.15 * a.sin()]
-            }
-            _ => [0.0, 0.0, 0.1 * f],
-        }
-    };
-    for t in 0..horizon {
-        let (a, b) = (at(t), at(t + 1));
-        let d: Vec<f64> = (0..3).map(|k| b[k] - a[k]).collect();
-        let row: Vec<f64> = (0..model.n_controls()).flat_map(|_| d.clone()).collect();
-        u.row_mut(t).copy_from_slice(&row);
-    }
-    u
+    let path = format!(
+        "{}/examples/scenes/fit/{kind}_motion.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let steps: Vec<Vec<[f64; 3]>> = serde_json::from_value(file["controls"].clone()).unwrap();
+    clothopt::result::controls_from_nested(model, &steps).unwrap()
 }
 
 const PARAMS: [&str; 3] = ["stretch", "bending", "friction"];

@@ -4,32 +4,13 @@
 
 mod common;
 
-use autodiff::{Real, Tensor};
-use cloth::constraint::{norm, Constraint};
+use autodiff::Tensor;
 use cloth::nalgebra::Vector3;
 use cloth::scene::ObstacleRole;
 use cloth::{Model, Scene};
 use cloth::{NewtonSettings, Solver};
-use common::{small_scene, spheres, BendKind};
+use common::{small_scene, spheres, BendKind, TriangleArea};
 use proptest::prelude::*;
-
-/// Triangle-area preservation, as in `examples/custom_constraint.rs`.
-struct TriangleArea {
-    rest: Vec<f64>,
-}
-
-impl TriangleArea {
-    fn area<R: Real>(p: &[Vector3<R>]) -> R {
-        norm(&(p[1] - p[0]).cross(&(p[2] - p[0]))) * 0.5
-    }
-}
-
-impl Constraint for TriangleArea {
-    const ARITY: usize = 3;
-    fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
-        Self::area(p) - self.rest[instance]
-    }
-}
 
 fn newton_model(scene: &Scene, user_constraint: bool) -> Model {
     let mut m = Model::from_scene(scene).unwrap();

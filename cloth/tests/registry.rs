@@ -1,27 +1,12 @@
 //! Constraint types registered by name and used from scene JSON (`custom_constraints`).
 
-use autodiff::Real;
-use cloth::constraint::{norm, Constraint};
+mod common;
+
 use cloth::nalgebra::Vector3;
 use cloth::scene::SceneError;
 use cloth::{ClothError, ConstraintRegistry, Model, Scene};
+use common::TriangleArea;
 use serde_json::{json, Value};
-
-/// Triangle-area preservation `C = ½|(p₁ − p₀) × (p₂ − p₀)| − A⁰`.
-struct TriangleArea {
-    rest: Vec<f64>,
-}
-
-fn area<R: Real>(p: &[Vector3<R>]) -> R {
-    norm(&(p[1] - p[0]).cross(&(p[2] - p[0]))) * 0.5
-}
-
-impl Constraint for TriangleArea {
-    const ARITY: usize = 3;
-    fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
-        area(p) - self.rest[instance]
-    }
-}
 
 /// A registry with `triangle_area`; its rest areas come from the rest positions, scaled by the
 /// optional `params.scale`.
@@ -39,7 +24,7 @@ fn registry() -> ConstraintRegistry {
             .chunks_exact(3)
             .map(|t| {
                 scale
-                    * area(
+                    * TriangleArea::area(
                         &t.iter()
                             .map(|&[x, y, z]| Vector3::new(x, y, z))
                             .collect::<Vec<_>>(),
@@ -108,7 +93,11 @@ fn a_registered_type_from_json_equals_the_hand_added_constraint() {
     let tris = base.mesh().triangles().to_vec();
     let rest = tris
         .iter()
-        .map(|t| area(&t.map(|p| Vector3::new(rest_pos[p][0], rest_pos[p][1], rest_pos[p][2]))))
+        .map(|t| {
+            TriangleArea::area(
+                &t.map(|p| Vector3::new(rest_pos[p][0], rest_pos[p][1], rest_pos[p][2])),
+            )
+        })
         .collect();
     let flat: Vec<usize> = tris.iter().flatten().copied().collect();
     by_hand

@@ -3,7 +3,9 @@
 
 #![allow(dead_code)]
 
-use autodiff::Tensor;
+use autodiff::{Real, Tensor};
+use cloth::constraint::{norm, Constraint};
+use cloth::nalgebra::Vector3;
 use cloth::scene::{
     Bending, BendingModel, BoxSpec, CapsuleSpec, ContactModel, ContactSpec, InitialControls,
     MeshSpec, Obstacle, ObstacleRole, PlaneSpec, SphereSetSpec, Stiffness, Target,
@@ -333,4 +335,25 @@ pub fn lowered_and_dragged(model: &Model) -> Tensor {
         }
     }
     u
+}
+
+/// A user's constraint type as the tests write one (after `examples/custom_constraint.rs`):
+/// triangle-area preservation `C = ½|(p₁ − p₀) × (p₂ − p₀)| − A⁰`.
+pub struct TriangleArea {
+    /// `A⁰` of each instance.
+    pub rest: Vec<f64>,
+}
+
+impl TriangleArea {
+    /// `½|(p₁ − p₀) × (p₂ − p₀)|`.
+    pub fn area<R: Real>(p: &[Vector3<R>]) -> R {
+        norm(&(p[1] - p[0]).cross(&(p[2] - p[0]))) * 0.5
+    }
+}
+
+impl Constraint for TriangleArea {
+    const ARITY: usize = 3;
+    fn c<R: Real>(&self, instance: usize, p: &[Vector3<R>]) -> R {
+        Self::area(p) - self.rest[instance]
+    }
 }

@@ -128,7 +128,7 @@ fn main() -> Result<()> {
     // One fit of `motion` on `truth` (the lay scene's for `lift`); an error is printed and kept.
     let mut run = |truth: &Scene, motion: &'static str, noise: f64, seed: u64| {
         let scene = if motion == "lift" { "lay" } else { motion };
-        match fit_one(truth, scene, motion, noise, seed) {
+        match fit_one(&cli.dir, truth, scene, motion, noise, seed) {
             Ok(r) => Some(r),
             Err(e) => {
                 println!("  {motion}, noise {noise}, seed {seed}: ERROR {e:#}");
@@ -197,34 +197,21 @@ fn main() -> Result<()> {
     write_out(&cli, &runs, &coverage, &failures)
 }
 
-/// The recorded motion of tests/fit.rs: `lay` lowers the grippers 0.25 while drawing them 0.3
-/// along +y, `fold` carries them on a half circle of radius 0.15 to 0.8π, `lift` raises them 0.1.
-fn motion(model: &Model, kind: &str) -> Controls {
-    let horizon = model.task.horizon;
-    let at = |t: usize| -> [f64; 3] {
-        let f = t as f64 / horizon as f64;
-        match kind {
-            "lay" => [0.0, 0.3 * f, -0.25 * f],
-            "fold" => {
-                let a = 0.8 * std::f64::consts::PI * f;
-                [0.0, 0.15 - 0.15 * a.cos(), 0.15 * a.sin()]
-            }
-            _ => [0.0, 0.0, 0.1 * f],
-        }
-    };
-    let mut u = model.zero_controls();
-    for t in 0..horizon {
-        let (a, b) = (at(t), at(t + 1));
-        let row: Vec<f64> = (0..model.n_controls())
-            .flat_map(|_| (0..3).map(move |k| b[k] - a[k]))
-            .collect();
-        u.row_mut(t).copy_from_slice(&row);
-    }
-    u
+/// The recorded motion `<kind>_motion.json` beside the scenes in `dir` (`lay`: the grippers
+/// lowered 0.25 while drawn 0.3 along +y; `fold`: carried on a half circle of radius 0.15 to
+/// 0.8π; `lift`: raised 0.1).
+fn motion(dir: &Path, model: &Model, kind: &str) -> Result<Controls> {
+    let path = dir.join(format!("{kind}_motion.json"));
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let file: serde_json::Value = serde_json::from_str(&text)?;
+    let steps: Vec<Vec<[f64; 3]>> = serde_json::from_value(file["controls"].clone())?;
+    Ok(clothopt::result::controls_from_nested(model, &steps)?)
 }
 
 /// Observes `truth`'s rollout of `motion` and fits the parameters from a start off by `OFF`.
 fn fit_one(
+    dir: &Path,
     truth: &Scene,
     scene: &str,
     motion_kind: &'static str,
@@ -232,7 +219,7 @@ fn fit_one(
     seed: u64,
 ) -> Result<Run> {
     let model = Model::from_scene(truth)?;
-    let u = motion(&model, motion_kind);
+    let u = motion(dir, &model, motion_kind)?;
     let sampling = Sampling {
         points: POINTS,
         every: EVERY,
