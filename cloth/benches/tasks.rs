@@ -8,12 +8,17 @@
 //! - `forward`: simulate and evaluate the metrics (`Model::evaluate`);
 //! - `forward_grad_l`: the same plus `dL/dU` by implicit differentiation.
 //!
+//! How the cost grows with the particle count: `lay_aside@15` and `lay_aside@40` are the same
+//! task and controls on a 15 × 15 and a 40 × 40 towel (`Scene::refined`, the particle mass scaled
+//! so the towel weighs the same).
+//!
 //! Before the timings it prints each rollout's counts (Newton iterations, chord steps,
 //! factorizations and failed ones, control stages, self-contact pair searches and filters,
 //! step filters, pattern rebuilds), which do not depend on the machine's load.
 //!
 //! `RAYON_NUM_THREADS=1 cargo bench -p cloth --bench tasks`. With `TASKS_ONCE=<scene>` the bench
-//! runs that scene's forward + ∇L once and exits (for `perf record` / callgrind).
+//! runs that scene's forward + ∇L once, prints its wall and the process's peak resident memory,
+//! and exits (for `perf record` / callgrind, and the memory of one rollout with its gradient).
 
 use autodiff::Tensor;
 use cloth::{Model, Scene, Solver, StepStats};
@@ -21,21 +26,35 @@ use criterion::{criterion_group, BenchmarkId, Criterion};
 use std::hint::black_box;
 use std::path::PathBuf;
 
-/// The bench's scenes, each with its controls file.
-const TASKS: [(&str, &str); 2] = [("fold_half", "plan"), ("lay_aside", "mid")];
+/// The bench's scenes (`name` or `name@n`, refined to `n × n`), each with its controls file.
+const TASKS: [(&str, &str); 4] = [
+    ("fold_half", "plan"),
+    ("lay_aside", "mid"),
+    ("lay_aside@15", "mid"),
+    ("lay_aside@40", "mid"),
+];
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// The scene and its controls (`benches/data/<name>_<which>.json`).
-fn task(name: &str) -> (Scene, Model, Tensor) {
+/// The scene and its controls (`benches/data/<name>_<which>.json`), refined for `name@n`.
+fn task(task: &str) -> (Scene, Model, Tensor) {
     let which = TASKS
         .iter()
-        .find(|(n, _)| *n == name)
+        .find(|(n, _)| *n == task)
         .map_or("mid", |t| t.1);
-    let scene = Scene::load(root().join(format!("examples/scenes/tasks/{name}.json")))
+    let (name, size) = match task.split_once('@') {
+        Some((name, n)) => (name, Some(n.parse::<usize>().expect("name@n"))),
+        None => (task, None),
+    };
+    let mut scene = Scene::load(root().join(format!("examples/scenes/tasks/{name}.json")))
         .expect("the task scene");
+    if let Some(n) = size {
+        let before = (scene.cloth.rows * scene.cloth.cols) as f64;
+        scene = scene.refined(n, n).expect("a grid scene");
+        scene.cloth.particle_mass *= before / (n * n) as f64;
+    }
     let model = Model::from_scene(&scene).expect("its model");
     let path = root().join(format!("cloth/benches/data/{name}_{which}.json"));
     let text = std::fs::read_to_string(&path).expect("the controls");
@@ -67,23 +86,7 @@ fn tasks(c: &mut Criterion) {
     group.sample_size(10);
     for (name, _) in TASKS {
         let (scene, model, u) = task(name);
-        let s = counts(&model, &u);
-        eprintln!(
-            "{name}: {} Newton iterations ({} chord), {} factorizations ({} failed), {} loads, \
-             pair searches {} (grid {}), filtered {}, step filters {}, pattern rebuilds {} \
-             (reused {})",
-            s.iterations,
-            s.chord_steps,
-            s.factorizations,
-            s.failed_factorizations,
-            s.loads,
-            s.pair_searches,
-            s.grid_searches,
-            s.pair_filters,
-            s.step_filters,
-            s.pattern_rebuilds,
-            s.pattern_reuses
-        );
+        print_counts(name, &model, &u);
         let delta = scene.task.delta;
         group.bench_with_input(BenchmarkId::new("forward", name), &name, |b, _| {
             b.iter(|| black_box(model.evaluate(&u, delta, false).expect("converged")))
@@ -95,11 +98,45 @@ fn tasks(c: &mut Criterion) {
     group.finish();
 }
 
+/// Prints one rollout's counts (they do not depend on the machine's load).
+fn print_counts(name: &str, model: &Model, u: &Tensor) {
+    let s = counts(model, u);
+    eprintln!(
+        "{name}: {} Newton iterations ({} chord), {} factorizations ({} failed), {} loads, \
+             pair searches {} (grid {}), filtered {}, step filters {}, pattern rebuilds {} \
+             (reused {})",
+        s.iterations,
+        s.chord_steps,
+        s.factorizations,
+        s.failed_factorizations,
+        s.loads,
+        s.pair_searches,
+        s.grid_searches,
+        s.pair_filters,
+        s.step_filters,
+        s.pattern_rebuilds,
+        s.pattern_reuses
+    );
+}
+
+/// The process's peak resident memory (`VmHWM` in `/proc/self/status`; Linux).
+fn peak_memory() -> String {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .map(|l| l["VmHWM:".len()..].trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown".into())
+}
+
 criterion_group!(benches, tasks);
 
 fn main() {
     if let Ok(name) = std::env::var("TASKS_ONCE") {
         let (scene, model, u) = task(&name);
+        print_counts(&name, &model, &u);
         let start = std::time::Instant::now();
         black_box(
             model
@@ -107,8 +144,10 @@ fn main() {
                 .expect("converged"),
         );
         eprintln!(
-            "{name}: forward + ∇L {:.3} s",
-            start.elapsed().as_secs_f64()
+            "{name}: {} particles, forward + ∇L {:.3} s, peak resident memory {}",
+            model.n_particles(),
+            start.elapsed().as_secs_f64(),
+            peak_memory()
         );
         return;
     }
