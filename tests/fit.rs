@@ -295,3 +295,36 @@ fn the_cli_fits_and_writes_the_fitted_scene_and_nothing_on_bad_input() {
     assert!(err.contains("bad.json: points[3].particle"), "{err}");
     assert_eq!(files_in(&dir), before, "nothing is written on failure");
 }
+
+/// The recording shipped for users (`examples/scenes/fit/lay_observed.json`, made from `lay.json`
+/// with stretch 60, bending 3e-4 and friction 0.3 at 1 mm of noise) fits to those values within
+/// three standard errors, as its README says.
+#[test]
+fn the_shipped_recording_fits_to_the_towel_it_was_made_from() {
+    let start = scene("lay");
+    let model = Model::from_scene(&start).unwrap();
+    let path = format!(
+        "{}/examples/scenes/fit/lay_observed.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let observed = Observations::read(std::path::Path::new(&path), &start, &model).unwrap();
+    let params: Vec<Parameter> = PARAMS.iter().map(|p| Parameter::parse(p)).collect();
+    let r = fit(
+        &start,
+        &ConstraintRegistry::new(),
+        &observed,
+        &params,
+        &FitOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(r.status, FitStatus::Converged);
+    for (name, truth) in [("stretch", 60.0), ("bending", 3e-4), ("friction", 0.3)] {
+        let p = &r.parameters[name];
+        let se = p.std_error.unwrap();
+        assert!(
+            (p.value - truth).abs() <= 3.0 * se,
+            "{name}: {} ± {se}, truth {truth}",
+            p.value
+        );
+    }
+}
