@@ -4,9 +4,10 @@
 //! The step is re-run set by set with the plain path's kernel ([`update_rows`], so the states are
 //! the rollout's bit for bit), and after every colour set each parameter's tangent of the state
 //! and the carried values is pushed through the set's rows: `ṫ' = J ṫ + ∂out/∂ log θ`. `J`, the
-//! row's Jacobian, comes from its row function's own vector–Jacobian products (one per output,
-//! unit seeds on every row at once), so every constraint type, a user's included, and the
-//! friction rows get exact tangents without code of their own.
+//! row's Jacobian, comes from its row function's own vector–Jacobian products (one seed per
+//! output, unit on every row at once, pulled back together so the rows' shared work is done
+//! once), so every constraint type, a user's included, and the friction rows get exact tangents
+//! without code of their own.
 //!
 //! The parameters' partials follow from the same Jacobian and the row's multiplier, because the
 //! XPBD update `Δλ = (−C − α̃λ)/(S + α̃)`, `S = Σ wᵢ|∇ᵢC|²`, `p ← p + W∇C Δλ`, `λ ← λ + Δλ`
@@ -80,6 +81,7 @@ impl Model {
                 }))
                 .collect();
             let mut carries = self.step_carries(prev, &contacts);
+            let mut seeds = Seeds::default();
             let mut dcarries: Vec<Vec<Tensor>> = (roles.iter().zip(&carries))
                 .map(|(r, c)| {
                     (0..params.len())
@@ -98,7 +100,7 @@ impl Model {
                         carry,
                         Some(&mut inputs),
                     );
-                    let jac = row_jacobians(set, &inputs);
+                    let jac = seeds.row_jacobians(set, &inputs, n);
                     for (j, p) in params.iter().enumerate() {
                         push_tangent(role, p, &jac, &inputs, carry, &mut dx[j], &mut dcarry[j]);
                     }
@@ -133,26 +135,61 @@ fn start_carry_tangent(set: &ProjectionSet, carry: &Tensor, dprev: &Tensor) -> T
     d
 }
 
-/// Every row's Jacobian (`n_out × n_in`, row-major, rows after one another) at the gathered
-/// `inputs`, from the row function's vector–Jacobian products.
-fn row_jacobians(set: &ProjectionSet, inputs: &[f64]) -> Vec<f64> {
-    let f = set.projection.as_ref();
-    let (n_in, n_out) = (f.n_in(), f.n_out());
-    let rows = inputs.len() / n_in.max(1);
-    let mut jac = vec![0.0; rows * n_out * n_in];
-    let (mut seed, mut adj) = (vec![0.0; rows * n_out], vec![0.0; rows * n_in]);
-    for o in 0..n_out {
-        seed.iter_mut()
-            .enumerate()
-            .for_each(|(i, s)| *s = f64::from(u8::from(i % n_out == o)));
-        adj.fill(0.0);
-        f.vjp_batch(inputs, &seed, &mut adj);
-        for r in 0..rows {
-            let at = (r * n_out + o) * n_in;
-            jac[at..at + n_in].copy_from_slice(&adj[r * n_in..(r + 1) * n_in]);
+/// The unit seeds of [`Seeds::row_jacobians`], kept between sets: one state adjoint (`N × 3`)
+/// per output, zero but for the rows of the set being pulled back.
+#[derive(Default)]
+struct Seeds {
+    states: Vec<Tensor>,
+}
+
+impl Seeds {
+    /// Every row's Jacobian (`n_out × n_in`, row-major, rows after one another) at the gathered
+    /// `inputs` of `set` (a state of `n` particles): row `o` of each is the pull-back of the unit
+    /// seed on output `o`, all outputs in one multi-seed pass.
+    fn row_jacobians(&mut self, set: &ProjectionSet, inputs: &[f64], n: usize) -> Vec<f64> {
+        let f = set.projection.as_ref();
+        let (n_in, n_out) = (f.n_in(), f.n_out());
+        let positions = 3 * set.index.arity();
+        let rows = set.index.rows();
+        if self.states.len() < n_out || self.states.first().is_some_and(|t| t.rows() != n) {
+            self.states = (0..n_out).map(|_| Tensor::zeros(n, 3)).collect();
         }
+        let states = &mut self.states[..n_out];
+        let mut carries: Vec<Tensor> = (0..n_out)
+            .map(|_| Tensor::zeros(rows, n_in - positions))
+            .collect();
+        for r in 0..rows {
+            let particles = set.index.row(r);
+            for (o, (state, carry)) in states.iter_mut().zip(&mut carries).enumerate() {
+                if o < positions {
+                    state.row_mut(particles[o / 3])[o % 3] = 1.0;
+                } else {
+                    carry.row_mut(r)[o - positions] = 1.0;
+                }
+            }
+        }
+        f.vjp_update_batch_seeds(&set.index, inputs, states, &mut carries);
+        let mut jac = vec![0.0; rows * n_out * n_in];
+        for r in 0..rows {
+            let particles = set.index.row(r);
+            for (o, (state, carry)) in states.iter().zip(&carries).enumerate() {
+                let at = (r * n_out + o) * n_in;
+                for (i, &q) in particles.iter().enumerate() {
+                    jac[at + 3 * i..at + 3 * i + 3].copy_from_slice(state.row(q));
+                }
+                jac[at + positions..at + n_in].copy_from_slice(carry.row(r));
+            }
+        }
+        // Zero the rows used, for the next set.
+        for state in states.iter_mut() {
+            for r in 0..rows {
+                for &q in set.index.row(r) {
+                    state.row_mut(q).fill(0.0);
+                }
+            }
+        }
+        jac
     }
-    jac
 }
 
 /// Pushes one parameter's tangent (`dx`, `dcarry`) through a set's rows: `J ṫ` plus the
