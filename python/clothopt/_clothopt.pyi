@@ -149,6 +149,9 @@ class Plan:
 class Fit:
     """A material fit's result (the record `clothopt fit --out` writes) and the fitted scene."""
 
+    def summary(self, timing: bool = True) -> str:
+        """The text `clothopt fit` prints (timing=False leaves out the wall time)."""
+
     @property
     def status(self) -> str:
         """"converged", "stalled" or "iteration_limit"."""

@@ -234,6 +234,13 @@ impl Fit {
 
 #[pymethods]
 impl Fit {
+    /// The summary `clothopt fit` prints: status and counts, a line per parameter, the tracking
+    /// error (`timing=False` leaves out the wall time).
+    #[pyo3(signature = (timing = true))]
+    fn summary(&self, timing: bool) -> String {
+        self.result.summary(timing)
+    }
+
     /// How the fit ended: "converged", "stalled" or "iteration_limit".
     #[getter]
     fn status(&self) -> PyResult<String> {

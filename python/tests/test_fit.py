@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -110,6 +111,8 @@ def test_fit_equals_cli(cli, off, observed, fitted, tmp_path):
     done = run_cli(cli, "fit", str(scene_file), "--observed", str(obs_file), "--params",
                    ",".join(PARAMS), "--out", str(out), "--scene-out", str(scene_out))
     assert "converged" in done.stdout
+    # The printed summary, its wall time aside.
+    assert re.sub(r", [0-9.]+ s\)", ")", done.stdout, count=1) == fitted.summary(timing=False)
     expected = json.loads(out.read_text())
     assert expected.pop("wall_s") >= 0  # the one field that differs from run to run
     # The same inputs as paths and a comma-separated string, as the CLI takes them.

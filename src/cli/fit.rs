@@ -3,7 +3,7 @@
 use super::common::{load_scene, PhysicsArgs};
 use anyhow::Result;
 use cloth::{ConstraintRegistry, Model, Parameter};
-use clothopt::fit::{fit, FitOptions, FitResult, FitStatus, Observations};
+use clothopt::fit::{fit, FitOptions, FitStatus, Observations};
 use clothopt::output::{write_atomic, write_json_atomic};
 use std::path::PathBuf;
 
@@ -59,7 +59,7 @@ pub fn run(args: FitArgs) -> Result<i32> {
         &params,
         &options,
     )?;
-    print!("{}", summary(&result));
+    print!("{}", result.summary(true));
     if let Some(out) = &args.out {
         write_json_atomic(out, &result)?;
     }
@@ -72,55 +72,4 @@ pub fn run(args: FitArgs) -> Result<i32> {
     } else {
         3
     })
-}
-
-/// The fit as text: a line per parameter, the errors, the residual per step.
-pub fn summary(r: &FitResult) -> String {
-    let mut s = format!(
-        "fit {}: {} after {} iterations ({} simulations, {:.1} s); {} tracked points, noise {:.3e} ({})\n",
-        r.scene,
-        match r.status {
-            FitStatus::Converged => "converged",
-            FitStatus::Stalled => "stalled (no damped step lowered the error)",
-            FitStatus::IterationLimit => "stopped at the iteration limit",
-        },
-        r.iterations,
-        r.simulations,
-        r.wall_s,
-        r.points,
-        r.noise.value,
-        r.noise.source
-    );
-    s += &format!(
-        "{:>12} {:>12} {:>12} {:>12} {:>9}  note\n",
-        "parameter", "start", "fitted", "std error", "relative"
-    );
-    for (name, p) in &r.parameters {
-        let (se, rel) = match (p.std_error, p.relative_std_error) {
-            (Some(a), Some(b)) => (format!("{a:.4e}"), format!("{:.2}%", 100.0 * b)),
-            _ => ("—".into(), "—".into()),
-        };
-        let mut note = Vec::new();
-        if !p.identifiable {
-            note.push("NOT identifiable from these observations");
-        }
-        if p.at_bound {
-            note.push("at its bound");
-        }
-        s += &format!(
-            "{name:>12} {:>12.5e} {:>12.5e} {se:>12} {rel:>9}  {}\n",
-            p.start,
-            p.value,
-            note.join("; ")
-        );
-    }
-    s += &format!(
-        "tracking error: RMS {:.4e} at the start → {:.4e} fitted (largest {:.4e})\n",
-        r.rms_error_start, r.rms_error, r.max_error
-    );
-    let steps: Vec<String> = (r.residual_per_step.iter().enumerate())
-        .filter_map(|(t, e)| e.map(|e| format!("{t}: {e:.2e}")))
-        .collect();
-    s += &format!("RMS per step  {}\n", steps.join("  "));
-    s
 }

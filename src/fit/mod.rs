@@ -10,6 +10,7 @@
 
 pub mod estimate;
 pub mod observations;
+mod summary;
 pub mod synthetic;
 
 use crate::{Error, Result};
