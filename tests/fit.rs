@@ -227,14 +227,27 @@ fn bad_observation_files_name_the_field() {
         "points[0].barycentric",
         "sum to 1",
     );
-    // NaN is not JSON: the parser names the line and column.
+    // NaN and Infinity are not JSON (Python's `json` writes them): named by field all the same.
+    for token in ["NaN", "Infinity", "-Infinity"] {
+        let text =
+            file.to_string()
+                .replacen("\"position\":[", &format!("\"position\":[{token},"), 1);
+        let err = Observations::parse(&text, &s, &model)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            err, "observations: points[0].position[0]: not a finite number (NaN or Infinity)",
+            "{token}"
+        );
+    }
+    // A string holding the word is a string.
     let text = file
         .to_string()
-        .replacen("\"position\":[", "\"position\":[NaN,", 1);
+        .replacen("\"step\":", "\"note\":\"NaN\",\"step\":", 1);
     let err = Observations::parse(&text, &s, &model)
         .unwrap_err()
         .to_string();
-    assert!(err.contains("line 1 column"), "{err}");
+    assert!(err.contains("unknown field `note`"), "{err}");
 }
 
 /// `clothopt fit` writes the fit and the fitted scene; a bad observation file exits 1 naming the

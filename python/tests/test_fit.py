@@ -149,7 +149,9 @@ def with_edit(observed: dict, edit) -> dict:
         (lambda d: d["controls"].pop(), r"^observations: controls: .*expected 10 steps"),
         (lambda d: d.update(noise=-1.0), r"^observations: noise: .*> 0"),
         (lambda d: d.update(points=[]), r"^observations: points: no tracked points"),
-        (lambda d: d.update(extra=1), r"^observations: \(file\): unknown field `extra`"),
+        (lambda d: d.update(extra=1), r"^observations: extra: unknown field `extra`"),
+        (lambda d: d["points"][3]["position"].__setitem__(1, float("nan")),
+         r"^observations: points\[3\]\.position\[1\]: not a finite number"),
     ],
 )
 def test_bad_observation_names_the_field(observed, edit, pattern):

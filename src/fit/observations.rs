@@ -91,7 +91,18 @@ impl Observations {
     /// wrong shape, a particle or triangle not on the cloth, a step outside `1..=T`, weights that
     /// do not sum to 1, a non-finite or negative value, no points.
     pub fn parse(text: &str, scene: &Scene, model: &Model) -> Result<Observations> {
-        let file: File = serde_json::from_str(text).map_err(|e| bad("(file)", e.to_string()))?;
+        let (text, non_finite) = non_finite_as_null(text);
+        let de = &mut serde_json::Deserializer::from_str(&text);
+        let file: File = serde_path_to_error::deserialize(de).map_err(|e| {
+            let field = e.path().to_string();
+            let field = if field == "." { "(file)".to_string() } else { field };
+            let reason = e.inner().to_string();
+            if non_finite && reason.starts_with("invalid type: null") {
+                bad(field, "not a finite number (NaN or Infinity)".into())
+            } else {
+                bad(field, reason)
+            }
+        })?;
         let controls = controls_from_nested(model, &file.controls)
             .map_err(|e| bad("controls", e.to_string()))?;
         if file.points.is_empty() {
@@ -121,6 +132,33 @@ impl Observations {
             other => other,
         })
     }
+}
+
+/// `text` with the bare tokens `NaN`, `Infinity` and `-Infinity` (which JSON does not have, but
+/// Python's `json` writes) outside strings replaced by `null`, so that the parser reaches them and
+/// names their field; whether there were any.
+fn non_finite_as_null(text: &str) -> (String, bool) {
+    let mut out = String::with_capacity(text.len());
+    let (mut in_string, mut escaped, mut found) = (false, false, false);
+    let mut rest = text;
+    while let Some(c) = rest.chars().next() {
+        if in_string {
+            (escaped, in_string) = (!escaped && c == '\\', escaped || c != '"');
+        } else if c == '"' {
+            in_string = true;
+        } else if let Some(token) = ["NaN", "Infinity", "-Infinity"]
+            .into_iter()
+            .find(|t| rest.starts_with(t))
+        {
+            out.push_str("null");
+            rest = &rest[token.len()..];
+            found = true;
+            continue;
+        }
+        out.push(c);
+        rest = &rest[c.len_utf8()..];
+    }
+    (out, found)
 }
 
 fn bad(field: impl Into<String>, reason: String) -> Error {
