@@ -95,7 +95,11 @@ impl Observations {
         let de = &mut serde_json::Deserializer::from_str(&text);
         let file: File = serde_path_to_error::deserialize(de).map_err(|e| {
             let field = e.path().to_string();
-            let field = if field == "." { "(file)".to_string() } else { field };
+            let field = if field == "." {
+                "(file)".to_string()
+            } else {
+                field
+            };
             let reason = e.inner().to_string();
             if non_finite && reason.starts_with("invalid type: null") {
                 bad(field, "not a finite number (NaN or Infinity)".into())
