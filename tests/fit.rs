@@ -341,3 +341,51 @@ fn the_shipped_recording_fits_to_the_towel_it_was_made_from() {
         );
     }
 }
+
+/// Beside rigid colliders Newton's self-contact barrier stiffness follows the mass and gravity
+/// and the scene cannot hold it fixed: fitting either is refused, naming why; stretch is fitted.
+#[test]
+fn mass_is_not_fitted_where_the_self_contact_barrier_follows_it() {
+    let mut s = scene("fold");
+    if let cloth::scene::Obstacle::Box(b) = &mut s.obstacles[0] {
+        b.friction = None;
+    }
+    s.physics.solver = Some(cloth::scene::SolverKind::Newton);
+    s.physics.contact = Some(cloth::scene::ContactSpec {
+        model: cloth::scene::ContactModel::Rigid,
+        d_hat: None,
+        stiffness: None,
+        friction_epsilon: None,
+    });
+    s.physics.self_collision = Some(cloth::scene::SelfCollisionSpec {
+        thickness: 0.004,
+        edge_edge: false,
+    });
+    s.validate().unwrap();
+    let model = Model::from_scene(&s).unwrap();
+    assert!(model.self_barrier.is_some() && model.contact_barrier.is_none());
+    let u = motion(&model, "fold");
+    let sampling = Sampling {
+        points: 10,
+        every: 5,
+        noise: 0.0,
+        seed: 0,
+    };
+    let (observed, _) = synthetic(&model, &u, &sampling).unwrap();
+    let fit_params = |names: &[&str]| {
+        let params: Vec<Parameter> = names.iter().map(|p| Parameter::parse(p)).collect();
+        fit(
+            &s,
+            &ConstraintRegistry::new(),
+            &observed,
+            &params,
+            &FitOptions::default(),
+        )
+    };
+    let err = fit_params(&["stretch", "mass"]).unwrap_err().to_string();
+    assert!(err.contains("cannot fit `mass`"), "{err}");
+    assert_eq!(
+        fit_params(&["stretch"]).unwrap().status,
+        FitStatus::Converged
+    );
+}

@@ -166,14 +166,19 @@ impl Parameter {
     }
 
     /// Writes the compiled barrier's `d̂` and stiffness `κ` of `model` (compiled from `scene`;
-    /// smooth contact's, or else self-contact's under Newton) into `scene`'s `physics.contact`,
-    /// so that scaling the mass or gravity leaves them where they are. Nothing without a barrier;
-    /// values the scene sets itself stay.
-    pub fn pin_contact(scene: &mut Scene, model: &Model) {
+    /// smooth contact's, or else self-contact's under Newton without colliders) into `scene`'s
+    /// `physics.contact`, so that scaling the mass or gravity leaves them where they are; returns
+    /// whether the barrier's stiffness is now the scene's own. Nothing without a barrier (true);
+    /// values the scene sets itself stay. False for self-contact beside rigid colliders, whose
+    /// scene cannot hold the barrier's settings: its `κ` follows the mass and gravity.
+    pub fn pin_contact(scene: &mut Scene, model: &Model) -> bool {
         let barrier = match (&model.contact_barrier, &model.self_barrier) {
             (Some(b), _) => b.barrier,
-            (None, Some(b)) => b.barrier,
-            (None, None) => return,
+            // Self-contact alone: the smooth model's settings carry its barrier too, but turning
+            // a scene's rigid colliders smooth would change its physics.
+            (None, Some(b)) if model.colliders.is_empty() => b.barrier,
+            (None, None) => return true,
+            (None, Some(_)) => return false,
         };
         let spec = scene.physics.contact.get_or_insert(ContactSpec {
             model: ContactModel::Smooth,
@@ -184,6 +189,7 @@ impl Parameter {
         spec.model = ContactModel::Smooth;
         spec.d_hat.get_or_insert(barrier.d_hat);
         spec.stiffness.get_or_insert(barrier.kappa);
+        true
     }
 }
 

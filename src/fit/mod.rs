@@ -215,7 +215,19 @@ pub fn fit(
     }
     let mut scene = scene.clone();
     let base = Model::from_scene_with(&scene, registry)?;
-    Parameter::pin_contact(&mut scene, &base);
+    let pinned = Parameter::pin_contact(&mut scene, &base);
+    if let Some(p) =
+        (params.iter()).find(|p| !pinned && matches!(p, Parameter::Mass | Parameter::Gravity))
+    {
+        return Err(Error::InvalidSetting {
+            name: "params".into(),
+            requirement: format!(
+                "cannot fit `{p}` here: beside rigid colliders, Newton's self-contact barrier \
+                 stiffness follows the mass and gravity (m·|g|/d̂) and the scene cannot hold it \
+                 fixed; use physics.contact.model \"smooth\""
+            ),
+        });
+    }
     let starts = params
         .iter()
         .map(|p| p.value(&scene))
