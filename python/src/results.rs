@@ -3,7 +3,6 @@
 
 use crate::arrays::{controls_out, nested_out, states_out};
 use crate::errors::to_py;
-use crate::scene::Scene;
 use clothopt::fit::{FitResult, FitStatus};
 use clothopt::result::PlanResult;
 use numpy::PyArray3;
@@ -216,19 +215,19 @@ impl Plan {
 #[pyclass(module = "clothopt", frozen)]
 pub struct Fit {
     result: FitResult,
-    /// The scene with the fitted values (and its contact barrier pinned), compiled.
+    /// The scene with the fitted values (and its contact barrier pinned), compiled: a `Scene`
+    /// the caller (`Scene.fit`) makes, so that this module names no module above it.
     #[pyo3(get)]
-    fitted_scene: Py<Scene>,
+    fitted_scene: Py<PyAny>,
 }
 
 impl Fit {
-    /// Wraps a fit's result, compiling its fitted scene.
-    pub fn new(py: Python<'_>, result: FitResult) -> PyResult<Self> {
-        let fitted_scene = Py::new(py, Scene::new(result.fitted_scene.clone())?)?;
-        Ok(Fit {
+    /// Wraps a fit's result with its fitted scene as a Python `Scene`.
+    pub fn new(result: FitResult, fitted_scene: Py<PyAny>) -> Self {
+        Fit {
             result,
             fitted_scene,
-        })
+        }
     }
 }
 

@@ -33,7 +33,7 @@ pub struct Scene {
 
 impl Scene {
     /// A scene, compiled.
-    pub(crate) fn new(scene: cloth::Scene) -> PyResult<Self> {
+    fn new(scene: cloth::Scene) -> PyResult<Self> {
         let model = Model::from_scene(&scene).map_err(|e| to_py(e.into()))?;
         Ok(Scene { scene, model })
     }
@@ -537,7 +537,8 @@ impl Scene {
             let registry = ConstraintRegistry::new();
             fit(&self.scene, &registry, &observed, &params, &options).map_err(to_py)
         })?;
-        Fit::new(py, result)
+        let fitted = Py::new(py, Scene::new(result.fitted_scene.clone())?)?;
+        Ok(Fit::new(result, fitted.into_any()))
     }
 
     fn __repr__(&self) -> String {

@@ -65,7 +65,7 @@ pub struct Pattern {
     constant: Vec<f64>,
     /// Smooth contact: the barrier potential of every free particle, and the value indices of
     /// each particle's diagonal block (lower triangle, row-major; [`NONE`] above the diagonal).
-    barrier: Option<(Arc<ColliderBarrier>, Vec<[u32; 9]>)>,
+    pub(super) barrier: Option<(Arc<ColliderBarrier>, Vec<[u32; 9]>)>,
     /// Smooth contact with friction: the step's start (full `N × 3` data) and each particle's
     /// frictional contacts there ([`Pattern::begin_step`]).
     pub(super) friction: Option<(Vec<f64>, Vec<Vec<LaggedContact>>)>,
@@ -414,44 +414,6 @@ impl Pattern {
             })
             .collect();
         self.friction = Some((y.to_vec(), lagged));
-    }
-
-    /// `y −= D_xyᵀ z` on the free particles' rows of full `N × 3` data: the friction potential's
-    /// coupling of the state to the step's start ([`ColliderBarrier::friction_cross`]), at `x`,
-    /// for the implicit gradient (`z` in degree-of-freedom order). Nothing without friction.
-    pub fn sub_start_coupling(&self, x: &[f64], z: &[f64], y: &mut [f64]) {
-        self.for_each_start_coupling(x, |p, d, cross| {
-            for b in 0..3 {
-                y[3 * p + b] -= (0..3).map(|a| cross[3 * a + b] * z[d + a]).sum::<f64>();
-            }
-        });
-    }
-
-    /// `rhs −= D_xy ẏ` (`rhs` in degree-of-freedom order, `ẏ` full `N × 3` data): the same
-    /// coupling forward, for sensitivities ([`super::sensitivity`]). Nothing without friction.
-    pub fn sub_start_coupling_forward(&self, x: &[f64], dy: &[f64], rhs: &mut [f64]) {
-        self.for_each_start_coupling(x, |p, d, cross| {
-            for a in 0..3 {
-                rhs[d + a] -= (0..3)
-                    .map(|b| cross[3 * a + b] * dy[3 * p + b])
-                    .sum::<f64>();
-            }
-        });
-    }
-
-    /// Calls `f(particle, its degree of freedom, ∂(∇ₓD)/∂y)` for every free particle with
-    /// frictional contacts at the step's start, at `x`.
-    fn for_each_start_coupling(&self, x: &[f64], mut f: impl FnMut(usize, usize, &[f64; 9])) {
-        let (Some((b, _)), Some((start, lagged))) = (&self.barrier, &self.friction) else {
-            return;
-        };
-        for (p, contacts) in lagged.iter().enumerate() {
-            let Some(d) = self.dof(p).filter(|_| !contacts.is_empty()) else {
-                continue;
-            };
-            let r = 3 * p..3 * p + 3;
-            f(p, d, &b.friction_cross(&x[r.clone()], &start[r]));
-        }
     }
 
     /// `∇Φ(x)` into `grad` (degree-of-freedom order) and, with `values`, the Hessian of `kind`

@@ -20,6 +20,7 @@
 //! - [`curvature`]: leaving a saddle of `Φ` along the exact Hessian's unstable mode;
 //! - [`residual`]: how far any solver's states are from equilibrium, on Newton's scale;
 //! - `sensitivity`: how the converged states move with the physical parameters (forward);
+//! - `start_coupling`: smooth friction's coupling of a step's state to its start;
 //! - [`implicit`]: adjoints through `∂x_t/∂(x_{t−1}, u_t)`, one factorization per step for every
 //!   cost (the forward's own, where it was kept).
 //!
@@ -43,6 +44,7 @@ pub mod residual;
 mod self_contact;
 mod sensitivity;
 pub mod settings;
+mod start_coupling;
 pub mod solve;
 pub mod stats;
 pub mod terms;
