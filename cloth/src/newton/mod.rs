@@ -44,8 +44,8 @@ pub mod residual;
 mod self_contact;
 mod sensitivity;
 pub mod settings;
-mod start_coupling;
 pub mod solve;
+mod start_coupling;
 pub mod stats;
 pub mod terms;
 
