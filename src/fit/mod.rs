@@ -257,7 +257,7 @@ pub fn fit(
     let mut jac = problem.jacobian(&current)?;
     let (mut simulations, mut iterations) = (1, 0);
     let mut lambda = 1e-3;
-    let extent = cloth_extent(&base.start);
+    let extent = problem.scene.longest_side();
     let status = loop {
         let (a, g) = estimate::normal_equations(&jac, &current.residual, np);
         let cost = current.cost();
@@ -403,17 +403,4 @@ fn per_step(points: &[TrackedPoint], states: &[Tensor]) -> (f64, Vec<Option<f64>
         })
         .collect();
     (max, steps)
-}
-
-/// The largest side of the box around the state's points.
-fn cloth_extent(x: &Tensor) -> f64 {
-    (0..3)
-        .map(|k| {
-            let col = x.data().iter().skip(k).step_by(3);
-            let (lo, hi) = col.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                (l.min(v), h.max(v))
-            });
-            hi - lo
-        })
-        .fold(0.0, f64::max)
 }

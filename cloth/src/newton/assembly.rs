@@ -654,7 +654,8 @@ impl Pattern {
 }
 
 /// Copies the coordinates of `particles` from full data `x` into `local`; returns their count.
-fn gather_local(particles: &[usize], x: &[f64], local: &mut [f64; MAX_DOF]) -> usize {
+/// Copies the coordinates of `particles` in `x` (full data) into `local`; their count.
+pub(super) fn gather_local(particles: &[usize], x: &[f64], local: &mut [f64; MAX_DOF]) -> usize {
     for (i, &p) in particles.iter().enumerate() {
         local[3 * i..3 * i + 3].copy_from_slice(&x[3 * p..3 * p + 3]);
     }

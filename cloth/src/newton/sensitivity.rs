@@ -15,6 +15,7 @@
 //! factorization per step serves every parameter. Forward mode suits a fit: a few parameters,
 //! many observed coordinates.
 
+use super::assembly::gather_local;
 use super::solve::NewtonSystem;
 use crate::controls::Controls;
 use crate::error::ClothError;
@@ -98,10 +99,7 @@ impl Model {
                     let s = 1.0 / terms.compliance();
                     for k in 0..terms.count() {
                         let ps = terms.particles(k);
-                        for (i, &q) in ps.iter().enumerate() {
-                            local[3 * i..3 * i + 3].copy_from_slice(&x[3 * q..3 * q + 3]);
-                        }
-                        let d = 3 * ps.len();
+                        let d = gather_local(ps, x, &mut local);
                         let c = terms.first_order(k, &local[..d], &mut g[..d]);
                         if terms.inequality() && c >= 0.0 {
                             continue;
