@@ -534,6 +534,7 @@ impl Scene {
                     load_halvings: physics.load_halvings.unwrap_or(halvings),
                     linear_solver: physics.linear_solver.setting(),
                     shift_stalled: physics.shift_stalled.unwrap_or(d.shift_stalled),
+                    predictor: physics.predictor.unwrap_or(d.predictor),
                     ..d
                 })
             }

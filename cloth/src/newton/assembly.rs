@@ -569,6 +569,13 @@ impl Pattern {
     /// `y −= H_cf z`: the exact Hessian's coupling of control-particle coordinates (rows of `y`,
     /// `N × 3` data) to the free ones (`z`, degree-of-freedom order), at state `x`.
     pub fn sub_control_coupling(&self, x: &[f64], z: &[f64], y: &mut [f64]) {
+        self.control_coupling(x, |c, f, h| y[c] -= h * z[f]);
+    }
+
+    /// Visits the exact Hessian's coupling of the control particles to the free ones at state
+    /// `x`: `visit(c, f, h)` for an entry `h` in control coordinate `c` (an index into `N × 3`
+    /// data) and degree of freedom `f`; an entry may come in several parts, to be summed.
+    pub(super) fn control_coupling(&self, x: &[f64], mut visit: impl FnMut(usize, usize, f64)) {
         let (mut local, mut g, mut h) = ([0.0; MAX_DOF], [0.0; MAX_DOF], [0.0; MAX_DOF * MAX_DOF]);
         for gp in &self.groups {
             let terms = gp.terms.as_ref();
@@ -590,13 +597,13 @@ impl Pattern {
                     }
                     for b in 0..d {
                         if let Some(db) = self.dof(ps[b / 3]) {
-                            y[3 * ps[a / 3] + a % 3] -= h[a * d + b] * z[db + b % 3];
+                            visit(3 * ps[a / 3] + a % 3, db + b % 3, h[a * d + b]);
                         }
                     }
                 }
             }
         }
-        self.sub_self_control_coupling(x, z, y);
+        self.self_control_coupling(x, &mut visit);
     }
 
     /// The largest step length in `[0, 1]` along `dir` (degree-of-freedom order) from `x` that

@@ -39,6 +39,7 @@ pub mod factor;
 pub mod implicit;
 pub mod ordering;
 pub mod pcg;
+mod predictor;
 pub mod psd;
 pub mod residual;
 mod self_contact;

@@ -114,8 +114,9 @@ impl NewtonSystem {
     /// the predicted state `xt`. The control particles are not put at their new places at once
     /// (a gripper's move could bring the cloth it holds within the thickness of another part):
     /// they move there in stages, each as far as the step filter allows with the cloth where
-    /// the last stage's solve left it, and each stage is solved, so that the cloth makes way.
-    /// The last stage is the step's `Φ`, solved from there; the statistics sum the stages
+    /// the last stage's solve left it (or, with [`NewtonSettings::predictor`], moved with them
+    /// by its first-order response, `super::predictor`), and each stage is solved, so that the
+    /// cloth makes way. The last stage is the step's `Φ`, solved from there; the statistics sum the stages
     /// ([`StepStats::loads`] counts them).
     ///
     /// # Errors
@@ -131,17 +132,18 @@ impl NewtonSystem {
         let mut stats = StepStats::default();
         let mut x = x_prev.clone();
         for _ in 0..MAX_CONTROL_STAGES {
-            // The control particles' remaining move.
-            let mut delta = vec![0.0; x.data().len()];
-            for p in (0..delta.len() / 3).filter(|&p| self.pattern.dof(p).is_none()) {
-                for k in 0..3 {
-                    delta[3 * p + k] = xt.data()[3 * p + k] - x.data()[3 * p + k];
-                }
-            }
-            let before = self.pattern.self_counts();
-            let (alpha, _) = self.pattern.self_filter(x.data(), &delta);
+            let delta = self.pattern.control_move(&x, xt);
+            let before = (self.pattern.self_counts(), self.factor.counts());
+            let (mut alpha, _) = self.pattern.self_filter(x.data(), &delta);
             stats.step_filters += 1;
-            (self.pattern.self_counts()).add_since(before, &mut stats);
+            let mut start = x.clone();
+            if settings.predictor && alpha < 1.0 {
+                (alpha, start) = self.predicted_start(&x, xt, &delta, alpha);
+                let f = self.factor.counts().since(before.1);
+                stats.factorizations += f.factorized;
+                stats.failed_factorizations += f.failed;
+            }
+            (self.pattern.self_counts()).add_since(before.0, &mut stats);
             let mut target = xt.clone();
             if alpha < 1.0 {
                 let (t, d) = (target.data_mut(), x.data());
@@ -149,7 +151,7 @@ impl NewtonSystem {
                     t[i] = d[i] + alpha * m;
                 }
             }
-            let (xj, sj) = self.solve_from(&x, &target, step, settings)?;
+            let (xj, sj) = self.solve_from(&start, &target, step, settings)?;
             stats.add_work(&sj);
             stats.loads += 1;
             stats.residual = sj.residual;
@@ -209,6 +211,26 @@ impl Pattern {
         };
         let mut cache = self.self_pairs_cache.0.lock().expect("an unpoisoned cache");
         b.max_step_listed(x, delta, 1.0, &mut cache.candidates)
+    }
+
+    /// The largest step length in `[0, 1]` along the motion `delta` of every particle (`N × 3`
+    /// data) from `x` that both barriers allow: self-contact's filter on every particle, the
+    /// colliders' on the free ones.
+    pub(super) fn max_move(&self, x: &[f64], delta: &[f64]) -> f64 {
+        let (alpha, _) = self.self_filter(x, delta);
+        let Some((barrier, _)) = &self.barrier else {
+            return alpha;
+        };
+        let moves = (0..x.len() / 3)
+            .filter(|&p| self.dof(p).is_some())
+            .map(|p| {
+                let m = &delta[3 * p..3 * p + 3];
+                (
+                    &x[3 * p..3 * p + 3],
+                    [alpha * m[0], alpha * m[1], alpha * m[2]],
+                )
+            });
+        alpha * barrier.max_step(moves)
     }
 
     /// Self-contact's work so far (zero without self-contact).
@@ -301,9 +323,13 @@ impl Pattern {
         }
     }
 
-    /// `y −= H_cf z` for the self-contact pairs at `x` that hold a control particle (rows of `y`,
-    /// `N × 3` data) and a free one (`z`, degree-of-freedom order).
-    pub(super) fn sub_self_control_coupling(&self, x: &[f64], z: &[f64], y: &mut [f64]) {
+    /// [`Pattern::control_coupling`]'s entries from the self-contact pairs at `x` that hold a
+    /// control particle and a free one.
+    pub(super) fn self_control_coupling(
+        &self,
+        x: &[f64],
+        visit: &mut impl FnMut(usize, usize, f64),
+    ) {
         let Some(barrier) = &self.self_barrier else {
             return;
         };
@@ -318,7 +344,7 @@ impl Pattern {
             for a in (0..12).filter(|a| dofs[a / 3].is_none()) {
                 for b in 0..12 {
                     if let Some(db) = dofs[b / 3] {
-                        y[3 * pair.particles[a / 3] + a % 3] -= h[12 * a + b] * z[db + b % 3];
+                        visit(3 * pair.particles[a / 3] + a % 3, db + b % 3, h[12 * a + b]);
                     }
                 }
             }

@@ -369,6 +369,10 @@ pub struct Physics {
     /// [`crate::NewtonSettings::shift_stalled`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shift_stalled: Option<bool>,
+    /// Newton with smooth contact only: start each solve from the Newton predictor (default
+    /// true), see [`crate::NewtonSettings::predictor`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predictor: Option<bool>,
     /// Self-collision of the cloth (absent: none), see `cloth/src/contact/self_collision.rs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub self_collision: Option<SelfCollisionSpec>,
