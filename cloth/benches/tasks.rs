@@ -19,6 +19,8 @@
 //! `RAYON_NUM_THREADS=1 cargo bench -p cloth --bench tasks`. With `TASKS_ONCE=<scene>` the bench
 //! runs that scene's forward + ∇L once, prints its wall and the process's peak resident memory,
 //! and exits (for `perf record` / callgrind, and the memory of one rollout with its gradient).
+//! `TASKS_PREDICTOR=off` runs every scene without the Newton predictor (`physics.predictor`), the
+//! solver as it was before it, for a comparison in the same run.
 
 use autodiff::Tensor;
 use cloth::{Model, Scene, Solver, StepStats};
@@ -50,6 +52,9 @@ fn task(task: &str) -> (Scene, Model, Tensor) {
     };
     let mut scene = Scene::load(root().join(format!("examples/scenes/tasks/{name}.json")))
         .expect("the task scene");
+    if std::env::var("TASKS_PREDICTOR").as_deref() == Ok("off") {
+        scene.physics.predictor = Some(false);
+    }
     if let Some(n) = size {
         let before = (scene.cloth.rows * scene.cloth.cols) as f64;
         scene = scene.refined(n, n).expect("a grid scene");

@@ -184,12 +184,13 @@ impl Model {
             if system.pattern.self_barrier.is_some() {
                 return system.solve_moving_controls(x_prev, &xt, step, settings);
             }
-            let start = if system.pattern.has_barrier() {
-                x_prev
-            } else {
-                &xt
-            };
-            let (x, s) = system.solve_from(start, &xt, step, settings)?;
+            if !system.pattern.has_barrier() {
+                let (x, s) = system.solve_from(&xt, &xt, step, settings)?;
+                return Ok((x, StepStats { loads: 1, ..s }));
+            }
+            // From the Newton predictor (`super::predictor`), or else the previous state.
+            let delta = system.pattern.control_move(x_prev, &xt);
+            let (_, x, s) = system.solve_stage((x_prev, &xt), (&delta, 1.0), step, settings)?;
             return Ok((x, StepStats { loads: 1, ..s }));
         }
         // The path of predicted states x̂(s) = (1 − s) x̂₀ + s x̃, with x̂₀ = x_prev + M⁻¹∇E(x_prev):

@@ -133,25 +133,11 @@ impl NewtonSystem {
         let mut x = x_prev.clone();
         for _ in 0..MAX_CONTROL_STAGES {
             let delta = self.pattern.control_move(&x, xt);
-            let before = (self.pattern.self_counts(), self.factor.counts());
-            let (mut alpha, _) = self.pattern.self_filter(x.data(), &delta);
+            let before = self.pattern.self_counts();
+            let (alpha, _) = self.pattern.self_filter(x.data(), &delta);
             stats.step_filters += 1;
-            let mut start = x.clone();
-            if settings.predictor && alpha < 1.0 {
-                (alpha, start) = self.predicted_start(&x, xt, &delta, alpha);
-                let f = self.factor.counts().since(before.1);
-                stats.factorizations += f.factorized;
-                stats.failed_factorizations += f.failed;
-            }
-            (self.pattern.self_counts()).add_since(before.0, &mut stats);
-            let mut target = xt.clone();
-            if alpha < 1.0 {
-                let (t, d) = (target.data_mut(), x.data());
-                for (i, m) in delta.iter().enumerate().filter(|(_, m)| **m != 0.0) {
-                    t[i] = d[i] + alpha * m;
-                }
-            }
-            let (xj, sj) = self.solve_from(&start, &target, step, settings)?;
+            (self.pattern.self_counts()).add_since(before, &mut stats);
+            let (alpha, xj, sj) = self.solve_stage((&x, xt), (&delta, alpha), step, settings)?;
             stats.add_work(&sj);
             stats.loads += 1;
             stats.residual = sj.residual;
