@@ -132,6 +132,9 @@ impl Reporter {
             }
             "cheap" => format!("cheap stage, {route} in parallel"),
             "polished" => format!("polishing, route: {route}"),
+            "continued" => {
+                format!("no time for the cheap stage; the best plan goes on, route: {route}")
+            }
             other => format!("{other} stage, route: {route}"),
         };
         self.bar

@@ -28,6 +28,10 @@
 //!    same ranking (the first plan included), so a search that finds nothing better costs one
 //!    cheap stage.
 //!    A polished plan that becomes the best gets its own goal stage.
+//!    Under a deadline, where the cheap stage could not finish in the time left (its candidates
+//!    at the best plan's wall time per iteration), the best plan, if only its share of the time
+//!    stopped it, is planned on from where it stopped instead (stage `continued`): a search that
+//!    cannot finish keeps no candidate better than its first few iterations.
 //! 6. Keep the best of every stage by the same ranking.
 //!
 //! The search lives in the root package: `optim` stays problem-agnostic.
@@ -52,7 +56,7 @@ use std::time::Instant;
 pub enum Progress<'a> {
     /// A stage after the first plan begins.
     Stage {
-        /// `"goal"`, `"cheap"` or `"polished"`, as in [`CandidateReport::stage`].
+        /// `"goal"`, `"cheap"`, `"polished"` or `"continued"`, as in [`CandidateReport::stage`].
         stage: &'a str,
         /// The route it starts from; for the cheap stage, which runs every candidate in
         /// parallel and reports no iterations, how many candidates.
@@ -431,6 +435,64 @@ fn route_stages(
     Ok(kept)
 }
 
+/// Whether the cheap stage over `candidates` routes would finish before `deadline`, at `best`'s
+/// wall time per iteration (its whole wall where it took none): [`cheap_stage_seconds`].
+fn cheap_stage_fits(
+    best: &PlanResult,
+    search: &SearchOptions,
+    candidates: usize,
+    deadline: Instant,
+) -> bool {
+    let per_iteration = best.wall_s / best.iterations.max(1) as f64;
+    let needed = cheap_stage_seconds(
+        per_iteration,
+        search.cheap_iterations,
+        candidates,
+        rayon::current_num_threads(),
+    );
+    needed
+        <= deadline
+            .saturating_duration_since(Instant::now())
+            .as_secs_f64()
+}
+
+/// The wall time of a cheap stage: `candidates` plans of `iterations` at `per_iteration`
+/// seconds each, `threads` at once.
+fn cheap_stage_seconds(
+    per_iteration: f64,
+    iterations: usize,
+    candidates: usize,
+    threads: usize,
+) -> f64 {
+    let rounds = candidates.div_ceil(threads.max(1));
+    per_iteration * (iterations * rounds) as f64
+}
+
+/// Plans again from the best plan so far (of `route`), from where it stopped and from its
+/// quasi-Newton Hessian, until `options`' deadline: the stage that replaces the route stages
+/// where those could not finish (stage `continued`).
+fn continue_plan(
+    model: &Model,
+    scene: &Scene,
+    options: &PlanOptions,
+    route: &str,
+    progress: &mut impl FnMut(Progress<'_>),
+    (best, best_report, reports): Tally<'_>,
+) -> crate::Result<()> {
+    let start = controls_from_nested(model, &best.controls)?;
+    let mut more = options.clone();
+    more.initial_hessian = best.hessian.clone();
+    progress(Progress::Stage {
+        stage: "continued",
+        route,
+    });
+    let result = plan(model, scene, &start, &more, |i| {
+        progress(Progress::Iteration(i))
+    })?;
+    tally(route, "continued", result, (best, best_report, reports));
+    Ok(())
+}
+
 /// Plans `model`'s task from `start`, searching other routes as `search` says (module docs).
 /// `progress` sees the iterations of the sequential stages (the first plan, the goal stages and
 /// the polish) and the start of every stage after the first plan.
@@ -515,15 +577,35 @@ pub fn plan_with_search(
             );
             candidates.truncate(search.max_candidates);
         }
-        let polished_best = route_stages(
-            model,
-            scene,
-            options,
-            search,
-            &candidates,
-            &mut progress,
-            (&mut best, &mut best_report, &mut reports),
-        )?;
+        // Where the cheap stage could not finish in the time left, its candidates would end
+        // after a few iterations each: the best plan, stopped only by its share of the time,
+        // goes on instead.
+        let go_on = options.deadline.is_some_and(|deadline| {
+            best.status == "time_limit"
+                && !cheap_stage_fits(&best, search, candidates.len(), deadline)
+        });
+        let polished_best = if go_on {
+            let route = reports[best_report].route.clone();
+            continue_plan(
+                model,
+                scene,
+                options,
+                &route,
+                &mut progress,
+                (&mut best, &mut best_report, &mut reports),
+            )?;
+            None
+        } else {
+            route_stages(
+                model,
+                scene,
+                options,
+                search,
+                &candidates,
+                &mut progress,
+                (&mut best, &mut best_report, &mut reports),
+            )?
+        };
         if let Some(route) = polished_best {
             goal_stage(
                 model,
@@ -571,6 +653,16 @@ mod tests {
         // A deadline already past stays past.
         options.deadline = Some(now);
         assert!(time_share(&options).deadline.unwrap() <= Instant::now());
+    }
+
+    #[test]
+    fn a_cheap_stage_runs_its_candidates_in_rounds_of_the_threads() {
+        // Three candidates of 30 iterations at 2 s each on two threads: two rounds.
+        assert_eq!(cheap_stage_seconds(2.0, 30, 3, 2), 120.0);
+        assert_eq!(cheap_stage_seconds(2.0, 30, 2, 2), 60.0);
+        assert_eq!(cheap_stage_seconds(2.0, 30, 0, 2), 0.0);
+        // No thread count is taken as one.
+        assert_eq!(cheap_stage_seconds(1.0, 10, 3, 0), 30.0);
     }
 
     #[test]
