@@ -40,10 +40,7 @@ fn main() -> Result<()> {
         .iter()
         .map(|name| Parameter::parse(name))
         .collect();
-    let mut guess = real.clone();
-    for (p, factor) in params.iter().zip([2.5, 0.4, 1.6]) {
-        p.scale(&mut guess, factor)?;
-    }
+    let guess = Parameter::scaled(&real, &params, [2.5, 0.4, 1.6])?;
     let registry = ConstraintRegistry::new();
     let fitted = fit(
         &guess,

@@ -65,10 +65,8 @@ fn fit_from_off(scene: &Scene, kind: &str, params: &[&str], noise: f64, seed: u6
         seed,
     };
     let (observed, _) = synthetic(&model, &u, &sampling).unwrap();
-    let mut start = scene.clone();
-    for (p, f) in params.iter().zip(OFF) {
-        Parameter::parse(p).scale(&mut start, f).unwrap();
-    }
+    let parsed: Vec<Parameter> = params.iter().map(|p| Parameter::parse(p)).collect();
+    let start = Parameter::scaled(scene, &parsed, OFF).unwrap();
     let r = fit_named(&start, &observed, params).unwrap();
     eprintln!("{kind}: {}", serde_json::to_string(&r).unwrap());
     r
@@ -163,17 +161,7 @@ fn bad_observation_files_name_the_field() {
     let s = scene("lay");
     let model = Model::from_scene(&s).unwrap();
     let u = motion(&model, "lay");
-    let (_, file) = synthetic(
-        &model,
-        &u,
-        &Sampling {
-            points: 3,
-            every: 5,
-            noise: 0.0,
-            seed: 0,
-        },
-    )
-    .unwrap();
+    let (_, file) = synthetic(&model, &u, &Sampling::exact(3, 5)).unwrap();
     let check = |edit: &dyn Fn(&mut serde_json::Value), field: &str, words: &str| {
         let mut f = file.clone();
         edit(&mut f);
@@ -267,12 +255,7 @@ fn the_cli_fits_and_writes_the_fitted_scene_and_nothing_on_bad_input() {
     let truth = scene("fold");
     let model = Model::from_scene(&truth).unwrap();
     let u = motion(&model, "fold");
-    let sampling = Sampling {
-        points: 20,
-        every: 2,
-        noise: 0.0,
-        seed: 0,
-    };
+    let sampling = Sampling::exact(20, 2);
     let (_, file) = synthetic(&model, &u, &sampling).unwrap();
     let observed = dir.join("observed.json");
     std::fs::write(&observed, file.to_string()).unwrap();
@@ -366,12 +349,7 @@ fn mass_is_not_fitted_where_the_self_contact_barrier_follows_it() {
     let model = Model::from_scene(&s).unwrap();
     assert!(model.self_barrier.is_some() && model.contact_barrier.is_none());
     let u = motion(&model, "fold");
-    let sampling = Sampling {
-        points: 10,
-        every: 5,
-        noise: 0.0,
-        seed: 0,
-    };
+    let sampling = Sampling::exact(10, 5);
     let (observed, _) = synthetic(&model, &u, &sampling).unwrap();
     let err = fit_named(&s, &observed, &["stretch", "mass"])
         .unwrap_err()

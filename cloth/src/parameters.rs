@@ -165,6 +165,23 @@ impl Parameter {
         Ok(())
     }
 
+    /// `scene` with each of `params` scaled by its factor in `factors`, in order
+    /// ([`Parameter::scale`]).
+    ///
+    /// # Errors
+    /// As [`Parameter::scale`].
+    pub fn scaled(
+        scene: &Scene,
+        params: &[Parameter],
+        factors: impl IntoIterator<Item = f64>,
+    ) -> Result<Scene, ClothError> {
+        let mut scaled = scene.clone();
+        for (p, factor) in params.iter().zip(factors) {
+            p.scale(&mut scaled, factor)?;
+        }
+        Ok(scaled)
+    }
+
     /// Writes the compiled barrier's `d̂` and stiffness `κ` of `model` (compiled from `scene`;
     /// smooth contact's, or else self-contact's under Newton without colliders) into `scene`'s
     /// `physics.contact`, so that scaling the mass or gravity leaves them where they are; returns

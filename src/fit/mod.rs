@@ -150,10 +150,7 @@ struct Problem<'a> {
 impl Problem<'_> {
     /// The rollout at log-factors `s` and its weighted residuals.
     fn trial(&self, s: &[f64]) -> Result<Trial> {
-        let mut scene = self.scene.clone();
-        for (p, &si) in self.params.iter().zip(s) {
-            p.scale(&mut scene, si.exp())?;
-        }
+        let scene = Parameter::scaled(&self.scene, &self.params, s.iter().map(|si| si.exp()))?;
         let mut model = Model::from_scene_with(&scene, self.registry)?;
         model.start = self.start.clone();
         let states = model.simulate(&self.observed.controls)?;
@@ -325,13 +322,7 @@ pub fn fit(
         }
     };
     let spread = standard_errors(&jac, np, noise_known, noise.value, extent);
-    let fitted_scene = {
-        let mut sc = problem.scene.clone();
-        for (p, &si) in params.iter().zip(&s) {
-            p.scale(&mut sc, si.exp())?;
-        }
-        sc
-    };
+    let fitted_scene = Parameter::scaled(&problem.scene, params, s.iter().map(|si| si.exp()))?;
     let parameters = (params.iter().enumerate())
         .map(|(j, p)| {
             let value = starts[j] * s[j].exp();

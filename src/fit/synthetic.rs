@@ -23,6 +23,18 @@ pub struct Sampling {
     pub seed: u64,
 }
 
+impl Sampling {
+    /// `points` particles seen every `every` steps, without noise.
+    pub fn exact(points: usize, every: usize) -> Sampling {
+        Sampling {
+            points,
+            every,
+            noise: 0.0,
+            seed: 0,
+        }
+    }
+}
+
 /// `model`'s rollout under `controls`, observed as `sampling` says: the observations and the
 /// same as an observation file's JSON.
 ///

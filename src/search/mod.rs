@@ -409,25 +409,20 @@ fn route_stages(
         if by_promise(cheap_result, best) != Ordering::Less {
             break;
         }
-        let start = controls_from_nested(model, &cheap_result.controls)?;
-        progress(Progress::Stage {
-            stage: "polished",
-            route: &candidates[i].route,
-        });
         // The polish's first stage goes on with the cheap stage's problem (the warm-up κ), so
         // it goes on with its curvature model too.
-        let mut polish = options.clone();
-        polish.initial_hessian = cheap_result.hessian.clone();
-        let polished = plan(model, scene, &start, &polish, |i| {
-            progress(Progress::Iteration(i))
-        })?;
-        let before = *best_report;
-        tally(
-            &candidates[i].route,
-            "polished",
-            polished,
-            (&mut *best, &mut *best_report, &mut *reports),
+        let from = (
+            controls_from_nested(model, &cheap_result.controls)?,
+            cheap_result.hessian.clone(),
         );
+        let before = *best_report;
+        plan_on(
+            (model, scene, options),
+            from,
+            (&candidates[i].route, "polished"),
+            progress,
+            (&mut *best, &mut *best_report, &mut *reports),
+        )?;
         if *best_report != before {
             kept = Some(candidates[i].route.clone());
         }
@@ -468,28 +463,24 @@ fn cheap_stage_seconds(
     per_iteration * (iterations * rounds) as f64
 }
 
-/// Plans again from the best plan so far (of `route`), from where it stopped and from its
-/// quasi-Newton Hessian, until `options`' deadline: the stage that replaces the route stages
-/// where those could not finish (stage `continued`).
-fn continue_plan(
-    model: &Model,
-    scene: &Scene,
-    options: &PlanOptions,
-    route: &str,
+/// Plans `options`' task again from `start` and the quasi-Newton Hessian `hessian` a plan ended
+/// with (where it stopped: it goes on), as `stage` of `route`, and keeps the result if it ranks
+/// above the best plan so far: the polish of a cheap result, and the best plan `continued`
+/// where the cheap stage could not finish in the time left.
+fn plan_on(
+    (model, scene, options): (&Model, &Scene, &PlanOptions),
+    (start, hessian): (Controls, Option<optim::DenseMatrix>),
+    (route, stage): (&str, &str),
     progress: &mut impl FnMut(Progress<'_>),
-    (best, best_report, reports): Tally<'_>,
+    tally_into: Tally<'_>,
 ) -> crate::Result<()> {
-    let start = controls_from_nested(model, &best.controls)?;
+    progress(Progress::Stage { stage, route });
     let mut more = options.clone();
-    more.initial_hessian = best.hessian.clone();
-    progress(Progress::Stage {
-        stage: "continued",
-        route,
-    });
+    more.initial_hessian = hessian;
     let result = plan(model, scene, &start, &more, |i| {
         progress(Progress::Iteration(i))
     })?;
-    tally(route, "continued", result, (best, best_report, reports));
+    tally(route, stage, result, tally_into);
     Ok(())
 }
 
@@ -586,11 +577,14 @@ pub fn plan_with_search(
         });
         let polished_best = if go_on {
             let route = reports[best_report].route.clone();
-            continue_plan(
-                model,
-                scene,
-                options,
-                &route,
+            let from = (
+                controls_from_nested(model, &best.controls)?,
+                best.hessian.clone(),
+            );
+            plan_on(
+                (model, scene, options),
+                from,
+                (&route, "continued"),
                 &mut progress,
                 (&mut best, &mut best_report, &mut reports),
             )?;

@@ -610,23 +610,33 @@ impl Pattern {
     /// the smooth contact potential allows ([`ColliderBarrier::max_step`]); 1 without it.
     pub fn max_step(&self, x: &[f64], step: f64, dir: &[f64]) -> f64 {
         let alpha = self.self_max_step(x, step, dir);
+        self.colliders_allow(x, alpha, |_, d| {
+            [step * dir[d], step * dir[d + 1], step * dir[d + 2]]
+        })
+    }
+
+    /// `alpha` times the largest step length in `[0, 1]` the colliders' barrier allows for every
+    /// free particle `p` (degree of freedom `d`) moving by `alpha · moved(p, d)` from `x`
+    /// ([`ColliderBarrier::max_step`]); `alpha` without the barrier. The self-contact filter
+    /// gives `alpha`: a step it shortens is scaled down for the colliders too.
+    pub(super) fn colliders_allow(
+        &self,
+        x: &[f64],
+        alpha: f64,
+        moved: impl Fn(usize, usize) -> [f64; 3],
+    ) -> f64 {
         let Some((barrier, _)) = &self.barrier else {
             return alpha;
         };
-        let moves = self
-            .dof_of
-            .iter()
-            .enumerate()
+        let moves = (self.dof_of.iter().enumerate())
             .filter(|&(_, &d)| d != NONE)
             .map(|(p, &d)| {
-                let d = d as usize;
                 (
                     &x[3 * p..3 * p + 3],
-                    [step * dir[d], step * dir[d + 1], step * dir[d + 2]],
+                    moved(p, d as usize).map(|v| v * alpha),
                 )
             });
-        // A step the self-contact filter shortens is scaled down for the colliders too.
-        alpha * barrier.max_step(moves.map(|(p, m)| (p, m.map(|v| v * alpha))))
+        alpha * barrier.max_step(moves)
     }
 
     /// Whether the model has a barrier potential, of the colliders or of self-contact (its

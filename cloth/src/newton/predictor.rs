@@ -56,7 +56,7 @@ impl NewtonSystem {
         delta: &[f64],
         alpha: f64,
     ) -> Option<(f64, Tensor)> {
-        self.fit_self_contact(x.data());
+        // (`factorize_exact` fits the self-contact pattern to `x` first.)
         if !self.factorize_exact(x.data(), xt.data()) {
             return None;
         }
@@ -86,7 +86,8 @@ impl NewtonSystem {
     /// Minimizes `Φ` for the predicted state `xt` (control particles held at `xt`'s places) from
     /// the predictor `start` within [`PREDICTED_ITERATIONS`] ([`NewtonSystem::solve_from`]):
     /// `Ok(Err(spent))`, the work spent, when that does not converge, to be solved again from
-    /// the plain start.
+    /// the plain start (its iterations are known where it ran out of them or stalled,
+    /// [`ClothError::NewtonNotConverged`]; after another error, a saddle say, they count 0).
     ///
     /// # Errors
     /// A solve stopped by the rollout's limits ([`crate::Model::simulate_counted`]).

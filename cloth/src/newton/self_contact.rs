@@ -116,8 +116,8 @@ impl NewtonSystem {
     /// they move there in stages, each as far as the step filter allows with the cloth where
     /// the last stage's solve left it (or, with [`NewtonSettings::predictor`], moved with them
     /// by its first-order response, `super::predictor`), and each stage is solved, so that the
-    /// cloth makes way. The last stage is the step's `Φ`, solved from there; the statistics sum the stages
-    /// ([`StepStats::loads`] counts them).
+    /// cloth makes way. The last stage is the step's `Φ`, solved from there; the statistics sum
+    /// the stages ([`StepStats::loads`] counts them).
     ///
     /// # Errors
     /// As [`NewtonSystem::solve_from`]; [`ClothError::SelfContactPenetration`] when the controls
@@ -204,19 +204,9 @@ impl Pattern {
     /// colliders' on the free ones.
     pub(super) fn max_move(&self, x: &[f64], delta: &[f64]) -> f64 {
         let (alpha, _) = self.self_filter(x, delta);
-        let Some((barrier, _)) = &self.barrier else {
-            return alpha;
-        };
-        let moves = (0..x.len() / 3)
-            .filter(|&p| self.dof(p).is_some())
-            .map(|p| {
-                let m = &delta[3 * p..3 * p + 3];
-                (
-                    &x[3 * p..3 * p + 3],
-                    [alpha * m[0], alpha * m[1], alpha * m[2]],
-                )
-            });
-        alpha * barrier.max_step(moves)
+        self.colliders_allow(x, alpha, |p, _| {
+            [delta[3 * p], delta[3 * p + 1], delta[3 * p + 2]]
+        })
     }
 
     /// Self-contact's work so far (zero without self-contact).

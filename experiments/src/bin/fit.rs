@@ -228,10 +228,7 @@ fn fit_one(
     };
     let (observed, _) = synthetic(&model, &u, &sampling)?;
     let params: Vec<Parameter> = PARAMS.iter().map(|p| Parameter::parse(p)).collect();
-    let mut start = truth.clone();
-    for (p, f) in params.iter().zip(OFF) {
-        p.scale(&mut start, f)?;
-    }
+    let start = Parameter::scaled(truth, &params, OFF)?;
     let registry = ConstraintRegistry::new();
     let r = fit(
         &start,
