@@ -96,7 +96,7 @@ pub enum ClothError {
         "step {step}: particles {particles:?} (a vertex and a triangle, or two edges) are within \
          the self-collision thickness (gap {gap:e}); the self-contact barrier needs every part of \
          the cloth apart by physics.self_collision.thickness (a gripper moved too far in one \
-         step?)"
+         step, or pressed the cloth onto itself or a collider?)"
     )]
     SelfContactPenetration {
         /// The step (1-based).

@@ -2,7 +2,8 @@
 //! `cloth/src/contact/self_barrier.rs`): a cloth folded in half onto itself keeps its layers the
 //! thickness apart at every step (checked by a brute-force distance search independent of the
 //! solver's pair search), every step ends at a minimizer, the implicit gradient matches central
-//! differences, and a rest state within the thickness is refused naming the field.
+//! differences, a rest state within the thickness is refused naming the field, and grippers
+//! pressing the cloth into the floor are refused within a bounded amount of work.
 
 mod common;
 
@@ -272,5 +273,40 @@ fn a_gripper_moved_onto_its_neighbour_pushes_it_aside() {
     for states in [&states, &plain_states] {
         let (worst, step) = m.equilibrium_residuals(states, &u).unwrap().max().unwrap();
         assert!(worst <= 1e-9, "{worst:e} at step {step}");
+    }
+}
+
+/// After the fold, the grippers are pressed down to 0.005 above the floor, onto the lower
+/// layer, which lies on the floor and cannot make way: the step is refused as a penetration,
+/// and early. Each stage only closes part of the squeezed gap, so the stage budget alone takes
+/// hundreds of Newton iterations (measured: about 900 on a step of the task suite's diagonal
+/// fold) before saying so; stalled stages end it within the fold's own work.
+#[test]
+fn grippers_pressing_the_cloth_into_the_floor_are_refused_early() {
+    let mut s = scene(THICKNESS);
+    s.task.horizon = HORIZON + 1;
+    let m = newton_model(&s);
+    // The fold, then a step in which the grippers stay.
+    let mut u = fold(&m);
+    let Solver::Newton(settings) = m.solver else {
+        unreachable!()
+    };
+    let (states, stats) = m.simulate_newton(&u, &settings).unwrap();
+    let height = point(&states[HORIZON], 0).z;
+    assert!(height > THICKNESS, "folded grippers at {height}");
+    let fold_work: usize = stats.iter().map(|s| s.iterations).sum();
+    u.row_mut(HORIZON)
+        .copy_from_slice(&[0.0, 0.0, 0.005 - height, 0.0, 0.0, 0.005 - height]);
+    let limits = cloth::RolloutLimits::total(2 * fold_work);
+    match m.simulate_counted(&u, &limits) {
+        Err(cloth::ClothError::SelfContactPenetration { step, .. }) => {
+            assert_eq!(step, HORIZON + 1)
+        }
+        other => panic!(
+            "expected step {} refused within {} iterations (the fold took {fold_work}): {:?}",
+            HORIZON + 1,
+            2 * fold_work,
+            other.map(|(_, its)| its)
+        ),
     }
 }

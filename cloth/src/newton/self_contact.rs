@@ -70,6 +70,13 @@ const RECENT_PATTERNS: usize = 8;
 /// Solves one step takes at most while the control particles move to their places.
 const MAX_CONTROL_STAGES: usize = 64;
 
+/// Stages in a row, each bringing the control particles less than `1 / MAX_CONTROL_STAGES` of
+/// the way that remains, after which a step gives up: at that pace the stages run out before
+/// the controls arrive. A gripper pressing cloth onto a collider, or onto cloth that lies on
+/// one, cannot push it through: each stage closes part of the squeezed gap, the fractions fall
+/// geometrically, and the last stages of the budget take a hundred iterations or more each.
+const STALLED_STAGES: usize = 3;
+
 impl NewtonSystem {
     /// Self-contact: changes the pattern (and the factorization's symbolic analysis) when the
     /// pairs at `x` couple other particle blocks than it holds: to one of the last
@@ -121,7 +128,8 @@ impl NewtonSystem {
     ///
     /// # Errors
     /// As [`NewtonSystem::solve_from`]; [`ClothError::SelfContactPenetration`] when the controls
-    /// cannot reach their places in [`MAX_CONTROL_STAGES`] stages.
+    /// cannot reach their places in [`MAX_CONTROL_STAGES`] stages, or have stalled on the way
+    /// ([`STALLED_STAGES`]).
     pub(super) fn solve_moving_controls(
         &mut self,
         x_prev: &Tensor,
@@ -131,6 +139,7 @@ impl NewtonSystem {
     ) -> Result<(Tensor, StepStats), ClothError> {
         let mut stats = StepStats::default();
         let mut x = x_prev.clone();
+        let mut stalled = 0;
         for _ in 0..MAX_CONTROL_STAGES {
             let delta = self.pattern.control_move(&x, xt);
             let before = self.pattern.self_counts();
@@ -145,6 +154,15 @@ impl NewtonSystem {
             x = xj;
             if alpha == 1.0 {
                 return Ok((x, stats));
+            }
+            // Each stage takes `alpha` of the way that remains.
+            stalled = if alpha < 1.0 / MAX_CONTROL_STAGES as f64 {
+                stalled + 1
+            } else {
+                0
+            };
+            if stalled == STALLED_STAGES {
+                break;
             }
         }
         let mut at_target = x.clone();
