@@ -3,8 +3,9 @@
 //!
 //! 1. Plan from the given start ([`crate::plan::plan`]), or from a carry route
 //!    ([`routes::carried`]: the grippers lifted on half circles, along the guess or the straight
-//!    path, where the start's rollout rests the cloth on a collider; and the lay route of a
-//!    hanging cloth to be laid flat, `lay/`) when its rollout is safer or, as safe, has the
+//!    path, where the start's rollout rests the cloth on a collider; the lay route of a
+//!    hanging cloth to be laid flat, `lay/`; and the drape route of a cloth to be hung over a
+//!    collider, `drape.rs`) when its rollout is safer or, as safe, has the
 //!    lower `L`: a few rollouts decide it (up to eight more to build the lay route), and the
 //!    guess becomes a candidate route. With
 //!    [`SearchMode::Auto`] an achieved task ends the search here: no extra work. Under a deadline this plan gets half the time,
@@ -37,6 +38,7 @@
 //! The search lives in the root package: `optim` stays problem-agnostic.
 
 mod carry;
+mod drape;
 mod lay;
 mod obstacles;
 pub mod routes;

@@ -20,10 +20,13 @@
 //! 3. a detour offsets the base path by `s·n` over the segment, ramping linearly from the
 //!    previous keypoint (the start, or the previous segment) and back to the end.
 //!
+//! Where the task hangs the cloth over a collider (targets on it above the grippers' ends), the
+//! drape route ([`super::drape`]) lifts the grippers over it and lowers them on the far side.
 //! Seeded random perturbations (a via-point at a random step with a random perpendicular offset
 //! up to the cloth's size) complete the set. Everything is deterministic.
 
 use super::carry::carry_paths;
+use super::drape::drape_paths;
 use super::lay::lay_route;
 use super::obstacles::in_the_way;
 use autodiff::Tensor;
@@ -99,6 +102,7 @@ pub fn propose(
         };
         if i == 0 {
             out.extend(geometry.laid(&states, &std::cell::Cell::new(0)));
+            out.extend(geometry.draped(&states));
         }
         out.extend(geometry.carried(name, base, &states));
         detours.push(geometry.detours(name, base, &states));
@@ -136,6 +140,7 @@ pub fn carried(model: &Model, initial: &Controls, states: &[Tensor]) -> (Vec<Can
     let geometry = Geometry::new(model, 0.0, false);
     let rollouts = std::cell::Cell::new(0);
     let mut out: Vec<Candidate> = geometry.laid(states, &rollouts).into_iter().collect();
+    out.extend(geometry.draped(states));
     let bases = [
         ("initial guess", paths_of(model, initial)),
         ("straight", geometry.straight_paths()),
@@ -267,6 +272,19 @@ impl<'a> Geometry<'a> {
         let paths = lay_route(self.model, (&straight[0], ends), states, rollout)?;
         Some(Candidate {
             route: "lay".into(),
+            controls: controls_of(&paths),
+        })
+    }
+
+    /// The drape route ([`super::drape`]) from the grippers' starts to the straight path's ends,
+    /// with the depth measured on `states` (the initial guess's rollout), where the task hangs
+    /// the cloth over a collider.
+    fn draped(&self, states: &[Tensor]) -> Option<Candidate> {
+        let straight = self.straight_paths();
+        let ends = straight.last()?;
+        let paths = drape_paths(self.model, (&straight[0], ends), states, self.delta)?;
+        Some(Candidate {
+            route: "drape".into(),
             controls: controls_of(&paths),
         })
     }
