@@ -31,6 +31,7 @@ pub mod start_check;
 pub mod strain;
 mod summary;
 pub mod target_check;
+pub mod thin_colliders;
 pub mod validate;
 
 pub use error::{error_chain, Error, Result};

@@ -16,6 +16,7 @@ use crate::result::{Measures, PhysicsReport, SafetyReport};
 use crate::safety_check::{check_safety, physics_hint};
 use crate::start_check::{judge_start, start_warning};
 use crate::target_check::buried_target_warnings;
+use crate::thin_colliders::thin_collider_warning;
 // The rollout's strain and its warning, from `crate::strain`: re-exported for this module's callers.
 pub use crate::strain::{strain_report, strain_warning, StrainReport, STRAIN_WARNING_THRESHOLD};
 use crate::validate::{
@@ -298,6 +299,7 @@ fn check_start(
     model.check_controls(start)?;
     let (start_error, mut warnings) = judge_start(scene, &model.start, options.task.delta);
     warnings.extend(model.start_report.as_ref().and_then(start_warning));
+    warnings.extend(thin_collider_warning(scene, model));
     warnings.extend(buried_target_warnings(scene));
     if let Some(e) = start_error {
         if !options.allow_unsafe_start {
