@@ -279,7 +279,7 @@ fn a_gripper_moved_onto_its_neighbour_pushes_it_aside() {
 /// After the fold, the grippers are pressed down to 0.005 above the floor, onto the lower
 /// layer, which lies on the floor and cannot make way: the step is refused as a penetration,
 /// and early. Each stage only closes part of the squeezed gap, so the stage budget alone takes
-/// hundreds of Newton iterations (measured: about 900 on a step of the task suite's diagonal
+/// hundreds of Newton iterations (measured: about 1,000 on a step of the task suite's diagonal
 /// fold) before saying so; stalled stages end it within the fold's own work.
 #[test]
 fn grippers_pressing_the_cloth_into_the_floor_are_refused_early() {

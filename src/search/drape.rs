@@ -20,6 +20,8 @@
 //!   cut into `T` steps of equal length. A route whose steps would exceed the scene's
 //!   `task.limits.max_step` or leave its workspace is not offered.
 
+use super::lay::depth_below;
+use super::limits::{within_max_step, within_workspace};
 use autodiff::Tensor;
 use cloth::sdf::SignedDistance;
 use cloth::Model;
@@ -69,17 +71,8 @@ pub fn drape_paths(
     if !top.is_finite() {
         return None;
     }
-    let point = |x: &Tensor, i: usize| V::from_fn(|j, _| x.get(i, j));
-    let depth = states
-        .iter()
-        .map(|x| {
-            let c = held.iter().map(|&i| point(x, i)).sum::<V>() / held.len() as f64;
-            supported
-                .iter()
-                .map(|&(p, _)| (c - point(x, p)).dot(&up))
-                .fold(0.0, f64::max)
-        })
-        .fold(0.0, f64::max);
+    let ids: Vec<usize> = supported.iter().map(|&(p, _)| p).collect();
+    let depth = depth_below(states, held, &ids, up);
     let height = top + depth + delta + tolerance;
     let mean = |ps: &[V]| ps.iter().sum::<V>() / ps.len() as f64;
     let (cs, ce) = (mean(&starts), mean(&ends));
@@ -105,19 +98,8 @@ pub fn drape_paths(
         })
         .collect();
     let limits = &model.task.limits;
-    let within_step = per_gripper.iter().all(|g| {
-        g.windows(2).all(|w| {
-            limits
-                .max_step
-                .is_none_or(|m| (w[1] - w[0]).norm() <= m * (1.0 + 1e-9))
-        })
-    });
-    let inside = paths.iter().flatten().all(|p| {
-        limits
-            .workspace
-            .as_ref()
-            .is_none_or(|w| (0..3).all(|j| p[j] >= w.min[j] - 1e-9 && p[j] <= w.max[j] + 1e-9))
-    });
+    let within = within_max_step(&paths, limits.max_step)
+        && within_workspace(&paths, limits.workspace.as_ref());
     // A lift that stays below the ends and starts adds nothing the straight path lacks.
     let lifted = height
         > starts
@@ -125,7 +107,7 @@ pub fn drape_paths(
             .chain(&ends)
             .map(|p| p.dot(&up))
             .fold(f64::MIN, f64::max);
-    (within_step && inside && lifted).then_some(paths)
+    (within && lifted).then_some(paths)
 }
 
 /// The point a fraction `f` of the way along the polyline `corners` (by length).

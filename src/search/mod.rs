@@ -40,6 +40,7 @@
 mod carry;
 mod drape;
 mod lay;
+mod limits;
 mod obstacles;
 pub mod routes;
 

@@ -32,6 +32,7 @@
 //!   of the far targets. [`lay_route`] measures that shortfall on the route's own rollout and
 //!   moves the touch point forward by it (the `lead`), a few times, then probes either side.
 
+use super::limits::{within_max_step, within_workspace};
 use super::obstacles::in_the_way;
 use autodiff::Tensor;
 use cloth::sdf::{SignedDistance, Union};
@@ -169,15 +170,7 @@ pub fn lay_paths(spec: &LaySpec<'_>, floor: impl Fn(V) -> Option<f64>) -> Option
     paths.extend(cut_into_steps(&lay, spec.horizon - n));
     paths[0] = spec.starts.to_vec();
     paths[spec.horizon] = spec.ends.to_vec();
-    let within = |s: f64| spec.max_step.is_none_or(|m| s <= m * (1.0 + 1e-9));
-    paths
-        .windows(2)
-        .all(|w| {
-            w[0].iter()
-                .zip(&w[1])
-                .all(|(a, b)| within((V::from(*b) - V::from(*a)).norm()))
-        })
-        .then_some(Lay { paths, touch: n })
+    within_max_step(&paths, spec.max_step).then_some(Lay { paths, touch: n })
 }
 
 /// Points along the polyline through the grippers in order (each gap cut in [`SPAN_SAMPLES`]):
@@ -404,14 +397,7 @@ pub fn lay_route(
         let b = surface_top(&model.colliders, q, up, 0.0, range);
         a.into_iter().chain(b).reduce(f64::max)
     };
-    let inside =
-        |lay: &Lay| {
-            lay.paths.iter().flatten().all(|p| {
-                model.task.limits.workspace.as_ref().is_none_or(|w| {
-                    (0..3).all(|j| p[j] >= w.min[j] - 1e-9 && p[j] <= w.max[j] + 1e-9)
-                })
-            })
-        };
+    let inside = |lay: &Lay| within_workspace(&lay.paths, model.task.limits.workspace.as_ref());
     // The lag: how far the leading free particles are short of their targets along the lay
     // direction at the touch step; the touch point moves by it, a few times, and the route whose
     // rollout ends nearest the targets (by its largest error) is kept.
@@ -482,14 +468,22 @@ pub fn lay_route(
 /// The largest depth, along `up`, of any particle below the centroid of the `held` particles,
 /// over `states`.
 fn hang(states: &[Tensor], held: &[usize], up: V) -> f64 {
+    let all: Vec<usize> = (0..states.first().map_or(0, Tensor::rows)).collect();
+    depth_below(states, held, &all, up)
+}
+
+/// The largest depth, along `up`, of the `particles` below the centroid of the `held` ones,
+/// over `states` (0 without held particles).
+pub(super) fn depth_below(states: &[Tensor], held: &[usize], particles: &[usize], up: V) -> f64 {
     let point = |x: &Tensor, i: usize| V::from_fn(|j, _| x.get(i, j));
     states
         .iter()
         .filter(|_| !held.is_empty())
         .map(|x| {
             let c = held.iter().map(|&i| point(x, i)).sum::<V>() / held.len() as f64;
-            (0..x.rows())
-                .map(|i| (c - point(x, i)).dot(&up))
+            particles
+                .iter()
+                .map(|&i| (c - point(x, i)).dot(&up))
                 .fold(0.0, f64::max)
         })
         .fold(0.0, f64::max)
