@@ -89,6 +89,23 @@ pub enum ClothError {
         /// Its signed distance to the colliders (≤ 0).
         distance: f64,
     },
+    /// Smooth contact along the edges: a step starts with a point of an edge on or inside a
+    /// collider narrower than the cloth's edges.
+    #[error(
+        "step {step}: the edge between particles {edge:?} is on or inside a collider {t} of the way \
+         along it (signed distance {distance:e}); the smooth contact model needs every edge \
+         strictly outside the colliders narrower than it"
+    )]
+    EdgeContactPenetration {
+        /// The step (1-based).
+        step: usize,
+        /// The edge's particles.
+        edge: [usize; 2],
+        /// The point's fraction along the edge.
+        t: f64,
+        /// Its signed distance to the narrow colliders (≤ 0).
+        distance: f64,
+    },
     /// Self-contact under Newton: a step starts with two parts of the cloth at or within the
     /// thickness (the control particles' move can bring them there), where the barrier is
     /// infinite.

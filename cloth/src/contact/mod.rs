@@ -5,6 +5,7 @@ pub mod barrier;
 pub mod crossings;
 pub mod distance;
 pub mod edge_edge;
+pub mod edge_points;
 mod feature;
 pub mod friction;
 pub(crate) mod grid;

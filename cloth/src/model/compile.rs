@@ -7,6 +7,7 @@ use crate::constraint::{
     Collision, Constraint, DihedralBending, Distance, IsometricBending, MAX_ARITY,
 };
 use crate::contact::barrier::{Barrier, ColliderBarrier};
+use crate::contact::edge_points::EdgeBarrier;
 use crate::contact::friction::FrictionalContact;
 use crate::contact::self_barrier::{PairKind, SelfBarrier};
 use crate::contact::self_collision::SelfCollision;
@@ -107,6 +108,7 @@ impl Model {
             solver: scene.solver(),
             self_collision: None,
             contact_barrier: None,
+            edge_barrier: None,
             self_barrier: None,
             start_report: None,
         };
@@ -172,6 +174,16 @@ impl Model {
             let below = if start.is_some() { 0.01 } else { 0.5 };
             let named = scene.physics.contact.is_some();
             settle_start_outside(&mut model, &barrier, below, named)?;
+            let rest: Vec<f64> = (edges.iter())
+                .map(|&[i, j]| model.rest_distance(i, j))
+                .collect();
+            let free = |p: usize| model.inv_mass[p] > 0.0;
+            let (shape, dt2) = (barrier.barrier, barrier.dt2);
+            let on_edges = EdgeBarrier::new(&barrier.field, shape, dt2, &edges, &rest, free);
+            if let Some(e) = &on_edges {
+                check_edges_outside(&model, e)?;
+            }
+            model.edge_barrier = on_edges.map(Arc::new);
             model.contact_barrier = Some(Arc::new(barrier));
         } else if !colliders.is_empty() {
             let free: Vec<usize> = (0..n).filter(|&p| model.inv_mass[p] > 0.0).collect();
@@ -449,6 +461,24 @@ fn settle_start_outside(
         model.start.row_mut(p).copy_from_slice(q.as_slice());
     }
     Ok(())
+}
+
+/// Smooth contact along the edges: step 0 must hold every edge outside the colliders narrower
+/// than it (the barrier is infinite inside).
+fn check_edges_outside(model: &Model, edges: &EdgeBarrier) -> Result<(), ClothError> {
+    match edges.penetration(model.start.data()) {
+        None => Ok(()),
+        Some((point, distance)) => Err(SceneError::Invalid {
+            field: "obstacles".into(),
+            reason: format!(
+                "the smooth contact model needs the cloth's edges outside the colliders \
+                 narrower than them, but at step 0 the edge between particles {} and {} is \
+                 {:e} inside one, {} of the way along it; move the cloth or the colliders apart",
+                point.a, point.b, -distance, point.t
+            ),
+        }
+        .into()),
+    }
 }
 
 /// Self-contact under Newton: step 0 must hold every part of the cloth farther than the

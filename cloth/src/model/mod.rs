@@ -12,6 +12,7 @@ mod compile;
 pub use compile::DEFAULT_CHECKPOINT_BUDGET;
 
 use crate::contact::barrier::ColliderBarrier;
+use crate::contact::edge_points::EdgeBarrier;
 use crate::contact::self_barrier::SelfBarrier;
 use crate::contact::self_collision::SelfCollision;
 use crate::newton::settings::Solver;
@@ -115,6 +116,9 @@ pub struct Model {
     /// Smooth contact with the colliders (`physics.contact.model = "smooth"`): a barrier
     /// potential in Newton's energy instead of the rigid `collider` group; `None` otherwise.
     pub contact_barrier: Option<Arc<ColliderBarrier>>,
+    /// Smooth contact along the cloth's edges, against the colliders narrower than its longest
+    /// edge (`contact::edge_points`); `None` when there are none, or without smooth contact.
+    pub edge_barrier: Option<Arc<EdgeBarrier>>,
     /// Self-collision under Newton's method: the barrier potential between parts of the cloth
     /// (`contact::self_barrier`); `None` otherwise.
     pub self_barrier: Option<Arc<SelfBarrier>>,
@@ -192,6 +196,14 @@ impl Model {
                 } else {
                     ""
                 }
+            ));
+        }
+        if let Some(e) = &self.edge_barrier {
+            parts.push(format!(
+                "edge contact ({} points, {:e} apart, on {} narrow colliders)",
+                e.points.len(),
+                e.spacing,
+                e.barrier.field.component_count()
             ));
         }
         if let Some(sc) = &self.self_collision {

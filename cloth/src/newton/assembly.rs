@@ -7,11 +7,13 @@
 //! order of [`super::ordering`].
 
 use super::contact::is_contact;
+use super::edge_points::{coupled_blocks, EdgePointPattern};
 use super::ordering::elimination_positions;
 use super::psd::{project_psd, projected_local_hessian};
 use super::self_contact::SelfPairsCache;
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::contact::barrier::ColliderBarrier;
+use crate::contact::edge_points::{EdgeBarrier, EdgePoint};
 use crate::contact::self_barrier::SelfBarrier;
 use crate::contact::smooth_friction::LaggedContact;
 use crate::model::Model;
@@ -19,7 +21,7 @@ use std::sync::Arc;
 
 /// Marks a coordinate without a degree of freedom (a control particle's, or an upper-triangle
 /// entry of a local Hessian).
-const NONE: u32 = u32::MAX;
+pub(super) const NONE: u32 = u32::MAX;
 
 /// One constraint type and where each of its local Hessian entries goes in the sparse values.
 struct GroupPattern {
@@ -66,6 +68,9 @@ pub struct Pattern {
     /// Smooth contact: the barrier potential of every free particle, and the value indices of
     /// each particle's diagonal block (lower triangle, row-major; [`NONE`] above the diagonal).
     pub(super) barrier: Option<(Arc<ColliderBarrier>, Vec<[u32; 9]>)>,
+    /// Smooth contact along the edges, for colliders narrower than them
+    /// ([`crate::contact::edge_points`]).
+    pub(super) edge_points: Option<EdgePointPattern>,
     /// Smooth contact with friction: the step's start (full `N × 3` data) and each particle's
     /// frictional contacts there ([`Pattern::begin_step`]).
     pub(super) friction: Option<(Vec<f64>, Vec<Vec<LaggedContact>>)>,
@@ -135,7 +140,7 @@ impl Pattern {
             dof_of,
             mass,
             groups,
-            model.contact_barrier.clone(),
+            (model.contact_barrier.clone(), model.edge_barrier.clone()),
             (model.self_barrier.clone(), Vec::new()),
             None,
         )
@@ -149,7 +154,10 @@ impl Pattern {
             self.dof_of.clone(),
             self.mass.clone(),
             self.groups.iter().map(|g| g.terms.clone()).collect(),
-            self.barrier.as_ref().map(|(b, _)| b.clone()),
+            (
+                self.barrier.as_ref().map(|(b, _)| b.clone()),
+                self.edge_points.as_ref().map(|e| e.edges.clone()),
+            ),
             (self.self_barrier.clone(), self_blocks),
             self.friction.clone(),
         );
@@ -163,7 +171,7 @@ impl Pattern {
         dof_of: Vec<u32>,
         mass: Vec<f64>,
         groups: Vec<Arc<dyn ConstraintTerms>>,
-        barrier: Option<Arc<ColliderBarrier>>,
+        (barrier, edges): (Option<Arc<ColliderBarrier>>, Option<Arc<EdgeBarrier>>),
         (self_barrier, self_blocks): (Option<Arc<SelfBarrier>>, Vec<(u32, u32)>),
         friction: Option<(Vec<f64>, Vec<Vec<LaggedContact>>)>,
     ) -> Pattern {
@@ -187,7 +195,8 @@ impl Pattern {
                 }
             }
         }
-        for &(r, c) in &self_blocks {
+        let edge_blocks = edges.as_ref().map(|e| coupled_blocks(e, &dof_of));
+        for &(r, c) in self_blocks.iter().chain(edge_blocks.iter().flatten()) {
             blocks[c as usize].push(r);
         }
         let mut col_ptr = Vec::with_capacity(n_dof + 1);
@@ -274,7 +283,7 @@ impl Pattern {
             (b, diagonal)
         });
         let constant = Pattern::linear_hessian(&groups, row_idx.len());
-        Pattern {
+        let mut pattern = Pattern {
             dof_of,
             mass,
             n_dof,
@@ -290,7 +299,10 @@ impl Pattern {
             self_barrier,
             self_blocks,
             self_pairs_cache: Arc::default(),
-        }
+            edge_points: None,
+        };
+        pattern.edge_points = edges.map(|e| EdgePointPattern::new(e, &pattern));
+        pattern
     }
 
     /// Every stored 3 × 3 particle block as (row block, column block, value indices row-major);
@@ -384,6 +396,9 @@ impl Pattern {
                     }
                 }
             }
+        }
+        if let Some(e) = &self.edge_points {
+            phi += e.energy(x);
         }
         if let Some(b) = &self.self_barrier {
             phi += b.energy(x, &self.self_pairs(x));
@@ -489,6 +504,9 @@ impl Pattern {
                 grad,
                 values.as_mut().map(|(v, k)| (&mut **v, *k)),
             );
+        }
+        if let Some(e) = &self.edge_points {
+            e.assemble(x, grad, values.as_mut().map(|(v, k)| (&mut **v, *k)));
         }
         self.assemble_self(x, grad, values);
     }
@@ -636,7 +654,11 @@ impl Pattern {
                     moved(p, d as usize).map(|v| v * alpha),
                 )
             });
-        alpha * barrier.max_step(moves)
+        let alpha = alpha * barrier.max_step(moves);
+        match &self.edge_points {
+            Some(e) => alpha * e.max_step(x, |p, d| moved(p, d).map(|v| v * alpha)),
+            None => alpha,
+        }
     }
 
     /// Whether the model has a barrier potential, of the colliders or of self-contact (its
@@ -656,6 +678,12 @@ impl Pattern {
             .filter(|&(_, &d)| d != NONE)
             .map(|(p, _)| (p, barrier.distance(&x[3 * p..3 * p + 3])))
             .find(|&(_, d)| d <= 0.0)
+    }
+
+    /// Smooth contact along the edges: the first edge point of `x` on or inside a narrow
+    /// collider, with its signed distance ([`crate::contact::edge_points`]).
+    pub fn edge_penetration(&self, x: &[f64]) -> Option<(EdgePoint, f64)> {
+        self.edge_points.as_ref()?.penetration(x)
     }
 
     /// `M z` for the free particles, scattered into full `N × 3` data `y` (added).

@@ -25,6 +25,7 @@
 //!   cost (the forward's own, where it was kept).
 //!
 //! - `self_contact`: the self-contact barrier's terms, and the pattern that follows its pairs;
+//! - `edge_points`: the barrier of points along the edges against colliders narrower than them;
 //! - [`contact`]: rigid one-sided rows on one particle (colliders) by an active-set projected
 //!   Newton, whose converged state is XPBD's rigid (compliance 0) answer.
 //!
@@ -35,6 +36,7 @@ pub mod assembly;
 pub mod contact;
 pub mod continuation;
 pub mod curvature;
+mod edge_points;
 pub mod factor;
 pub mod implicit;
 pub mod ordering;

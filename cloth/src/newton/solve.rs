@@ -321,6 +321,14 @@ impl NewtonSystem {
                 distance,
             });
         }
+        if let Some((point, distance)) = self.pattern.edge_penetration(x.data()) {
+            return Err(ClothError::EdgeContactPenetration {
+                step,
+                edge: [point.a, point.b],
+                t: point.t,
+                distance,
+            });
+        }
         if let Some((particles, gap)) = self.pattern.self_penetration(x.data()) {
             return Err(ClothError::SelfContactPenetration {
                 step,

@@ -293,6 +293,42 @@ impl Union {
         self.meshes.extend(other.meshes);
     }
 
+    /// The primitives narrower than `width` across: spheres and capsules by their diameter,
+    /// boxes by their smallest side. Planes are unbounded; meshes are not measured.
+    pub fn narrower_than(&self, width: f64) -> Union {
+        let spheres = (self.spheres.iter())
+            .map(|set| {
+                let (centers, radii) = (set.centers.iter().zip(&set.radii))
+                    .filter(|&(_, &r)| 2.0 * r < width)
+                    .map(|(c, &r)| (*c, r))
+                    .unzip();
+                SphereSet { centers, radii }
+            })
+            .filter(|set| !set.radii.is_empty())
+            .collect();
+        Union {
+            spheres,
+            capsules: (self.capsules.iter())
+                .filter(|c| c.width() < width)
+                .cloned()
+                .collect(),
+            boxes: (self.boxes.iter())
+                .filter(|b| b.width() < width)
+                .cloned()
+                .collect(),
+            ..Union::default()
+        }
+    }
+
+    /// The smallest width across of the spheres, capsules and boxes ([`Union::narrower_than`]);
+    /// `∞` without any.
+    pub fn narrowest(&self) -> f64 {
+        let spheres = (self.spheres.iter()).flat_map(|s| s.radii.iter().map(|r| 2.0 * r));
+        let capsules = self.capsules.iter().map(Capsule::width);
+        let boxes = self.boxes.iter().map(Cuboid::width);
+        (spheres.chain(capsules).chain(boxes)).fold(f64::INFINITY, f64::min)
+    }
+
     /// Number of primitives (spheres, planes, capsules, boxes, meshes).
     pub fn component_count(&self) -> usize {
         self.spheres.iter().map(|s| s.radii.len()).sum::<usize>()

@@ -26,6 +26,13 @@ pub struct Capsule {
     pub radius: f64,
 }
 
+impl Capsule {
+    /// Its width across: the diameter.
+    pub fn width(&self) -> f64 {
+        2.0 * self.radius
+    }
+}
+
 impl SignedDistance for Capsule {
     fn distance<R: Real>(&self, p: &Vector3<R>) -> R {
         let a = constant::<R>(&self.a);
@@ -211,6 +218,11 @@ pub struct Cuboid {
 }
 
 impl Cuboid {
+    /// Its width across: the smallest side.
+    pub fn width(&self) -> f64 {
+        2.0 * self.half_extents.iter().copied().fold(f64::INFINITY, f64::min)
+    }
+
     /// A box rotated by the quaternion `[w, x, y, z]` (normalised here; validation rejects zero).
     pub fn new(center: [f64; 3], half_extents: [f64; 3], rotation: Option<[f64; 4]>) -> Cuboid {
         let [w, x, y, z] = rotation.unwrap_or([1.0, 0.0, 0.0, 0.0]);

@@ -1,0 +1,165 @@
+//! Smooth contact along the cloth's edges, for colliders narrower than them.
+//!
+//! The collider barrier ([`super::barrier`]) keeps every particle outside the colliders, not the
+//! edges between them: a rail or a thin wall narrower than an edge fits between two neighbouring
+//! particles, and the cloth passes through it. Here every edge between two free particles that is
+//! longer than half the narrowest such collider's width carries barrier points at fixed fractions
+//! `t` along it, `x = (1 − t) x_a + t x_b`, at most half that width apart in the rest shape. The
+//! points see only the narrow colliders (spheres, capsules and boxes narrower than the longest
+//! edge, [`Union::narrower_than`]), with the particles' barrier and without friction.
+//!
+//! Why half the width: a segment through a capsule's axis, a sphere's centre or a slab's
+//! mid-plane has a chord at least the width inside it, which would hold a point; the points stay
+//! outside, so the edge cannot cross. Between two outside points `s` apart, the edge reaches at
+//! most `r (1 − √(1 − (s/2r)²))` into a capsule of radius `r`: `0.13 r` at `s = r`.
+//!
+//! A point is linear in its particles, so their straight moves move it straight: the colliders'
+//! conservative step filter ([`ColliderBarrier::max_step`]) applies to it unchanged, and its
+//! barrier's derivatives are the particles' with weights `(1 − t, t)`. Edges with a held end are
+//! left out (their points would couple the controls into the barrier); the grippers are kept off
+//! the colliders by the planner's own rows.
+
+use super::barrier::{Barrier, ColliderBarrier};
+use crate::sdf::Union;
+use std::sync::Arc;
+
+/// A barrier point on an edge: `(1 − t) x_a + t x_b`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EdgePoint {
+    /// The edge's first particle.
+    pub a: usize,
+    /// The edge's second particle.
+    pub b: usize,
+    /// The fraction along `a → b`, in `(0, 1)`.
+    pub t: f64,
+}
+
+/// The barrier points of a cloth's edges against its narrow colliders.
+#[derive(Clone, Debug)]
+pub struct EdgeBarrier {
+    /// The narrow colliders' barrier, frictionless, at each point.
+    pub barrier: ColliderBarrier,
+    /// The points, edge by edge.
+    pub points: Vec<EdgePoint>,
+    /// The points' largest spacing in the rest shape.
+    pub spacing: f64,
+}
+
+impl EdgeBarrier {
+    /// The points of `edges` (with their `rest` lengths) whose ends are both `free`, against the
+    /// colliders narrower than the longest edge, with the particles' `barrier` at scale `dt2`;
+    /// `None` when no collider is that narrow or no edge needs a point.
+    pub fn new(
+        colliders: &Union,
+        barrier: Barrier,
+        dt2: f64,
+        edges: &[[usize; 2]],
+        rest: &[f64],
+        free: impl Fn(usize) -> bool,
+    ) -> Option<EdgeBarrier> {
+        let longest = rest.iter().copied().fold(0.0, f64::max);
+        let narrow = colliders.narrower_than(longest);
+        if narrow.is_empty() {
+            return None;
+        }
+        let spacing = 0.5 * narrow.narrowest();
+        let mut points = Vec::new();
+        for (&[a, b], &length) in edges.iter().zip(rest) {
+            if !(free(a) && free(b)) {
+                continue;
+            }
+            let pieces = (length / spacing).ceil() as usize;
+            points.extend((1..pieces).map(|k| EdgePoint {
+                a,
+                b,
+                t: k as f64 / pieces as f64,
+            }));
+        }
+        (!points.is_empty()).then(|| EdgeBarrier {
+            barrier: ColliderBarrier {
+                field: Arc::new(narrow),
+                barrier,
+                dt2,
+                friction: None,
+            },
+            points,
+            spacing,
+        })
+    }
+
+    /// The position of `point` in the full `N × 3` state `x`.
+    pub fn position(point: &EdgePoint, x: &[f64]) -> [f64; 3] {
+        let (a, b) = (3 * point.a, 3 * point.b);
+        std::array::from_fn(|k| (1.0 - point.t) * x[a + k] + point.t * x[b + k])
+    }
+
+    /// The first point of `x` on or inside a narrow collider, with its signed distance; `None`
+    /// when all are outside.
+    pub fn penetration(&self, x: &[f64]) -> Option<(EdgePoint, f64)> {
+        (self.points.iter())
+            .map(|p| (*p, self.barrier.distance(&EdgeBarrier::position(p, x))))
+            .find(|&(_, d)| d <= 0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sdf::{Capsule, Cuboid, Plane};
+
+    fn colliders() -> Union {
+        Union {
+            capsules: vec![Capsule {
+                a: [-1.0, 0.0, 1.0],
+                b: [1.0, 0.0, 1.0],
+                radius: 0.015,
+            }],
+            boxes: vec![Cuboid::new([0.0, 0.0, 0.3], [0.6, 0.4, 0.3], None)],
+            planes: vec![Plane {
+                point: [0.0; 3],
+                normal: [0.0, 0.0, 1.0],
+            }],
+            ..Union::default()
+        }
+    }
+
+    const SHAPE: Barrier = Barrier {
+        d_hat: 0.005,
+        kappa: 1.0,
+    };
+
+    /// Only the rail is narrow; an edge of 0.05 gets points at most 0.015 apart (4 pieces), one
+    /// of 0.01 none, and an edge with a held end none.
+    #[test]
+    fn points_are_spaced_by_half_the_narrowest_width_on_free_edges() {
+        let edges = [[0, 1], [1, 2], [2, 3]];
+        let rest = [0.05, 0.01, 0.05];
+        let e = EdgeBarrier::new(&colliders(), SHAPE, 1.0, &edges, &rest, |p| p != 3).unwrap();
+        assert_eq!(e.barrier.field.component_count(), 1, "the rail alone");
+        assert_eq!(e.spacing, 0.015);
+        let ts: Vec<f64> = e.points.iter().map(|p| p.t).collect();
+        assert_eq!(ts, [0.25, 0.5, 0.75]);
+        assert!(e.points.iter().all(|p| (p.a, p.b) == (0, 1)));
+    }
+
+    /// Edges shorter than every collider is wide need no points.
+    #[test]
+    fn no_points_without_a_collider_narrower_than_the_longest_edge() {
+        let e = EdgeBarrier::new(&colliders(), SHAPE, 1.0, &[[0, 1]], &[0.02], |_| true);
+        assert!(e.is_none());
+    }
+
+    /// A point is the edge's interpolant, and one inside the rail is found.
+    #[test]
+    fn a_point_inside_the_rail_is_found() {
+        let e = EdgeBarrier::new(&colliders(), SHAPE, 1.0, &[[0, 1]], &[0.05], |_| true).unwrap();
+        // The edge straddles the rail: its ends are outside, its middle inside.
+        let x = [0.0, -0.04, 1.0, 0.0, 0.04, 1.0];
+        assert_eq!(EdgeBarrier::position(&e.points[1], &x), [0.0, 0.0, 1.0]);
+        let (p, d) = e.penetration(&x).unwrap();
+        assert_eq!(p.t, 0.5);
+        assert!((d + 0.015).abs() < 1e-15, "{d}");
+        let apart = [0.0, -0.04, 1.1, 0.0, 0.04, 1.1];
+        assert!(e.penetration(&apart).is_none());
+    }
+}
