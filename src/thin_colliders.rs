@@ -1,20 +1,24 @@
 //! Colliders the cloth can pass through between its particles.
 //!
-//! Contact (rigid or smooth) keeps every *particle* outside the colliders, not the edges between
-//! them. A collider narrower than the cloth's longest edge can therefore slip between two
-//! neighbouring particles: measured on the task suite's `hang_rail` (a rail 3 cm across, a 12 × 12
-//! towel with edges up to 5.1 cm), a drape route carries the towel over the rail and, as it is
-//! lowered, an edge passes through the rail between steps while every particle stays outside it;
-//! the same route with a 31 × 31 towel (edges up to 1.9 cm) leaves it hanging on the rail. A plan
+//! Rigid contact keeps every *particle* outside the colliders, not the edges between them. A
+//! collider narrower than the cloth's longest edge can therefore slip between two neighbouring
+//! particles: measured on the task suite's `hang_rail` (a rail 3 cm across, a 12 × 12 towel with
+//! edges up to 5.1 cm), a drape route carries the towel over the rail and, as it is lowered, an
+//! edge passes through the rail between steps while every particle stays outside it. Smooth
+//! contact keeps the edges out too (`cloth::contact::edge_points`); under rigid contact a plan
 //! says so up front instead of promising a hang the physics cannot hold.
 
 use cloth::scene::{Obstacle, ObstacleRole, Scene};
 use cloth::Model;
 
-/// The warning for the colliders of `scene` narrower than `model`'s longest rest edge, when
-/// there are any: a sphere set by its smallest sphere, a capsule, a box by its smallest side.
+/// Under rigid contact, the warning for the colliders of `scene` narrower than `model`'s longest
+/// rest edge, when there are any: a sphere set by its smallest sphere, a capsule, a box by its smallest side.
 /// Planes are unbounded; meshes are not measured.
 pub fn thin_collider_warning(scene: &Scene, model: &Model) -> Option<String> {
+    if model.contact_barrier.is_some() {
+        // Smooth contact: edge points hold the edges outside every collider this names.
+        return None;
+    }
     let edge = longest_rest_edge(model);
     let thin: Vec<String> = scene
         .obstacles
@@ -34,7 +38,7 @@ pub fn thin_collider_warning(scene: &Scene, model: &Model) -> Option<String> {
         .collect();
     (!thin.is_empty()).then(|| {
         format!(
-            "colliders narrower than the cloth's longest edge ({edge:.4}): {}; contact keeps the particles outside colliders, not the edges between them, so the cloth can pass through {} between particles (a finer cloth or a wider collider keeps it out)",
+            "colliders narrower than the cloth's longest edge ({edge:.4}): {}; rigid contact keeps the particles outside colliders, not the edges between them, so the cloth can pass through {} between particles (smooth contact, a finer cloth or a wider collider keeps it out)",
             thin.join(", "),
             if thin.len() == 1 { "it" } else { "them" }
         )
@@ -62,13 +66,18 @@ fn longest_rest_edge(model: &Model) -> f64 {
 mod tests {
     use super::*;
 
+    /// Under rigid contact (XPBD), or `smooth` (Newton's default with colliders).
     fn scene(rows: usize, radius: f64, role: &str) -> Scene {
+        scene_with(rows, radius, role, "xpbd")
+    }
+
+    fn scene_with(rows: usize, radius: f64, role: &str, solver: &str) -> Scene {
         let text = format!(
             r#"{{
           "name": "rail",
           "cloth": {{"rows": {rows}, "cols": {rows}, "top_left": [-0.2, -0.25, 1.0],
                     "right": [0.4, 0.0, 0.0], "down": [0.0, 0.0, -0.4]}},
-          "physics": {{"dt": 0.1, "gravity": [0.0, 0.0, -9.8]}},
+          "physics": {{"dt": 0.1, "gravity": [0.0, 0.0, -9.8], "solver": "{solver}"}},
           "material": {{"stretch": 100.0}},
           "controls": [[0, 0]],
           "obstacles": [
@@ -107,5 +116,13 @@ mod tests {
         assert_eq!(warning(&scene(31, 0.015, "collider")), None);
         assert_eq!(warning(&scene(12, 0.03, "collider")), None);
         assert_eq!(warning(&scene(12, 0.015, "safety")), None);
+    }
+
+    #[test]
+    fn smooth_contact_keeps_the_edges_out_and_is_not_warned() {
+        let s = scene_with(12, 0.015, "collider", "newton");
+        let model = Model::from_scene(&s).unwrap();
+        assert!(model.edge_barrier.is_some(), "edge points on the rail");
+        assert_eq!(thin_collider_warning(&s, &model), None);
     }
 }

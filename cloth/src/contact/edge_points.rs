@@ -34,6 +34,14 @@ pub struct EdgePoint {
     pub t: f64,
 }
 
+impl EdgePoint {
+    /// Its position in the full `N × 3` state `x`.
+    pub fn position(&self, x: &[f64]) -> [f64; 3] {
+        let (a, b) = (3 * self.a, 3 * self.b);
+        std::array::from_fn(|k| (1.0 - self.t) * x[a + k] + self.t * x[b + k])
+    }
+}
+
 /// The barrier points of a cloth's edges against its narrow colliders.
 #[derive(Clone, Debug)]
 pub struct EdgeBarrier {
@@ -87,17 +95,11 @@ impl EdgeBarrier {
         })
     }
 
-    /// The position of `point` in the full `N × 3` state `x`.
-    pub fn position(point: &EdgePoint, x: &[f64]) -> [f64; 3] {
-        let (a, b) = (3 * point.a, 3 * point.b);
-        std::array::from_fn(|k| (1.0 - point.t) * x[a + k] + point.t * x[b + k])
-    }
-
     /// The first point of `x` on or inside a narrow collider, with its signed distance; `None`
     /// when all are outside.
     pub fn penetration(&self, x: &[f64]) -> Option<(EdgePoint, f64)> {
         (self.points.iter())
-            .map(|p| (*p, self.barrier.distance(&EdgeBarrier::position(p, x))))
+            .map(|p| (*p, self.barrier.distance(&p.position(x))))
             .find(|&(_, d)| d <= 0.0)
     }
 }
@@ -155,7 +157,7 @@ mod tests {
         let e = EdgeBarrier::new(&colliders(), SHAPE, 1.0, &[[0, 1]], &[0.05], |_| true).unwrap();
         // The edge straddles the rail: its ends are outside, its middle inside.
         let x = [0.0, -0.04, 1.0, 0.0, 0.04, 1.0];
-        assert_eq!(EdgeBarrier::position(&e.points[1], &x), [0.0, 0.0, 1.0]);
+        assert_eq!(e.points[1].position(&x), [0.0, 0.0, 1.0]);
         let (p, d) = e.penetration(&x).unwrap();
         assert_eq!(p.t, 0.5);
         assert!((d + 0.015).abs() < 1e-15, "{d}");

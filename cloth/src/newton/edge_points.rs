@@ -3,9 +3,8 @@
 //! `w wᵀ ⊗ ∇²` with `w = (1 − t, t)` (semidefinite wherever the point's `3 × 3` block is: the
 //! projected Hessian projects that block), and the step filter on the points' straight moves.
 
-use super::assembly::{Pattern, NONE};
+use super::assembly::{HessianKind, Pattern, NONE};
 use super::psd::project_psd;
-use super::assembly::HessianKind;
 use crate::contact::edge_points::{EdgeBarrier, EdgePoint};
 use std::sync::Arc;
 
@@ -59,7 +58,7 @@ impl EdgePointPattern {
     /// The points' terms in `Φ(x)`.
     pub(super) fn energy(&self, x: &[f64]) -> f64 {
         (self.edges.points.iter())
-            .map(|p| (self.edges.barrier).energy(&EdgeBarrier::position(p, x)))
+            .map(|p| (self.edges.barrier).energy(&p.position(x)))
             .sum()
     }
 
@@ -74,7 +73,7 @@ impl EdgePointPattern {
         let project = matches!(values, Some((_, HessianKind::Projected)));
         for (p, ([da, db], blocks)) in self.edges.points.iter().zip(&self.scatter) {
             let (mut g, mut h) = ([0.0; 3], [0.0; 9]);
-            let q = EdgeBarrier::position(p, x);
+            let q = p.position(x);
             // A point inside (only at x̃, which the iterates never are) adds nothing, as a
             // particle does.
             if !self.edges.barrier.derivatives(&q, &mut g, &mut h, |block| {
@@ -114,7 +113,7 @@ impl EdgePointPattern {
                 let (ma, mb) = (moved(p.a, *da as usize), moved(p.b, *db as usize));
                 let w = [1.0 - p.t, p.t];
                 let delta = std::array::from_fn(|k| w[0] * ma[k] + w[1] * mb[k]);
-                (EdgeBarrier::position(p, x), delta)
+                (p.position(x), delta)
             })
             .collect();
         (self.edges.barrier).max_step(moves.iter().map(|(q, d)| (&q[..], *d)))

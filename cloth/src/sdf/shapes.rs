@@ -220,7 +220,11 @@ pub struct Cuboid {
 impl Cuboid {
     /// Its width across: the smallest side.
     pub fn width(&self) -> f64 {
-        2.0 * self.half_extents.iter().copied().fold(f64::INFINITY, f64::min)
+        2.0 * self
+            .half_extents
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// A box rotated by the quaternion `[w, x, y, z]` (normalised here; validation rejects zero).
