@@ -189,8 +189,10 @@ fn the_loss_is_smooth_in_the_controls() {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 6, .. ProptestConfig::default() })]
 
-    /// `dL/dU` and `dC/dU` against central differences (step 1e-5) at controls jittered around
-    /// a pressing motion, for every collider kind.
+    /// `dL/dU` and `dC/dU` against central differences (step 1e-6) at controls jittered around
+    /// a pressing motion, for every collider kind. Not 1e-5: near a contact the barrier's
+    /// curvature gives that difference a truncation error of 1.4e-5 relative (the saved case;
+    /// it falls as `h²`, to 1.4e-7 at 1e-6, measured).
     #[test]
     fn smooth_contact_gradients_match_central_differences(
         case in 0usize..5,
@@ -203,7 +205,7 @@ proptest! {
         for (v, j) in u.data_mut().iter_mut().zip(&jitter) {
             *v += j;
         }
-        common::check_gradients_along_a_direction(&m, &u, seed, 0.0, 1e-5)?;
+        common::check_gradients_along_a_direction(&m, &u, seed, 0.0, 1e-6)?;
     }
 }
 
