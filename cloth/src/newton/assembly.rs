@@ -9,11 +9,11 @@
 use super::contact::is_contact;
 use super::edge_points::{coupled_blocks, EdgePointPattern};
 use super::ordering::elimination_positions;
-use super::psd::{project_psd, projected_local_hessian};
+use super::psd::projected_local_hessian;
 use super::self_contact::SelfPairsCache;
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::contact::barrier::ColliderBarrier;
-use crate::contact::edge_points::{EdgeBarrier, EdgePoint};
+use crate::contact::edge_points::EdgeBarrier;
 use crate::contact::self_barrier::SelfBarrier;
 use crate::contact::smooth_friction::LaggedContact;
 use crate::model::Model;
@@ -382,53 +382,11 @@ impl Pattern {
                 }
             }
         }
-        if let Some((b, _)) = &self.barrier {
-            for (p, &d) in self.dof_of.iter().enumerate() {
-                if d != NONE {
-                    phi += b.energy(&x[3 * p..3 * p + 3]);
-                }
-            }
-            if let Some((start, lagged)) = &self.friction {
-                for (p, contacts) in lagged.iter().enumerate() {
-                    if !contacts.is_empty() {
-                        let r = 3 * p..3 * p + 3;
-                        phi += b.friction_energy(&x[r.clone()], &start[r], contacts);
-                    }
-                }
-            }
-        }
-        if let Some(e) = &self.edge_points {
-            phi += e.energy(x);
-        }
+        phi += self.collider_energy(x);
         if let Some(b) = &self.self_barrier {
             phi += b.energy(x, &self.self_pairs(x));
         }
         phi
-    }
-
-    /// Smooth contact with friction: lags the frictional contacts at the step's start `y` (the
-    /// previous state, full `N × 3` data); every energy and assembly until the next call is the
-    /// step's from `y`. Nothing without friction.
-    pub fn begin_step(&mut self, y: &[f64]) {
-        let Some((b, _)) = &self.barrier else {
-            return;
-        };
-        if b.friction.is_none() {
-            return;
-        }
-        let lagged = self
-            .dof_of
-            .iter()
-            .enumerate()
-            .map(|(p, &d)| {
-                if d == NONE {
-                    Vec::new()
-                } else {
-                    b.lagged(&y[3 * p..3 * p + 3])
-                }
-            })
-            .collect();
-        self.friction = Some((y.to_vec(), lagged));
     }
 
     /// `∇Φ(x)` into `grad` (degree-of-freedom order) and, with `values`, the Hessian of `kind`
@@ -496,67 +454,8 @@ impl Pattern {
                 }
             }
         }
-        if let Some((barrier, diagonal)) = &self.barrier {
-            self.assemble_barrier(
-                barrier,
-                diagonal,
-                x,
-                grad,
-                values.as_mut().map(|(v, k)| (&mut **v, *k)),
-            );
-        }
-        if let Some(e) = &self.edge_points {
-            e.assemble(x, grad, values.as_mut().map(|(v, k)| (&mut **v, *k)));
-        }
+        self.assemble_colliders(x, grad, values.as_mut().map(|(v, k)| (&mut **v, *k)));
         self.assemble_self(x, grad, values);
-    }
-
-    /// The smooth contact potential's gradient into `grad` and, with `values`, its Hessian
-    /// (each primitive's block projected to semidefinite for [`HessianKind::Projected`]). A
-    /// particle on or inside a collider has no derivative and adds nothing: only the predicted
-    /// state `x̃` can be there (the solver's iterates are filtered to stay outside), where the
-    /// gradient serves as the tolerance's scale.
-    fn assemble_barrier(
-        &self,
-        barrier: &ColliderBarrier,
-        diagonal: &[[u32; 9]],
-        x: &[f64],
-        grad: &mut [f64],
-        mut values: Option<(&mut [f64], HessianKind)>,
-    ) {
-        for (p, &d) in self.dof_of.iter().enumerate() {
-            if d == NONE {
-                continue;
-            }
-            let (mut g, mut h) = ([0.0; 3], [0.0; 9]);
-            let project = matches!(values, Some((_, HessianKind::Projected)));
-            let point = &x[3 * p..3 * p + 3];
-            if !barrier.derivatives(point, &mut g, &mut h, |block| {
-                if project {
-                    project_psd(block, 3);
-                }
-            }) {
-                continue;
-            }
-            if let Some((start, lagged)) = &self.friction {
-                let contacts = &lagged[p];
-                if !contacts.is_empty() {
-                    let y = &start[3 * p..3 * p + 3];
-                    barrier.friction_derivatives(point, y, contacts, &mut g, &mut h);
-                }
-            }
-            let d = d as usize;
-            for k in 0..3 {
-                grad[d + k] += g[k];
-            }
-            if let Some((v, _)) = values.as_mut() {
-                for (&i, &hv) in diagonal[d / 3].iter().zip(&h) {
-                    if i != NONE {
-                        v[i as usize] += hv;
-                    }
-                }
-            }
-        }
     }
 
     /// The Hessian values (`nnz` of them) of the linear groups: `k∇C∇Cᵀ` per instance,
@@ -633,57 +532,10 @@ impl Pattern {
         })
     }
 
-    /// `alpha` times the largest step length in `[0, 1]` the colliders' barrier allows for every
-    /// free particle `p` (degree of freedom `d`) moving by `alpha · moved(p, d)` from `x`
-    /// ([`ColliderBarrier::max_step`]); `alpha` without the barrier. The self-contact filter
-    /// gives `alpha`: a step it shortens is scaled down for the colliders too.
-    pub(super) fn colliders_allow(
-        &self,
-        x: &[f64],
-        alpha: f64,
-        moved: impl Fn(usize, usize) -> [f64; 3],
-    ) -> f64 {
-        let Some((barrier, _)) = &self.barrier else {
-            return alpha;
-        };
-        let moves = (self.dof_of.iter().enumerate())
-            .filter(|&(_, &d)| d != NONE)
-            .map(|(p, &d)| {
-                (
-                    &x[3 * p..3 * p + 3],
-                    moved(p, d as usize).map(|v| v * alpha),
-                )
-            });
-        let alpha = alpha * barrier.max_step(moves);
-        match &self.edge_points {
-            Some(e) => alpha * e.max_step(x, |p, d| moved(p, d).map(|v| v * alpha)),
-            None => alpha,
-        }
-    }
-
     /// Whether the model has a barrier potential, of the colliders or of self-contact (its
     /// states must stay outside the colliders and apart by the thickness).
     pub fn has_barrier(&self) -> bool {
         self.barrier.is_some() || self.self_barrier.is_some()
-    }
-
-    /// Smooth contact: the first free particle of `x` on or inside a collider, with its signed
-    /// distance; `None` when all are outside (or without the potential). Self-contact has its
-    /// own test ([`Pattern::self_penetration`]).
-    pub fn penetration(&self, x: &[f64]) -> Option<(usize, f64)> {
-        let (barrier, _) = self.barrier.as_ref()?;
-        self.dof_of
-            .iter()
-            .enumerate()
-            .filter(|&(_, &d)| d != NONE)
-            .map(|(p, _)| (p, barrier.distance(&x[3 * p..3 * p + 3])))
-            .find(|&(_, d)| d <= 0.0)
-    }
-
-    /// Smooth contact along the edges: the first edge point of `x` on or inside a narrow
-    /// collider, with its signed distance ([`crate::contact::edge_points`]).
-    pub fn edge_penetration(&self, x: &[f64]) -> Option<(EdgePoint, f64)> {
-        self.edge_points.as_ref()?.penetration(x)
     }
 
     /// `M z` for the free particles, scattered into full `N × 3` data `y` (added).

@@ -9,6 +9,7 @@
 //!
 //! - [`terms`]: `C`, `∇C`, `∇²C` of any constraint type, through its overrides or duals;
 //! - [`assembly`]: the sparse pattern (fixed per model), `Φ`, `∇Φ` and the Hessian;
+//! - `colliders`: smooth contact's terms in them, its step filter and its start check;
 //! - [`psd`]: the per-constraint semidefinite projection of the Hessian's blocks;
 //! - [`ordering`]: the fill-reducing elimination order, on the particle graph;
 //! - [`factor`]: faer's sparse Cholesky (symbolic once, numeric per iteration);
@@ -33,6 +34,7 @@
 //! energy and are rejected with [`ClothError::NewtonUnsupported`].
 
 pub mod assembly;
+mod colliders;
 pub mod contact;
 pub mod continuation;
 pub mod curvature;

@@ -314,21 +314,7 @@ impl NewtonSystem {
         let xt_d = xt.data();
         let stats = StepStats::default();
         let (x, r0) = self.start_at(start, xt);
-        if let Some((particle, distance)) = self.pattern.penetration(x.data()) {
-            return Err(ClothError::ContactPenetration {
-                step,
-                particle,
-                distance,
-            });
-        }
-        if let Some((point, distance)) = self.pattern.edge_penetration(x.data()) {
-            return Err(ClothError::EdgeContactPenetration {
-                step,
-                edge: [point.a, point.b],
-                t: point.t,
-                distance,
-            });
-        }
+        self.pattern.check_outside(x.data(), step)?;
         if let Some((particles, gap)) = self.pattern.self_penetration(x.data()) {
             return Err(ClothError::SelfContactPenetration {
                 step,
