@@ -85,15 +85,30 @@ impl ColliderBarrier {
     /// The term of one particle at `p` in `Φ`: `Δt² κ Σⱼ b(dⱼ)`; `+∞` when `p` is on or inside
     /// a collider.
     pub fn energy(&self, p: &[f64]) -> f64 {
-        let q = Vector3::new(p[0], p[1], p[2]);
         let h = self.barrier.d_hat;
-        if self.field.distance_within(&q, h) >= h {
-            return 0.0;
-        }
-        let mut d = vec![0.0; self.field.component_count()];
-        self.field.components_within(&q, h, &mut d);
-        let sum: f64 = d.iter().map(|&dj| self.barrier.shape(dj).0).sum();
-        self.dt2 * self.barrier.kappa * sum
+        self.with_components(p, |d| {
+            if d.iter().all(|&dj| dj >= h) {
+                return 0.0;
+            }
+            let sum: f64 = d.iter().map(|&dj| self.barrier.shape(dj).0).sum();
+            self.dt2 * self.barrier.kappa * sum
+        })
+    }
+
+    /// `f` of the distances of `p` to each primitive within `d̂`
+    /// ([`Union::components_within`]), held on the stack for up to 16 primitives.
+    fn with_components<T>(&self, p: &[f64], f: impl FnOnce(&[f64]) -> T) -> T {
+        let q = Vector3::new(p[0], p[1], p[2]);
+        let n = self.field.component_count();
+        let (mut stack, mut heap) = ([0.0; 16], Vec::new());
+        let d = if n <= stack.len() {
+            &mut stack[..n]
+        } else {
+            heap.resize(n, 0.0);
+            &mut heap[..]
+        };
+        self.field.components_within(&q, self.barrier.d_hat, d);
+        f(d)
     }
 
     /// The term's gradient (added to `g`) and Hessian (added to `h`, row-major `3 × 3`) at `p`;
@@ -109,15 +124,21 @@ impl ColliderBarrier {
     ) -> bool {
         let q = Vector3::new(p[0], p[1], p[2]);
         let d_hat = self.barrier.d_hat;
-        let nearest = self.field.distance_within(&q, d_hat);
-        if nearest >= d_hat {
-            return true;
-        }
-        if nearest <= 0.0 {
+        let active = self.with_components(p, |d| {
+            let nearest = d.iter().copied().fold(f64::INFINITY, f64::min);
+            if nearest >= d_hat {
+                Some(Vec::new())
+            } else if nearest <= 0.0 {
+                None
+            } else {
+                Some(self.active_primitives(&q, d))
+            }
+        });
+        let Some(active) = active else {
             return false;
-        }
+        };
         let s = self.dt2 * self.barrier.kappa;
-        for (d, grad, hess) in self.active_primitives(&q) {
+        for (d, grad, hess) in active {
             let (_, b1, b2) = self.barrier.shape(d);
             let mut block = [0.0; 9];
             for a in 0..3 {
@@ -134,28 +155,22 @@ impl ColliderBarrier {
         true
     }
 
-    /// Distance, gradient and Hessian of every primitive nearer than `d̂` to `q`, by second-order
-    /// forward duals on [`Union::components_within`].
-    fn active_primitives(&self, q: &Vector3<f64>) -> Vec<Local> {
+    /// Distance, gradient and Hessian of every primitive nearer than `d̂` to `q` (`plain`: the
+    /// distances to each, [`Union::components_within`]), by second-order forward duals on
+    /// [`Union::component_within`].
+    fn active_primitives(&self, q: &Vector3<f64>, plain: &[f64]) -> Vec<Local> {
         type D2 = Dual<Dual<f64, 3>, 3>;
         let d_hat = self.barrier.d_hat;
-        let n = self.field.component_count();
-        let mut plain = vec![0.0; n];
-        self.field.components_within(q, d_hat, &mut plain);
-        if plain.iter().all(|&d| d >= d_hat) {
-            return Vec::new();
-        }
         let x: Vector3<D2> = Vector3::from_fn(|k, _| D2 {
             re: Dual::variable(q[k], k),
             eps: std::array::from_fn(|j| Dual::constant(if j == k { 1.0 } else { 0.0 })),
         });
-        let mut dual = vec![D2::constant(Dual::constant(0.0)); n];
-        self.field.components_within(&x, d_hat, &mut dual);
         plain
             .iter()
-            .zip(&dual)
-            .filter(|(&d, _)| d < d_hat)
-            .map(|(&d, v)| {
+            .enumerate()
+            .filter(|(_, &d)| d < d_hat)
+            .map(|(j, &d)| {
+                let v = self.field.component_within(j, &x, d_hat);
                 let grad = std::array::from_fn(|a| v.re.eps[a]);
                 let hess = std::array::from_fn(|k| v.eps[k / 3].eps[k % 3]);
                 (d, grad, hess)

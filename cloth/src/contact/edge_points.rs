@@ -21,6 +21,7 @@
 
 use super::barrier::{Barrier, ColliderBarrier};
 use crate::sdf::Union;
+use std::ops::Range;
 use std::sync::Arc;
 
 /// A barrier point on an edge: `(1 − t) x_a + t x_b`.
@@ -51,6 +52,11 @@ pub struct EdgeBarrier {
     pub points: Vec<EdgePoint>,
     /// The points' largest spacing in the rest shape.
     pub spacing: f64,
+    /// Each edge with points: its particles and the range of its points in `points`.
+    pub edges: Vec<([usize; 2], Range<usize>)>,
+    /// A box holding every narrow collider: an edge whose box keeps away from it keeps its
+    /// points away, so most edges are passed over without a distance query.
+    pub bounds: ([f64; 3], [f64; 3]),
 }
 
 impl EdgeBarrier {
@@ -67,21 +73,21 @@ impl EdgeBarrier {
     ) -> Option<EdgeBarrier> {
         let longest = rest.iter().copied().fold(0.0, f64::max);
         let narrow = colliders.narrower_than(longest);
-        if narrow.is_empty() {
-            return None;
-        }
+        let bounds = narrow.bounds()?;
         let spacing = 0.5 * narrow.narrowest();
-        let mut points = Vec::new();
+        let (mut points, mut runs) = (Vec::new(), Vec::new());
         for (&[a, b], &length) in edges.iter().zip(rest) {
-            if !(free(a) && free(b)) {
+            let pieces = (length / spacing).ceil() as usize;
+            if !(free(a) && free(b)) || pieces < 2 {
                 continue;
             }
-            let pieces = (length / spacing).ceil() as usize;
+            let first = points.len();
             points.extend((1..pieces).map(|k| EdgePoint {
                 a,
                 b,
                 t: k as f64 / pieces as f64,
             }));
+            runs.push(([a, b], first..points.len()));
         }
         (!points.is_empty()).then(|| EdgeBarrier {
             barrier: ColliderBarrier {
@@ -92,14 +98,42 @@ impl EdgeBarrier {
             },
             points,
             spacing,
+            edges: runs,
+            bounds,
         })
+    }
+
+    /// A lower bound of the distance from the edge `[a, b]` of the full `N × 3` state `x` to
+    /// the narrow colliders: the gap between its box and [`EdgeBarrier::bounds`] (0 where they
+    /// meet).
+    pub fn edge_gap(&self, [a, b]: [usize; 2], x: &[f64]) -> f64 {
+        let (lo, hi) = &self.bounds;
+        let mut gap2 = 0.0;
+        for k in 0..3 {
+            let (u, v) = (x[3 * a + k], x[3 * b + k]);
+            let g = (lo[k] - u.max(v)).max(u.min(v) - hi[k]).max(0.0);
+            gap2 += g * g;
+        }
+        gap2.sqrt()
+    }
+
+    /// The points (with their indices) of the edges of `x` that may come nearer than `reach`
+    /// to the narrow colliders ([`EdgeBarrier::edge_gap`] below it); the others are farther.
+    pub fn points_near<'a>(
+        &'a self,
+        x: &'a [f64],
+        reach: f64,
+    ) -> impl Iterator<Item = (usize, &'a EdgePoint)> + 'a {
+        (self.edges.iter())
+            .filter(move |(edge, _)| self.edge_gap(*edge, x) < reach)
+            .flat_map(move |(_, range)| range.clone().map(move |i| (i, &self.points[i])))
     }
 
     /// The first point of `x` on or inside a narrow collider, with its signed distance; `None`
     /// when all are outside.
     pub fn penetration(&self, x: &[f64]) -> Option<(EdgePoint, f64)> {
-        (self.points.iter())
-            .map(|p| (*p, self.barrier.distance(&p.position(x))))
+        (self.points_near(x, f64::MIN_POSITIVE))
+            .map(|(_, p)| (*p, self.barrier.distance(&p.position(x))))
             .find(|&(_, d)| d <= 0.0)
     }
 }
@@ -142,6 +176,35 @@ mod tests {
         let ts: Vec<f64> = e.points.iter().map(|p| p.t).collect();
         assert_eq!(ts, [0.25, 0.5, 0.75]);
         assert!(e.points.iter().all(|p| (p.a, p.b) == (0, 1)));
+        assert_eq!(e.edges, [([0, 1], 0..3)]);
+        assert_eq!(e.bounds, ([-1.015, -0.015, 0.985], [1.015, 0.015, 1.015]));
+    }
+
+    /// An edge's box gap bounds its points' distances (where outside) from below, and is 0
+    /// where the boxes meet.
+    #[test]
+    fn the_edge_gap_is_a_lower_bound_of_its_points_distances() {
+        let e = EdgeBarrier::new(&colliders(), SHAPE, 1.0, &[[0, 1]], &[0.05], |_| true).unwrap();
+        for x in [
+            [0.3, 0.2, 1.4, 0.35, 0.1, 1.2],
+            [2.0, 0.0, 1.0, 2.0, 0.0, 1.05],
+            [0.0, -0.1, 0.9, 0.0, 0.1, 1.1],
+        ] {
+            let gap = e.edge_gap([0, 1], &x);
+            for p in &e.points {
+                let d = e.barrier.distance(&p.position(&x));
+                assert!(gap <= d.max(0.0), "{gap} > {d}");
+            }
+        }
+        assert_eq!(e.edge_gap([0, 1], &[0.0, -0.1, 0.9, 0.0, 0.1, 1.1]), 0.0);
+        assert_eq!(
+            e.points_near(&[2.0, 0.0, 1.0, 2.0, 0.0, 1.05], 0.5).count(),
+            0
+        );
+        assert_eq!(
+            e.points_near(&[2.0, 0.0, 1.0, 2.0, 0.0, 1.05], 1.0).count(),
+            3
+        );
     }
 
     /// Edges shorter than every collider is wide need no points.

@@ -5,6 +5,7 @@
 
 use super::assembly::{HessianKind, Pattern, NONE};
 use super::psd::project_psd;
+use crate::contact::barrier::APPROACH;
 use crate::contact::edge_points::{EdgeBarrier, EdgePoint};
 use std::sync::Arc;
 
@@ -55,11 +56,15 @@ impl EdgePointPattern {
         EdgePointPattern { edges, scatter }
     }
 
-    /// The points' terms in `Φ(x)`.
+    /// The points' terms in `Φ(x)` (those of edges farther than `d̂` are 0).
     pub(super) fn energy(&self, x: &[f64]) -> f64 {
-        (self.edges.points.iter())
-            .map(|p| (self.edges.barrier).energy(&p.position(x)))
+        (self.edges.points_near(x, self.d_hat()))
+            .map(|(_, p)| (self.edges.barrier).energy(&p.position(x)))
             .sum()
+    }
+
+    fn d_hat(&self) -> f64 {
+        self.edges.barrier.barrier.d_hat
     }
 
     /// Adds the points' gradient to `grad` (degree-of-freedom order) and, with `values`, their
@@ -71,7 +76,8 @@ impl EdgePointPattern {
         mut values: Option<(&mut [f64], HessianKind)>,
     ) {
         let project = matches!(values, Some((_, HessianKind::Projected)));
-        for (p, ([da, db], blocks)) in self.edges.points.iter().zip(&self.scatter) {
+        for (i, p) in self.edges.points_near(x, self.d_hat()) {
+            let ([da, db], blocks) = &self.scatter[i];
             let (mut g, mut h) = ([0.0; 3], [0.0; 9]);
             let q = p.position(x);
             // A point inside (only at x̃, which the iterates never are) adds nothing, as a
@@ -106,16 +112,26 @@ impl EdgePointPattern {
     /// The largest step length in `[0, 1]` (1 or a power of one half) such that every point,
     /// moved straight by its particles' moves `moved(particle, dof)`, keeps the colliders'
     /// [`crate::contact::barrier::APPROACH`] fraction of its distance.
+    ///
+    /// An edge whose particles move less than `(1 − APPROACH)` times its box gap
+    /// ([`EdgeBarrier::edge_gap`]) is passed over: each of its points moves no farther than its
+    /// farther particle and starts at least that gap away, so the filter would pass it too.
     pub(super) fn max_step(&self, x: &[f64], moved: impl Fn(usize, usize) -> [f64; 3]) -> f64 {
-        let moves: Vec<([f64; 3], [f64; 3])> = (self.edges.points.iter())
-            .zip(&self.scatter)
-            .map(|(p, ([da, db], _))| {
-                let (ma, mb) = (moved(p.a, *da as usize), moved(p.b, *db as usize));
+        let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let mut moves: Vec<([f64; 3], [f64; 3])> = Vec::new();
+        for ([a, b], range) in &self.edges.edges {
+            let [da, db] = self.scatter[range.start].0;
+            let (ma, mb) = (moved(*a, da as usize), moved(*b, db as usize));
+            let gap = self.edges.edge_gap([*a, *b], x);
+            if norm(ma).max(norm(mb)) <= (1.0 - APPROACH) * gap {
+                continue;
+            }
+            moves.extend(self.edges.points[range.clone()].iter().map(|p| {
                 let w = [1.0 - p.t, p.t];
                 let delta = std::array::from_fn(|k| w[0] * ma[k] + w[1] * mb[k]);
                 (p.position(x), delta)
-            })
-            .collect();
+            }));
+        }
         (self.edges.barrier).max_step(moves.iter().map(|(q, d)| (&q[..], *d)))
     }
 

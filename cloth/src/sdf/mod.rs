@@ -115,6 +115,11 @@ pub(crate) fn midpoint_lower_bound<S: SignedDistance + ?Sized>(
     Some(centre - half - 1e-12 * (1.0 + centre.abs() + half))
 }
 
+/// `|p − c| − r`: one sphere of a [`Union`]'s, as its components are computed.
+fn sphere_distance<R: Real>(c: &[f64; 3], r: f64, p: &Vector3<R>) -> R {
+    norm(&(p - Vector3::new(R::cst(c[0]), R::cst(c[1]), R::cst(c[2])))) - r
+}
+
 /// A union of spheres: `min_s (|p − c_s| − r_s)`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SphereSet {
@@ -329,6 +334,40 @@ impl Union {
         (spheres.chain(capsules).chain(boxes)).fold(f64::INFINITY, f64::min)
     }
 
+    /// An axis-aligned box `(lo, hi)` holding every sphere, capsule and box; `None` with a plane
+    /// or a mesh (unbounded, or not measured) or without any primitive.
+    pub fn bounds(&self) -> Option<([f64; 3], [f64; 3])> {
+        if !(self.planes.is_empty() && self.meshes.is_empty()) || self.is_empty() {
+            return None;
+        }
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        let mut grow = |c: [f64; 3], half: [f64; 3]| {
+            for k in 0..3 {
+                lo[k] = lo[k].min(c[k] - half[k]);
+                hi[k] = hi[k].max(c[k] + half[k]);
+            }
+        };
+        for set in &self.spheres {
+            for (c, &r) in set.centers.iter().zip(&set.radii) {
+                grow(*c, [r; 3]);
+            }
+        }
+        for c in &self.capsules {
+            grow(c.a, [c.radius; 3]);
+            grow(c.b, [c.radius; 3]);
+        }
+        for b in &self.boxes {
+            // Body axes are the rotation's columns: world extent `Σⱼ |R_kj| hⱼ` along axis k.
+            let half = std::array::from_fn(|k| {
+                (0..3)
+                    .map(|j| b.rotation[k][j].abs() * b.half_extents[j])
+                    .sum()
+            });
+            grow(b.center, half);
+        }
+        Some((lo, hi))
+    }
+
     /// Number of primitives (spheres, planes, capsules, boxes, meshes).
     pub fn component_count(&self) -> usize {
         self.spheres.iter().map(|s| s.radii.len()).sum::<usize>()
@@ -351,7 +390,7 @@ impl Union {
         let mut k = 0;
         for set in &self.spheres {
             for (c, &r) in set.centers.iter().zip(&set.radii) {
-                out[k] = norm(&(p - Vector3::new(R::cst(c[0]), R::cst(c[1]), R::cst(c[2])))) - r;
+                out[k] = sphere_distance(c, r, p);
                 k += 1;
             }
         }
@@ -363,6 +402,29 @@ impl Union {
             out[k] = d;
             k += 1;
         }
+    }
+
+    /// The `k`-th of [`Union::components_within`]'s distances alone, by the same arithmetic
+    /// (what a caller that needs a few primitives' derivatives evaluates).
+    pub fn component_within<R: Real>(&self, mut k: usize, p: &Vector3<R>, bound: f64) -> R {
+        for set in &self.spheres {
+            if k < set.radii.len() {
+                return sphere_distance(&set.centers[k], set.radii[k], p);
+            }
+            k -= set.radii.len();
+        }
+        if k < self.planes.len() {
+            return self.planes[k].distance(p);
+        }
+        k -= self.planes.len();
+        if k < self.capsules.len() {
+            return self.capsules[k].distance(p);
+        }
+        k -= self.capsules.len();
+        if k < self.boxes.len() {
+            return self.boxes[k].distance(p);
+        }
+        self.meshes[k - self.boxes.len()].distance_within(p, bound)
     }
 
     /// The distances to the capsules, boxes and meshes, in that order, each bounded by `bound`
