@@ -6,7 +6,7 @@
 mod common;
 
 use autodiff::Tensor;
-use cloth::scene::{CapsuleSpec, ContactModel, Obstacle, ObstacleRole, SolverKind};
+use cloth::scene::{BoxSpec, CapsuleSpec, ContactModel, Obstacle, ObstacleRole, SolverKind};
 use cloth::sdf::SignedDistance;
 use cloth::{Model, NewtonSettings, Scene, Solver};
 use common::{small_scene, BendKind};
@@ -21,20 +21,25 @@ const RAIL_Y: f64 = -1.44;
 
 /// The 5 × 5 hanging cloth of side 1 (edges 0.25, diagonals 0.35; x ∈ [−0.5, 0.5], y = −1.5,
 /// z ∈ [1, 2]), T = [`HORIZON`], smooth contact, with a horizontal rail 4 cm across (`radius` 0.02) in
-/// front of it, between two rows of particles.
-fn scene() -> Scene {
+/// front of it, between two rows of particles, with friction `mu` on the rail.
+fn scene_with(mu: Option<f64>) -> Scene {
     let mut s = small_scene(5, 5, HORIZON, 100, 2e3, BendKind::Distance(20.0));
     s.obstacles = vec![Obstacle::Capsule(CapsuleSpec {
         a: [-1.0, RAIL_Y, RAIL_Z],
         b: [1.0, RAIL_Y, RAIL_Z],
         radius: 0.02,
         role: ObstacleRole::Collider,
-        friction: None,
+        friction: mu,
     })];
     s.physics.solver = Some(SolverKind::Newton);
     s.physics.contact = common::contact_model(ContactModel::Smooth);
     s.validate().unwrap();
     s
+}
+
+/// The frictionless rail.
+fn scene() -> Scene {
+    scene_with(None)
 }
 
 fn newton_model(s: &Scene) -> Model {
@@ -136,17 +141,89 @@ fn a_start_with_an_edge_through_the_rail_is_refused() {
     );
 }
 
+/// A `5 × 5` cloth (side 0.4, edges 0.1, no grippers) lying 5 mm above a plate 4 cm thick
+/// (narrower than its edges) tilted by `theta` about the y axis, with friction `mu`.
+fn on_a_tilted_plate(theta: f64, mu: f64, horizon: usize) -> Scene {
+    let mut s = scene();
+    s.task.horizon = horizon;
+    let (downhill, normal) = (
+        [theta.cos(), 0.0, -theta.sin()],
+        [theta.sin(), 0.0, theta.cos()],
+    );
+    s.cloth.top_left = normal.map(|v| 0.005 * v);
+    s.cloth.right = downhill.map(|v| 0.4 * v);
+    s.cloth.down = [0.0, 0.4, 0.0];
+    s.controls.clear();
+    s.task.targets.truncate(1);
+    s.task.targets[0].particle = [0, 0].into();
+    let half = 0.5 * theta;
+    s.obstacles = vec![Obstacle::Box(BoxSpec {
+        center: normal.map(|v| -0.02 * v),
+        half_extents: [1.0, 1.0, 0.02],
+        rotation: Some([half.cos(), 0.0, half.sin(), 0.0]),
+        role: ObstacleRole::Collider,
+        friction: Some(mu),
+    })];
+    s.validate().unwrap();
+    s
+}
+
+/// The cloth's mean downhill displacement per step after the first two (the first lifts it to
+/// where the barrier holds its weight, the second lags the friction's normal force there).
+fn steady_slide(m: &Model, theta: f64) -> f64 {
+    let states = m.simulate(&m.zero_controls()).unwrap();
+    let (first, last) = (&states[2], states.last().unwrap());
+    let downhill = [theta.cos(), 0.0, -theta.sin()];
+    let n = first.rows();
+    let total: f64 = (0..n)
+        .map(|p| {
+            (0..3)
+                .map(|k| (last.get(p, k) - first.get(p, k)) * downhill[k])
+                .sum::<f64>()
+        })
+        .sum();
+    total / (n * (states.len() - 3)) as f64
+}
+
+/// On a plate narrower than the cloth's edges, tilted by θ = 0.3 (tan θ = 0.31) with μ = 0.6,
+/// the edge points carry part of the cloth's weight; rubbing as the particles do, they let it
+/// hold (creeping less than half the smoothing displacement per step), where frictionless
+/// points would let it slide.
+#[test]
+fn edge_points_on_a_narrow_plate_rub_as_the_particles_do() {
+    let theta = 0.3;
+    let m = newton_model(&on_a_tilted_plate(theta, 0.6, 10));
+    let edges = m.edge_barrier.clone().expect("points against the plate");
+    let eps = edges
+        .barrier
+        .friction
+        .as_ref()
+        .expect("the plate's friction")
+        .epsilon;
+    let held = steady_slide(&m, theta);
+    let mut frictionless = m.clone();
+    let mut points = (*edges).clone();
+    points.barrier.friction = None;
+    frictionless.edge_barrier = Some(std::sync::Arc::new(points));
+    let slid = steady_slide(&frictionless, theta);
+    eprintln!("rubbing points: {held:e} per step; frictionless points: {slid:e} (ε {eps:e})");
+    assert!(held.abs() <= 0.5 * eps, "{held} vs ε {eps}");
+    assert!(slid > 5.0 * eps, "frictionless points let it slide: {slid}");
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 6, .. ProptestConfig::default() })]
 
-    /// `dL/dU` and `dC/dU` against central differences (step 1e-6, as for the particles' barrier) at controls jittered around
-    /// the carry over the rail, where the edge points press on it.
+    /// `dL/dU` and `dC/dU` against central differences (step 1e-6, as for the particles'
+    /// barrier) at controls jittered around the carry over the rail, where the edge points press
+    /// on it, frictionless or rubbing (the friction's dependence on the step's start included).
     #[test]
     fn edge_contact_gradients_match_central_differences(
         jitter in proptest::collection::vec(-0.02f64..0.02, 6 * HORIZON),
         seed in any::<u64>(),
+        mu in proptest::option::of(0.2f64..1.0),
     ) {
-        let m = newton_model(&scene());
+        let m = newton_model(&scene_with(mu));
         let mut u = over_the_rail(&m);
         for (v, j) in u.data_mut().iter_mut().zip(&jitter) {
             *v += j;

@@ -180,8 +180,37 @@ proptest! {
     }
 }
 
+/// [`scene`] lying on a plate 4 cm thick instead of the floor (the same top face): narrower than
+/// the cloth's edges (0.25), so its edges carry barrier points that press and rub on it too.
+fn on_a_plate(mu: f64) -> Scene {
+    let mut s = scene(Some(mu));
+    s.obstacles = vec![cloth::scene::Obstacle::Box(cloth::scene::BoxSpec {
+        center: [0.0, 0.0, -0.02],
+        half_extents: [2.0, 2.0, 0.02],
+        rotation: None,
+        role: ObstacleRole::Collider,
+        friction: Some(mu),
+    })];
+    s.validate().unwrap();
+    assert!(
+        model(&s, None).edge_barrier.is_some(),
+        "edge points on the plate"
+    );
+    s
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 4, ..ProptestConfig::default() })]
+
+    /// A flat cloth dragged over a plate narrower than its edges (edge points with friction).
+    #[test]
+    fn edge_contact_tangents_match_central_differences(
+        mu in 0.2f64..1.5, dx in 0.01f64..0.08, dy in -0.05f64..0.05, seed in 1u64..1000,
+    ) {
+        let s = on_a_plate(mu);
+        let u = controls(&model(&s, None), [dx, dy, -0.02]);
+        check(&s, &u, &["stretch", "bending", "mass", "gravity", "friction"], seed)?;
+    }
 
     /// XPBD in free space, a user's constraint type included.
     #[test]

@@ -6,7 +6,8 @@
 //! longer than half the narrowest such collider's width carries barrier points at fixed fractions
 //! `t` along it, `x = (1 − t) x_a + t x_b`, at most half that width apart in the rest shape. The
 //! points see only the narrow colliders (spheres, capsules and boxes narrower than the longest
-//! edge, [`Union::narrower_than`]), with the particles' barrier and without friction.
+//! edge, [`crate::sdf::Union::narrower_than`]), with the particles' barrier and friction: on a
+//! narrow collider's face the points carry part of the load, and rub as the particles do.
 //!
 //! Why half the width: a segment through a capsule's axis, a sphere's centre or a slab's
 //! mid-plane has a chord at least the width inside it, which would hold a point; the points stay
@@ -19,8 +20,9 @@
 //! left out (their points would couple the controls into the barrier); the grippers are kept off
 //! the colliders by the planner's own rows.
 
-use super::barrier::{Barrier, ColliderBarrier};
-use crate::sdf::Union;
+use super::barrier::ColliderBarrier;
+use super::smooth_friction::FrictionParams;
+
 use std::ops::Range;
 use std::sync::Arc;
 
@@ -61,18 +63,17 @@ pub struct EdgeBarrier {
 
 impl EdgeBarrier {
     /// The points of `edges` (with their `rest` lengths) whose ends are both `free`, against the
-    /// colliders narrower than the longest edge, with the particles' `barrier` at scale `dt2`;
-    /// `None` when no collider is that narrow or no edge needs a point.
+    /// colliders of `particles` (the particles' barrier) narrower than the longest edge, with
+    /// the same barrier and friction; `None` when no collider is that narrow or no edge needs a
+    /// point.
     pub fn new(
-        colliders: &Union,
-        barrier: Barrier,
-        dt2: f64,
+        particles: &ColliderBarrier,
         edges: &[[usize; 2]],
         rest: &[f64],
         free: impl Fn(usize) -> bool,
     ) -> Option<EdgeBarrier> {
         let longest = rest.iter().copied().fold(0.0, f64::max);
-        let narrow = colliders.narrower_than(longest);
+        let (narrow, index) = particles.field.narrower_than(longest);
         let bounds = narrow.bounds()?;
         let spacing = 0.5 * narrow.narrowest();
         let (mut points, mut runs) = (Vec::new(), Vec::new());
@@ -92,9 +93,14 @@ impl EdgeBarrier {
         (!points.is_empty()).then(|| EdgeBarrier {
             barrier: ColliderBarrier {
                 field: Arc::new(narrow),
-                barrier,
-                dt2,
-                friction: None,
+                barrier: particles.barrier,
+                dt2: particles.dt2,
+                friction: (particles.friction.as_ref())
+                    .map(|f| FrictionParams {
+                        mu: index.iter().map(|&k| f.mu[k]).collect(),
+                        epsilon: f.epsilon,
+                    })
+                    .filter(|f| f.mu.iter().any(|&m| m > 0.0)),
             },
             points,
             spacing,
@@ -141,7 +147,8 @@ impl EdgeBarrier {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sdf::{Capsule, Cuboid, Plane};
+    use crate::contact::barrier::Barrier;
+    use crate::sdf::{Capsule, Cuboid, Plane, Union};
 
     fn colliders() -> Union {
         Union {
@@ -159,10 +166,21 @@ mod tests {
         }
     }
 
-    const SHAPE: Barrier = Barrier {
-        d_hat: 0.005,
-        kappa: 1.0,
-    };
+    /// The particles' barrier on [`colliders`], friction 0.3 on the rail alone.
+    fn particles() -> ColliderBarrier {
+        ColliderBarrier {
+            field: Arc::new(colliders()),
+            barrier: Barrier {
+                d_hat: 0.005,
+                kappa: 1.0,
+            },
+            dt2: 1.0,
+            friction: Some(FrictionParams {
+                mu: vec![0.0, 0.3, 0.0],
+                epsilon: 1e-4,
+            }),
+        }
+    }
 
     /// Only the rail is narrow; an edge of 0.05 gets points at most 0.015 apart (4 pieces), one
     /// of 0.01 none, and an edge with a held end none.
@@ -170,8 +188,13 @@ mod tests {
     fn points_are_spaced_by_half_the_narrowest_width_on_free_edges() {
         let edges = [[0, 1], [1, 2], [2, 3]];
         let rest = [0.05, 0.01, 0.05];
-        let e = EdgeBarrier::new(&colliders(), SHAPE, 1.0, &edges, &rest, |p| p != 3).unwrap();
+        let e = EdgeBarrier::new(&particles(), &edges, &rest, |p| p != 3).unwrap();
         assert_eq!(e.barrier.field.component_count(), 1, "the rail alone");
+        assert_eq!(
+            e.barrier.friction.as_ref().unwrap().mu,
+            [0.3],
+            "the rail's friction"
+        );
         assert_eq!(e.spacing, 0.015);
         let ts: Vec<f64> = e.points.iter().map(|p| p.t).collect();
         assert_eq!(ts, [0.25, 0.5, 0.75]);
@@ -184,7 +207,7 @@ mod tests {
     /// where the boxes meet.
     #[test]
     fn the_edge_gap_is_a_lower_bound_of_its_points_distances() {
-        let e = EdgeBarrier::new(&colliders(), SHAPE, 1.0, &[[0, 1]], &[0.05], |_| true).unwrap();
+        let e = EdgeBarrier::new(&particles(), &[[0, 1]], &[0.05], |_| true).unwrap();
         for x in [
             [0.3, 0.2, 1.4, 0.35, 0.1, 1.2],
             [2.0, 0.0, 1.0, 2.0, 0.0, 1.05],
@@ -210,14 +233,14 @@ mod tests {
     /// Edges shorter than every collider is wide need no points.
     #[test]
     fn no_points_without_a_collider_narrower_than_the_longest_edge() {
-        let e = EdgeBarrier::new(&colliders(), SHAPE, 1.0, &[[0, 1]], &[0.02], |_| true);
+        let e = EdgeBarrier::new(&particles(), &[[0, 1]], &[0.02], |_| true);
         assert!(e.is_none());
     }
 
     /// A point is the edge's interpolant, and one inside the rail is found.
     #[test]
     fn a_point_inside_the_rail_is_found() {
-        let e = EdgeBarrier::new(&colliders(), SHAPE, 1.0, &[[0, 1]], &[0.05], |_| true).unwrap();
+        let e = EdgeBarrier::new(&particles(), &[[0, 1]], &[0.05], |_| true).unwrap();
         // The edge straddles the rail: its ends are outside, its middle inside.
         let x = [0.0, -0.04, 1.0, 0.0, 0.04, 1.0];
         assert_eq!(e.points[1].position(&x), [0.0, 0.0, 1.0]);

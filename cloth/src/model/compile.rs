@@ -178,8 +178,7 @@ impl Model {
                 .map(|&[i, j]| model.rest_distance(i, j))
                 .collect();
             let free = |p: usize| model.inv_mass[p] > 0.0;
-            let (shape, dt2) = (barrier.barrier, barrier.dt2);
-            let on_edges = EdgeBarrier::new(&barrier.field, shape, dt2, &edges, &rest, free);
+            let on_edges = EdgeBarrier::new(&barrier, &edges, &rest, free);
             if let Some(e) = &on_edges {
                 check_edges_outside(&model, e)?;
             }

@@ -162,6 +162,9 @@ impl Pattern {
             self.friction.clone(),
         );
         pattern.self_pairs_cache = self.self_pairs_cache.clone();
+        if let (Some(new), Some(old)) = (&mut pattern.edge_points, &self.edge_points) {
+            new.friction = old.friction.clone();
+        }
         pattern
     }
 

@@ -36,6 +36,9 @@ impl Pattern {
     /// previous state, full `N × 3` data); every energy and assembly until the next call is the
     /// step's from `y`. Nothing without friction.
     pub fn begin_step(&mut self, y: &[f64]) {
+        if let Some(e) = &mut self.edge_points {
+            e.begin_step(y);
+        }
         let Some((b, _)) = &self.barrier else {
             return;
         };

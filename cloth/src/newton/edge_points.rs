@@ -2,11 +2,16 @@
 //! term `Δt² κ Σⱼ b(dⱼ(x_p))` at `x_p = (1 − t) x_a + t x_b`, its gradient `w ∇` and Hessian
 //! `w wᵀ ⊗ ∇²` with `w = (1 − t, t)` (semidefinite wherever the point's `3 × 3` block is: the
 //! projected Hessian projects that block), and the step filter on the points' straight moves.
+//! With friction on a narrow collider, each point has the particles' lagged, smoothed Coulomb
+//! potential at its own displacement since the step's start ([`crate::contact::smooth_friction`]),
+//! so the load the points carry rubs as the particles' does; its coupling to the start enters the
+//! implicit gradient with the same weights on both sides.
 
 use super::assembly::{HessianKind, Pattern, NONE};
 use super::psd::project_psd;
 use crate::contact::barrier::APPROACH;
 use crate::contact::edge_points::{EdgeBarrier, EdgePoint};
+use crate::contact::smooth_friction::LaggedContact;
 use std::sync::Arc;
 
 /// The edge points of a pattern: the barrier and, per point, the degrees of freedom of its two
@@ -15,6 +20,9 @@ use std::sync::Arc;
 pub(super) struct EdgePointPattern {
     pub(super) edges: Arc<EdgeBarrier>,
     scatter: Vec<([u32; 2], [[u32; 9]; 3])>,
+    /// With friction: the step's start (full `N × 3` data) and the frictional contacts of each
+    /// point with any there ([`EdgePointPattern::begin_step`]).
+    pub(super) friction: Option<(Vec<f64>, Vec<(usize, Vec<LaggedContact>)>)>,
 }
 
 /// The particle blocks (row ≥ column, in particle blocks) the points of `edges` couple, under
@@ -53,14 +61,48 @@ impl EdgePointPattern {
                 ([da, db], [block(ba, ba), block(bb, bb), block(ba, bb)])
             })
             .collect();
-        EdgePointPattern { edges, scatter }
+        EdgePointPattern {
+            edges,
+            scatter,
+            friction: None,
+        }
+    }
+
+    /// With friction: lags the points' frictional contacts at the step's start `y` (full
+    /// `N × 3` data). Nothing without friction.
+    pub(super) fn begin_step(&mut self, y: &[f64]) {
+        let barrier = &self.edges.barrier;
+        if barrier.friction.is_none() {
+            return;
+        }
+        let lagged = (self.edges.points_near(y, barrier.barrier.d_hat))
+            .map(|(i, p)| (i, barrier.lagged(&p.position(y))))
+            .filter(|(_, contacts)| !contacts.is_empty())
+            .collect();
+        self.friction = Some((y.to_vec(), lagged));
+    }
+
+    /// Each point with frictional contacts: its index, the point, its position at the step's
+    /// start and its contacts.
+    fn frictional(&self) -> impl Iterator<Item = (usize, &EdgePoint, [f64; 3], &[LaggedContact])> {
+        (self.friction.iter()).flat_map(move |(start, lagged)| {
+            lagged.iter().map(move |(i, contacts)| {
+                let p = &self.edges.points[*i];
+                (*i, p, p.position(start), &contacts[..])
+            })
+        })
     }
 
     /// The points' terms in `Φ(x)` (those of edges farther than `d̂` are 0).
     pub(super) fn energy(&self, x: &[f64]) -> f64 {
-        (self.edges.points_near(x, self.d_hat()))
-            .map(|(_, p)| (self.edges.barrier).energy(&p.position(x)))
-            .sum()
+        let barrier = &self.edges.barrier;
+        let contact: f64 = (self.edges.points_near(x, self.d_hat()))
+            .map(|(_, p)| barrier.energy(&p.position(x)))
+            .sum();
+        let friction: f64 = (self.frictional())
+            .map(|(_, p, y, contacts)| barrier.friction_energy(&p.position(x), &y, contacts))
+            .sum();
+        contact + friction
     }
 
     fn d_hat(&self) -> f64 {
@@ -76,36 +118,84 @@ impl EdgePointPattern {
         mut values: Option<(&mut [f64], HessianKind)>,
     ) {
         let project = matches!(values, Some((_, HessianKind::Projected)));
+        let barrier = &self.edges.barrier;
         for (i, p) in self.edges.points_near(x, self.d_hat()) {
-            let ([da, db], blocks) = &self.scatter[i];
             let (mut g, mut h) = ([0.0; 3], [0.0; 9]);
-            let q = p.position(x);
             // A point inside (only at x̃, which the iterates never are) adds nothing, as a
             // particle does.
-            if !self.edges.barrier.derivatives(&q, &mut g, &mut h, |block| {
+            let inside = !barrier.derivatives(&p.position(x), &mut g, &mut h, |block| {
                 if project {
                     project_psd(block, 3);
                 }
-            }) || (g == [0.0; 3] && h == [0.0; 9])
-            {
-                continue;
+            });
+            if !inside && (g != [0.0; 3] || h != [0.0; 9]) {
+                self.scatter(i, p, &g, &h, grad, values.as_mut().map(|(v, _)| &mut **v));
             }
-            let w = [1.0 - p.t, p.t];
-            for k in 0..3 {
-                grad[*da as usize + k] += w[0] * g[k];
-                grad[*db as usize + k] += w[1] * g[k];
-            }
-            let Some((v, _)) = values.as_mut() else {
-                continue;
-            };
-            let scales = [w[0] * w[0], w[1] * w[1], w[0] * w[1]];
-            for (idx, s) in blocks.iter().zip(scales) {
-                for (&i, &hv) in idx.iter().zip(&h) {
-                    if i != NONE {
-                        v[i as usize] += s * hv;
-                    }
+        }
+        // The friction potential's Hessian is semidefinite already.
+        for (i, p, y, contacts) in self.frictional() {
+            let (mut g, mut h) = ([0.0; 3], [0.0; 9]);
+            barrier.friction_derivatives(&p.position(x), &y, contacts, &mut g, &mut h);
+            self.scatter(i, p, &g, &h, grad, values.as_mut().map(|(v, _)| &mut **v));
+        }
+    }
+
+    /// Adds point `i`'s gradient `g` and Hessian `h` (in its position) to its particles'.
+    fn scatter(
+        &self,
+        i: usize,
+        p: &EdgePoint,
+        g: &[f64; 3],
+        h: &[f64; 9],
+        grad: &mut [f64],
+        values: Option<&mut [f64]>,
+    ) {
+        let ([da, db], blocks) = &self.scatter[i];
+        let w = [1.0 - p.t, p.t];
+        for k in 0..3 {
+            grad[*da as usize + k] += w[0] * g[k];
+            grad[*db as usize + k] += w[1] * g[k];
+        }
+        let Some(v) = values else {
+            return;
+        };
+        let scales = [w[0] * w[0], w[1] * w[1], w[0] * w[1]];
+        for (idx, s) in blocks.iter().zip(scales) {
+            for (&j, &hv) in idx.iter().zip(h) {
+                if j != NONE {
+                    v[j as usize] += s * hv;
                 }
             }
+        }
+    }
+
+    /// Calls `f(start particle, state degree of freedom, block)` for the points' friction
+    /// coupling of the state to the step's start, `∂(∇ₓD)/∂y` per pair of their particles (the
+    /// point's block weighted by both particles' fractions), at `x`.
+    pub(super) fn for_each_start_coupling(
+        &self,
+        x: &[f64],
+        mut f: impl FnMut(usize, usize, &[f64; 9]),
+    ) {
+        for (i, p, y, _) in self.frictional() {
+            let cross = self.edges.barrier.friction_cross(&p.position(x), &y);
+            let ([da, db], _) = &self.scatter[i];
+            let (w, dofs, particles) = ([1.0 - p.t, p.t], [*da, *db], [p.a, p.b]);
+            for (wi, d) in w.iter().zip(dofs) {
+                for (wj, q) in w.iter().zip(particles) {
+                    f(q, d as usize, &cross.map(|c| wi * wj * c));
+                }
+            }
+        }
+    }
+
+    /// Adds `∂(∇Φ)/∂ log μ` of the points' friction (its gradient: the potential is linear in
+    /// `μ`) into `out` (degree-of-freedom order), at `x`.
+    pub(super) fn add_friction_gradient(&self, x: &[f64], out: &mut [f64]) {
+        for (i, p, y, contacts) in self.frictional() {
+            let (mut g, mut h) = ([0.0; 3], [0.0; 9]);
+            (self.edges.barrier).friction_derivatives(&p.position(x), &y, contacts, &mut g, &mut h);
+            self.scatter(i, p, &g, &h, out, None);
         }
     }
 

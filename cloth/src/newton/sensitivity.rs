@@ -147,6 +147,9 @@ impl Model {
                     );
                     out[d..d + 3].copy_from_slice(&g);
                 }
+                if let Some(e) = &pattern.edge_points {
+                    e.add_friction_gradient(x, out);
+                }
             }
         }
     }

@@ -28,9 +28,13 @@ impl Pattern {
         });
     }
 
-    /// Calls `f(particle, its degree of freedom, ∂(∇ₓD)/∂y)` for every free particle with
-    /// frictional contacts at the step's start, at `x`.
+    /// Calls `f(start particle, state degree of freedom, ∂(∇ₓD)/∂y)` for every free particle
+    /// with frictional contacts at the step's start (its own), and for every pair of particles
+    /// of an edge point with some, at `x`.
     fn for_each_start_coupling(&self, x: &[f64], mut f: impl FnMut(usize, usize, &[f64; 9])) {
+        if let Some(e) = &self.edge_points {
+            e.for_each_start_coupling(x, &mut f);
+        }
         let (Some((b, _)), Some((start, lagged))) = (&self.barrier, &self.friction) else {
             return;
         };

@@ -298,31 +298,45 @@ impl Union {
         self.meshes.extend(other.meshes);
     }
 
-    /// The primitives narrower than `width` across: spheres and capsules by their diameter,
-    /// boxes by their smallest side. Planes are unbounded; meshes are not measured.
-    pub fn narrower_than(&self, width: f64) -> Union {
-        let spheres = (self.spheres.iter())
-            .map(|set| {
-                let (centers, radii) = (set.centers.iter().zip(&set.radii))
-                    .filter(|&(_, &r)| 2.0 * r < width)
-                    .map(|(c, &r)| (*c, r))
-                    .unzip();
-                SphereSet { centers, radii }
-            })
-            .filter(|set| !set.radii.is_empty())
-            .collect();
-        Union {
-            spheres,
-            capsules: (self.capsules.iter())
-                .filter(|c| c.width() < width)
-                .cloned()
-                .collect(),
-            boxes: (self.boxes.iter())
-                .filter(|b| b.width() < width)
-                .cloned()
-                .collect(),
-            ..Union::default()
+    /// The primitives narrower than `width` across (spheres and capsules by their diameter,
+    /// boxes by their smallest side; planes are unbounded, meshes are not measured), with the
+    /// index of each of their components among this union's ([`Union::components`]).
+    pub fn narrower_than(&self, width: f64) -> (Union, Vec<usize>) {
+        let (mut narrow, mut index) = (Union::default(), Vec::new());
+        let mut k = 0;
+        for set in &self.spheres {
+            let mut kept = SphereSet {
+                centers: Vec::new(),
+                radii: Vec::new(),
+            };
+            for (c, &r) in set.centers.iter().zip(&set.radii) {
+                if 2.0 * r < width {
+                    kept.centers.push(*c);
+                    kept.radii.push(r);
+                    index.push(k);
+                }
+                k += 1;
+            }
+            if !kept.radii.is_empty() {
+                narrow.spheres.push(kept);
+            }
         }
+        k += self.planes.len();
+        for c in &self.capsules {
+            if c.width() < width {
+                narrow.capsules.push(c.clone());
+                index.push(k);
+            }
+            k += 1;
+        }
+        for b in &self.boxes {
+            if b.width() < width {
+                narrow.boxes.push(b.clone());
+                index.push(k);
+            }
+            k += 1;
+        }
+        (narrow, index)
     }
 
     /// The smallest width across of the spheres, capsules and boxes ([`Union::narrower_than`]);
