@@ -14,6 +14,10 @@ use crate::contact::edge_points::{EdgeBarrier, EdgePoint};
 use crate::contact::smooth_friction::LaggedContact;
 use std::sync::Arc;
 
+/// The step's start (full `N × 3` data) and each point with frictional contacts there: its index
+/// and its contacts.
+type LaggedPoints = (Vec<f64>, Vec<(usize, Vec<LaggedContact>)>);
+
 /// The edge points of a pattern: the barrier and, per point, the degrees of freedom of its two
 /// particles and the value indices of the blocks `(a, a)`, `(b, b)` and `(a, b)` (row-major, the
 /// diagonal blocks' upper entries [`NONE`]).
@@ -22,7 +26,7 @@ pub(super) struct EdgePointPattern {
     scatter: Vec<([u32; 2], [[u32; 9]; 3])>,
     /// With friction: the step's start (full `N × 3` data) and the frictional contacts of each
     /// point with any there ([`EdgePointPattern::begin_step`]).
-    pub(super) friction: Option<(Vec<f64>, Vec<(usize, Vec<LaggedContact>)>)>,
+    pub(super) friction: Option<LaggedPoints>,
 }
 
 /// The particle blocks (row ≥ column, in particle blocks) the points of `edges` couple, under
