@@ -371,6 +371,43 @@ impl Cuboid {
         best.1
     }
 
+    /// How deep the straight segment `a → b` lies in the box: the least distance it must move,
+    /// along one of the separating axes of a segment and a box (the box's three axes and their
+    /// cross products with the segment), to come clear of it; `None` where it is clear. At least
+    /// the depth of its deepest point, and, unlike that depth, not flat where the segment crosses
+    /// a thin box through its middle: there it is the way out over the nearer rim.
+    pub fn crossing_depth<R: Real>(&self, a: &Vector3<R>, b: &Vector3<R>) -> Option<R> {
+        let (qa, qb) = (self.body(a), self.body(b));
+        let d: [R; 3] = std::array::from_fn(|k| qb[k] - qa[k]);
+        let h = self.half_extents;
+        let mut axes: Vec<[R; 3]> = (0..3)
+            .map(|k| std::array::from_fn(|j| R::cst(if j == k { 1.0 } else { 0.0 })))
+            .collect();
+        let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().value();
+        for k in 0..3 {
+            // d × e_k.
+            let mut n = [R::cst(0.0); 3];
+            n[(k + 1) % 3] = d[(k + 2) % 3];
+            n[(k + 2) % 3] = -d[(k + 1) % 3];
+            let norm = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            if norm.value() > 1e-9 * length.max(f64::MIN_POSITIVE) {
+                axes.push(n.map(|v| v / norm));
+            }
+        }
+        let mut depth: Option<R> = None;
+        for n in axes {
+            let dot = |q: &[R; 3]| q[0] * n[0] + q[1] * n[1] + q[2] * n[2];
+            let r = (0..3).fold(R::cst(0.0), |acc, k| acc + n[k].abs() * h[k]);
+            let (sa, sb) = (dot(&qa), dot(&qb));
+            let overlap = (sa.max(sb) + r).min(r - sa.min(sb));
+            if overlap.value() <= 0.0 {
+                return None;
+            }
+            depth = Some(depth.map_or(overlap, |m| m.min(overlap)));
+        }
+        depth
+    }
+
     /// The minimizing parameter of [`SignedDistance::segment_min`] as a function of the segment's
     /// ends, for any scalar: found on the values, then recomputed from `a` and `b` by its
     /// definition (where a coordinate reaches a level, where two inside terms cross), so that
@@ -444,6 +481,34 @@ fn box_piece_candidates(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use autodiff::Dual;
+
+    /// A segment through a 1 cm wall (0.3 high, top at z = 0.3) through its middle: the depth is
+    /// the way out over the top, falling as the segment rises (the deepest point's depth stays
+    /// at the half thickness, 0.005); a segment clear of the wall has none; a point inside has
+    /// its own depth.
+    #[test]
+    fn a_segment_through_a_thin_wall_is_as_deep_as_the_way_over_it() {
+        let wall = Cuboid::new([0.0, 0.0, 0.15], [0.005, 1.0, 0.15], None);
+        let depth = |a: [f64; 3], b: [f64; 3]| {
+            wall.crossing_depth(&Vector3::from(a), &Vector3::from(b))
+        };
+        let low = depth([-0.1, 0.0, 0.2], [0.1, 0.0, 0.2]).unwrap();
+        let high = depth([-0.1, 0.0, 0.28], [0.1, 0.0, 0.28]).unwrap();
+        assert!((low - 0.1).abs() < 1e-12 && (high - 0.02).abs() < 1e-12, "{low} {high}");
+        let deepest = wall.distance(&Vector3::new(0.0, 0.0, 0.2));
+        assert!((deepest + 0.005).abs() < 1e-12, "{deepest}");
+        assert_eq!(depth([-0.1, 0.0, 0.31], [0.1, 0.0, 0.31]), None);
+        let inside = depth([0.002, 0.0, 0.2], [0.002, 0.0, 0.2]).unwrap();
+        assert!((inside - 0.003).abs() < 1e-12, "{inside}");
+        // Its slope along z is −1 where the deepest point's is 0.
+        let lifted = |z: Dual<f64, 1>| {
+            let p = |x: f64| Vector3::new(Dual::cst(x), Dual::cst(0.0), z);
+            wall.crossing_depth(&p(-0.1), &p(0.1)).unwrap()
+        };
+        let slope = lifted(Dual::variable(0.2, 0)).eps[0];
+        assert!((slope + 1.0).abs() < 1e-12, "{slope}");
+    }
 
     /// Sum over triangles of the signed volume `(a·(b×c))/6`: positive for outward winding.
     fn volume((v, t): &Surface) -> f64 {
