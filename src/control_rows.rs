@@ -170,7 +170,11 @@ fn collider_entries(
         let var = |p: &Vector3<f64>, first: usize| {
             Vector3::from_fn(|j, _| Dual::<f64, 6>::variable(p[j], first + j))
         };
-        for (i, (v, g)) in field.segment_components_with_gradients(&a, &b).iter().enumerate() {
+        for (i, (v, g)) in field
+            .segment_components_with_gradients(&a, &b)
+            .iter()
+            .enumerate()
+        {
             // A motion into a box: how far it must move to come clear, which keeps a slope where
             // it crosses a thin box through its middle (its deepest point's depth is flat there).
             let crossing = (i.checked_sub(first_box).and_then(|j| field.boxes.get(j)))

@@ -222,3 +222,66 @@ proptest! {
         prop_assert!(n + into_mesh.iter().filter(|&&m| m).count() == 2 * model.task.horizon);
     }
 }
+
+/// Two grippers carried 0.4 m along +y at z = 0.5 through a wall 1 cm thick whose top is at
+/// z = 0.6: their motion crosses it through its middle.
+fn wall_scene() -> Scene {
+    let text = r#"{
+      "name": "wall",
+      "cloth": {"rows": 3, "cols": 3, "top_left": [-0.3, -0.6, 0.5], "right": [0.6, 0, 0],
+                "down": [0, 0, -0.2]},
+      "material": {"stretch": 1e3},
+      "physics": {"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 10, "solver": "xpbd"},
+      "controls": [[0, 0], [0, 2]],
+      "obstacles": [
+        {"type": "box", "center": [0.0, -0.3, 0.3], "half_extents": [1.0, 0.005, 0.3],
+         "role": "collider"}
+      ],
+      "task": {"horizon": 1, "targets": [{"particle": [2, 1], "position": [0.0, -0.2, 0.3]}],
+               "alpha": 1.0, "beta": 0.0, "delta": 0.02,
+               "initial_controls": {"constant": [[0.0, 0.4, 0.0], [0.0, 0.4, 0.0]]}}
+    }"#;
+    Scene::from_json_str(text).unwrap()
+}
+
+/// A gripper row whose motion crosses a thin wall through its middle counts the way out over the
+/// wall's top (0.1 m), not the deepest point's depth (its half thickness, 5 mm, the same wherever
+/// the motion crosses): lifting the gripper's end raises the row (by three quarters of the lift:
+/// the motion crosses the wall three quarters of the way along), so the planner can pull it back
+/// over the wall; the rows match central differences there.
+#[test]
+fn a_gripper_crossing_a_thin_wall_has_a_row_with_a_slope() {
+    let scene = wall_scene();
+    let model = Model::from_scene(&scene).unwrap();
+    let mut options = TaskOptions::for_model(&model);
+    options.kappa = 3000.0;
+    let mut p = TrajectoryProblem::new(&model, options);
+    let x = initial_controls(&scene, &model).unwrap().into_data();
+    let labels = p.row_labels();
+    let rows: Vec<usize> = (0..labels.len())
+        .filter(|&r| matches!(labels[r], RowLabel::Collider { .. }))
+        .collect();
+    assert_eq!(rows.len(), 2, "a row per gripper");
+    let values = |x: &[f64], p: &mut TrajectoryProblem<'_>| {
+        let mut c = vec![0.0; p.num_inequalities()];
+        p.inequalities(x, &mut c).unwrap();
+        rows.iter().map(|&r| c[r]).collect::<Vec<f64>>()
+    };
+    let at = values(&x, &mut p);
+    let mut lifted = x.clone();
+    lifted[2] += 0.01;
+    let up = values(&lifted, &mut p);
+    eprintln!("rows {at:?}, gripper 0 lifted 1 cm: {up:?}");
+    assert!(
+        (at[0] + 0.1).abs() < 2e-3,
+        "the way over the top: {}",
+        at[0]
+    );
+    assert!(up[0] - at[0] > 0.005, "it rises: {} → {}", at[0], up[0]);
+    let d = noise(3, x.len());
+    let n = check_rows(&mut p, &x, &d, |_, l| {
+        matches!(l, RowLabel::Collider { .. })
+    })
+    .unwrap();
+    assert_eq!(n, 2);
+}

@@ -380,9 +380,10 @@ impl Cuboid {
         let (qa, qb) = (self.body(a), self.body(b));
         let d: [R; 3] = std::array::from_fn(|k| qb[k] - qa[k]);
         let h = self.half_extents;
-        let mut axes: Vec<[R; 3]> = (0..3)
-            .map(|k| std::array::from_fn(|j| R::cst(if j == k { 1.0 } else { 0.0 })))
-            .collect();
+        // The cross products first: where one coincides with a box axis (a motion square to a
+        // face), the tie goes to it, whose projections of the two ends are equal as functions,
+        // so the depth has one derivative there.
+        let mut axes: Vec<[R; 3]> = Vec::with_capacity(6);
         let length = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().value();
         for k in 0..3 {
             // d × e_k.
@@ -394,6 +395,9 @@ impl Cuboid {
                 axes.push(n.map(|v| v / norm));
             }
         }
+        axes.extend(
+            (0..3).map(|k| std::array::from_fn(|j| R::cst(if j == k { 1.0 } else { 0.0 }))),
+        );
         let mut depth: Option<R> = None;
         for n in axes {
             let dot = |q: &[R; 3]| q[0] * n[0] + q[1] * n[1] + q[2] * n[2];
@@ -490,12 +494,14 @@ mod tests {
     #[test]
     fn a_segment_through_a_thin_wall_is_as_deep_as_the_way_over_it() {
         let wall = Cuboid::new([0.0, 0.0, 0.15], [0.005, 1.0, 0.15], None);
-        let depth = |a: [f64; 3], b: [f64; 3]| {
-            wall.crossing_depth(&Vector3::from(a), &Vector3::from(b))
-        };
+        let depth =
+            |a: [f64; 3], b: [f64; 3]| wall.crossing_depth(&Vector3::from(a), &Vector3::from(b));
         let low = depth([-0.1, 0.0, 0.2], [0.1, 0.0, 0.2]).unwrap();
         let high = depth([-0.1, 0.0, 0.28], [0.1, 0.0, 0.28]).unwrap();
-        assert!((low - 0.1).abs() < 1e-12 && (high - 0.02).abs() < 1e-12, "{low} {high}");
+        assert!(
+            (low - 0.1).abs() < 1e-12 && (high - 0.02).abs() < 1e-12,
+            "{low} {high}"
+        );
         let deepest = wall.distance(&Vector3::new(0.0, 0.0, 0.2));
         assert!((deepest + 0.005).abs() < 1e-12, "{deepest}");
         assert_eq!(depth([-0.1, 0.0, 0.31], [0.1, 0.0, 0.31]), None);
