@@ -223,25 +223,22 @@ proptest! {
     }
 }
 
-/// Two grippers carried 0.4 m along +y at z = 0.5 through a wall 1 cm thick whose top is at
-/// z = 0.6: their motion crosses it through its middle.
+/// [`gripper_scene`]'s grippers carried 0.4 m along +y at z = 0.5 in one step through a wall
+/// 1 cm thick whose top is at z = 0.6: their motion crosses it through its middle.
 fn wall_scene() -> Scene {
-    let text = r#"{
-      "name": "wall",
-      "cloth": {"rows": 3, "cols": 3, "top_left": [-0.3, -0.6, 0.5], "right": [0.6, 0, 0],
-                "down": [0, 0, -0.2]},
-      "material": {"stretch": 1e3},
-      "physics": {"dt": 0.1, "gravity": [0, 0, -9.8], "iterations": 10, "solver": "xpbd"},
-      "controls": [[0, 0], [0, 2]],
-      "obstacles": [
-        {"type": "box", "center": [0.0, -0.3, 0.3], "half_extents": [1.0, 0.005, 0.3],
-         "role": "collider"}
-      ],
-      "task": {"horizon": 1, "targets": [{"particle": [2, 1], "position": [0.0, -0.2, 0.3]}],
-               "alpha": 1.0, "beta": 0.0, "delta": 0.02,
-               "initial_controls": {"constant": [[0.0, 0.4, 0.0], [0.0, 0.4, 0.0]]}}
-    }"#;
-    Scene::from_json_str(text).unwrap()
+    let mut scene = gripper_scene();
+    scene.obstacles = vec![Obstacle::Box(cloth::scene::BoxSpec {
+        center: [0.0, -0.3, 0.3],
+        half_extents: [1.0, 0.005, 0.3],
+        rotation: None,
+        role: cloth::scene::ObstacleRole::Collider,
+        friction: None,
+    })];
+    scene.task.horizon = 1;
+    scene.task.initial_controls =
+        cloth::scene::InitialControls::Constant(vec![[0.0, 0.4, 0.0], [0.0, 0.4, 0.0]]);
+    scene.validate().unwrap();
+    scene
 }
 
 /// A gripper row whose motion crosses a thin wall through its middle counts the way out over the
