@@ -158,7 +158,11 @@ impl Pattern {
                 distance,
             });
         }
-        match self.edge_points.as_ref().and_then(|e| e.penetration(x)) {
+        match self
+            .edge_points
+            .as_ref()
+            .and_then(|e| e.edges.penetration(x))
+        {
             Some((point, distance)) => Err(ClothError::EdgeContactPenetration {
                 step,
                 edge: [point.a, point.b],

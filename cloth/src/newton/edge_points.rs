@@ -228,9 +228,4 @@ impl EdgePointPattern {
         }
         (self.edges.barrier).max_step(moves.iter().map(|(q, d)| (&q[..], *d)))
     }
-
-    /// The first point of `x` on or inside a narrow collider ([`EdgeBarrier::penetration`]).
-    pub(super) fn penetration(&self, x: &[f64]) -> Option<(EdgePoint, f64)> {
-        self.edges.penetration(x)
-    }
 }
