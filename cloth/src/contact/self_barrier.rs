@@ -114,6 +114,18 @@ impl SelfBarrier {
         self.pairs_with(x, None)
     }
 
+    /// The pairs of state `x` nearer than `reach` (at least `h + d̂` for a superset of
+    /// [`SelfBarrier::pairs`]), searched over the whole cloth.
+    pub fn pairs_within(&self, x: &[f64], reach: f64) -> Vec<SelfPair> {
+        let mut out = Vec::new();
+        self.for_candidates(&swept_boxes(x, None), reach, |pair, _| {
+            if self.distance(x, &pair) < reach {
+                out.push(pair);
+            }
+        });
+        out
+    }
+
     /// [`SelfBarrier::pairs`], through a candidate list when there is one.
     pub(super) fn pairs_with(&self, x: &[f64], list: Option<&mut Candidates>) -> Vec<SelfPair> {
         let reach = self.thickness + self.barrier.d_hat;

@@ -34,6 +34,9 @@ pub struct NewtonKept {
     pub(super) system: NewtonSystem,
     /// Step `t`'s factorization at `t − 1`.
     pub(super) factors: Vec<Option<NumericFactor>>,
+    /// Step `t`'s self-contact blocks of the pattern it converged with, at `t − 1` (every step,
+    /// whether its factorization fits the budget or not; none without self-contact).
+    pub(super) patterns: Vec<Vec<(u32, u32)>>,
 }
 
 impl NewtonKept {
@@ -133,6 +136,7 @@ impl Model {
         let mut states = Vec::with_capacity(horizon + 1);
         let mut stats = Vec::with_capacity(horizon);
         let mut factors = Vec::with_capacity(horizon);
+        let mut patterns = Vec::new();
         let mut kept_bytes = 0;
         states.push(self.start.clone());
         for t in 0..horizon {
@@ -148,13 +152,20 @@ impl Model {
                 kept_bytes += bytes;
                 system.factor.current()
             }));
+            if system.pattern.self_barrier.is_some() {
+                patterns.push(system.pattern.self_blocks.clone());
+            }
             states.push(x);
             stats.push(s);
         }
         Ok(NewtonRollout {
             states,
             stats,
-            kept: NewtonKept { system, factors },
+            kept: NewtonKept {
+                system,
+                factors,
+                patterns,
+            },
         })
     }
 

@@ -39,9 +39,12 @@ impl Model {
     }
 
     /// [`Model::newton_gradients`] with what [`Model::simulate_newton_keeping`] kept of the
-    /// rollout `states` (its system and factorizations): the same values bit for bit, with no
-    /// factorization at the steps whose factorization was kept; and the gradient pass's
-    /// factorizations ([`FactorCounts::reused`]: the kept ones it used).
+    /// rollout `states` (its system, factorizations and self-contact patterns): the same values
+    /// bit for bit whatever the budget kept, with no factorization at the steps whose
+    /// factorization was kept; and the gradient pass's factorizations
+    /// ([`FactorCounts::reused`]: the kept ones it used). Under self-contact the patterns depend
+    /// on the solve's path, so [`Model::newton_gradients`] from the states alone agrees to
+    /// round-off, not bit for bit.
     ///
     /// # Panics
     /// As [`Model::newton_gradients`].
@@ -52,11 +55,12 @@ impl Model {
         costs: &[StepCost<'_>],
         kept: Option<NewtonKept>,
     ) -> (Vec<Tensor>, FactorCounts) {
-        let (mut system, mut factors) = match kept {
-            Some(k) => (k.system, k.factors),
+        let (mut system, mut factors, patterns) = match kept {
+            Some(k) => (k.system, k.factors, k.patterns),
             None => (
                 NewtonSystem::new(self)
                     .expect("newton_gradients: the model has no rigid constraint group"),
+                Vec::new(),
                 Vec::new(),
             ),
         };
@@ -87,8 +91,12 @@ impl Model {
             let u_t = self.step_controls(controls, t - 1);
             let xt = self.begin_step(&states[t - 1], &u_t);
             system.begin_step(&states[t - 1]);
-            // Self-contact: the pattern of the pairs at x_t, the kept factorization's.
-            system.fit_self_contact(states[t].data());
+            // Self-contact: the pattern the forward converged with (the kept factorization's),
+            // else one holding the pairs at x_t.
+            match patterns.get(t - 1) {
+                Some(blocks) => system.adopt_self_blocks(blocks),
+                None => system.fit_self_contact(states[t].data()),
+            }
             if let Some(f) = factors.get_mut(t - 1).and_then(Option::take) {
                 system.factor.insert(f);
             }

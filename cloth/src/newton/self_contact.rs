@@ -3,11 +3,13 @@
 //!
 //! A pair couples particles that no constraint does, so the Hessian's pattern depends on the
 //! state: [`NewtonSystem`](super::solve::NewtonSystem) rebuilds it (and the factorization's
-//! symbolic analysis) whenever the pairs at the state it assembles need other blocks than the
-//! pattern holds ([`Pattern::self_blocks_for`]), or takes back one of the last patterns it left
-//! that has those blocks, with its analysis. The pattern is then a function of the state alone
-//! (the constraints' blocks and those of the state's pairs), so the gradient pass, which
-//! assembles at the same converged states, factorizes the same matrices as the forward. The
+//! symbolic analysis) whenever the pairs at the state it assembles need blocks the pattern
+//! does not hold ([`Pattern::self_blocks_for`]), or takes back one of the last patterns it left
+//! that holds them, with its analysis. A rebuilt pattern also holds the blocks of the pairs a
+//! little beyond the barrier's reach ([`PATTERN_REACH`]), so the iterates that follow seldom
+//! need another. The pattern thus depends on the solve's path; a rollout keeps each step's
+//! ([`super::continuation::NewtonKept`]), so the gradient pass, which assembles at the same
+//! converged states, factorizes the same matrices as the forward, bit for bit. The
 //! pair searches and step filters go through a Verlet list of candidate pairs
 //! ([`crate::contact::self_candidates`]), with the same answers as a search of the whole cloth.
 
@@ -67,6 +69,19 @@ impl SelfCounts {
 /// few sets as a solve's iterates move.
 const RECENT_PATTERNS: usize = 8;
 
+/// A rebuilt pattern holds the blocks of the pairs nearer than the thickness plus this many
+/// barrier reaches `d̂`, not only those of the pairs within one: the iterates and steps that
+/// follow move the pairs in and out of reach, and a pattern that already holds their blocks
+/// (as explicit zeros until then) is kept instead of being rebuilt with a new symbolic
+/// analysis.
+const PATTERN_REACH: f64 = 1.5;
+
+/// Whether the sorted `pattern` holds every block of the sorted `blocks`.
+fn holds(pattern: &[(u32, u32)], blocks: &[(u32, u32)]) -> bool {
+    let mut rest = pattern.iter();
+    blocks.iter().all(|b| rest.any(|p| p == b))
+}
+
 /// Solves one step takes at most while the control particles move to their places.
 const MAX_CONTROL_STAGES: usize = 64;
 
@@ -79,23 +94,47 @@ const STALLED_STAGES: usize = 3;
 
 impl NewtonSystem {
     /// Self-contact: changes the pattern (and the factorization's symbolic analysis) when the
-    /// pairs at `x` couple other particle blocks than it holds: to one of the last
-    /// [`RECENT_PATTERNS`] patterns left when it has those blocks (the same pattern, built
-    /// again, would be the same bits), else to a new one.
+    /// pairs at `x` couple particle blocks it does not hold: to the most recent of the last
+    /// [`RECENT_PATTERNS`] patterns left that holds them, else to a new one holding the blocks
+    /// of the pairs within [`PATTERN_REACH`] (blocks without a pair are explicit zeros).
     pub(super) fn fit_self_contact(&mut self, x: &[f64]) {
         if self.pattern.self_barrier.is_none() {
             return;
         }
         let pairs = self.pattern.self_pairs(x);
         let blocks = self.pattern.self_blocks_for(&pairs);
-        if blocks == self.pattern.self_blocks {
+        if holds(&self.pattern.self_blocks, &blocks) {
             return;
         }
-        let (mut pattern, mut analysis) = match self
+        let recent = self
             .recent
             .iter()
-            .position(|(p, _)| p.self_blocks == blocks)
-        {
+            .position(|(p, _)| holds(&p.self_blocks, &blocks));
+        self.switch_pattern(recent, |p| p.wide_blocks(x, blocks));
+    }
+
+    /// Self-contact: makes the pattern the one with exactly the self-contact blocks `blocks`
+    /// (a kept step's, [`super::continuation::NewtonKept`]), so that the gradient pass
+    /// factorizes the forward's matrices bit for bit.
+    pub(super) fn adopt_self_blocks(&mut self, blocks: &[(u32, u32)]) {
+        if self.pattern.self_barrier.is_none() || self.pattern.self_blocks == blocks {
+            return;
+        }
+        let recent = self
+            .recent
+            .iter()
+            .position(|(p, _)| p.self_blocks == blocks);
+        self.switch_pattern(recent, |_| blocks.to_vec());
+    }
+
+    /// Switches to the recent pattern at `recent`, or else to a new one with the self-contact
+    /// blocks `build` gives from the current one, keeping the pattern left among the recent ones.
+    fn switch_pattern(
+        &mut self,
+        recent: Option<usize>,
+        build: impl FnOnce(&Pattern) -> Vec<(u32, u32)>,
+    ) {
+        let (mut pattern, mut analysis) = match recent {
             Some(i) => {
                 self.pattern.self_counts_mut(|c| c.pattern_reuses += 1);
                 let (mut p, f) = self.recent.remove(i);
@@ -105,7 +144,7 @@ impl NewtonSystem {
             }
             None => {
                 self.pattern.self_counts_mut(|c| c.pattern_rebuilds += 1);
-                let p = self.pattern.with_self_blocks(blocks);
+                let p = self.pattern.with_self_blocks(build(&self.pattern));
                 let f = Factor::new(&p);
                 (p, f)
             }
@@ -247,6 +286,20 @@ impl Pattern {
     }
 
     /// The particle blocks (row ≥ column, sorted, without duplicates) that `pairs` couple.
+    /// `blocks` with those of every pair at `x` nearer than `h + PATTERN_REACH · d̂`
+    /// ([`PATTERN_REACH`]): a pattern the iterates after `x` keep within.
+    fn wide_blocks(&self, x: &[f64], blocks: Vec<(u32, u32)>) -> Vec<(u32, u32)> {
+        let Some(b) = &self.self_barrier else {
+            return blocks;
+        };
+        let reach = b.thickness + PATTERN_REACH * b.barrier.d_hat;
+        let mut wide = self.self_blocks_for(&b.pairs_within(x, reach));
+        wide.extend(blocks);
+        wide.sort_unstable();
+        wide.dedup();
+        wide
+    }
+
     pub(super) fn self_blocks_for(&self, pairs: &[SelfPair]) -> Vec<(u32, u32)> {
         let mut blocks = Vec::new();
         for pair in pairs {
