@@ -8,7 +8,8 @@
 //! (`Model::checkpoint_budget`), `--ref` (∇L error against tolerance 1e-12), `--newton-only`
 //! (time Newton alone, for `perf record`), `--pcg` (conjugate gradients preconditioned with a
 //! reused factorization, default tolerance and iterations; `--pcg TOL,MAX` to choose them),
-//! `--direct` (a factorization per Newton matrix).
+//! `--direct` (a factorization per Newton matrix), `--controls FILE` (a plan's JSON `controls`
+//! instead of the scene's initial guess).
 use cloth::scene::SolverKind;
 use cloth::StepStats;
 use cloth::{LinearSolver, Solver};
@@ -34,7 +35,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let base = if n > 0 { base.refined(n, n)? } else { base };
     let mut ns = base.clone();
     ns.physics.solver = Some(SolverKind::Newton);
+    let t = Instant::now();
     let mut newton = Model::from_scene(&ns)?;
+    println!("model {:.3} s", t.elapsed().as_secs_f64());
     let Solver::Newton(mut settings) = newton.solver else {
         unreachable!()
     };
@@ -61,7 +64,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         newton.checkpoint_budget = b.parse::<usize>()? << 20;
     }
     let xpbd = Model::from_scene(&base)?;
-    let (u, delta) = (base.initial_controls(), base.task.delta);
+    let u = match value("--controls") {
+        Some(path) => {
+            let file: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path)?)?;
+            let steps: Vec<Vec<[f64; 3]>> = serde_json::from_value(file["controls"].clone())?;
+            cloth::controls_from_steps(&steps).ok_or(format!("{path}: ragged controls"))?
+        }
+        None => base.initial_controls(),
+    };
+    let delta = base.task.delta;
     let t = Instant::now();
     let r = newton.simulate_newton_keeping(&u, &settings, newton.checkpoint_budget)?;
     let tf = t.elapsed().as_secs_f64();
@@ -79,7 +90,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         tot.chord_steps, tot.failed_factorizations, tot.projected, tot.loads, tot.rejected_loads,
         tot.escapes, tot.at_saddle, r.kept.saddle_searches(), r.kept.steps(), r.kept.bytes() as f64 / 1e6, tf
     );
+    println!(
+        "self-contact: pattern rebuilds {} reuses {}, pair searches {} filters {}, grid searches {}, step filters {}",
+        tot.pattern_rebuilds, tot.pattern_reuses, tot.pair_searches, tot.pair_filters, tot.grid_searches, tot.step_filters
+    );
+    let t = Instant::now();
     let ev = newton.evaluate_loss_gradient(&u, delta)?;
+    println!("forward + gradient {:.3} s", t.elapsed().as_secs_f64());
     let g = ev.grad_l.unwrap();
     println!("L {:.12} |gL| {:.12e}", ev.metrics.l, norm(g.data()));
     if flag("--ref") {
