@@ -7,13 +7,12 @@
 //!    hanging cloth to be laid flat, `lay/`; and the drape route of a cloth to be hung over a
 //!    collider, `drape.rs`) when its rollout is safer or, as safe, has the
 //!    lower `L`: a few rollouts decide it (up to eight more to build the lay route), and the
-//!    guess becomes a candidate route. With [`SearchMode::Auto`] an achieved task ends the
-//!    search here: no extra work. Under a deadline this plan gets half the time, and the goal
-//!    stage after it half of the rest, so that a guess the planner stalls on leaves the other
-//!    routes time.
-//! 2. *Goal stage:* a safe plan that misses its targets (and was not stopped by its share of the
-//!    time while still descending: that one goes on instead, step 5) is planned again from
-//!    where it ended with the targets as a constraint ([`crate::problem::TaskOptions::goal_radius`]) rather than
+//!    guess becomes a candidate route. With
+//!    [`SearchMode::Auto`] an achieved task ends the search here: no extra work. Under a deadline this plan gets half the time,
+//!    and the goal stage after it half of the rest, so that a guess the planner stalls on
+//!    leaves the other routes time.
+//! 2. *Goal stage:* a safe plan that misses its targets is planned again from where it ended with
+//!    the targets as a constraint ([`crate::problem::TaskOptions::goal_radius`]) rather than
 //!    only a cost: a plan that misses because `αT + βE` outweighs the last centimetres of `G`
 //!    reaches them here, on the same route, from that plan's quasi-Newton Hessian
 //!    ([`SearchOptions::goal_hessian`]; from the identity again if that falls short). With
@@ -32,9 +31,8 @@
 //!    A polished plan that becomes the best gets its own goal stage.
 //!    Under a deadline, where the cheap stage could not finish in the time left (its candidates
 //!    at the best plan's wall time per iteration), the best plan, if only its share of the time
-//!    stopped it, is planned on from where it stopped instead (stage `continued`, with its own
-//!    goal stage): a search that cannot finish keeps no candidate better than its first few
-//!    iterations.
+//!    stopped it, is planned on from where it stopped instead (stage `continued`): a search that
+//!    cannot finish keeps no candidate better than its first few iterations.
 //! 6. Keep the best of every stage by the same ranking.
 //!
 //! The search lives in the root package: `optim` stays problem-agnostic.
@@ -316,10 +314,7 @@ fn goal_stage(
     progress: &mut impl FnMut(Progress<'_>),
     (best, best_report, reports): Tally<'_>,
 ) -> crate::Result<()> {
-    // A plan its deadline stopped was still descending: it goes on (stage `continued`) rather
-    // than being corrected where it stopped.
-    let unfinished = best.status == "time_limit";
-    if !is_safe(best) || best.task.achieved || model.task.targets.rows() == 0 || unfinished {
+    if !is_safe(best) || best.task.achieved || model.task.targets.rows() == 0 {
         return Ok(());
     }
     let mut goal = options.clone();
@@ -583,7 +578,7 @@ pub fn plan_with_search(
             best.status == "time_limit"
                 && !cheap_stage_fits(&best, search, candidates.len(), deadline)
         });
-        let goal_route = if go_on {
+        let polished_best = if go_on {
             let route = reports[best_report].route.clone();
             let from = (
                 controls_from_nested(model, &best.controls)?,
@@ -596,8 +591,7 @@ pub fn plan_with_search(
                 &mut progress,
                 (&mut best, &mut best_report, &mut reports),
             )?;
-            // A continued plan that converges short of its targets gets its goal stage.
-            Some(route)
+            None
         } else {
             route_stages(
                 model,
@@ -609,7 +603,7 @@ pub fn plan_with_search(
                 (&mut best, &mut best_report, &mut reports),
             )?
         };
-        if let Some(route) = goal_route {
+        if let Some(route) = polished_best {
             goal_stage(
                 model,
                 scene,
@@ -656,30 +650,6 @@ mod tests {
         // A deadline already past stays past.
         options.deadline = Some(now);
         assert!(time_share(&options).deadline.unwrap() <= Instant::now());
-    }
-
-    #[test]
-    fn a_plan_its_deadline_stopped_gets_no_goal_stage() {
-        let scene = Scene::builtin("u_obstacle").unwrap();
-        let model = Model::from_scene(&scene).unwrap();
-        let options = PlanOptions::for_model(&model);
-        let start = scene.initial_controls();
-        let mut best = plan(&model, &scene, &start, &options, |_| {}).unwrap();
-        // Taken for a safe miss.
-        assert!(is_safe(&best));
-        best.task.achieved = false;
-        let mut goal = |best: &mut PlanResult| {
-            let (mut kept, mut reports) = (0, Vec::new());
-            let tally = (best, &mut kept, &mut reports);
-            goal_stage(&model, &scene, (&options, None), "r", &mut |_| {}, tally).unwrap();
-            reports.len()
-        };
-        // Stopped while descending: it goes on instead (stage `continued`).
-        best.status = "time_limit".into();
-        assert_eq!(goal(&mut best), 0);
-        // Converged short of its targets: corrected with them as a constraint.
-        best.status = "converged".into();
-        assert_eq!(goal(&mut best), 1);
     }
 
     #[test]
