@@ -114,6 +114,21 @@ impl SelfBarrier {
         self.pairs_with(x, None)
     }
 
+    /// A particle move the step filter allows whole from `x`, whose pairs (nearer than `h + d̂`)
+    /// are `pairs`: when no particle moves farther than this, every pair of the filter's sweep
+    /// passes its first test (its relative motion, at most four times the largest move, within
+    /// its gap above the floor, at least `(1 − APPROACH) min(gap, d̂)`), so
+    /// [`SelfBarrier::max_step`] is 1 and need not be asked. Half of that bound, for round-off;
+    /// 0 when a pair is at or within the thickness.
+    pub fn free_move(&self, x: &[f64], pairs: &[SelfPair]) -> f64 {
+        let d_hat = self.barrier.d_hat;
+        let gap = pairs
+            .iter()
+            .map(|pair| self.distance(x, pair) - self.thickness)
+            .fold(d_hat, f64::min);
+        0.5 * (1.0 - super::barrier::APPROACH) * gap.max(0.0) / 4.0
+    }
+
     /// The pairs of state `x` nearer than `reach` (at least `h + d̂` for a superset of
     /// [`SelfBarrier::pairs`]), searched over the whole cloth.
     pub fn pairs_within(&self, x: &[f64], reach: f64) -> Vec<SelfPair> {
@@ -579,6 +594,36 @@ pub(super) mod tests {
 
     /// A vertex driven straight through a triangle stops before it: the filter keeps a tenth of
     /// its gap; a move along the triangle's plane is not shortened.
+    #[test]
+    fn moves_within_the_free_move_pass_the_filter_whole() {
+        let (tris, x) = folded(7, 0.3);
+        let b = barrier(tris, &x, 0.05);
+        let free = b.free_move(&x, &b.pairs(&x));
+        assert!(free > 0.0 && free < 0.2, "{free}");
+        let mut rng = 12345u64;
+        let mut uniform = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng % 2001) as f64 / 1000.0 - 1.0
+        };
+        for _ in 0..20 {
+            let mut delta: Vec<f64> = (0..x.len()).map(|_| uniform()).collect();
+            let largest = delta
+                .chunks_exact(3)
+                .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+                .fold(0.0, f64::max);
+            delta.iter_mut().for_each(|d| *d *= free / largest);
+            assert_eq!(b.max_step(&x, &delta, 1.0).0, 1.0);
+        }
+        // The two layers (0.3 apart, 0.25 above the thickness) brought together: stopped.
+        let mut close = vec![0.0; x.len()];
+        for (p, v) in x.chunks_exact(3).enumerate() {
+            close[3 * p + 2] = if v[2] > 0.1 { -0.3 } else { 0.0 };
+        }
+        assert!(b.max_step(&x, &close, 1.0).0 < 1.0);
+    }
+
     #[test]
     fn the_filter_stops_a_vertex_before_a_triangle() {
         let h = 0.02;

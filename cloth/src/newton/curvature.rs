@@ -202,13 +202,17 @@ pub(super) fn orient(v: &mut [f64], m_pull: &[f64]) {
 
 /// The step length along `v` that lowers `phi(η) = Φ(x + ηv)` the most among `η₀ 2^k` (from
 /// `η₀`, doubling while `Φ` keeps falling); `None` when no length lowers `Φ` below `phi0` by
-/// more than its round-off.
+/// more than its round-off. `phi` is `+∞` where a step filter stops the move, and then stops
+/// every longer one along the ray: the search ends there.
 fn step_length(eta0: f64, phi0: f64, mut phi: impl FnMut(f64) -> f64) -> Option<f64> {
     let floor = phi0 - 1024.0 * f64::EPSILON * phi0.abs();
     let (mut best, mut best_phi) = (None, floor);
     let mut eta = eta0;
     for _ in 0..64 {
         let p = phi(eta);
+        if p == f64::INFINITY {
+            break;
+        }
         // NaN (a state too far to evaluate) counts as no decrease.
         if p < best_phi {
             best = Some(eta);
@@ -327,8 +331,22 @@ impl NewtonSystem {
         let x_max = x.data().iter().fold(1.0f64, |m, a| m.max(a.abs()));
         let mut trial = x.clone();
         let contacts = &self.contacts;
+        // The doubling search asks the filters of many short moves along `v`; those no
+        // self-contact pair can stop skip its sweep (the colliders' filter is asked still).
+        let free = p.self_free_move(x.data());
+        let v_max = v
+            .chunks_exact(3)
+            .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+            .fold(0.0, f64::max);
         let mut phi_at = |eta: f64| {
-            if p.max_step(x.data(), eta, &v) < 1.0 {
+            let allowed = if eta.abs() * v_max <= free {
+                p.colliders_allow(x.data(), 1.0, |_, d| {
+                    [eta * v[d], eta * v[d + 1], eta * v[d + 2]]
+                })
+            } else {
+                p.max_step(x.data(), eta, &v)
+            };
+            if allowed < 1.0 {
                 // The move would pass a collider (smooth contact).
                 return f64::INFINITY;
             }
@@ -387,6 +405,26 @@ mod tests {
         assert!((0.35..=1.42).contains(&eta), "{eta}");
         // A minimum at the start: no step.
         assert!(step_length(1e-8, 0.0, |e| e * e).is_none());
+    }
+
+    #[test]
+    fn a_move_the_filter_stops_ends_the_search_along_its_ray() {
+        // Blocked from η = 1e-3 on (as a step filter stops every longer move along a ray):
+        // the search asks nothing past the first blocked length, and keeps the best before it.
+        let mut asked = Vec::new();
+        let mut phi = |e: f64| {
+            asked.push(e);
+            if e >= 1e-3 {
+                f64::INFINITY
+            } else {
+                -e
+            }
+        };
+        let eta = step_length(1e-8, 0.0, &mut phi).unwrap();
+        assert!(eta < 1e-3 && 2.0 * eta >= 1e-3, "{eta}");
+        assert_eq!(asked.iter().filter(|&&e| e >= 1e-3).count(), 1, "{asked:?}");
+        // Blocked at once, and rising before it: no step.
+        assert!(step_length(1e-8, 0.0, |e| if e > 1e-7 { f64::INFINITY } else { e }).is_none());
     }
 
     #[test]

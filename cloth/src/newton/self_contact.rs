@@ -420,6 +420,15 @@ impl Pattern {
         alpha
     }
 
+    /// [`crate::contact::self_barrier::SelfBarrier::free_move`] at `x`: a particle move
+    /// [`Pattern::self_max_step`] allows whole; ∞ without self-contact.
+    pub(super) fn self_free_move(&self, x: &[f64]) -> f64 {
+        match &self.self_barrier {
+            Some(b) => b.free_move(x, &self.self_pairs(x)),
+            None => f64::INFINITY,
+        }
+    }
+
     /// Self-contact: the pair of `x` nearest within the thickness, its particles and gap
     /// `d − h ≤ 0`; `None` when every pair is apart (or without self-contact).
     pub fn self_penetration(&self, x: &[f64]) -> Option<([usize; 4], f64)> {
