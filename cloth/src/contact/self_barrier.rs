@@ -132,18 +132,16 @@ impl SelfBarrier {
     /// The pairs of state `x` nearer than `reach` (at least `h + d̂` for a superset of
     /// [`SelfBarrier::pairs`]), searched over the whole cloth.
     pub fn pairs_within(&self, x: &[f64], reach: f64) -> Vec<SelfPair> {
-        let mut out = Vec::new();
-        self.for_candidates(&swept_boxes(x, None), reach, |pair, _| {
-            if self.distance(x, &pair) < reach {
-                out.push(pair);
-            }
-        });
-        out
+        self.pairs_nearer(x, reach, None)
     }
 
     /// [`SelfBarrier::pairs`], through a candidate list when there is one.
     pub(super) fn pairs_with(&self, x: &[f64], list: Option<&mut Candidates>) -> Vec<SelfPair> {
-        let reach = self.thickness + self.barrier.d_hat;
+        self.pairs_nearer(x, self.thickness + self.barrier.d_hat, list)
+    }
+
+    /// The pairs of `x` nearer than `reach`, through a candidate list when there is one.
+    fn pairs_nearer(&self, x: &[f64], reach: f64, list: Option<&mut Candidates>) -> Vec<SelfPair> {
         let mut out = Vec::new();
         self.candidates_with(&swept_boxes(x, None), reach, list, |pair| {
             if self.distance(x, &pair) < reach {
@@ -592,8 +590,8 @@ pub(super) mod tests {
         }
     }
 
-    /// A vertex driven straight through a triangle stops before it: the filter keeps a tenth of
-    /// its gap; a move along the triangle's plane is not shortened.
+    /// Random moves no longer than the free move pass the filter whole; bringing the layers
+    /// together does not.
     #[test]
     fn moves_within_the_free_move_pass_the_filter_whole() {
         let (tris, x) = folded(7, 0.3);
@@ -624,6 +622,8 @@ pub(super) mod tests {
         assert!(b.max_step(&x, &close, 1.0).0 < 1.0);
     }
 
+    /// A vertex driven straight through a triangle stops before it: the filter keeps a tenth of
+    /// its gap; a move along the triangle's plane is not shortened.
     #[test]
     fn the_filter_stops_a_vertex_before_a_triangle() {
         let h = 0.02;

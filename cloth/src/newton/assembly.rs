@@ -529,7 +529,22 @@ impl Pattern {
     /// The largest step length in `[0, 1]` along `dir` (degree-of-freedom order) from `x` that
     /// the smooth contact potential allows ([`ColliderBarrier::max_step`]); 1 without it.
     pub fn max_step(&self, x: &[f64], step: f64, dir: &[f64]) -> f64 {
-        let alpha = self.self_max_step(x, step, dir);
+        self.max_step_free(x, step, dir, 0.0)
+    }
+
+    /// [`Pattern::max_step`], where no particle moving at most `free` can be stopped by
+    /// self-contact ([`Pattern::self_free_move`] at `x`, or 0): such moves skip its sweep.
+    pub(super) fn max_step_free(&self, x: &[f64], step: f64, dir: &[f64], free: f64) -> f64 {
+        let largest = || {
+            (dir.chunks_exact(3))
+                .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+                .fold(0.0, f64::max)
+        };
+        let alpha = if free > 0.0 && step.abs() * largest() <= free {
+            1.0
+        } else {
+            self.self_max_step(x, step, dir)
+        };
         self.colliders_allow(x, alpha, |_, d| {
             [step * dir[d], step * dir[d + 1], step * dir[d + 2]]
         })

@@ -331,22 +331,11 @@ impl NewtonSystem {
         let x_max = x.data().iter().fold(1.0f64, |m, a| m.max(a.abs()));
         let mut trial = x.clone();
         let contacts = &self.contacts;
-        // The doubling search asks the filters of many short moves along `v`; those no
-        // self-contact pair can stop skip its sweep (the colliders' filter is asked still).
+        // The doubling search asks the filters of many short moves along `v`: those no
+        // self-contact pair can stop skip its sweep.
         let free = p.self_free_move(x.data());
-        let v_max = v
-            .chunks_exact(3)
-            .map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
-            .fold(0.0, f64::max);
         let mut phi_at = |eta: f64| {
-            let allowed = if eta.abs() * v_max <= free {
-                p.colliders_allow(x.data(), 1.0, |_, d| {
-                    [eta * v[d], eta * v[d + 1], eta * v[d + 2]]
-                })
-            } else {
-                p.max_step(x.data(), eta, &v)
-            };
-            if allowed < 1.0 {
+            if p.max_step_free(x.data(), eta, &v, free) < 1.0 {
                 // The move would pass a collider (smooth contact).
                 return f64::INFINITY;
             }

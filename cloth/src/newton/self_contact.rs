@@ -285,7 +285,6 @@ impl Pattern {
             .counts);
     }
 
-    /// The particle blocks (row ≥ column, sorted, without duplicates) that `pairs` couple.
     /// `blocks` with those of every pair at `x` nearer than `h + PATTERN_REACH · d̂`
     /// ([`PATTERN_REACH`]): a pattern the iterates after `x` keep within.
     fn wide_blocks(&self, x: &[f64], blocks: Vec<(u32, u32)>) -> Vec<(u32, u32)> {
@@ -300,6 +299,7 @@ impl Pattern {
         wide
     }
 
+    /// The particle blocks (row ≥ column, sorted, without duplicates) that `pairs` couple.
     pub(super) fn self_blocks_for(&self, pairs: &[SelfPair]) -> Vec<(u32, u32)> {
         let mut blocks = Vec::new();
         for pair in pairs {
