@@ -6,7 +6,7 @@
 //! `p_k(t) = p_k⁰ + Σ_{s<t} u_{s,k}`: linear in the controls. Every row reads `≥ 0`. No collider
 //! moves a gripper (it has infinite mass), so only these rows keep it out of them.
 
-use autodiff::{soft_min_value, soft_min_weights, Dual};
+use autodiff::{soft_min_value, soft_min_weights};
 use cloth::nalgebra::Vector3;
 use cloth::sdf::{SignedDistance, Union};
 use cloth::Model;
@@ -109,8 +109,8 @@ pub(crate) enum ControlRow {
     /// Gripper `k` out of the colliders `field` (planes left to the linear rows) at step `t`
     /// (1-based) and, when `swept`, on its straight motion from step `t − 1`: the soft minimum
     /// (sharpness `kappa`) over the primitives of their distance at `p_k(t)` and of their
-    /// smallest distance along the motion ([`Union::segment_components`]; for a box the motion
-    /// enters, minus its crossing depth, `Cuboid::crossing_depth`) `≥ 0`. Smooth where the
+    /// smallest distance along the motion ([`Union::segment_components`], which for a box the
+    /// motion enters is minus its crossing depth) `≥ 0`. Smooth where the
     /// primitives are, never above the smallest distance, with the minima's exact gradients.
     Collider {
         t: usize,
@@ -166,21 +166,7 @@ fn collider_entries(
         .map(|(v, g)| (*v, sum(g), sum(g)))
         .collect();
     if swept {
-        let first_box = field.component_count() - field.boxes.len() - field.meshes.len();
-        let var = |p: &Vector3<f64>, first: usize| {
-            Vector3::from_fn(|j, _| Dual::<f64, 6>::variable(p[j], first + j))
-        };
-        for (i, (v, g)) in field
-            .segment_components_with_gradients(&a, &b)
-            .iter()
-            .enumerate()
-        {
-            // A motion into a box: how far it must move to come clear, which keeps a slope where
-            // it crosses a thin box through its middle (its deepest point's depth is flat there).
-            let crossing = (i.checked_sub(first_box).and_then(|j| field.boxes.get(j)))
-                .filter(|_| *v < 0.0)
-                .and_then(|cuboid| cuboid.crossing_depth(&var(&a, 0), &var(&b, 3)));
-            let (v, g) = crossing.map_or((*v, *g), |d| (-d.re, d.eps.map(|e| -e)));
+        for (v, g) in field.segment_components_with_gradients(&a, &b) {
             entries.push((v, sum(&g), [g[3], g[4], g[5]]));
         }
     }

@@ -131,8 +131,8 @@ proptest! {
     }
 
     /// Each primitive's segment minimum, as the rows see it, has the gradient central
-    /// differences of the exact minimum measure (spheres, capsules, boxes inside and out, where
-    /// a path's minimum inside sits on a crease of the box's field; planes at `b`).
+    /// differences of the exact minimum measure (spheres, capsules, boxes outside and, for a
+    /// path that enters one, minus its crossing depth; planes at `b`).
     #[test]
     fn segment_component_gradients_match_central_differences(
         a in vec3(1.5), d in vec3(0.8), c in vec3(0.4), p in vec3(0.6),
@@ -164,7 +164,11 @@ proptest! {
                 field.spheres[0].min_along_segment(a, b),
                 field.planes[0].distance(b),
                 field.capsules[0].min_along_segment(a, b),
-                field.boxes[0].min_along_segment(a, b),
+                // A box the path enters counts minus its crossing depth.
+                match field.boxes[0].min_along_segment(a, b) {
+                    m if m < 0.0 => -field.boxes[0].crossing_depth(a, b).unwrap_or(-m),
+                    m => m,
+                },
             ]
         };
         let with = field.segment_components_with_gradients(&a, &b);

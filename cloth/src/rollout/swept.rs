@@ -3,10 +3,10 @@
 //!
 //! A continuous per-step safety row is a soft minimum over the step-only row's entries (every
 //! particle's distance to every primitive at `b`) and, for each particle whose path comes within
-//! `40/κ` of the smallest path minimum (the entries that carry weight, see
+//! `40/κ` of the smallest path minimum or enters a collider (the entries that carry weight, see
 //! [`NEGLIGIBLE_WEIGHT_EXPONENT`]), its path's minimum to each primitive, at the primitive's own
-//! minimizing point ([`Union::segment_components`]): the sample that catches a dip between the
-//! steps. Which particles those are changes with the states, but only entries of weight below
+//! minimizing point, minus its crossing depth for a box the path enters
+//! ([`Union::segment_components`]): the sample that catches a dip between the steps. Which particles those are changes with the states, but only entries of weight below
 //! `e^−40` come and go, so the row moves by at most `N·e^−40/κ` there: continuous to rounding,
 //! with the minima's exact derivatives. Keeping the step-end entries keeps each state linearized
 //! in its own row even where a path's minimum is at its start (a primitive whose distance is flat
@@ -40,8 +40,12 @@ impl Model {
         let field = &self.safety_obstacles;
         let band = NEGLIGIBLE_WEIGHT_EXPONENT / kappa;
         let paths = segment_distances_near_min(field, tape.value(x_prev), tape.value(x), band);
+        // Paths into a collider too: a box's entry there is minus its crossing depth, which
+        // can lie far below the path's minimum, so such an entry may carry weight.
         let near = paths.iter().copied().fold(f64::INFINITY, f64::min) + band;
-        let swept: Vec<usize> = (0..paths.len()).filter(|&p| paths[p] <= near).collect();
+        let swept: Vec<usize> = (0..paths.len())
+            .filter(|&p| paths[p] <= near || paths[p] < 0.0)
+            .collect();
         let ends: Arc<dyn DynRowFn> = Arc::new(ParticleSdfComponents {
             field: field.clone(),
             bound: near,
@@ -61,9 +65,11 @@ impl Model {
     }
 
     /// Records `−Σᵢ relu(δ − mᵢ)`, `mᵢ` the smallest signed distance to the safety obstacles along
-    /// particle `i`'s path from `x_prev` to `x`: the paper's scalar safety term over the motion
-    /// between the states (0 only when every path keeps `δ`). The distances are exact up to `δ`
-    /// (a lower bound above it, where `relu` is 0 either way). `None` without safety obstacles.
+    /// particle `i`'s path from `x_prev` to `x` (minus its crossing depth for a box the path
+    /// enters, [`Union::segment_distance_within`]): the paper's scalar safety term over the
+    /// motion between the states (0 only when every path keeps `δ`). The distances are exact up
+    /// to `δ` (a lower bound above it, where `relu` is 0 either way). `None` without safety
+    /// obstacles.
     pub fn record_swept_safety(
         &self,
         tape: &mut Tape,

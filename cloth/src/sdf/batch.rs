@@ -41,12 +41,13 @@ pub fn deepest_along_segments(field: &Union, a: &Tensor, b: &Tensor) -> Option<(
 
 /// Every particle's smallest signed distance to `field` along its straight path from `a` to `b`,
 /// exact (bitwise [`SignedDistance::min_along_segment`]) wherever it is within `band` of the
-/// smallest one (which is exact); elsewhere a lower bound above the smallest one plus `band`.
+/// smallest one (which is exact) or below 0 (a path into the field); elsewhere a lower bound
+/// above both.
 pub fn segment_distances_near_min(field: &Union, a: &Tensor, b: &Tensor, band: f64) -> Vec<f64> {
     let query =
         |p: usize, bound: f64| field.min_along_segment_within(&point(a, p), &point(b, p), bound);
     let mut values = refined(a.rows(), f64::NEG_INFINITY, query);
-    let near = values.iter().copied().fold(f64::INFINITY, f64::min) + band;
+    let near = (values.iter().copied().fold(f64::INFINITY, f64::min) + band).max(0.0);
     for (p, v) in values.iter_mut().enumerate() {
         if *v <= near {
             *v = query(p, near);

@@ -47,7 +47,8 @@ impl RowFn for ParticleSdfComponents {
 }
 
 /// The signed distance of each particle's straight motion `a → b` to each primitive of the safety
-/// obstacles, at the primitive's own minimizing point of the segment (`6 → components`, the row
+/// obstacles (minus its crossing depth for a box the motion enters), at the primitive's own
+/// minimizing point of the segment (`6 → components`, the row
 /// `[a, b]`; [`Union::segment_components`]): the continuous safety rows' entries, whose dual
 /// derivative is the segment minimum's gradient.
 pub(crate) struct SegmentSdfComponents {

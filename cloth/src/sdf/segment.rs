@@ -10,7 +10,8 @@
 //! over [`Real`]: the minimizer is found on the values and held fixed, so forward duals give the
 //! minimum's exact gradient (at an interior minimizer the distance is stationary along the
 //! segment; at an end the minimizer does not move), which is what the planner's continuous
-//! safety rows and gripper rows differentiate.
+//! safety rows and gripper rows differentiate. A box the segment enters counts minus its
+//! crossing depth instead, which keeps a slope where the deepest point's depth is flat.
 
 use super::{midpoint_lower_bound, sphere_segment_param, SignedDistance, Union};
 use crate::geometry::norm;
@@ -167,7 +168,10 @@ impl Union {
     /// to its lower bound, so it never exceeds the minimum), then the distance evaluated there
     /// in `R`, so duals give the minimum's gradient (module docs). A plane's is its distance at
     /// `b`: linear along the segment, its minimum is at an end, and the state `a` is held by the
-    /// previous step's row.
+    /// previous step's row. A box the segment enters counts minus its crossing depth
+    /// ([`crate::sdf::Cuboid::crossing_depth`], at least its deepest point's depth): it keeps a
+    /// slope where the segment crosses a thin box through its middle, where the deepest point's
+    /// depth is flat, so a row on it says which way leads out.
     pub fn segment_components<R: Real>(&self, a: &Vector3<R>, b: &Vector3<R>, out: &mut [R]) {
         let mut k = 0;
         self.visit_segment_components(a, b, f64::INFINITY, |v| {
@@ -176,8 +180,9 @@ impl Union {
         });
     }
 
-    /// The smallest of [`Union::segment_components`] for a bounded query (as
-    /// [`SignedDistance::min_along_segment_within`]): exact wherever it is at most `bound`; a mesh
+    /// The smallest of [`Union::segment_components`] (minus its crossing depth for a box the
+    /// segment enters) for a bounded query (as [`SignedDistance::min_along_segment_within`]):
+    /// exact wherever it is at most `bound`; a mesh
     /// whose segment cannot come within `bound` answers its lower bound above `bound` as a
     /// constant (derivative 0). The minimum over primitives passes the gradient to the first one
     /// on a tie.
@@ -222,7 +227,11 @@ impl Union {
             put(capsule.distance(&point(capsule.segment_min(&av, &bv).at)));
         }
         for cuboid in &self.boxes {
-            put(cuboid.distance(&(a + (b - a) * cuboid.segment_param(a, b))));
+            let deepest = cuboid.distance(&(a + (b - a) * cuboid.segment_param(a, b)));
+            put(match deepest.value() < 0.0 {
+                true => cuboid.crossing_depth(a, b).map_or(deepest, |d| -d),
+                false => deepest,
+            });
         }
         for mesh in &self.meshes {
             put(match midpoint_lower_bound(mesh, &av, &bv, mesh_bound) {
