@@ -92,6 +92,17 @@ impl Watch {
         }
     }
 
+    /// The best feasible iterate to return instead of where a run ended, when that point is
+    /// not feasible (`violation` above the feasibility tolerance) and the run did not converge:
+    /// an iteration limit or a stall can leave the last iterate on the wrong side of a row the
+    /// run had kept for many iterations before. Taken out of the watch.
+    pub fn take_fallback(&mut self, converged: bool, violation: f64) -> Option<Best> {
+        if converged || violation <= self.tol_feasibility {
+            return None;
+        }
+        self.best.take()
+    }
+
     /// Records `info` and says whether the solver may go on.
     pub fn observe(&mut self, info: &IterationInfo) -> ControlFlow<()> {
         let feasible = info.constraint_violation <= self.tol_feasibility;
@@ -157,6 +168,23 @@ mod tests {
             w.best.as_ref().map(|b| (b.objective, b.x.clone())),
             Some((3.0, vec![3.0]))
         );
+    }
+
+    #[test]
+    fn a_run_that_ends_infeasible_falls_back_on_its_best_feasible_iterate() {
+        let mut w = Watch::new(None, None, 1e-6);
+        assert!(w.observe(&info(3.0, 0.0, 1.0)).is_continue());
+        assert!(w.observe(&info(2.0, 1e-4, 2.0)).is_continue());
+        // Converged, or ended feasible: its own point.
+        assert_eq!(w.take_fallback(true, 1e-4), None);
+        assert_eq!(w.take_fallback(false, 1e-7), None);
+        // Ended by a limit on the wrong side of a row: the best feasible one.
+        let best = w.take_fallback(false, 1e-4).map(|b| (b.objective, b.x));
+        assert_eq!(best, Some((3.0, vec![1.0])));
+        // None seen: nothing to fall back on.
+        let mut w = Watch::new(None, None, 1e-6);
+        assert!(w.observe(&info(2.0, 1e-4, 2.0)).is_continue());
+        assert_eq!(w.take_fallback(false, 1e-4), None);
     }
 
     #[test]

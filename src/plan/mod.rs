@@ -316,7 +316,8 @@ fn stage(kappa: Option<f64>, solution: &optim::Solution) -> Stage {
 /// (deadline, interrupt) returns its best feasible iterate (the last one when none was
 /// feasible): `solution` takes that point, its row violation, no KKT residual or multipliers,
 /// and a message saying so (counting `earlier_iterations` of the warm-up); the status is
-/// `time_limit` or `interrupted`.
+/// `time_limit` or `interrupted`. A run that ended unconverged on an infeasible point returns
+/// its best feasible iterate too ([`Watch::take_fallback`]), keeping its status.
 fn stopped_run(
     problem: &mut TrajectoryProblem<'_>,
     solution: &mut optim::Solution,
@@ -324,6 +325,21 @@ fn stopped_run(
     earlier_iterations: usize,
 ) -> Result<String> {
     let Some(reason) = watch.stopped else {
+        let (converged, violation) = (
+            solution.status.is_converged(),
+            solution.constraint_violation,
+        );
+        if let Some(best) = watch.take_fallback(converged, violation) {
+            solution.x = best.x;
+            solution.constraint_violation = max_violation(problem, &solution.x)?;
+            solution.kkt_residual = f64::NAN;
+            solution.multipliers = Default::default();
+            solution.message = format!(
+                "{}; its last iterate violates the rows by {violation:.2e}, so the best feasible \
+                 iterate seen is returned",
+                solution.message
+            );
+        }
         return Ok(solution.status.name().to_string());
     };
     let found = watch.best.take().map(|b| solution.x = b.x).is_some();

@@ -326,7 +326,11 @@ mod tests {
         for k in 0..200 {
             let len = 0.06 + 0.002 * k as f64;
             let alpha = c.max_step(std::iter::once((&p[..], [0.0, 0.0, -len])));
-            assert!((alpha * len - 0.045).abs() <= 1e-11, "ℓ {len}: α ℓ {}", alpha * len);
+            assert!(
+                (alpha * len - 0.045).abs() <= 1e-11,
+                "ℓ {len}: α ℓ {}",
+                alpha * len
+            );
             let slanted = c.max_step(std::iter::once((&p[..], [len, 0.3, -len])));
             assert!((slanted * len - 0.045).abs() <= 1e-11, "ℓ {len}: {slanted}");
         }
