@@ -330,10 +330,7 @@ fn stopped_run(
             solution.constraint_violation,
         );
         if let Some(best) = watch.take_fallback(converged, violation) {
-            solution.x = best.x;
-            solution.constraint_violation = max_violation(problem, &solution.x)?;
-            solution.kkt_residual = f64::NAN;
-            solution.multipliers = Default::default();
+            settle_at(problem, solution, Some(best.x))?;
             solution.message = format!(
                 "{}; its last iterate violates the rows by {violation:.2e}, so the best feasible \
                  iterate seen is returned",
@@ -342,10 +339,7 @@ fn stopped_run(
         }
         return Ok(solution.status.name().to_string());
     };
-    let found = watch.best.take().map(|b| solution.x = b.x).is_some();
-    solution.constraint_violation = max_violation(problem, &solution.x)?;
-    solution.kkt_residual = f64::NAN;
-    solution.multipliers = Default::default();
+    let found = settle_at(problem, solution, watch.best.take().map(|b| b.x))?;
     solution.message = format!(
         "{} after {} iterations; {}",
         match reason {
@@ -360,6 +354,21 @@ fn stopped_run(
         }
     );
     Ok(reason.status().to_string())
+}
+
+/// Makes `solution` the run's answer at `x` (its own point when `None`): that point's row
+/// violation, and no KKT residual or multipliers (the solver did not end there). Whether `x`
+/// was given.
+fn settle_at(
+    problem: &mut TrajectoryProblem<'_>,
+    solution: &mut optim::Solution,
+    x: Option<Vec<f64>>,
+) -> Result<bool> {
+    let given = x.map(|x| solution.x = x).is_some();
+    solution.constraint_violation = max_violation(problem, &solution.x)?;
+    solution.kkt_residual = f64::NAN;
+    solution.multipliers = Default::default();
+    Ok(given)
 }
 
 /// What the user should know about the returned plan that its status does not say: under the

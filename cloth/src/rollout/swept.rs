@@ -6,8 +6,9 @@
 //! `40/κ` of the smallest path minimum or enters a collider (the entries that carry weight, see
 //! [`NEGLIGIBLE_WEIGHT_EXPONENT`]), its path's minimum to each primitive, at the primitive's own
 //! minimizing point, minus its crossing depth for a box the path enters
-//! ([`Union::segment_components`]): the sample that catches a dip between the steps. Which particles those are changes with the states, but only entries of weight below
-//! `e^−40` come and go, so the row moves by at most `N·e^−40/κ` there: continuous to rounding,
+//! ([`Union::segment_components`]): the sample that catches a dip between the steps. Which
+//! particles those are changes with the states, but only entries of weight below `e^−40` come
+//! and go, so the row moves by at most `N·e^−40/κ` there: continuous to rounding,
 //! with the minima's exact derivatives. Keeping the step-end entries keeps each state linearized
 //! in its own row even where a path's minimum is at its start (a primitive whose distance is flat
 //! along the path, e.g. a gripper moving parallel to a box's face, has its minimum at either end).

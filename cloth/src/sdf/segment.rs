@@ -182,10 +182,9 @@ impl Union {
 
     /// The smallest of [`Union::segment_components`] (minus its crossing depth for a box the
     /// segment enters) for a bounded query (as [`SignedDistance::min_along_segment_within`]):
-    /// exact wherever it is at most `bound`; a mesh
-    /// whose segment cannot come within `bound` answers its lower bound above `bound` as a
-    /// constant (derivative 0). The minimum over primitives passes the gradient to the first one
-    /// on a tie.
+    /// exact wherever it is at most `bound`; a mesh whose segment cannot come within `bound`
+    /// answers its lower bound above `bound` as a constant (derivative 0). The minimum over
+    /// primitives passes the gradient to the first one on a tie.
     pub fn segment_distance_within<R: Real>(
         &self,
         a: &Vector3<R>,
@@ -228,9 +227,10 @@ impl Union {
         }
         for cuboid in &self.boxes {
             let deepest = cuboid.distance(&(a + (b - a) * cuboid.segment_param(a, b)));
-            put(match deepest.value() < 0.0 {
-                true => cuboid.crossing_depth(a, b).map_or(deepest, |d| -d),
-                false => deepest,
+            put(if deepest.value() < 0.0 {
+                cuboid.crossing_depth(a, b).map_or(deepest, |d| -d)
+            } else {
+                deepest
             });
         }
         for mesh in &self.meshes {
