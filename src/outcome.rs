@@ -192,6 +192,8 @@ pub fn row_facts(
         Default::default();
     // Gripper rows against the other colliders: active steps, control points.
     let mut grippers: (Vec<usize>, Vec<usize>) = Default::default();
+    // Held-clearance rows: active steps.
+    let mut held = Vec::new();
     // Per robot limit: active steps.
     let mut limits: std::collections::BTreeMap<&str, Vec<usize>> = Default::default();
     for (_, label) in labels.iter().enumerate().filter(|&(r, _)| active(r)) {
@@ -212,6 +214,7 @@ pub fn row_facts(
                 grippers.1.push(control);
             }
             RowLabel::Limit { limit, step } => limits.entry(limit).or_default().push(step),
+            RowLabel::HeldClearance { step } => held.push(step),
             // The goal row asks the cloth to reach its targets: it never holds it back.
             RowLabel::Goal => {}
         }
@@ -247,6 +250,12 @@ pub fn row_facts(
             "colliders around control points {:?} at steps {}",
             controls,
             step_ranges(&steps)
+        ));
+    }
+    if !held.is_empty() {
+        other.push(format!(
+            "held particles' clearance from the cloth at steps {}",
+            step_ranges(&held)
         ));
     }
     other.extend(limits.into_iter().map(|(limit, mut steps)| {

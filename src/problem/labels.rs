@@ -1,6 +1,6 @@
 //! What each inequality row of a [`TrajectoryProblem`] constrains ([`RowLabel`]), in row order.
 
-use super::{SafetyForm, TrajectoryProblem};
+use super::{SafetyForm, StepRow, TrajectoryProblem};
 use crate::control_rows::ControlRow;
 
 /// What one inequality row of a [`TrajectoryProblem`] constrains.
@@ -10,6 +10,12 @@ pub enum RowLabel {
     Safety {
         /// The step `1..=T` the row constrains, `None` for the scalar and aggregate forms.
         step: Option<usize>,
+    },
+    /// A held-clearance row: every held particle's gap to the rest of the cloth at one step
+    /// (`step_rows.rs`).
+    HeldClearance {
+        /// The step `1..=T`.
+        step: usize,
     },
     /// The goal row: every target within
     /// [`TaskOptions::goal_radius`](super::TaskOptions::goal_radius) at step `T`.
@@ -46,6 +52,9 @@ impl std::fmt::Display for RowLabel {
         match *self {
             RowLabel::Safety { step: Some(t) } => write!(f, "safety at step {t}"),
             RowLabel::Safety { step: None } => write!(f, "safety (whole rollout)"),
+            RowLabel::HeldClearance { step } => {
+                write!(f, "held particles' clearance from the cloth at step {step}")
+            }
             RowLabel::Goal => write!(f, "goal (every target within the goal radius)"),
             RowLabel::ColliderPlane {
                 plane,
@@ -64,7 +73,7 @@ impl std::fmt::Display for RowLabel {
 }
 
 impl TrajectoryProblem<'_> {
-    /// What each inequality row constrains, in row order (safety rows, strain rows, the goal row,
+    /// What each inequality row constrains, in row order (safety rows, step rows, the goal row,
     /// step and separation rows, collider rows, workspace rows).
     pub fn row_labels(&self) -> Vec<RowLabel> {
         let mut labels: Vec<RowLabel> = match self.options.safety {
@@ -73,9 +82,12 @@ impl TrajectoryProblem<'_> {
                 .collect(),
             _ => vec![RowLabel::Safety { step: None }; self.safety_rows()],
         };
-        labels.extend((1..=self.strain_rows()).map(|step| RowLabel::Limit {
-            limit: "max_strain",
-            step,
+        labels.extend((0..self.step_rows()).map(|r| match self.step_row_at(r) {
+            (StepRow::Strain, step) => RowLabel::Limit {
+                limit: "max_strain",
+                step,
+            },
+            (StepRow::HeldClearance, step) => RowLabel::HeldClearance { step },
         }));
         labels.extend((0..self.goal_rows()).map(|_| RowLabel::Goal));
         labels.extend(self.control.iter().map(control_label));

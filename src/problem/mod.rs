@@ -6,8 +6,10 @@
 //! norm terms so the SQP treats their kinks exactly (epigraph second-order cones). Inequalities,
 //! all `≥ 0`:
 //! - the safety constraint, in one of two forms ([`SafetyForm`]);
-//! - one smooth row per step for `task.limits.max_strain`: `s_max − softmax_edges(strain) ≥ 0`,
-//!   pulled back through the rollout with the loss and safety rows (see [`TaskOptions::strain_kappa`]);
+//! - step rows (`step_rows.rs`), one per step and kind, pulled back through the rollout with the
+//!   loss and safety rows: for `task.limits.max_strain`, `s_max − softmax_edges(strain) ≥ 0` (see
+//!   [`TaskOptions::strain_kappa`]); under smooth self-contact, the held particles' clearance from
+//!   the rest of the cloth;
 //! - optionally ([`TaskOptions::goal_radius`]) one smooth row requiring every target particle to
 //!   end within a radius of its position: the route search's last resort when a safe plan misses
 //!   its targets, turning "reach the goal" from a cost into a constraint;
@@ -22,12 +24,13 @@
 //! motion between them ([`TaskOptions::swept`], `safety.rs`). Grippers are cloth particles, so
 //! the safety rows keep them `δ` from the safety obstacles too.
 //!
-//! Row order ([`RowLabel`]): safety, strain, goal, control rows (step, separation, colliders),
+//! Row order ([`RowLabel`]): safety, step rows (strain, held clearance), goal, control rows (step, separation, colliders),
 //! linear rows (collider planes, workspace).
 
 mod labels;
 mod options;
 mod safety;
+mod step_rows;
 mod target;
 
 pub use labels::RowLabel;
@@ -35,6 +38,7 @@ pub use options::{
     SafetyForm, TaskOptions, DEFAULT_STRAIN_KAPPA, DEFAULT_TRIAL_WORK_FACTOR, GOAL_KAPPA,
 };
 pub use safety::start_inside_margin;
+pub use step_rows::{StepRow, HELD_MARGIN};
 pub use target::TargetModel;
 
 use crate::control_rows::{
@@ -62,8 +66,8 @@ struct Forward {
     per_step: Vec<f64>,
     /// The constraint rows handed to the optimizer.
     safety: Vec<f64>,
-    /// The strain rows (`max_strain − smooth max strain`, steps 1..T).
-    strain: Vec<f64>,
+    /// The step rows, kind by kind (`step_rows.rs`).
+    step: Vec<f64>,
     /// The goal row, if any.
     goal: Vec<f64>,
     /// The target residual `x_targets(T) − p` when `G` is a residual norm, else empty.
@@ -75,8 +79,8 @@ struct PulledRows<'r> {
     /// Per-step safety rows (row `r` constrains step `r + 1`); the scalar and aggregate row is
     /// always pulled back.
     safety: &'r [usize],
-    /// Strain rows.
-    strain: &'r [usize],
+    /// Step rows.
+    step: &'r [usize],
     /// The goal row.
     goal: bool,
 }
@@ -87,14 +91,14 @@ struct Backward {
     objective: Vec<f64>,
     /// Gradients of the safety rows (zero where not `computed`).
     safety: Vec<Vec<f64>>,
-    /// Gradients of the strain rows (zero where not `computed`).
-    strain: Vec<Vec<f64>>,
+    /// Gradients of the step rows (zero where not `computed`).
+    step: Vec<Vec<f64>>,
     /// Gradient of the goal row, if any (zero where not `computed`).
     goal: Vec<Vec<f64>>,
     /// Gradients of the target residual's entries when `G` is a residual norm (always pulled
     /// back), else empty.
     target: Vec<Vec<f64>>,
-    /// Which safety rows, then strain rows, then the goal row were pulled back.
+    /// Which safety rows, then step rows, then the goal row were pulled back.
     computed: Vec<bool>,
 }
 
@@ -185,15 +189,6 @@ impl<'a> TrajectoryProblem<'a> {
         &self.options
     }
 
-    /// Number of strain rows (`T` with a `max_strain` limit on a cloth with stretch edges, else 0).
-    fn strain_rows(&self) -> usize {
-        if self.model.task.limits.max_strain.is_some() && self.model.strain.is_some() {
-            self.model.task.horizon
-        } else {
-            0
-        }
-    }
-
     /// Entries of the target residual when `G` is a residual norm (3 per target), else 0.
     fn target_entries(&self) -> usize {
         match self.options.target_model {
@@ -230,16 +225,6 @@ impl<'a> TrajectoryProblem<'a> {
         target::record_smooth_loss(self.model, target_model, tape, t, x, beta)
     }
 
-    /// Records the strain row of step `t`: `max_strain − smooth max strain`.
-    fn record_step_strain(&self, tape: &mut Tape, x: Var) -> Option<Var> {
-        let limit = self.model.task.limits.max_strain?;
-        let soft = self
-            .model
-            .record_soft_max_strain(tape, x, self.options.strain_kappa)?;
-        let negated = tape.neg(soft);
-        Some(tape.add_scalar(negated, limit))
-    }
-
     /// Controls tensor of a variable vector.
     pub fn controls(&self, x: &[f64]) -> Controls {
         Tensor::new(
@@ -272,7 +257,8 @@ impl<'a> TrajectoryProblem<'a> {
             let mut smooth = 0.0;
             let mut safety = vec![0.0; self.safety_rows()];
             let mut per_step = Vec::new();
-            let mut strain = Vec::with_capacity(self.strain_rows());
+            let kinds = self.step_row_kinds();
+            let mut step = vec![Vec::with_capacity(states.len()); kinds.len()];
             let mut goal = Vec::with_capacity(self.goal_rows());
             for t in 1..states.len() {
                 tape.clear();
@@ -294,9 +280,9 @@ impl<'a> TrajectoryProblem<'a> {
                     }
                     _ => {}
                 }
-                if self.strain_rows() > 0 {
-                    if let Some(s) = self.record_step_strain(&mut tape, xv) {
-                        strain.push(tape.value(s).item());
+                for (&kind, values) in kinds.iter().zip(&mut step) {
+                    if let Some(s) = self.record_step_row(kind, &mut tape, xv) {
+                        values.push(tape.value(s).item());
                     }
                 }
                 if t == self.model.task.horizon && self.goal_rows() > 0 {
@@ -325,7 +311,7 @@ impl<'a> TrajectoryProblem<'a> {
                 smooth,
                 per_step,
                 safety,
-                strain,
+                step: step.concat(),
                 goal,
                 target,
             });
@@ -335,22 +321,22 @@ impl<'a> TrajectoryProblem<'a> {
             .ok_or_else(|| EvalError::new("no forward evaluation"))
     }
 
-    /// Which tape rows (safety, strain, goal) a backward pass must pull back, in that order: those
+    /// Which tape rows (safety, step, goal) a backward pass must pull back, in that order: those
     /// in `wanted_rows` (the optimizer's mask over every inequality row; all of them for `None`).
     /// The scalar and aggregate safety row is built from every step, so it is always pulled back.
     fn wanted_tape_rows(&self, wanted_rows: Option<&[bool]>) -> Vec<bool> {
         let rows = self.safety_rows();
-        let strain_rows = self.strain_rows();
+        let step_rows = self.step_rows();
         let goal_rows = self.goal_rows();
         let mut wanted: Vec<bool> = match wanted_rows {
             Some(w) if self.options.safety == Some(SafetyForm::PerStep) => w[..rows].to_vec(),
             _ => vec![true; rows],
         };
         wanted.extend_from_slice(&match wanted_rows {
-            Some(w) => w[rows..rows + strain_rows].to_vec(),
-            None => vec![true; strain_rows],
+            Some(w) => w[rows..rows + step_rows].to_vec(),
+            None => vec![true; step_rows],
         });
-        let tape_rows = rows + strain_rows;
+        let tape_rows = rows + step_rows;
         wanted.extend_from_slice(&match wanted_rows {
             Some(w) => w[tape_rows..tape_rows + goal_rows].to_vec(),
             None => vec![true; goal_rows],
@@ -386,15 +372,15 @@ impl<'a> TrajectoryProblem<'a> {
 
     /// One backward pass at `x`, whose forward pass is cached: the objective's gradient and those
     /// of the tape rows in `wanted`, every cost pulled back through the rollout together
-    /// ([`Model::gradients`]), in the order loss, safety, strain, goal, target residual entries
+    /// ([`Model::gradients`]), in the order loss, safety, step rows, goal, target residual entries
     /// (when `G` is a residual norm: one seed per entry, fewer than the controls).
     fn pull_back(&self, x: &[f64], wanted: Vec<bool>) -> Result<Backward, EvalError> {
         let forward = self
             .forward
             .as_ref()
             .ok_or_else(|| EvalError::new("no forward evaluation"))?;
-        let (rows, strain_rows, goal_rows) =
-            (self.safety_rows(), self.strain_rows(), self.goal_rows());
+        let (rows, step_rows, goal_rows) =
+            (self.safety_rows(), self.step_rows(), self.goal_rows());
         let controls = self.controls(x);
         let loss = |tape: &mut Tape, t: usize, _: Var, xv: Var| self.record_loss(tape, t, xv);
         let scalar = |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
@@ -415,12 +401,20 @@ impl<'a> TrajectoryProblem<'a> {
             let s = self.record_step_safety(tape, t, xp, xv)?;
             Some(tape.scale(s, w))
         };
-        let strain_active: Vec<usize> = (0..strain_rows).filter(|&r| wanted[rows + r]).collect();
-        let strain_costs = self.step_row_costs(&strain_active, |this, tape, _, _, xv| {
-            this.record_step_strain(tape, xv)
-        });
+        let step_active: Vec<usize> = (0..step_rows).filter(|&r| wanted[rows + r]).collect();
+        let step_costs: Vec<BoxedStepCost<'_>> = step_active
+            .iter()
+            .map(|&r| {
+                let (kind, step) = self.step_row_at(r);
+                Box::new(move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
+                    (t == step)
+                        .then(|| self.record_step_row(kind, tape, xv))
+                        .flatten()
+                }) as BoxedStepCost<'_>
+            })
+            .collect();
         let horizon = self.model.task.horizon;
-        let want_goal = goal_rows > 0 && wanted[rows + strain_rows];
+        let want_goal = goal_rows > 0 && wanted[rows + step_rows];
         let goal_cost = move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
             (t == horizon).then(|| self.record_goal(tape, xv)).flatten()
         };
@@ -433,7 +427,7 @@ impl<'a> TrajectoryProblem<'a> {
             }
             _ => {}
         }
-        costs.extend(strain_costs.iter().map(|b| b.as_ref() as StepCost<'_>));
+        costs.extend(step_costs.iter().map(|b| b.as_ref() as StepCost<'_>));
         if want_goal {
             costs.push(&goal_cost);
         }
@@ -449,7 +443,7 @@ impl<'a> TrajectoryProblem<'a> {
         let grads = self.model.gradients(&forward.states, &controls, &costs);
         let pulled = PulledRows {
             safety: &active,
-            strain: &strain_active,
+            step: &step_active,
             goal: want_goal,
         };
         Ok(self.sort_gradients(x, grads, &pulled, wanted))
@@ -499,9 +493,9 @@ impl<'a> TrajectoryProblem<'a> {
             }
             None => {}
         }
-        let mut strain = vec![vec![0.0; x.len()]; self.strain_rows()];
-        for (&r, g) in pulled.strain.iter().zip(grads.by_ref()) {
-            strain[r] = g.into_data();
+        let mut step = vec![vec![0.0; x.len()]; self.step_rows()];
+        for (&r, g) in pulled.step.iter().zip(grads.by_ref()) {
+            step[r] = g.into_data();
         }
         let mut goal = vec![vec![0.0; x.len()]; self.goal_rows()];
         if pulled.goal {
@@ -514,7 +508,7 @@ impl<'a> TrajectoryProblem<'a> {
             x: x.to_vec(),
             objective,
             safety,
-            strain,
+            step,
             goal,
             target,
             computed: wanted,
@@ -533,7 +527,7 @@ impl<'a> TrajectoryProblem<'a> {
         let tape_rows: Vec<Vec<f64>> = backward
             .safety
             .iter()
-            .chain(&backward.strain)
+            .chain(&backward.step)
             .chain(&backward.goal)
             .cloned()
             .collect();
@@ -576,7 +570,7 @@ impl Problem for TrajectoryProblem<'_> {
 
     fn num_inequalities(&self) -> usize {
         self.safety_rows()
-            + self.strain_rows()
+            + self.step_rows()
             + self.goal_rows()
             + self.control.len()
             + self.linear.len()
@@ -649,10 +643,10 @@ impl Problem for TrajectoryProblem<'_> {
     }
 
     fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
-        let (k, s, g) = (self.safety_rows(), self.strain_rows(), self.goal_rows());
+        let (k, s, g) = (self.safety_rows(), self.step_rows(), self.goal_rows());
         let forward = self.ensure_forward(x, true)?;
         c[..k].copy_from_slice(&forward.safety);
-        c[k..k + s].copy_from_slice(&forward.strain);
+        c[k..k + s].copy_from_slice(&forward.step);
         c[k + s..k + s + g].copy_from_slice(&forward.goal);
         let model = self.model;
         let control = self.control.iter().map(|row| row.value(model, x));

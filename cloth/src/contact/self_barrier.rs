@@ -65,7 +65,7 @@ pub struct SelfBarrier {
     pub barrier: Barrier,
     /// `Δt²`: the potential's scale in Newton's `Φ`.
     pub dt2: f64,
-    pub(super) triangles: Arc<[[usize; 3]]>,
+    pub(crate) triangles: Arc<[[usize; 3]]>,
     /// Every edge of the triangles once, with its squared rest length.
     pub(super) edges: Vec<([usize; 2], f64)>,
     /// Which particles can move (inverse mass > 0).

@@ -2,6 +2,8 @@
 //!
 //! - [`cost`]: the paper's costs (`G`, `E`, the safety term, `T`) recorded on a tape;
 //! - [`strain`]: edge strain and its smooth maximum (the `max_strain` rows);
+//! - [`held_clearance`]: the held particles' gaps to the rest of the cloth under smooth
+//!   self-contact, and their smooth minimum (the planner's held-clearance rows);
 //! - [`swept`]: the safety field along each particle's straight motion between two states (the
 //!   continuous safety rows);
 //! - [`tapes`]: recording tapes kept between evaluations;
@@ -16,6 +18,7 @@ pub mod checkpoints;
 pub mod cost;
 pub mod coverage;
 pub mod grad;
+pub mod held_clearance;
 pub mod layers;
 pub mod limits;
 pub mod metrics;
