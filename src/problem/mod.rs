@@ -24,8 +24,8 @@
 //! motion between them ([`TaskOptions::swept`], `safety.rs`). Grippers are cloth particles, so
 //! the safety rows keep them `δ` from the safety obstacles too.
 //!
-//! Row order ([`RowLabel`]): safety, step rows (strain, held clearance), goal, control rows (step, separation, colliders),
-//! linear rows (collider planes, workspace).
+//! Row order ([`RowLabel`]): safety, step rows (strain, held clearance), goal, control rows (step,
+//! separation, colliders), linear rows (collider planes, workspace).
 
 mod labels;
 mod options;
@@ -379,8 +379,7 @@ impl<'a> TrajectoryProblem<'a> {
             .forward
             .as_ref()
             .ok_or_else(|| EvalError::new("no forward evaluation"))?;
-        let (rows, step_rows, goal_rows) =
-            (self.safety_rows(), self.step_rows(), self.goal_rows());
+        let (rows, step_rows, goal_rows) = (self.safety_rows(), self.step_rows(), self.goal_rows());
         let controls = self.controls(x);
         let loss = |tape: &mut Tape, t: usize, _: Var, xv: Var| self.record_loss(tape, t, xv);
         let scalar = |tape: &mut Tape, t: usize, xp: Var, xv: Var| {

@@ -77,7 +77,13 @@ impl Model {
         let mut tape = Tape::new();
         let xv = tape.leaf(x.clone());
         let gaps = self.record_held_gaps(&mut tape, xv)?;
-        Some(tape.value(gaps).data().iter().copied().fold(f64::INFINITY, f64::min))
+        Some(
+            tape.value(gaps)
+                .data()
+                .iter()
+                .copied()
+                .fold(f64::INFINITY, f64::min),
+        )
     }
 }
 
@@ -122,7 +128,10 @@ mod tests {
     /// it) and the rest edge.
     #[test]
     fn each_held_corner_is_paired_with_the_triangles_it_is_not_a_corner_of() {
-        let mut scene = crate::Scene::builtin("u_obstacle").unwrap().refined(5, 5).unwrap();
+        let mut scene = crate::Scene::builtin("u_obstacle")
+            .unwrap()
+            .refined(5, 5)
+            .unwrap();
         scene.physics.solver = Some(crate::scene::SolverKind::Newton);
         scene.physics.self_collision = Some(crate::scene::SelfCollisionSpec {
             thickness: 0.005,
@@ -138,12 +147,18 @@ mod tests {
         let pairs = model.held_pairs().unwrap();
         let held = model.controls.as_slice();
         let incident = |p: usize| barrier.triangles.iter().filter(|t| t.contains(&p)).count();
-        let expected: usize = held.iter().map(|&p| barrier.triangles.len() - incident(p)).sum();
+        let expected: usize = held
+            .iter()
+            .map(|&p| barrier.triangles.len() - incident(p))
+            .sum();
         assert_eq!(pairs.rows(), expected);
         assert!((0..pairs.rows()).all(|r| !pairs.row(r)[1..].contains(&pairs.row(r)[0])));
         let gap = model.min_held_gap(&model.start).unwrap();
         let (h, edge) = (0.005, rest_edge);
         let low = edge * std::f64::consts::FRAC_1_SQRT_2 - h;
-        assert!(gap <= edge - h + 1e-12 && gap >= low - 1e-12, "gap {gap}, edge {edge}");
+        assert!(
+            gap <= edge - h + 1e-12 && gap >= low - 1e-12,
+            "gap {gap}, edge {edge}"
+        );
     }
 }
