@@ -65,11 +65,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let xpbd = Model::from_scene(&base)?;
     let u = match value("--controls") {
-        Some(path) => {
-            let file: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path)?)?;
-            let steps: Vec<Vec<[f64; 3]>> = serde_json::from_value(file["controls"].clone())?;
-            cloth::controls_from_steps(&steps).ok_or(format!("{path}: ragged controls"))?
-        }
+        Some(path) => cloth::controls_from_file(path.as_ref())?,
         None => base.initial_controls(),
     };
     let delta = base.task.delta;

@@ -26,11 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let most: usize = value("--jumps").map_or(Ok(3), |v| v.parse())?;
     let model = Model::from_scene(&scene)?;
     let u = match value("--controls") {
-        Some(path) => {
-            let file: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path)?)?;
-            let steps: Vec<Vec<[f64; 3]>> = serde_json::from_value(file["controls"].clone())?;
-            cloth::controls_from_steps(&steps).ok_or(format!("{path}: ragged controls"))?
-        }
+        Some(path) => cloth::controls_from_file(path.as_ref())?,
         None => scene.initial_controls(),
     };
     let delta = scene.task.delta;

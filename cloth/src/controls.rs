@@ -115,6 +115,21 @@ pub fn controls_from_steps(steps: &[Vec<[f64; 3]>]) -> Option<Controls> {
     Some(Controls::new(steps.len(), 3 * k, data))
 }
 
+/// The `controls` of a JSON file in the nested form (a plan's result, or `{"controls": …}`).
+///
+/// # Errors
+/// The file cannot be read or parsed, has no `controls` in the nested form, or its steps differ
+/// in length; the message names the file.
+pub fn controls_from_file(path: &std::path::Path) -> Result<Controls, String> {
+    let name = path.display();
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{name}: {e}"))?;
+    let file: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| format!("{name}: {e}"))?;
+    let steps: Vec<Vec<[f64; 3]>> = serde_json::from_value(file["controls"].clone())
+        .map_err(|e| format!("{name}: controls: {e}"))?;
+    controls_from_steps(&steps).ok_or(format!("{name}: the controls' steps differ in length"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -143,6 +158,25 @@ mod tests {
         let nested = u.to_nested();
         assert_eq!(controls_from_steps(&nested), Some(u.clone()));
         assert_eq!(nested[3][0], u.at(3, 0));
+    }
+
+    #[test]
+    fn controls_from_a_file_name_the_file_when_ragged() {
+        let dir = std::env::temp_dir().join(format!("cloth-controls-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let good = dir.join("plan.json");
+        std::fs::write(
+            &good,
+            r#"{"status": "x", "controls": [[[1, 2, 3]], [[4, 5, 6]]]}"#,
+        )
+        .unwrap();
+        let u = controls_from_file(&good).unwrap();
+        assert_eq!(u.data(), &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        let ragged = dir.join("ragged.json");
+        std::fs::write(&ragged, r#"{"controls": [[[1, 2, 3]], []]}"#).unwrap();
+        let e = controls_from_file(&ragged).unwrap_err();
+        assert!(e.contains("ragged.json") && e.contains("differ"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

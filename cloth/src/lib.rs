@@ -34,7 +34,7 @@ mod start;
 mod xpbd;
 
 pub use contact::crossings::{crossings, intersections, Crossings};
-pub use controls::{controls_from_steps, Controls, ControlsView};
+pub use controls::{controls_from_file, controls_from_steps, Controls, ControlsView};
 pub use error::ClothError;
 pub use mesh::ClothMesh;
 pub use model::{ConstraintGroup, Model, StartReport, TaskSpec, DEFAULT_CHECKPOINT_BUDGET};
