@@ -5,11 +5,12 @@
 //! start, a stage, the minimum a Newton path ends in) or a rollout that fails (its first error is
 //! printed).
 //! `cargo run --release -p cloth --example rollout_jumps -- --scene FILE.json --controls PLAN.json
-//! [--length 1e-3] [--samples 64] [--jumps 3] [--dump PREFIX]`
+//! [--length 1e-3] [--samples 64] [--jumps 3] [--dump PREFIX] [--print]`
 //! The line runs from the plan's controls (a result's or a `{"controls": …}` file) along `−∇L`,
 //! scaled to `--length` metres in its largest coordinate. A sample interval is a jump when its
-//! change of `L` exceeds 20 times the median interval's; `--dump` writes each bisected jump's two
-//! controls to `PREFIX<k>a.json` and `PREFIX<k>b.json` (for `newton_counts --controls`).
+//! change of `L` exceeds 20 times the change the gradient predicts over it; `--dump` writes each bisected jump's two
+//! controls to `PREFIX<k>a.json` and `PREFIX<k>b.json` (for `newton_counts --controls`); `--print`
+//! prints every sample.
 use autodiff::Tensor;
 use cloth::{Controls, ControlsView, Model, Scene};
 
@@ -56,19 +57,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let ts: Vec<f64> = (0..=samples).map(|k| k as f64 / samples as f64).collect();
     let ls: Vec<Option<f64>> = ts.iter().map(|&t| loss(t).map(|(l, _)| l)).collect();
+    if args.iter().any(|a| a == "--print") {
+        for (t, l) in ts.iter().zip(&ls) {
+            println!("t {t:.6} L {l:?}");
+        }
+    }
     let changes: Vec<(usize, f64)> = (0..samples)
         .filter_map(|k| Some((k, (ls[k + 1]? - ls[k]?).abs())))
         .collect();
-    let mut sorted: Vec<f64> = changes.iter().map(|c| c.1).collect();
-    sorted.sort_by(f64::total_cmp);
-    let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+    // The change the gradient predicts over one sample interval: a jump changes L by far more.
+    let slope: f64 = g.data().iter().zip(&direction).map(|(a, b)| a * b).sum();
+    let expected = slope.abs() / samples as f64;
     let mut jumps: Vec<(usize, f64)> = changes
         .into_iter()
-        .filter(|&(_, c)| c > 20.0 * median)
+        .filter(|&(_, c)| c > 20.0 * expected)
         .collect();
     jumps.sort_by(|a, b| b.1.total_cmp(&a.1));
     println!(
-        "{} samples ({} failed), median |ΔL| {median:.3e}, {} jumps over 20 medians",
+        "{} samples ({} failed); the gradient predicts |ΔL| {expected:.3e} an interval; {} of {samples} \
+         intervals change L by more than 20 times that",
         samples + 1,
         failures.get(),
         jumps.len()
