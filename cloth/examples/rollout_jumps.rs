@@ -41,8 +41,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let failures = std::cell::Cell::new(0);
     let loss = |t: f64| -> Option<(f64, Vec<Tensor>)> {
-        match model.simulate(&along(t)) {
-            Ok(states) => Some((model.metrics(&states, &along(t), delta).l, states)),
+        let u = along(t);
+        match model.simulate(&u) {
+            Ok(states) => Some((model.metrics(&states, &u, delta).l, states)),
             Err(e) => {
                 if failures.replace(failures.get() + 1) == 0 {
                     println!("the rollout at t {t:.15} fails: {e}");

@@ -82,13 +82,15 @@ impl TrajectoryProblem<'_> {
                 .collect(),
             _ => vec![RowLabel::Safety { step: None }; self.safety_rows()],
         };
-        labels.extend((0..self.step_rows()).map(|r| match self.step_row_at(r) {
-            (StepRow::Strain, step) => RowLabel::Limit {
-                limit: "max_strain",
-                step,
-            },
-            (StepRow::HeldClearance, step) => RowLabel::HeldClearance { step },
-        }));
+        for kind in self.step_row_kinds() {
+            labels.extend((1..=self.model.task.horizon).map(|step| match kind {
+                StepRow::Strain => RowLabel::Limit {
+                    limit: "max_strain",
+                    step,
+                },
+                StepRow::HeldClearance => RowLabel::HeldClearance { step },
+            }));
+        }
         labels.extend((0..self.goal_rows()).map(|_| RowLabel::Goal));
         labels.extend(self.control.iter().map(control_label));
         let (planes, k, horizon) = (

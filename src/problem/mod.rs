@@ -390,9 +390,11 @@ impl<'a> TrajectoryProblem<'a> {
             Some(SafetyForm::PerStep) => (0..rows).filter(|&r| wanted[r]).collect(),
             _ => Vec::new(),
         };
-        let per_step = self.step_row_costs(&active, |this, tape, t, xp, xv| {
-            this.record_step_safety(tape, t, xp, xv)
-        });
+        let per_step = row_costs(
+            &active,
+            |r| r + 1,
+            |_, tape, t, xp, xv| self.record_step_safety(tape, t, xp, xv),
+        );
         // Aggregate: Σ_t w_t s_t with the softmax weights w_t of the per-step rows s_t.
         let weights = soft_min_weights(&forward.per_step, self.options.kappa);
         let aggregate = |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
@@ -401,18 +403,12 @@ impl<'a> TrajectoryProblem<'a> {
             Some(tape.scale(s, w))
         };
         let step_active: Vec<usize> = (0..step_rows).filter(|&r| wanted[rows + r]).collect();
-        let step_costs: Vec<BoxedStepCost<'_>> = step_active
-            .iter()
-            .map(|&r| {
-                let (kind, step) = self.step_row_at(r);
-                Box::new(move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
-                    (t == step)
-                        .then(|| self.record_step_row(kind, tape, xv))
-                        .flatten()
-                }) as BoxedStepCost<'_>
-            })
-            .collect();
-        let horizon = self.model.task.horizon;
+        let (kinds, horizon) = (self.step_row_kinds(), self.model.task.horizon);
+        let step_costs = row_costs(
+            &step_active,
+            |r| r % horizon + 1,
+            |r, tape, _, _, xv| self.record_step_row(kinds[r / horizon], tape, xv),
+        );
         let want_goal = goal_rows > 0 && wanted[rows + step_rows];
         let goal_cost = move |tape: &mut Tape, t: usize, _: Var, xv: Var| {
             (t == horizon).then(|| self.record_goal(tape, xv)).flatten()
@@ -446,24 +442,6 @@ impl<'a> TrajectoryProblem<'a> {
             goal: want_goal,
         };
         Ok(self.sort_gradients(x, grads, &pulled, wanted))
-    }
-
-    /// One step cost per row in `rows` (row `r` constrains step `r + 1`): `record` at that step,
-    /// nothing at the others.
-    fn step_row_costs(
-        &self,
-        rows: &[usize],
-        record: fn(&Self, &mut Tape, usize, Var, Var) -> Option<Var>,
-    ) -> Vec<BoxedStepCost<'_>> {
-        rows.iter()
-            .map(|&row| {
-                Box::new(move |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
-                    (t == row + 1)
-                        .then(|| record(self, tape, t, xp, xv))
-                        .flatten()
-                }) as BoxedStepCost<'_>
-            })
-            .collect()
     }
 
     /// The gradients of a backward pass at `x`, in cost order (the objective's, then those of the
@@ -553,6 +531,26 @@ impl<'a> TrajectoryProblem<'a> {
     pub fn states(&mut self, x: &[f64]) -> Result<Vec<Tensor>, EvalError> {
         Ok(self.ensure_forward(x, false)?.states.clone())
     }
+}
+
+/// One step cost per row in `rows`: `record(row, …)` at the row's step `step_of(row)`, nothing
+/// at the others.
+fn row_costs<'a, R>(
+    rows: &[usize],
+    step_of: impl Fn(usize) -> usize,
+    record: R,
+) -> Vec<BoxedStepCost<'a>>
+where
+    R: Fn(usize, &mut Tape, usize, Var, Var) -> Option<Var> + Sync + Copy + 'a,
+{
+    rows.iter()
+        .map(|&row| {
+            let step = step_of(row);
+            Box::new(move |tape: &mut Tape, t: usize, xp: Var, xv: Var| {
+                (t == step).then(|| record(row, tape, t, xp, xv)).flatten()
+            }) as BoxedStepCost<'a>
+        })
+        .collect()
 }
 
 fn eval_error(e: ClothError) -> EvalError {

@@ -29,18 +29,18 @@ const HELD_NEAR_PAIRS: f64 = 8.0;
 pub enum StepRow {
     /// `max_strain − smooth max strain` ([`super::TaskOptions::strain_kappa`]).
     Strain,
-    /// `smooth min of the held pairs' gaps − HELD_MARGIN · d̂` ([`cloth::Model::held_pairs`]).
+    /// `smooth min of the held pairs' gaps − HELD_MARGIN · d̂` ([`cloth::Model::held`]).
     HeldClearance,
 }
 
 impl TrajectoryProblem<'_> {
     /// The kinds of step rows of this task, in row order: the strain rows with a `max_strain`
-    /// limit on a cloth with stretch edges, the clearance rows under smooth self-contact with
-    /// grippers.
+    /// limit on a cloth with stretch edges, the clearance rows where the model has held pairs
+    /// (smooth self-contact and grippers).
     pub(super) fn step_row_kinds(&self) -> Vec<StepRow> {
         let model = self.model;
         let strain = model.task.limits.max_strain.is_some() && model.strain.is_some();
-        let held = model.self_barrier.is_some() && model.n_controls() > 0;
+        let held = model.held.is_some();
         [(strain, StepRow::Strain), (held, StepRow::HeldClearance)]
             .into_iter()
             .filter_map(|(has, kind)| has.then_some(kind))
@@ -50,12 +50,6 @@ impl TrajectoryProblem<'_> {
     /// Number of step rows: `T` per kind.
     pub(super) fn step_rows(&self) -> usize {
         self.step_row_kinds().len() * self.model.task.horizon
-    }
-
-    /// The kind and the step `1..=T` of step row `r`.
-    pub(super) fn step_row_at(&self, r: usize) -> (StepRow, usize) {
-        let horizon = self.model.task.horizon;
-        (self.step_row_kinds()[r / horizon], r % horizon + 1)
     }
 
     /// Records the row of `kind` on the state `x`.

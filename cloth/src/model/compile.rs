@@ -15,6 +15,7 @@ use crate::contact::smooth_friction::FrictionParams;
 use crate::error::ClothError;
 use crate::newton::settings::{NewtonSettings, Solver};
 use crate::newton::terms::Terms;
+use crate::rollout::held_clearance::held_pairs;
 use crate::rollout::strain::EdgeStrain;
 use crate::scene::{
     BendingModel, ContactModel, Obstacle, Scene, SceneError, SolverKind, Stiffness,
@@ -103,6 +104,7 @@ impl Model {
                 tolerance: scene.tolerance(),
             },
             strain: None,
+            held: None,
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
             tapes: Default::default(),
             solver: scene.solver(),
@@ -212,6 +214,7 @@ impl Model {
                     &model.inv_mass,
                 );
                 check_start_apart(&model, &barrier, start.is_some())?;
+                model.held = held_pairs(&barrier, model.controls.as_slice());
                 model.self_barrier = Some(Arc::new(barrier));
             }
         }

@@ -96,6 +96,10 @@ pub struct Model {
     /// Edge strain `|x_i − x_j|/L₀ − 1` per stretch edge (`6 → 1`) with the edges' particles;
     /// `None` when the cloth has no stretch edge of positive rest length.
     pub strain: Option<(Arc<dyn DynRowFn>, Arc<RowIndex>)>,
+    /// Under smooth self-contact, the gap `d − h` of a held particle and a triangle (`12 → 1`)
+    /// with every pair of a control particle and a triangle not incident to it
+    /// (`rollout::held_clearance`); `None` without the self-contact barrier or grippers.
+    pub held: Option<(Arc<dyn DynRowFn>, Arc<RowIndex>)>,
     /// Bytes [`Model::gradients`] may keep in recordings for the backward pass (two at a time:
     /// one pulled back while the next is recorded). A step whose recording would not fit half of
     /// it is recorded in blocks of iterations from checkpoints of a plain forward sweep (kept by

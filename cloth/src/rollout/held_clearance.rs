@@ -8,6 +8,7 @@
 //! see that wall while the rollouts still succeed, as the gripper rows let it see the colliders.
 
 use crate::contact::distance::PointTriangle;
+use crate::contact::self_barrier::SelfBarrier;
 use crate::model::Model;
 use autodiff::{DynRowFn, Real, RowFn, RowIndex, Tape, Var};
 use nalgebra::Vector3;
@@ -37,31 +38,32 @@ impl RowFn for VertexTriangleGap {
     }
 }
 
-impl Model {
-    /// The pairs of a held (control) particle and a triangle of the cloth not incident to it
-    /// (`4` particles a row: the held one, then the triangle's corners); `None` without smooth
-    /// self-contact or with no such pair.
-    pub fn held_pairs(&self) -> Option<RowIndex> {
-        let barrier = self.self_barrier.as_ref()?;
-        let mut idx = Vec::new();
-        for &p in self.controls.as_slice() {
-            for t in barrier.triangles.iter().filter(|t| !t.contains(&p)) {
-                idx.extend([p, t[0], t[1], t[2]]);
-            }
+/// The held pairs of `barrier`'s cloth with grippers at `held` ([`Model::held`]): every pair
+/// of a held particle and a triangle not incident to it (`4` particles a row: the held one, then
+/// the triangle's corners), with their gap function; `None` with no such pair.
+pub(crate) fn held_pairs(
+    barrier: &SelfBarrier,
+    held: &[usize],
+) -> Option<(Arc<dyn DynRowFn>, Arc<RowIndex>)> {
+    let mut idx = Vec::new();
+    for &p in held {
+        for t in barrier.triangles.iter().filter(|t| !t.contains(&p)) {
+            idx.extend([p, t[0], t[1], t[2]]);
         }
-        (!idx.is_empty()).then(|| RowIndex::new(4, idx))
     }
+    let gap: Arc<dyn DynRowFn> = Arc::new(VertexTriangleGap {
+        thickness: barrier.thickness,
+    });
+    (!idx.is_empty()).then(|| (gap, Arc::new(RowIndex::new(4, idx))))
+}
 
-    /// Records the gap `d − h` of every held pair ([`Model::held_pairs`]) at `x`
-    /// (`pairs × 1`); `None` where there is none.
+impl Model {
+    /// Records the gap `d − h` of every held pair ([`Model::held`]) at `x` (`pairs × 1`); `None`
+    /// where there is none.
     pub fn record_held_gaps(&self, tape: &mut Tape, x: Var) -> Option<Var> {
-        let barrier = self.self_barrier.as_ref()?;
-        let pairs = self.held_pairs()?;
-        let f: Arc<dyn DynRowFn> = Arc::new(VertexTriangleGap {
-            thickness: barrier.thickness,
-        });
-        let rows = tape.gather(x, &Arc::new(pairs));
-        Some(tape.map_rows(&f, rows))
+        let (f, pairs) = self.held.as_ref()?;
+        let rows = tape.gather(x, pairs);
+        Some(tape.map_rows(f, rows))
     }
 
     /// Records the smooth minimum of the held pairs' gaps, `−(1/κ) log Σ exp(−κ gᵢ)` (`1 × 1`):
@@ -144,7 +146,7 @@ mod tests {
             .sum::<f64>()
             .sqrt();
         let barrier = model.self_barrier.as_ref().unwrap();
-        let pairs = model.held_pairs().unwrap();
+        let pairs = &model.held.as_ref().unwrap().1;
         let held = model.controls.as_slice();
         let incident = |p: usize| barrier.triangles.iter().filter(|t| t.contains(&p)).count();
         let expected: usize = held
