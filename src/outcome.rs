@@ -3,13 +3,14 @@
 //! A target is reached when its particle ends (at step `T` of the re-simulated rollout) within the
 //! task tolerance of its position. A task is *achieved* when every target is reached **and** the
 //! plan is safe. A plan that misses says which of the [`Reason`]s holds, checked in this order:
-//! no safe plan; a missed target inside a collider deeper than the tolerance (unreachable); the
-//! solver stopped early (iteration limit, stall); constraints active at the returned plan hold the
+//! no safe plan; a missed target inside a collider deeper than the tolerance (unreachable); targets
+//! for every particle that the cloth, put there, does not rest in (a finished run's verdict only:
+//! it simulates); the solver stopped early (iteration limit, stall); constraints active at the returned plan hold the
 //! cloth back (safety rows, or other rows such as collider planes); none is active, so the plan
 //! sits in a local minimum of `L`.
 
 use crate::problem::{RowLabel, TrajectoryProblem};
-use crate::target_check::unreachable_targets;
+use crate::target_check::{targets_rest, unreachable_targets, REST_STEPS};
 // The `task` section of a result, from `crate::result`: re-exported for this module's callers.
 pub use crate::result::{target_errors, Reason, TaskOutcome};
 use autodiff::Tensor;
@@ -49,6 +50,13 @@ pub fn task_outcome(model: &Model, final_state: &Tensor, facts: &PlanFacts<'_>) 
         .into_iter()
         .filter(|&(i, _)| errors[i] > tolerance)
         .collect();
+    // A finished run's safe miss with no buried target: do the targets themselves rest?
+    let restless =
+        if facts.safe && !all_reached && unreachable.is_empty() && facts.status != "running" {
+            targets_rest(model).filter(|rest| rest.largest_error > tolerance)
+        } else {
+            None
+        };
     let (reason, explanation) = if !facts.safe {
         let why = if facts.failures.is_empty() {
             "the returned plan violates the safety margin or the optimizer's rows".to_string()
@@ -73,6 +81,24 @@ pub fn task_outcome(model: &Model, final_state: &Tensor, facts: &PlanFacts<'_>) 
                 } else {
                     "s lie"
                 }
+            ),
+        )
+    } else if let Some(rest) = restless {
+        let spread = if rest.spread > 1.0 {
+            format!(
+                " (their heights above the lowest spread {}× to start its layers apart)",
+                rest.spread
+            )
+        } else {
+            String::new()
+        };
+        (
+            Reason::TargetsCannotRest,
+            format!(
+                "the targets are no state the cloth rests in with its grippers held there: put \
+                 at them{spread}, it settles {:.4} from them in {REST_STEPS} steps ({} of {} \
+                 within {tolerance:.4}), so a plan can only end at another equilibrium; {missed}",
+                rest.largest_error, rest.reached, rest.targets
             ),
         )
     } else if facts.status == "iteration_limit" {

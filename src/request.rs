@@ -214,6 +214,7 @@ mod tests {
                 "achieved",
                 "no_safe_plan",
                 "unreachable_target",
+                "targets_cannot_rest",
                 "iteration_limit",
                 "stopped",
                 "stalled",

@@ -1,7 +1,8 @@
 //! Targets the cloth cannot reach: a target inside a collider lies where no particle goes, so it
 //! is said when the scene is loaded (a warning naming the target and the obstacle) instead of
 //! after a planner has searched for it, and the verdict of a plan that misses it says why
-//! ([`unreachable_targets`]).
+//! ([`unreachable_targets`]). Targets for every particle that the cloth, put there with its
+//! grippers held, does not rest in ask for a state no plan can end in ([`targets_rest`]).
 
 use cloth::scene::Scene;
 use cloth::sdf::SignedDistance;
@@ -112,4 +113,75 @@ pub fn unreachable_targets(model: &Model) -> Vec<(usize, f64)> {
             (depth > model.task.tolerance).then_some((i, depth))
         })
         .collect()
+}
+
+/// Steps [`targets_rest`] simulates: the fold's crease rises within five (docs/experiments.md,
+/// "Whether a task's targets can rest").
+pub const REST_STEPS: usize = 8;
+
+/// Where the cloth goes from its targets ([`targets_rest`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TargetRest {
+    /// The largest distance of a particle from its target after [`REST_STEPS`] steps.
+    pub largest_error: f64,
+    /// How many targets are then within the task's tolerance.
+    pub reached: usize,
+    /// How many targets there are (one per particle).
+    pub targets: usize,
+    /// The factor the targets' heights above the lowest were spread by to start the cloth with
+    /// its layers apart (1: the targets as given).
+    pub spread: f64,
+}
+
+/// Where the cloth, put at its targets (one for every particle) with its grippers held there,
+/// is after [`REST_STEPS`] steps of the scene's physics with zero moves; `None` when not every
+/// particle has a target, or no start could be simulated. Layers that targets put at the
+/// self-contact thickness are no valid start (the barrier is infinite there): the targets'
+/// heights above the lowest (along gravity) are then spread by 2, else 3, and the spread is
+/// reported.
+pub fn targets_rest(model: &Model) -> Option<TargetRest> {
+    let (targets, at) = (model.task.targets.as_slice(), &model.task.target_positions);
+    let n = model.n_particles();
+    let mut seen = vec![false; n];
+    for &p in targets {
+        if std::mem::replace(&mut seen[p], true) {
+            return None;
+        }
+    }
+    if targets.len() != n {
+        return None;
+    }
+    let up = match model.gravity_step {
+        Some(g) if g.iter().any(|&v| v != 0.0) => -Vector3::from(g).normalize(),
+        _ => Vector3::z(),
+    };
+    let target = |i: usize| Vector3::new(at.get(i, 0), at.get(i, 1), at.get(i, 2));
+    let lowest = (0..n)
+        .map(|i| target(i).dot(&up))
+        .fold(f64::INFINITY, f64::min);
+    [1.0, 2.0, 3.0].into_iter().find_map(|spread| {
+        let mut start = vec![[0.0; 3]; n];
+        for (i, &p) in targets.iter().enumerate() {
+            let q = target(i);
+            let lifted = q + up * ((spread - 1.0) * (q.dot(&up) - lowest));
+            start[p] = [lifted.x, lifted.y, lifted.z];
+        }
+        let placed = model.placed_at(&start, REST_STEPS).ok()?;
+        let states = placed.simulate(&placed.zero_controls()).ok()?;
+        let last = states.last()?;
+        let errors: Vec<f64> = (targets.iter().enumerate())
+            .map(|(i, &p)| {
+                (Vector3::new(last.get(p, 0), last.get(p, 1), last.get(p, 2)) - target(i)).norm()
+            })
+            .collect();
+        Some(TargetRest {
+            largest_error: errors.iter().copied().fold(0.0, f64::max),
+            reached: errors
+                .iter()
+                .filter(|&&e| e <= model.task.tolerance)
+                .count(),
+            targets: n,
+            spread,
+        })
+    })
 }

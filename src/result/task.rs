@@ -42,6 +42,10 @@ pub enum Reason {
     /// A target the plan misses lies inside a collider deeper than the task tolerance: no plan
     /// brings its particle within the tolerance.
     UnreachableTarget,
+    /// Every particle has a target, and the targets are no state the cloth rests in with its
+    /// grippers held there: put at them, it settles beyond the tolerance
+    /// ([`crate::target_check::targets_rest`]), so a plan can only end at another equilibrium.
+    TargetsCannotRest,
     /// The solver stopped at its iteration limit before converging.
     IterationLimit,
     /// The solver stopped without converging (negligible step, line-search failure, QP failure,
@@ -57,10 +61,11 @@ pub enum Reason {
 
 impl Reason {
     /// Every reason, in the order the verdict checks them (achieved first).
-    pub const ALL: [Reason; 9] = [
+    pub const ALL: [Reason; 10] = [
         Reason::Achieved,
         Reason::NoSafePlan,
         Reason::UnreachableTarget,
+        Reason::TargetsCannotRest,
         Reason::IterationLimit,
         Reason::Stopped,
         Reason::Stalled,
@@ -70,7 +75,7 @@ impl Reason {
     ];
 
     /// The name the result JSON and the summary give it: `achieved`, `no_safe_plan`,
-    /// `unreachable_target`, `iteration_limit`, `stopped`, `stalled`, `safety_active`, `limits_active`,
+    /// `unreachable_target`, `targets_cannot_rest`, `iteration_limit`, `stopped`, `stalled`, `safety_active`, `limits_active`,
     /// `local_minimum`.
     pub fn name(self) -> &'static str {
         match self {
@@ -79,6 +84,7 @@ impl Reason {
             Reason::LimitsActive => "limits_active",
             Reason::LocalMinimum => "local_minimum",
             Reason::UnreachableTarget => "unreachable_target",
+            Reason::TargetsCannotRest => "targets_cannot_rest",
             Reason::IterationLimit => "iteration_limit",
             Reason::Stalled => "stalled",
             Reason::Stopped => "stopped",

@@ -403,6 +403,39 @@ fn component_friction(obstacles: &[Obstacle]) -> Vec<f64> {
     buckets.concat()
 }
 
+impl Model {
+    /// This model with the cloth at step 0 at `positions` (particle order) as given, no recipe
+    /// and no settling, and a horizon of `horizon` steps: what a check simulates from a state
+    /// the scene does not start in (where a task's targets settle, `clothopt::target_check`).
+    /// Under smooth contact the free particles nearer a collider than `d̂/100` are moved out to
+    /// `d̂/2`, as for a given start. Nothing else is checked: a state through itself or inside a
+    /// collider fails when simulated.
+    ///
+    /// # Errors
+    /// `positions` not one per particle, or a particle deeper in a collider than `d̂`.
+    pub fn placed_at(&self, positions: &[[f64; 3]], horizon: usize) -> Result<Model, ClothError> {
+        if positions.len() != self.n_particles() {
+            return Err(SceneError::Invalid {
+                field: "positions".into(),
+                reason: format!(
+                    "{} positions for {} particles",
+                    positions.len(),
+                    self.n_particles()
+                ),
+            }
+            .into());
+        }
+        let mut model = self.clone();
+        model.start = Tensor::new(positions.len(), 3, positions.concat());
+        model.start_report = None;
+        model.task.horizon = horizon;
+        if let Some(barrier) = &self.contact_barrier {
+            settle_start_outside(&mut model, barrier, 0.01, true)?;
+        }
+        Ok(model)
+    }
+}
+
 /// Smooth contact: every free particle of step 0 that is nearer to the colliders than
 /// `below · d̂` — on a surface, or inside by less than `d̂` — starts at `d̂/2` outside, moved along
 /// the colliders' distance gradient (a cloth lying on a table under the rigid model lies at the
