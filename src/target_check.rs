@@ -4,6 +4,7 @@
 //! ([`unreachable_targets`]). Targets for every particle that the cloth, put there with its
 //! grippers held, does not rest in ask for a state no plan can end in ([`targets_rest`]).
 
+use crate::result::target_errors;
 use cloth::scene::Scene;
 use cloth::sdf::SignedDistance;
 use cloth::Model;
@@ -137,51 +138,47 @@ pub struct TargetRest {
 /// is after [`REST_STEPS`] steps of the scene's physics with zero moves; `None` when not every
 /// particle has a target, or no start could be simulated. Layers that targets put at the
 /// self-contact thickness are no valid start (the barrier is infinite there): the targets'
-/// heights above the lowest (along gravity) are then spread by 2, else 3, and the spread is
+/// heights above the lowest are then spread by 2, else 3 ([`start_at_targets`]), and the spread is
 /// reported.
 pub fn targets_rest(model: &Model) -> Option<TargetRest> {
-    let (targets, at) = (model.task.targets.as_slice(), &model.task.target_positions);
-    let n = model.n_particles();
-    let mut seen = vec![false; n];
-    for &p in targets {
-        if std::mem::replace(&mut seen[p], true) {
-            return None;
-        }
-    }
-    if targets.len() != n {
-        return None;
-    }
-    let up = match model.gravity_step {
-        Some(g) if g.iter().any(|&v| v != 0.0) => -Vector3::from(g).normalize(),
-        _ => Vector3::z(),
-    };
-    let target = |i: usize| Vector3::new(at.get(i, 0), at.get(i, 1), at.get(i, 2));
-    let lowest = (0..n)
-        .map(|i| target(i).dot(&up))
-        .fold(f64::INFINITY, f64::min);
     [1.0, 2.0, 3.0].into_iter().find_map(|spread| {
-        let mut start = vec![[0.0; 3]; n];
-        for (i, &p) in targets.iter().enumerate() {
-            let q = target(i);
-            let lifted = q + up * ((spread - 1.0) * (q.dot(&up) - lowest));
-            start[p] = [lifted.x, lifted.y, lifted.z];
-        }
+        let start = start_at_targets(model, spread)?;
         let placed = model.placed_at(&start, REST_STEPS).ok()?;
         let states = placed.simulate(&placed.zero_controls()).ok()?;
-        let last = states.last()?;
-        let errors: Vec<f64> = (targets.iter().enumerate())
-            .map(|(i, &p)| {
-                (Vector3::new(last.get(p, 0), last.get(p, 1), last.get(p, 2)) - target(i)).norm()
-            })
-            .collect();
+        let errors = target_errors(model, states.last()?);
         Some(TargetRest {
             largest_error: errors.iter().copied().fold(0.0, f64::max),
             reached: errors
                 .iter()
                 .filter(|&&e| e <= model.task.tolerance)
                 .count(),
-            targets: n,
+            targets: errors.len(),
             spread,
         })
     })
+}
+
+/// The cloth at its targets, in particle order, with the targets' heights above the lowest
+/// (along gravity, else `z`) multiplied by `spread` (1: as given); `None` unless every particle has
+/// exactly one target.
+pub fn start_at_targets(model: &Model, spread: f64) -> Option<Vec<[f64; 3]>> {
+    let (targets, at) = (model.task.targets.as_slice(), &model.task.target_positions);
+    let n = model.n_particles();
+    let mut start = vec![None; n];
+    let up = match model.gravity_step {
+        Some(g) if g.iter().any(|&v| v != 0.0) => -Vector3::from(g).normalize(),
+        _ => Vector3::z(),
+    };
+    let target = |i: usize| Vector3::new(at.get(i, 0), at.get(i, 1), at.get(i, 2));
+    let lowest = (0..targets.len())
+        .map(|i| target(i).dot(&up))
+        .fold(f64::INFINITY, f64::min);
+    for (i, &p) in targets.iter().enumerate() {
+        let q = target(i);
+        let lifted = q + up * ((spread - 1.0) * (q.dot(&up) - lowest));
+        if start[p].replace([lifted.x, lifted.y, lifted.z]).is_some() {
+            return None;
+        }
+    }
+    start.into_iter().collect()
 }
