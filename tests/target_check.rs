@@ -31,6 +31,15 @@ fn scene(depth: f64) -> String {
     )
 }
 
+/// The plan of `scene` from its guess with at most `iterations` SQP iterations, no search.
+fn planned(scene: &Scene, iterations: usize) -> clothopt::result::PlanResult {
+    let model = Model::from_scene(scene).unwrap();
+    let start = initial_controls(scene, &model).unwrap();
+    let mut options = PlanOptions::for_model(&model);
+    options.iterations = iterations;
+    plan(&model, scene, &start, &options, |_| {}).unwrap()
+}
+
 #[test]
 fn a_target_inside_the_table_is_named_at_load() {
     let deep = Scene::from_json_str(&scene(0.05)).unwrap();
@@ -73,12 +82,7 @@ fn a_target_inside_the_table_is_named_at_load() {
 
 #[test]
 fn a_plan_that_misses_a_buried_target_says_so() {
-    let s = Scene::from_json_str(&scene(0.05)).unwrap();
-    let model = Model::from_scene(&s).unwrap();
-    let start = initial_controls(&s, &model).unwrap();
-    let mut options = PlanOptions::for_model(&model);
-    options.iterations = 30;
-    let result = plan(&model, &s, &start, &options, |_| {}).unwrap();
+    let result = planned(&Scene::from_json_str(&scene(0.05)).unwrap(), 30);
     assert!(!result.task.achieved);
     assert_eq!(result.task.reason, Reason::UnreachableTarget);
     assert!(
@@ -171,11 +175,7 @@ fn layers_at_the_thickness_start_spread_apart() {
 #[test]
 fn a_plan_for_targets_that_cannot_rest_says_so() {
     let air = towel("[[0, 0]]", |_, _, [x, y, z]| [x, y, z + 0.2], false);
-    let model = Model::from_scene(&air).unwrap();
-    let start = initial_controls(&air, &model).unwrap();
-    let mut options = PlanOptions::for_model(&model);
-    options.iterations = 5;
-    let result = plan(&model, &air, &start, &options, |_| {}).unwrap();
+    let result = planned(&air, 5);
     assert!(!result.task.achieved);
     assert_eq!(
         result.task.reason,
