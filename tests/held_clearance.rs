@@ -1,7 +1,7 @@
 //! The held-clearance rows (`src/problem/step_rows.rs`): under smooth self-contact, one row per
 //! step keeps every gripper's particle off the triangles not incident to it. Their Jacobian,
 //! pulled back through the Newton rollout, matches central differences on a cloth folded onto
-//! itself; they are labelled; a scene without self-contact has none.
+//! itself; they are labelled; they are off by default, and a scene without self-contact has none.
 
 mod common;
 use cloth::scene::{
@@ -86,7 +86,13 @@ fn held_rows(p: &TrajectoryProblem) -> Vec<(usize, usize)> {
 #[test]
 fn held_clearance_rows_match_central_differences() {
     let m = model();
-    let mut p = TrajectoryProblem::new(&m, TaskOptions::for_model(&m));
+    // Off by default (`TaskOptions::held_clearance`): no such row.
+    assert!(held_rows(&TrajectoryProblem::new(&m, TaskOptions::for_model(&m))).is_empty());
+    let options = TaskOptions {
+        held_clearance: true,
+        ..TaskOptions::for_model(&m)
+    };
+    let mut p = TrajectoryProblem::new(&m, options);
     let rows = held_rows(&p);
     assert_eq!(
         rows.iter().map(|&(_, s)| s).collect::<Vec<_>>(),
@@ -132,6 +138,9 @@ fn held_clearance_rows_match_central_differences() {
 fn a_scene_without_self_contact_has_no_held_clearance_rows() {
     let s = small(5, 5, 4, 20);
     let m = Model::from_scene(&s).unwrap();
-    let p = TrajectoryProblem::new(&m, TaskOptions::for_model(&m));
-    assert!(held_rows(&p).is_empty());
+    let options = TaskOptions {
+        held_clearance: true,
+        ..TaskOptions::for_model(&m)
+    };
+    assert!(held_rows(&TrajectoryProblem::new(&m, options)).is_empty());
 }

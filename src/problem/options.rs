@@ -81,6 +81,12 @@ pub struct TaskOptions {
     /// [`DEFAULT_TRIAL_WORK_FACTOR`] (∞: never stops one). No effect under XPBD, whose rollouts
     /// cost the same for any controls.
     pub trial_work_factor: f64,
+    /// Under smooth self-contact, one row per step keeping every gripper's particle at least
+    /// [`super::step_rows::HELD_MARGIN`] `d̂` off the triangles not incident to it
+    /// (`super::step_rows`). Default false: measured on the task suite (docs/experiments.md,
+    /// "What the held-clearance rows cost"), they halve `fold_half`'s speed (achieved in
+    /// 91–120 s instead of 60 s in three runs each), while `fold_towel` is 1.36× faster with them.
+    pub held_clearance: bool,
 }
 
 /// Default [`TaskOptions::trial_work_factor`]: off. Measured (`docs/performance.md`): a factor of
@@ -111,6 +117,7 @@ impl TaskOptions {
             goal_radius: None,
             target_model: TargetModel::default(),
             trial_work_factor: DEFAULT_TRIAL_WORK_FACTOR,
+            held_clearance: false,
         }
     }
 
@@ -158,6 +165,7 @@ mod tests {
             goal_radius: None,
             target_model: TargetModel::default(),
             trial_work_factor: 4.0,
+            held_clearance: false,
         };
         // Steps of 10, 2 and 30 iterations (mean 14): 4 · (10 + 14), 4 · (12 + 14), 4 · (42 + 14).
         assert_eq!(options.trial_schedule(&[10, 2, 30]), [96, 104, 224]);

@@ -8,7 +8,8 @@
 //! step too long, so a plan whose loss pulls a gripper down onto the cloth creeps along that
 //! wall by halvings. The clearance row shows it the wall while the rollouts still succeed: the
 //! smallest gap between a held particle and a triangle not incident to it stays above
-//! [`HELD_MARGIN`] of the barrier's reach `d̂`.
+//! [`HELD_MARGIN`] of the barrier's reach `d̂`. Off by default
+//! ([`super::TaskOptions::held_clearance`]).
 
 use super::TrajectoryProblem;
 use autodiff::{Tape, Var};
@@ -36,11 +37,12 @@ pub enum StepRow {
 impl TrajectoryProblem<'_> {
     /// The kinds of step rows of this task, in row order: the strain rows with a `max_strain`
     /// limit on a cloth with stretch edges, the clearance rows where the model has held pairs
-    /// (smooth self-contact and grippers).
+    /// (smooth self-contact and grippers) and [`super::TaskOptions::held_clearance`] asks for
+    /// them.
     pub(super) fn step_row_kinds(&self) -> Vec<StepRow> {
         let model = self.model;
         let strain = model.task.limits.max_strain.is_some() && model.strain.is_some();
-        let held = model.held.is_some();
+        let held = model.held.is_some() && self.options.held_clearance;
         [(strain, StepRow::Strain), (held, StepRow::HeldClearance)]
             .into_iter()
             .filter_map(|(has, kind)| has.then_some(kind))
