@@ -12,8 +12,7 @@
 //! at the self-contact thickness start apart (the verdict tries 1, 2, then 3).
 use anyhow::{anyhow, bail, Context};
 use cloth::{Model, Scene};
-use clothopt::result::target_errors;
-use clothopt::target_check::{start_at_targets, REST_STEPS};
+use clothopt::target_check::{start_at_targets, TargetRest, REST_STEPS};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();
@@ -46,10 +45,11 @@ fn main() -> anyhow::Result<()> {
     let tolerance = model.task.tolerance;
     println!("step  largest error  within {tolerance:.4}");
     for (t, x) in states.iter().enumerate() {
-        let errors = target_errors(&model, x);
-        let largest = errors.iter().fold(0.0_f64, |m, &e| m.max(e));
-        let within = errors.iter().filter(|&&e| e <= tolerance).count();
-        println!("{t:>4}  {largest:>13.4}  {within} / {}", errors.len());
+        let rest = TargetRest::of(&model, x, spread);
+        println!(
+            "{t:>4}  {:>13.4}  {} / {}",
+            rest.largest_error, rest.reached, rest.targets
+        );
     }
     Ok(())
 }

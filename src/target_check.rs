@@ -5,6 +5,7 @@
 //! grippers held, does not rest in ask for a state no plan can end in ([`targets_rest`]).
 
 use crate::result::target_errors;
+use autodiff::Tensor;
 use cloth::scene::Scene;
 use cloth::sdf::SignedDistance;
 use cloth::Model;
@@ -123,7 +124,8 @@ pub const REST_STEPS: usize = 8;
 /// Where the cloth goes from its targets ([`targets_rest`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TargetRest {
-    /// The largest distance of a particle from its target after [`REST_STEPS`] steps.
+    /// The largest distance of a particle from its target (after [`REST_STEPS`] steps in
+    /// [`targets_rest`]).
     pub largest_error: f64,
     /// How many targets are then within the task's tolerance.
     pub reached: usize,
@@ -145,8 +147,15 @@ pub fn targets_rest(model: &Model) -> Option<TargetRest> {
         let start = start_at_targets(model, spread)?;
         let placed = model.placed_at(&start, REST_STEPS).ok()?;
         let states = placed.simulate(&placed.zero_controls()).ok()?;
-        let errors = target_errors(model, states.last()?);
-        Some(TargetRest {
+        Some(TargetRest::of(model, states.last()?, spread))
+    })
+}
+
+impl TargetRest {
+    /// How far the cloth at `state` is from `model`'s targets, started with `spread`.
+    pub fn of(model: &Model, state: &Tensor, spread: f64) -> TargetRest {
+        let errors = target_errors(model, state);
+        TargetRest {
             largest_error: errors.iter().copied().fold(0.0, f64::max),
             reached: errors
                 .iter()
@@ -154,8 +163,8 @@ pub fn targets_rest(model: &Model) -> Option<TargetRest> {
                 .count(),
             targets: errors.len(),
             spread,
-        })
-    })
+        }
+    }
 }
 
 /// The cloth at its targets, in particle order, with the targets' heights above the lowest
