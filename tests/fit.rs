@@ -344,6 +344,7 @@ fn mass_is_not_fitted_where_the_self_contact_barrier_follows_it() {
     s.physics.self_collision = Some(cloth::scene::SelfCollisionSpec {
         thickness: 0.004,
         edge_edge: false,
+        friction: None,
     });
     s.validate().unwrap();
     let model = Model::from_scene(&s).unwrap();

@@ -37,6 +37,7 @@ fn model() -> Model {
     s.physics.self_collision = Some(SelfCollisionSpec {
         thickness: 0.02,
         edge_edge: false,
+        friction: None,
     });
     s.validate().unwrap();
     let mut m = Model::from_scene(&s).unwrap();

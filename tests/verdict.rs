@@ -149,6 +149,7 @@ fn a_cloth_through_itself_or_its_layers_pressed_together_is_not_safe() {
     scene.physics.self_collision = Some(cloth::scene::SelfCollisionSpec {
         thickness: 0.2,
         edge_edge: false,
+        friction: None,
     });
     scene.validate().unwrap();
     let (model, states) = through_itself(&scene);

@@ -154,6 +154,7 @@ fn cases() -> Vec<(&'static str, Scene)> {
     with_sc.physics.self_collision = Some(SelfCollisionSpec {
         thickness: 0.01,
         edge_edge: false,
+        friction: None,
     });
     let mut with_edges = with_sc.clone();
     if let Some(sc) = with_edges.physics.self_collision.as_mut() {

@@ -3,7 +3,7 @@
 //! A parameter multiplies every value of its kind in the scene: `stretch` the stretch
 //! stiffness, `bending` the bending stiffness, a custom constraint type's name the stiffness of
 //! every entry of that type, `mass` the particle mass, `gravity` gravity's vector and `friction`
-//! every collider's coefficient. Derivatives are taken with respect to the logarithm of that
+//! every collider's coefficient and the cloth's own (`physics.self_collision.friction`). Derivatives are taken with respect to the logarithm of that
 //! factor ([`Model::parameter_tangents`]): positive values stay positive, and scenes whose
 //! entries differ (two colliders with different `μ`) scale together.
 //!
@@ -30,7 +30,7 @@ pub enum Parameter {
     Mass,
     /// Gravity's magnitude.
     Gravity,
-    /// The friction coefficient of every collider.
+    /// The friction coefficient of every collider and of the cloth on itself.
     Friction,
 }
 
@@ -69,6 +69,7 @@ impl Parameter {
             Parameter::Gravity => "physics.gravity".into(),
             Parameter::Friction => match frictional(scene).first() {
                 Some(i) => format!("obstacles[{i}].friction"),
+                None if self_friction(scene).is_some() => "physics.self_collision.friction".into(),
                 None => "obstacles[].friction".into(),
             },
         }
@@ -120,11 +121,13 @@ impl Parameter {
                     Err(missing("the scene has no gravity to scale".into()))
                 }
             }
-            Parameter::Friction => match frictional(scene).first() {
-                Some(&i) => Ok(scene.obstacles[i].friction().unwrap_or(0.0)),
-                None => Err(missing(
-                    "no collider has friction > 0: give the colliders a friction coefficient to \
-                     start the fit from"
+            Parameter::Friction => match (frictional(scene).first(), self_friction(scene)) {
+                (Some(&i), _) => Ok(scene.obstacles[i].friction().unwrap_or(0.0)),
+                (None, Some(mu)) => Ok(mu),
+                (None, None) => Err(missing(
+                    "neither a collider nor the cloth itself has friction > 0: give the \
+                     colliders or physics.self_collision a friction coefficient to start the fit \
+                     from"
                         .into(),
                 )),
             },
@@ -159,6 +162,9 @@ impl Parameter {
             Parameter::Friction => {
                 for i in frictional(scene) {
                     scene.obstacles[i].scale_friction(factor);
+                }
+                if let Some(sc) = scene.physics.self_collision.as_mut() {
+                    sc.friction = sc.friction.map(|mu| mu * factor);
                 }
             }
         }
@@ -244,8 +250,8 @@ impl Model {
     }
 
     /// Whether the model has something `p` scales: a group of that name with a finite
-    /// stiffness, gravity, or friction (smooth contact's under Newton, the friction rows under
-    /// XPBD).
+    /// stiffness, gravity, or friction (smooth contact's or the cloth's on itself under Newton,
+    /// the friction rows under XPBD).
     fn check_parameter(&self, p: &Parameter) -> Result<(), ClothError> {
         let has = match p {
             Parameter::Stiffness(name) => {
@@ -256,6 +262,7 @@ impl Model {
             Parameter::Friction => match self.solver {
                 crate::Solver::Newton(_) => {
                     (self.contact_barrier.as_ref()).is_some_and(|b| b.friction.is_some())
+                        || (self.self_barrier.as_ref()).is_some_and(|b| b.friction.is_some())
                 }
                 crate::Solver::Xpbd => self.sets().any(|s| s.carry != Carry::Multiplier),
             },
@@ -265,7 +272,7 @@ impl Model {
         } else {
             Err(ClothError::ParameterDerivative(format!(
                 "the model has no `{p}` to vary (a group of that name with a finite stiffness, \
-                 gravity, or a collider with friction > 0)"
+                 gravity, or a collider or the cloth itself with friction > 0)"
             )))
         }
     }
@@ -285,6 +292,13 @@ fn frictional(scene: &Scene) -> Vec<usize> {
         .filter(|(_, o)| o.role().is_collider() && o.friction().unwrap_or(0.0) > 0.0)
         .map(|(i, _)| i)
         .collect()
+}
+
+/// The cloth–cloth friction coefficient `physics.self_collision.friction`, when it is > 0.
+fn self_friction(scene: &Scene) -> Option<f64> {
+    (scene.physics.self_collision.as_ref())
+        .and_then(|sc| sc.friction)
+        .filter(|&mu| mu > 0.0)
 }
 
 fn norm(v: [f64; 3]) -> f64 {

@@ -33,6 +33,7 @@ fn scene(thickness: f64) -> Scene {
     s.physics.self_collision = Some(SelfCollisionSpec {
         thickness,
         edge_edge: false,
+        friction: None,
     });
     s.validate().unwrap();
     s

@@ -16,6 +16,7 @@
 //! formula serves every kind; it costs a few dozen flops where nested forward duals on 12
 //! coordinates cost thousands.
 
+use autodiff::Real;
 use nalgebra::{Matrix3, Vector3};
 
 /// A pair of nearest features as an affine family of differences `r(θ)` between their points.
@@ -86,6 +87,45 @@ impl Feature {
             out[i] = true;
         }
         out
+    }
+
+    /// The coefficients `cᵢ` (one per pair point, 0 for points not involved) and the difference
+    /// `r = Σ cᵢ pᵢ` of the nearest points of the features of `p`, at the minimizer `θ*`, generic
+    /// over the scalar (so that forward duals carry their derivatives along the points).
+    pub(crate) fn closest<R: Real>(&self, p: &[Vector3<R>; 4]) -> ([R; 4], Vector3<R>) {
+        let n = self.len;
+        let combine = |c: &[f64; 4]| {
+            (0..n).fold(Vector3::zeros(), |s: Vector3<R>, i| {
+                s + p[self.points[i]] * R::cst(c[i])
+            })
+        };
+        let r0 = combine(&self.base);
+        let dirs = [combine(&self.slopes[0]), combine(&self.slopes[1])];
+        let theta = match self.params {
+            0 => [R::cst(0.0), R::cst(0.0)],
+            1 => [-(dirs[0].dot(&r0) / dirs[0].dot(&dirs[0])), R::cst(0.0)],
+            _ => {
+                let (g00, g01, g11) = (
+                    dirs[0].dot(&dirs[0]),
+                    dirs[0].dot(&dirs[1]),
+                    dirs[1].dot(&dirs[1]),
+                );
+                let cross = dirs[0].cross(&dirs[1]);
+                let det = cross.dot(&cross);
+                let b = [dirs[0].dot(&r0), dirs[1].dot(&r0)];
+                [
+                    -((g11 * b[0] - g01 * b[1]) / det),
+                    -((g00 * b[1] - g01 * b[0]) / det),
+                ]
+            }
+        };
+        let mut c = [R::cst(0.0); 4];
+        for i in 0..n {
+            c[self.points[i]] = R::cst(self.base[i])
+                + theta[0] * R::cst(self.slopes[0][i])
+                + theta[1] * R::cst(self.slopes[1][i]);
+        }
+        (c, r0 + dirs[0] * theta[0] + dirs[1] * theta[1])
     }
 
     /// The squared distance `q` of the features of the pair's points `p`, with its gradient `g`

@@ -13,5 +13,6 @@ pub mod self_barrier;
 pub mod self_candidates;
 pub mod self_collision;
 pub mod self_filter;
+pub mod self_friction;
 mod sets;
 pub mod smooth_friction;

@@ -32,6 +32,7 @@ use super::distance::{EdgeEdge, PointTriangle};
 use super::feature::{cross_squared_derivatives, Feature};
 use super::grid::{Aabb, BoxGrid};
 use super::self_candidates::Candidates;
+use super::self_friction::SelfFriction;
 use nalgebra::Vector3;
 use std::sync::Arc;
 
@@ -72,6 +73,8 @@ pub struct SelfBarrier {
     movable: Vec<bool>,
     /// The broad phase's cell: the edges' mean rest length.
     cell: f64,
+    /// Cloth–cloth friction on the pairs ([`super::self_friction`]); `None`: frictionless.
+    pub friction: Option<SelfFriction>,
 }
 
 impl SelfBarrier {
@@ -105,6 +108,7 @@ impl SelfBarrier {
             edges,
             movable: inv_mass.iter().map(|&w| w > 0.0).collect(),
             cell: if cell > 0.0 { cell } else { 1.0 },
+            friction: None,
         }
     }
 
@@ -266,7 +270,7 @@ impl SelfBarrier {
 
     /// The pair's nearest features at `x` as an affine family ([`Feature`]; the pair's points in
     /// order: vertex then triangle, or first edge then second edge).
-    fn feature(&self, p: &[Vector3<f64>; 4], kind: PairKind) -> Feature {
+    pub(super) fn feature(&self, p: &[Vector3<f64>; 4], kind: PairKind) -> Feature {
         match kind {
             PairKind::PointTriangle => {
                 match PointTriangle::classify(&p[0], [&p[1], &p[2], &p[3]]) {

@@ -74,15 +74,7 @@ impl ColliderBarrier {
         let eps = self.epsilon();
         contacts
             .iter()
-            .map(|c| {
-                let r = norm3(&tangential(c.normal, x, y));
-                c.mu_lambda
-                    * if r < eps {
-                        r * r / eps - r * r * r / (3.0 * eps * eps) + eps / 3.0
-                    } else {
-                        r
-                    }
-            })
+            .map(|c| c.mu_lambda * smoothed_slip(norm3(&tangential(c.normal, x, y)), eps))
             .sum()
     }
 
@@ -99,16 +91,8 @@ impl ColliderBarrier {
         let eps = self.epsilon();
         for c in contacts {
             let u = tangential(c.normal, x, y);
-            let r = norm3(&u);
             // ∇D = μλ φ(r) u with φ = f₁(r)/r; ∇²D = μλ (φ P + φ′/r u uᵀ).
-            let (phi, dphi_over_r) = if r < eps {
-                (
-                    2.0 / eps - r / (eps * eps),
-                    if r > 0.0 { -1.0 / (eps * eps * r) } else { 0.0 },
-                )
-            } else {
-                (1.0 / r, -1.0 / (r * r * r))
-            };
+            let (phi, dphi_over_r) = slip_weights(norm3(&u), eps);
             let n = c.normal;
             for a in 0..3 {
                 g[a] += c.mu_lambda * phi * u[a];
@@ -155,15 +139,7 @@ impl ColliderBarrier {
             let n = Vector3::new(dj.eps[0], dj.eps[1], dj.eps[2]);
             let delta = x - y;
             let u = delta - n * n.dot(&delta);
-            let r2 = u.dot(&u);
-            let phi = if r2.value() == 0.0 {
-                R::cst(2.0 / eps)
-            } else if r2.value() < eps * eps {
-                R::cst(2.0 / eps) - r2.sqrt() * R::cst(1.0 / (eps * eps))
-            } else {
-                r2.sqrt().recip()
-            };
-            g += u * (mu_lambda * phi);
+            g += u * (mu_lambda * slip_weight(u.dot(&u), eps));
         }
         g
     }
@@ -171,6 +147,39 @@ impl ColliderBarrier {
     /// The smoothing displacement `ε` (meaningless without friction).
     fn epsilon(&self) -> f64 {
         self.friction.as_ref().map_or(1.0, |f| f.epsilon)
+    }
+}
+
+/// `f₀(r)`: the slip `r` smoothed below `ε` (`r²/ε − r³/(3ε²) + ε/3`, C² at `ε`).
+pub(crate) fn smoothed_slip(r: f64, eps: f64) -> f64 {
+    if r < eps {
+        r * r / eps - r * r * r / (3.0 * eps * eps) + eps / 3.0
+    } else {
+        r
+    }
+}
+
+/// `φ = f₀′(r)/r` and `φ′(r)/r` at the slip `r ≥ 0`: `∇f₀(|u|) = φ u`,
+/// `∇²f₀(|u|) = φ I + φ′/r u uᵀ` (semidefinite: `φ + r φ′ ≥ 0`).
+pub(crate) fn slip_weights(r: f64, eps: f64) -> (f64, f64) {
+    if r < eps {
+        (
+            2.0 / eps - r / (eps * eps),
+            if r > 0.0 { -1.0 / (eps * eps * r) } else { 0.0 },
+        )
+    } else {
+        (1.0 / r, -1.0 / (r * r * r))
+    }
+}
+
+/// `φ` of [`slip_weights`] from the squared slip `r²`, generic over the scalar.
+pub(crate) fn slip_weight<R: Real>(r2: R, eps: f64) -> R {
+    if r2.value() == 0.0 {
+        R::cst(2.0 / eps)
+    } else if r2.value() < eps * eps {
+        R::cst(2.0 / eps) - r2.sqrt() * R::cst(1.0 / (eps * eps))
+    } else {
+        r2.sqrt().recip()
     }
 }
 

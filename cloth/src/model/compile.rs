@@ -11,6 +11,7 @@ use crate::contact::edge_points::EdgeBarrier;
 use crate::contact::friction::FrictionalContact;
 use crate::contact::self_barrier::{PairKind, SelfBarrier};
 use crate::contact::self_collision::SelfCollision;
+use crate::contact::self_friction::SelfFriction;
 use crate::contact::smooth_friction::FrictionParams;
 use crate::error::ClothError;
 use crate::newton::settings::{NewtonSettings, Solver};
@@ -205,14 +206,19 @@ impl Model {
             let contacts = SelfCollision::new(sc.thickness, triangles, n);
             model.self_collision = Some(Arc::new(contacts.with_edge_edge(sc.edge_edge)));
             if scene.solver_kind() == SolverKind::Newton {
-                let barrier = SelfBarrier::new(
+                let shape = barrier_shape(scene, mean_edge);
+                let mut barrier = SelfBarrier::new(
                     sc.thickness,
-                    barrier_shape(scene, mean_edge),
+                    shape,
                     scene.physics.dt * scene.physics.dt,
                     model.triangles.clone(),
                     model.rest_shape.data(),
                     &model.inv_mass,
                 );
+                barrier.friction = sc.friction.filter(|&mu| mu > 0.0).map(|mu| SelfFriction {
+                    mu,
+                    epsilon: friction_epsilon(scene, &shape),
+                });
                 check_start_apart(&model, &barrier, start.is_some())?;
                 model.held = held_pairs(&barrier, model.controls.as_slice());
                 model.self_barrier = Some(Arc::new(barrier));
@@ -359,10 +365,17 @@ fn barrier_shape(scene: &Scene, mean_edge: f64) -> Barrier {
     Barrier { d_hat, kappa }
 }
 
+/// Smooth friction's smoothing slip `ε`: `physics.contact.friction_epsilon`, else a tenth of
+/// the barrier's reach.
+fn friction_epsilon(scene: &Scene, barrier: &Barrier) -> f64 {
+    (scene.physics.contact.as_ref())
+        .and_then(|c| c.friction_epsilon)
+        .unwrap_or(0.1 * barrier.d_hat)
+}
+
 /// The smooth contact potential of `colliders` with the scene's `physics.contact` settings or
 /// their defaults ([`barrier_shape`]).
 fn collider_barrier(scene: &Scene, mean_edge: f64, colliders: Union) -> ColliderBarrier {
-    let spec = scene.physics.contact.as_ref();
     let barrier = barrier_shape(scene, mean_edge);
     let dt = scene.physics.dt;
     let mu = component_friction(&scene.obstacles);
@@ -373,9 +386,7 @@ fn collider_barrier(scene: &Scene, mean_edge: f64, colliders: Union) -> Collider
     );
     let friction = mu.iter().any(|&m| m > 0.0).then(|| FrictionParams {
         mu,
-        epsilon: spec
-            .and_then(|c| c.friction_epsilon)
-            .unwrap_or(0.1 * barrier.d_hat),
+        epsilon: friction_epsilon(scene, &barrier),
     });
     ColliderBarrier {
         field: Arc::new(colliders),

@@ -10,7 +10,7 @@ use super::contact::is_contact;
 use super::edge_points::{coupled_blocks, EdgePointPattern};
 use super::ordering::elimination_positions;
 use super::psd::projected_local_hessian;
-use super::self_contact::SelfPairsCache;
+use super::self_contact::{LaggedSelfPairs, SelfPairsCache};
 use super::terms::{ConstraintTerms, MAX_DOF};
 use crate::contact::barrier::ColliderBarrier;
 use crate::contact::edge_points::EdgeBarrier;
@@ -77,6 +77,9 @@ pub struct Pattern {
     /// Self-contact under Newton ([`super::self_contact`]): the barrier between parts of the
     /// cloth.
     pub(super) self_barrier: Option<Arc<SelfBarrier>>,
+    /// Cloth–cloth friction: the step's start and its frictional self-contact pairs there
+    /// ([`Pattern::begin_step`]).
+    pub(super) self_friction: Option<Arc<LaggedSelfPairs>>,
     /// The particle blocks (row ≥ column) the self-contact pairs of the last
     /// [`Pattern::with_self_blocks`] added to the constraints' (sorted).
     pub(super) self_blocks: Vec<(u32, u32)>,
@@ -162,6 +165,7 @@ impl Pattern {
             self.friction.clone(),
         );
         pattern.self_pairs_cache = self.self_pairs_cache.clone();
+        pattern.self_friction.clone_from(&self.self_friction);
         if let (Some(new), Some(old)) = (&mut pattern.edge_points, &self.edge_points) {
             new.friction = old.friction.clone();
         }
@@ -300,6 +304,7 @@ impl Pattern {
             barrier,
             friction,
             self_barrier,
+            self_friction: None,
             self_blocks,
             self_pairs_cache: Arc::default(),
             edge_points: None,
@@ -388,6 +393,9 @@ impl Pattern {
         phi += self.collider_energy(x);
         if let Some(b) = &self.self_barrier {
             phi += b.energy(x, &self.self_pairs(x));
+            if let Some(f) = &self.self_friction {
+                phi += b.friction_energy(x, &f.start, &f.pairs);
+            }
         }
         phi
     }

@@ -32,13 +32,14 @@ impl Pattern {
         phi
     }
 
-    /// Smooth contact with friction: lags the frictional contacts at the step's start `y` (the
-    /// previous state, full `N × 3` data); every energy and assembly until the next call is the
-    /// step's from `y`. Nothing without friction.
+    /// Smooth contact or self-contact with friction: lags the frictional contacts at the step's
+    /// start `y` (the previous state, full `N × 3` data); every energy and assembly until the
+    /// next call is the step's from `y`. Nothing without friction.
     pub fn begin_step(&mut self, y: &[f64]) {
         if let Some(e) = &mut self.edge_points {
             e.begin_step(y);
         }
+        self.begin_self_friction(y);
         let Some((b, _)) = &self.barrier else {
             return;
         };

@@ -21,6 +21,7 @@ use super::NewtonSettings;
 use crate::contact::self_barrier::SelfPair;
 use crate::contact::self_candidates::Candidates;
 use crate::contact::self_filter::Sweep;
+use crate::contact::self_friction::LaggedPair;
 use crate::error::ClothError;
 use autodiff::Tensor;
 use std::sync::{Arc, Mutex};
@@ -64,6 +65,17 @@ impl SelfCounts {
     }
 }
 
+/// Cloth–cloth friction's lagged data for one step ([`Pattern::begin_step`]).
+pub(super) struct LaggedSelfPairs {
+    /// The step's start (full `N × 3` data).
+    pub(super) start: Vec<f64>,
+    /// Its frictional pairs.
+    pub(super) pairs: Vec<LaggedPair>,
+    /// The particle blocks they couple (row ≥ column, sorted): every pattern of the step holds
+    /// them.
+    pub(super) blocks: Vec<(u32, u32)>,
+}
+
 /// Self-contact patterns (with their symbolic analyses) a Newton system keeps after leaving
 /// them, to go back to without a new analysis: the pairs' blocks often come and go between a
 /// few sets as a solve's iterates move.
@@ -102,7 +114,17 @@ impl NewtonSystem {
             return;
         }
         let pairs = self.pattern.self_pairs(x);
-        let blocks = self.pattern.self_blocks_for(&pairs);
+        let mut blocks = self.pattern.self_blocks_for(&pairs);
+        if let Some(f) = self
+            .pattern
+            .self_friction
+            .as_ref()
+            .filter(|f| !f.blocks.is_empty())
+        {
+            blocks.extend_from_slice(&f.blocks);
+            blocks.sort_unstable();
+            blocks.dedup();
+        }
         if holds(&self.pattern.self_blocks, &blocks) {
             return;
         }
@@ -140,6 +162,7 @@ impl NewtonSystem {
                 let (mut p, f) = self.recent.remove(i);
                 // The step's lagged friction (`Pattern::begin_step`), maybe not its.
                 p.friction.clone_from(&self.pattern.friction);
+                p.self_friction.clone_from(&self.pattern.self_friction);
                 (p, f)
             }
             None => {
@@ -219,6 +242,21 @@ impl NewtonSystem {
 }
 
 impl Pattern {
+    /// Cloth–cloth friction: lags the frictional pairs at the step's start `y` (full `N × 3`
+    /// data). Nothing without it.
+    pub(super) fn begin_self_friction(&mut self, y: &[f64]) {
+        let Some(b) = self.self_barrier.as_ref().filter(|b| b.friction.is_some()) else {
+            return;
+        };
+        let pairs = b.lagged_pairs(y, &self.self_pairs(y));
+        let quads: Vec<SelfPair> = pairs.iter().map(|l| l.pair).collect();
+        self.self_friction = Some(Arc::new(LaggedSelfPairs {
+            start: y.to_vec(),
+            blocks: self.self_blocks_for(&quads),
+            pairs,
+        }));
+    }
+
     /// The self-contact pairs at `x` (`N × 3` data); none without self-contact.
     pub(super) fn self_pairs(&self, x: &[f64]) -> Arc<Vec<SelfPair>> {
         let Some(b) = &self.self_barrier else {
@@ -335,36 +373,98 @@ impl Pattern {
                 // At or within the thickness: only a predicted state can be there.
                 continue;
             };
-            let dofs = pair.particles.map(|p| self.dof(p));
-            for a in 0..12 {
-                if let Some(da) = dofs[a / 3] {
-                    grad[da + a % 3] += g[a];
-                }
-            }
-            let Some((v, kind)) = values.as_mut() else {
-                continue;
-            };
-            if *kind == HessianKind::Projected {
+            if let Some((_, HessianKind::Projected)) = values {
                 project_involved(&mut h, involved);
             }
-            // Block by block: each stored entry takes one value per pair, as entry by entry.
-            for (pa, da) in dofs.iter().enumerate() {
-                let Some(da) = *da else { continue };
-                for (pb, db) in dofs.iter().enumerate() {
-                    let Some(db) = *db else { continue };
-                    if da < db {
-                        continue;
+            self.scatter_pair(pair, &g, &h, grad, values.as_mut().map(|(v, _)| &mut **v));
+        }
+        // Cloth–cloth friction: its Hessian is semidefinite already.
+        for l in self.self_friction.iter().flat_map(|f| &f.pairs) {
+            let start = &self.self_friction.as_ref().expect("friction").start;
+            barrier.pair_friction_derivatives(x, start, l, &mut g, &mut h);
+            self.scatter_pair(
+                &l.pair,
+                &g,
+                &h,
+                grad,
+                values.as_mut().map(|(v, _)| &mut **v),
+            );
+        }
+    }
+
+    /// Adds a pair's gradient `g` and, with `values`, Hessian `h` (its particles in order) to
+    /// the free particles' entries.
+    fn scatter_pair(
+        &self,
+        pair: &SelfPair,
+        g: &[f64; 12],
+        h: &[f64; 144],
+        grad: &mut [f64],
+        values: Option<&mut [f64]>,
+    ) {
+        let dofs = pair.particles.map(|p| self.dof(p));
+        for a in 0..12 {
+            if let Some(da) = dofs[a / 3] {
+                grad[da + a % 3] += g[a];
+            }
+        }
+        let Some(v) = values else {
+            return;
+        };
+        // Block by block: each stored entry takes one value per pair, as entry by entry.
+        for (pa, da) in dofs.iter().enumerate() {
+            let Some(da) = *da else { continue };
+            for (pb, db) in dofs.iter().enumerate() {
+                let Some(db) = *db else { continue };
+                if da < db {
+                    continue;
+                }
+                let idx = self
+                    .block_index(da / 3, db / 3)
+                    .expect("the pattern holds the self-contact pairs' blocks");
+                for i in 0..3 {
+                    // A diagonal block's upper entries are its lower ones'.
+                    let columns = if da == db { i + 1 } else { 3 };
+                    for j in 0..columns {
+                        v[idx[3 * i + j] as usize] += h[12 * (3 * pa + i) + 3 * pb + j];
                     }
-                    let idx = self
-                        .block_index(da / 3, db / 3)
-                        .expect("the pattern holds the self-contact pairs' blocks");
-                    for i in 0..3 {
-                        // A diagonal block's upper entries are its lower ones'.
-                        let columns = if da == db { i + 1 } else { 3 };
-                        for j in 0..columns {
-                            v[idx[3 * i + j] as usize] += h[12 * (3 * pa + i) + 3 * pb + j];
-                        }
-                    }
+                }
+            }
+        }
+    }
+
+    /// Adds cloth–cloth friction's gradient at `x` into `out` (degree-of-freedom order): its
+    /// `∂(∇Φ)/∂ log μ`, the potential being linear in `μ`. Nothing without it.
+    pub(super) fn add_self_friction_gradient(&self, x: &[f64], out: &mut [f64]) {
+        let (Some(b), Some(f)) = (&self.self_barrier, &self.self_friction) else {
+            return;
+        };
+        let (mut g, mut h) = ([0.0; 12], [0.0; 144]);
+        for l in &f.pairs {
+            b.pair_friction_derivatives(x, &f.start, l, &mut g, &mut h);
+            self.scatter_pair(&l.pair, &g, &h, out, None);
+        }
+    }
+
+    /// Calls `f(start particle, state degree of freedom, block)` for cloth–cloth friction's
+    /// coupling of the state at `x` to the step's start, `∂(∇ₓD)/∂y` per pair of a frictional
+    /// pair's particles (the state's free).
+    pub(super) fn for_each_self_start_coupling(
+        &self,
+        x: &[f64],
+        f: &mut impl FnMut(usize, usize, &[f64; 9]),
+    ) {
+        let (Some(b), Some(lagged)) = (&self.self_barrier, &self.self_friction) else {
+            return;
+        };
+        for l in &lagged.pairs {
+            let cross = b.pair_friction_cross(x, &lagged.start, &l.pair);
+            for (i, &pi) in l.pair.particles.iter().enumerate() {
+                let Some(d) = self.dof(pi) else { continue };
+                for (k, &pk) in l.pair.particles.iter().enumerate() {
+                    let block =
+                        std::array::from_fn(|e| cross[12 * (3 * i + e / 3) + 3 * k + e % 3]);
+                    f(pk, d, &block);
                 }
             }
         }
@@ -381,19 +481,26 @@ impl Pattern {
             return;
         };
         let (mut g, mut h) = ([0.0; 12], [0.0; 144]);
-        for pair in self.self_pairs(x).iter() {
+        let held = |pair: &SelfPair| pair.particles.iter().any(|&p| self.dof(p).is_none());
+        let mut visit_pair = |pair: &SelfPair, h: &[f64; 144]| {
             let dofs = pair.particles.map(|p| self.dof(p));
-            if dofs.iter().all(Option::is_some)
-                || barrier.pair_derivatives(x, pair, &mut g, &mut h).is_none()
-            {
-                continue;
-            }
             for a in (0..12).filter(|a| dofs[a / 3].is_none()) {
                 for b in 0..12 {
                     if let Some(db) = dofs[b / 3] {
                         visit(3 * pair.particles[a / 3] + a % 3, db + b % 3, h[12 * a + b]);
                     }
                 }
+            }
+        };
+        for pair in self.self_pairs(x).iter().filter(|p| held(p)) {
+            if barrier.pair_derivatives(x, pair, &mut g, &mut h).is_some() {
+                visit_pair(pair, &h);
+            }
+        }
+        if let Some(f) = &self.self_friction {
+            for l in f.pairs.iter().filter(|l| held(&l.pair)) {
+                barrier.pair_friction_derivatives(x, &f.start, l, &mut g, &mut h);
+                visit_pair(&l.pair, &h);
             }
         }
     }

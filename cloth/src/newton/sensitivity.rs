@@ -127,6 +127,7 @@ impl Model {
                 }
             }
             Parameter::Friction => {
+                pattern.add_self_friction_gradient(x, out);
                 let (Some(barrier), Some((start, lagged))) =
                     (&self.contact_barrier, &pattern.friction)
                 else {
@@ -145,7 +146,9 @@ impl Model {
                         &mut g,
                         &mut h,
                     );
-                    out[d..d + 3].copy_from_slice(&g);
+                    for (o, v) in out[d..d + 3].iter_mut().zip(g) {
+                        *o += v;
+                    }
                 }
                 if let Some(e) = &pattern.edge_points {
                     e.add_friction_gradient(x, out);

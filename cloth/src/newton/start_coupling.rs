@@ -1,4 +1,4 @@
-//! Smooth friction's coupling of a step's state to its start, `D_xy = ∂(∇ₓD)/∂y`, in both
+//! Smooth and cloth–cloth friction's coupling of a step's state to its start, `D_xy = ∂(∇ₓD)/∂y`, in both
 //! directions: transposed for the implicit gradient ([`super::implicit`]), forward for the
 //! parameter sensitivities ([`super::sensitivity`]).
 
@@ -29,12 +29,13 @@ impl Pattern {
     }
 
     /// Calls `f(start particle, state degree of freedom, ∂(∇ₓD)/∂y)` for every free particle
-    /// with frictional contacts at the step's start (its own), and for every pair of particles
-    /// of an edge point with some, at `x`.
+    /// with frictional contacts at the step's start (its own), for every pair of particles of an
+    /// edge point with some, and of a frictional self-contact pair, at `x`.
     fn for_each_start_coupling(&self, x: &[f64], mut f: impl FnMut(usize, usize, &[f64; 9])) {
         if let Some(e) = &self.edge_points {
             e.for_each_start_coupling(x, &mut f);
         }
+        self.for_each_self_start_coupling(x, &mut f);
         let (Some((b, _)), Some((start, lagged))) = (&self.barrier, &self.friction) else {
             return;
         };

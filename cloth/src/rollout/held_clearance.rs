@@ -138,6 +138,7 @@ mod tests {
         scene.physics.self_collision = Some(crate::scene::SelfCollisionSpec {
             thickness: 0.005,
             edge_edge: false,
+            friction: None,
         });
         let model = Model::from_scene(&scene).unwrap();
         let rest_edge = (0..3)

@@ -442,6 +442,10 @@ pub struct SelfCollisionSpec {
     /// `cloth/src/contact/edge_edge.rs`); default `false` (vertex–triangle contacts only).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub edge_edge: bool,
+    /// Coulomb friction `μ ≥ 0` between parts of the cloth, Newton's method only (absent or 0:
+    /// frictionless; see `cloth/src/contact/self_friction.rs`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
 }
 
 /// One entry of a scene's `custom_constraints`: constraints of a registered type.

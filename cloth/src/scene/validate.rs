@@ -297,6 +297,20 @@ impl Scene {
         }
         if let Some(sc) = &p.self_collision {
             check_non_negative("physics.self_collision.thickness", sc.thickness)?;
+            if let Some(mu) = sc.friction {
+                check_non_negative("physics.self_collision.friction", mu)?;
+                let choice = self.physics_choice();
+                if mu > 0.0 && choice.solver != SolverKind::Newton {
+                    return Err(invalid(
+                        "physics.self_collision.friction",
+                        format!(
+                            "cloth–cloth friction is a potential of Newton's method, but this \
+                             scene runs XPBD ({})",
+                            choice.reason.describe()
+                        ),
+                    ));
+                }
+            }
         }
         if let Some(c) = &p.contact {
             validate_contact(c, self.solver_kind())?;
