@@ -7,8 +7,8 @@
 //! farther apart than the thickness. A start that is not at rest — one step of the scene's own
 //! physics with the grippers held moves a particle by more than [`REST_TOLERANCE`] of the
 //! cloth's longest side — is settled by such steps until it is (at most
-//! `cloth.initial_state.settle_steps`), or refused with `"settle": false`; what settling did is
-//! [`Model::start_report`], never silent.
+//! `cloth.initial_state.settle_steps`; without cloth–cloth friction, [`settle`]), or refused with
+//! `"settle": false`; what settling did is [`Model::start_report`], never silent.
 
 use crate::contact::crossings::intersections;
 use crate::error::ClothError;
@@ -16,6 +16,7 @@ use crate::model::{Model, StartReport};
 use crate::registry::ConstraintRegistry;
 use crate::scene::{InitialControls, InitialState, Limits, Recipe, Scene, SceneError};
 use autodiff::Tensor;
+use std::sync::Arc;
 
 /// The largest move of any particle, as a fraction of the cloth's longest side, in one step of
 /// a state at rest.
@@ -216,6 +217,10 @@ struct Settled {
 
 /// Steps `model` (its grippers held) from `x` until a step moves no particle by more than
 /// `tolerance`, at most `max_steps` times; an error names the particle still moving.
+///
+/// Without cloth–cloth friction: its lagged potential lets a loaded layer creep by a fraction of
+/// its smoothing slip at every step, so a frictional cloth never meets the tolerance, while a
+/// frictionless rest is a rest with friction too (no slip, no friction force).
 fn settle(
     model: &Model,
     x: Tensor,
@@ -223,6 +228,9 @@ fn settle(
     tolerance: f64,
 ) -> Result<Settled, ClothError> {
     let mut one = model.clone();
+    if let Some(b) = one.self_barrier.as_mut().filter(|b| b.friction.is_some()) {
+        Arc::make_mut(b).friction = None;
+    }
     one.task.horizon = 1;
     let zeros = one.zero_controls();
     let mut x = x;

@@ -210,3 +210,29 @@ fn friction_under_xpbd_is_refused() {
         "{err}"
     );
 }
+
+/// A start whose layer is loaded along the one below settles to a frictionless rest: with the
+/// lagged friction a loaded layer creeps at every step (still 1.2e-6 after 500 steps here, above
+/// the rest tolerance 3e-7) and never rests, while a frictionless rest is a rest with friction too. The top square, on
+/// the tilted bottom one with `μ = 0.5 > tan θ`, slides down to a low wall 0.03 below it.
+#[test]
+fn a_loaded_frictional_start_settles_where_friction_holds_nothing() {
+    let mut s = scene(Some(0.5));
+    let wall = serde_json::json!({
+        "type": "box", "center": [0.1, 0.0, 0.012], "half_extents": [0.02, 0.2, 0.0095],
+        "role": "collider"
+    });
+    s.obstacles.push(serde_json::from_value(wall).unwrap());
+    let rest = Model::from_scene(&s).unwrap().start;
+    let positions: Vec<[f64; 3]> = (0..rest.rows())
+        .map(|p| [rest.get(p, 0), rest.get(p, 1), rest.get(p, 2)])
+        .collect();
+    s.cloth.initial_state =
+        Some(serde_json::from_value(serde_json::json!({ "positions": positions })).unwrap());
+    let m = Model::from_scene(&s).unwrap();
+    let report = m.start_report.as_ref().expect("a given start");
+    assert!(report.settle_steps > 0, "{report:?}");
+    // The top square's +x edge (vertices 27, 30, 33) against the wall at x = 0.08.
+    let edge = [27, 30, 33].map(|p| m.start.get(p, 0));
+    assert!(edge.iter().all(|&x| x > 0.075 && x < 0.08), "{edge:?}");
+}
