@@ -521,7 +521,8 @@ pub(super) mod tests {
         }
     }
 
-    fn four_points(h: f64) -> SelfBarrier {
+    /// Four free particles whose only triangle is particles 1, 2, 3, thickness `h`.
+    pub(in crate::contact) fn four_points(h: f64) -> SelfBarrier {
         SelfBarrier::new(
             h,
             Barrier {

@@ -193,22 +193,10 @@ fn slip(l: &LaggedPair, x: &[f64], y: &[f64]) -> Vector3<f64> {
 #[cfg(test)]
 mod tests {
     use super::SelfFriction;
-    use crate::contact::barrier::Barrier;
     use crate::contact::self_barrier::{PairKind, SelfBarrier, SelfPair};
-    use std::sync::Arc;
 
     fn four_points() -> SelfBarrier {
-        let mut b = SelfBarrier::new(
-            0.02,
-            Barrier {
-                d_hat: 0.1,
-                kappa: 3.0,
-            },
-            0.5,
-            Arc::from(vec![[1, 2, 3]]),
-            &[0.0; 12],
-            &[1.0; 4],
-        );
+        let mut b = crate::contact::self_barrier::tests::four_points(0.02);
         b.friction = Some(SelfFriction {
             mu: 0.4,
             epsilon: 0.01,
