@@ -43,12 +43,12 @@ fn main() -> anyhow::Result<()> {
     let placed = model.placed_at(&start, steps)?;
     let states = placed.simulate(&placed.zero_controls())?;
     let tolerance = model.task.tolerance;
-    println!("step  largest error  within {tolerance:.4}");
+    println!("step  largest error  largest rise  within {tolerance:.4}");
     for (t, x) in states.iter().enumerate() {
         let rest = TargetRest::of(&model, x, spread);
         println!(
-            "{t:>4}  {:>13.4}  {} / {}",
-            rest.largest_error, rest.reached, rest.targets
+            "{t:>4}  {:>13.4}  {:>12.4}  {} / {}",
+            rest.largest_error, rest.largest_rise, rest.reached, rest.targets
         );
     }
     Ok(())

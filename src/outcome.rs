@@ -92,12 +92,21 @@ pub fn task_outcome(model: &Model, final_state: &Tensor, facts: &PlanFacts<'_>) 
         } else {
             String::new()
         };
+        let rise = if rest.largest_rise > tolerance {
+            format!(
+                "; parts of it rise up to {:.4} above their targets",
+                rest.largest_rise
+            )
+        } else {
+            String::new()
+        };
         (
             Reason::TargetsCannotRest,
             format!(
                 "the targets are no state the cloth rests in with its grippers held there: put \
                  at them{spread}, it settles {:.4} from them in {REST_STEPS} steps ({} of {} \
-                 within {tolerance:.4}), so a plan can only end at another equilibrium; {missed}",
+                 within {tolerance:.4}{rise}), so a plan can only end at another equilibrium; \
+                 {missed}",
                 rest.largest_error, rest.reached, rest.targets
             ),
         )

@@ -134,6 +134,10 @@ pub struct TargetRest {
     /// The factor the targets' heights above the lowest were spread by to start the cloth with
     /// its layers apart (1: the targets as given).
     pub spread: f64,
+    /// The largest height of a particle above its target (against gravity, else along `z`): a
+    /// fold or crease that opens lifts parts of the cloth, a cloth that cannot hold itself up
+    /// sinks (≤ 0).
+    pub largest_rise: f64,
 }
 
 /// Where the cloth, put at its targets (one for every particle) with its grippers held there,
@@ -155,7 +159,16 @@ impl TargetRest {
     /// How far the cloth at `state` is from `model`'s targets, started with `spread`.
     pub fn of(model: &Model, state: &Tensor, spread: f64) -> TargetRest {
         let errors = target_errors(model, state);
+        let (up, at) = (up(model), &model.task.target_positions);
+        let largest_rise = (model.task.targets.as_slice().iter().enumerate())
+            .map(|(i, &p)| {
+                (0..3)
+                    .map(|k| (state.get(p, k) - at.get(i, k)) * up[k])
+                    .sum()
+            })
+            .fold(f64::NEG_INFINITY, f64::max);
         TargetRest {
+            largest_rise,
             largest_error: errors.iter().copied().fold(0.0, f64::max),
             reached: errors
                 .iter()
@@ -174,10 +187,7 @@ pub fn start_at_targets(model: &Model, spread: f64) -> Option<Vec<[f64; 3]>> {
     let (targets, at) = (model.task.targets.as_slice(), &model.task.target_positions);
     let n = model.n_particles();
     let mut start = vec![None; n];
-    let up = match model.gravity_step {
-        Some(g) if g.iter().any(|&v| v != 0.0) => -Vector3::from(g).normalize(),
-        _ => Vector3::z(),
-    };
+    let up = up(model);
     let target = |i: usize| Vector3::new(at.get(i, 0), at.get(i, 1), at.get(i, 2));
     let lowest = (0..targets.len())
         .map(|i| target(i).dot(&up))
@@ -190,4 +200,12 @@ pub fn start_at_targets(model: &Model, spread: f64) -> Option<Vec<[f64; 3]>> {
         }
     }
     start.into_iter().collect()
+}
+
+/// The unit vector against gravity, else `z`.
+fn up(model: &Model) -> Vector3<f64> {
+    match model.gravity_step {
+        Some(g) if g.iter().any(|&v| v != 0.0) => -Vector3::from(g).normalize(),
+        _ => Vector3::z(),
+    }
 }
