@@ -3,9 +3,10 @@
 //! A parameter multiplies every value of its kind in the scene: `stretch` the stretch
 //! stiffness, `bending` the bending stiffness, a custom constraint type's name the stiffness of
 //! every entry of that type, `mass` the particle mass, `gravity` gravity's vector and `friction`
-//! every collider's coefficient and the cloth's own (`physics.self_collision.friction`). Derivatives are taken with respect to the logarithm of that
-//! factor ([`Model::parameter_tangents`]): positive values stay positive, and scenes whose
-//! entries differ (two colliders with different `μ`) scale together.
+//! every collider's coefficient and the cloth's own (`physics.self_collision.friction`).
+//! Derivatives are taken with respect to the logarithm of that factor
+//! ([`Model::parameter_tangents`]): positive values stay positive, and scenes whose entries
+//! differ (two colliders with different `μ`) scale together.
 //!
 //! Two things are held fixed when a parameter changes, so that the derivative is the model's
 //! and a fitted scene reproduces the fitted model: the cloth's start (step 0, [`Model::start`]),

@@ -114,25 +114,17 @@ impl NewtonSystem {
             return;
         }
         let pairs = self.pattern.self_pairs(x);
-        let mut blocks = self.pattern.self_blocks_for(&pairs);
-        if let Some(f) = self
-            .pattern
-            .self_friction
-            .as_ref()
-            .filter(|f| !f.blocks.is_empty())
-        {
-            blocks.extend_from_slice(&f.blocks);
-            blocks.sort_unstable();
-            blocks.dedup();
-        }
-        if holds(&self.pattern.self_blocks, &blocks) {
+        let blocks = self.pattern.self_blocks_for(&pairs);
+        // Cloth–cloth friction's pairs, lagged at the step's start, are in every pattern of the
+        // step (sorted already: checked apart, merged only for a new pattern).
+        let friction = self.pattern.self_friction.clone();
+        let lagged: &[(u32, u32)] = friction.as_ref().map_or(&[], |f| &f.blocks);
+        let fits = |p: &Pattern| holds(&p.self_blocks, &blocks) && holds(&p.self_blocks, lagged);
+        if fits(&self.pattern) {
             return;
         }
-        let recent = self
-            .recent
-            .iter()
-            .position(|(p, _)| holds(&p.self_blocks, &blocks));
-        self.switch_pattern(recent, |p| p.wide_blocks(x, blocks));
+        let recent = self.recent.iter().position(|(p, _)| fits(p));
+        self.switch_pattern(recent, |p| p.wide_blocks(x, [&blocks[..], lagged].concat()));
     }
 
     /// Self-contact: makes the pattern the one with exactly the self-contact blocks `blocks`
@@ -378,18 +370,7 @@ impl Pattern {
             }
             self.scatter_pair(pair, &g, &h, grad, values.as_mut().map(|(v, _)| &mut **v));
         }
-        // Cloth–cloth friction: its Hessian is semidefinite already.
-        for l in self.self_friction.iter().flat_map(|f| &f.pairs) {
-            let start = &self.self_friction.as_ref().expect("friction").start;
-            barrier.pair_friction_derivatives(x, start, l, &mut g, &mut h);
-            self.scatter_pair(
-                &l.pair,
-                &g,
-                &h,
-                grad,
-                values.as_mut().map(|(v, _)| &mut **v),
-            );
-        }
+        self.add_self_friction(x, grad, values.map(|(v, _)| v));
     }
 
     /// Adds a pair's gradient `g` and, with `values`, Hessian `h` (its particles in order) to
@@ -433,16 +414,22 @@ impl Pattern {
         }
     }
 
-    /// Adds cloth–cloth friction's gradient at `x` into `out` (degree-of-freedom order): its
+    /// Adds cloth–cloth friction's gradient at `x` to `grad` (degree-of-freedom order) and, with
+    /// `values`, its Hessian (semidefinite as it is). Its gradient alone is also its
     /// `∂(∇Φ)/∂ log μ`, the potential being linear in `μ`. Nothing without it.
-    pub(super) fn add_self_friction_gradient(&self, x: &[f64], out: &mut [f64]) {
+    pub(super) fn add_self_friction(
+        &self,
+        x: &[f64],
+        grad: &mut [f64],
+        mut values: Option<&mut [f64]>,
+    ) {
         let (Some(b), Some(f)) = (&self.self_barrier, &self.self_friction) else {
             return;
         };
         let (mut g, mut h) = ([0.0; 12], [0.0; 144]);
         for l in &f.pairs {
             b.pair_friction_derivatives(x, &f.start, l, &mut g, &mut h);
-            self.scatter_pair(&l.pair, &g, &h, out, None);
+            self.scatter_pair(&l.pair, &g, &h, grad, values.as_deref_mut());
         }
     }
 

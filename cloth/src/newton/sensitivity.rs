@@ -127,7 +127,7 @@ impl Model {
                 }
             }
             Parameter::Friction => {
-                pattern.add_self_friction_gradient(x, out);
+                pattern.add_self_friction(x, out, None);
                 let (Some(barrier), Some((start, lagged))) =
                     (&self.contact_barrier, &pattern.friction)
                 else {

@@ -1,6 +1,6 @@
-//! Smooth and cloth–cloth friction's coupling of a step's state to its start, `D_xy = ∂(∇ₓD)/∂y`, in both
-//! directions: transposed for the implicit gradient ([`super::implicit`]), forward for the
-//! parameter sensitivities ([`super::sensitivity`]).
+//! Smooth and cloth–cloth friction's coupling of a step's state to its start,
+//! `D_xy = ∂(∇ₓD)/∂y`, in both directions: transposed for the implicit gradient
+//! ([`super::implicit`]), forward for the parameter sensitivities ([`super::sensitivity`]).
 
 use super::assembly::Pattern;
 
