@@ -107,18 +107,20 @@ pub struct SqpSettings {
     /// changes the iterates, so it pays only where rows are costly; `None` (the default) evaluates
     /// every row at every iterate.
     pub jacobian_reuse_margin: Option<f64>,
-    /// Progress test: the run ends [`NoProgress`](crate::Status::NoProgress) when the last
-    /// `progress_window` iterations ran between feasible iterates (violation ≤
-    /// `tol_feasibility`), the line search cut every one of their steps (`α < 1`), and together
-    /// they lowered the objective by less than `tol_progress · max(1, |f|)`: the QP keeps
+    /// Progress test: the run ends [`NoProgress`](crate::Status::NoProgress) when the line
+    /// search cut every one of the last `progress_window` iterations' steps (`α < 1`), together
+    /// they lowered the objective by less than `tol_progress · max(1, |f|)`, and, if any of
+    /// their iterates is infeasible (violation > `tol_feasibility`), the max-norm violation by
+    /// less than `tol_progress` times its value at the window's start: the QP keeps
     /// promising decreases the function does not deliver (noise, roughness, an inexact
     /// gradient), so the run stops instead of spending its iteration budget (cf. Knitro's
     /// `ftol`/`ftol_iters`, SLSQP's `acc`). A run converging on a smooth problem is not stopped by
     /// it: there the objective stops changing too, but SQP takes unit steps. `None` turns the
     /// test off. Default `Some(10)`.
     pub progress_window: Option<usize>,
-    /// Relative objective decrease over `progress_window` feasible iterations below which a run
-    /// counts as making no progress (see `progress_window`). Default 1e-6.
+    /// Relative decrease of the objective (and of the violation, where an iterate is infeasible)
+    /// over `progress_window` iterations below which a run counts as making no progress (see
+    /// `progress_window`). Default 1e-6.
     pub tol_progress: f64,
 }
 

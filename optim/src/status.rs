@@ -21,9 +21,9 @@ pub enum Status {
     /// became negligible) before the tolerances were met.
     Stalled,
     /// SQP's progress test ([`SqpSettings::progress_window`](crate::SqpSettings::progress_window)):
-    /// the last iterations, all between feasible iterates and all with steps cut by the line
-    /// search, lowered the objective by less than `tol_progress` before the tolerances were met.
-    /// The returned point is feasible; the message gives the measured decrease.
+    /// the last iterations, all with steps cut by the line search, lowered the objective (and,
+    /// where an iterate was infeasible, the violation) by less than `tol_progress` before the
+    /// tolerances were met. The message gives the measured decreases.
     NoProgress,
     /// The problem could not be evaluated at the starting point, or no evaluable point was found along
     /// the search direction.

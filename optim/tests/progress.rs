@@ -174,3 +174,67 @@ fn the_same_problem_without_noise_converges_either_way() {
         assert!(same_run(&on, &off));
     }
 }
+
+/// A rough equality: `x₀ − 0.5 + ε·noise(x) = 0` under the Rosenbrock objective, the noise (of
+/// the objective too) ignored by the derivatives. Once the violation is at the noise level no
+/// step the line search tries lowers it, and the iterates stay infeasible.
+struct RoughEquality(RoughRosenbrock);
+
+impl Problem for RoughEquality {
+    fn num_variables(&self) -> usize {
+        self.0.n
+    }
+    fn num_equalities(&self) -> usize {
+        1
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        self.0.objective(x)
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        self.0.gradient(x, g)
+    }
+    fn equalities(&mut self, x: &[f64], h: &mut [f64]) -> Result<(), EvalError> {
+        h[0] = x[0] - 0.5 + self.0.eps * self.0.noise(&[x[1], x[0]]);
+        Ok(())
+    }
+    fn equality_jacobian(&mut self, _x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
+        j.set(0, 0, 1.0);
+        Ok(())
+    }
+}
+
+#[test]
+fn stops_a_run_whose_violation_is_stuck_at_the_noise_level() {
+    let rough = |eps| {
+        RoughEquality(RoughRosenbrock {
+            n: 2,
+            eps,
+            h: 1e-8,
+            constrained: false,
+        })
+    };
+    let x0 = rosenbrock_start(2);
+    let on = solve(&mut rough(1e-4), &x0, Some(10));
+    let off = solve(&mut rough(1e-4), &x0, None);
+    assert_eq!(on.status, Status::NoProgress, "{}", on.message);
+    assert!(on.message.contains("the violation from"), "{}", on.message);
+    // Stopped at the noise level: violation and objective as near the optimum (0.5, 0.25) as
+    // the long run's, for a part of its evaluations.
+    assert!(
+        on.constraint_violation <= 3e-4,
+        "{}",
+        on.constraint_violation
+    );
+    assert!((on.objective - 0.25).abs() <= 1e-3, "{}", on.objective);
+    assert_eq!(off.status, Status::Stalled, "{}", off.message);
+    // 30 iterations and 194 evaluations (the violation 8.7e-6 throughout its last 10) against
+    // 47 and 411, where the line search fails even after a Hessian reset.
+    assert_fewer_evaluations(&on, &off, 2);
+    // Without noise: converged, the same run with the test on or off.
+    let (on, off) = (
+        solve(&mut rough(0.0), &x0, Some(10)),
+        solve(&mut rough(0.0), &x0, None),
+    );
+    assert_eq!(on.status, Status::Converged, "{}", on.message);
+    assert!(same_run(&on, &off));
+}

@@ -1,6 +1,7 @@
 //! The progress test ([`SqpSettings::progress_window`](crate::SqpSettings::progress_window)): a
-//! run whose feasible iterates have stopped lowering the objective, while the line search keeps
-//! cutting the QP's steps, ends `NoProgress`, saying by how much the objective fell.
+//! run whose iterates have stopped lowering the objective (and, where they are infeasible, the
+//! violation), while the line search keeps cutting the QP's steps, ends `NoProgress`, saying by
+//! how much each fell.
 //!
 //! Both conditions are needed. Near a minimizer of a smooth problem the objective also stops
 //! changing, but there the SQP takes unit steps (the second-order correction prevents the
@@ -17,6 +18,8 @@ use std::fmt;
 #[derive(Clone, Copy, Debug)]
 struct Entry {
     objective: f64,
+    /// Max-norm constraint violation.
+    violation: f64,
     feasible: bool,
     /// Line-search step length of the step that led here (1 for the starting point).
     alpha: f64,
@@ -44,6 +47,9 @@ pub(super) struct NoProgress {
     pub tol: f64,
     /// The longest step length of the window's steps (all below 1).
     pub largest_alpha: f64,
+    /// For a window with infeasible iterates, the violation at its start and end (`None` when
+    /// every iterate was feasible).
+    pub violation: Option<(f64, f64)>,
 }
 
 impl Progress {
@@ -56,14 +62,16 @@ impl Progress {
         }
     }
 
-    /// Records an iterate: the starting point (`alpha` 1), then each accepted step's, with the
-    /// line search's step length `alpha`.
-    pub fn record(&mut self, objective: f64, feasible: bool, alpha: f64) {
+    /// Records an iterate of max-norm violation `violation` (`feasible` when within the
+    /// feasibility tolerance): the starting point (`alpha` 1), then each accepted step's, with
+    /// the line search's step length `alpha`.
+    pub fn record(&mut self, objective: f64, violation: f64, feasible: bool, alpha: f64) {
         let Some(window) = self.window else {
             return;
         };
         self.recent.push_back(Entry {
             objective,
+            violation,
             feasible,
             alpha,
         });
@@ -72,13 +80,14 @@ impl Progress {
         }
     }
 
-    /// The measured decrease when the last `window` iterations all ran between feasible
-    /// iterates, every step was shortened by the line search (`α < 1`), and together they
-    /// lowered the objective by less than `tol · max(1, |f|)`; `None` otherwise (also before
-    /// `window` iterations have been taken).
+    /// The measured decrease when the last `window` iterations all had their steps shortened by
+    /// the line search (`α < 1`) and together lowered the objective by less than
+    /// `tol · max(1, |f|)`, and, where an iterate of the window is infeasible, also lowered the
+    /// violation by less than `tol` times its value at the window's start; `None` otherwise (also
+    /// before `window` iterations have been taken).
     pub fn stalled(&self) -> Option<NoProgress> {
         let window = self.window?;
-        if self.recent.len() < window + 1 || !self.recent.iter().all(|e| e.feasible) {
+        if self.recent.len() < window + 1 {
             return None;
         }
         let steps = self.recent.iter().skip(1);
@@ -86,18 +95,19 @@ impl Progress {
         if largest_alpha >= 1.0 {
             return None;
         }
-        let (first, last) = (
-            self.recent.front()?.objective,
-            self.recent.back()?.objective,
-        );
-        let decrease = first - last;
-        let relative = decrease / last.abs().max(1.0);
-        (relative < self.tol).then_some(NoProgress {
+        let (first, last) = (self.recent.front()?, self.recent.back()?);
+        let decrease = first.objective - last.objective;
+        let relative = decrease / last.objective.abs().max(1.0);
+        let violation =
+            (!self.recent.iter().all(|e| e.feasible)).then_some((first.violation, last.violation));
+        let violation_stuck = violation.is_none_or(|(start, end)| start - end < self.tol * start);
+        (relative < self.tol && violation_stuck).then_some(NoProgress {
             decrease,
             relative,
             iterations: window,
             tol: self.tol,
             largest_alpha,
+            violation,
         })
     }
 }
@@ -105,11 +115,16 @@ impl Progress {
 impl fmt::Display for NoProgress {
     /// `no progress: the objective fell by 3.21e-9 (relative 3.21e-9 < tol_progress 1e-6) over
     /// the last 10 iterations, all at feasible points, every step cut by the line search (α ≤
-    /// 1.0e-2)`.
+    /// 1.0e-2)`; with infeasible iterates, `… over the last 10 iterations, the violation from
+    /// 4.74e-3 to 4.74e-3, every step cut …`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let points = match self.violation {
+            None => "all at feasible points".to_string(),
+            Some((start, end)) => format!("the violation from {start:.2e} to {end:.2e}"),
+        };
         write!(
             f,
-            "no progress: the objective fell by {:.2e} (relative {:.2e} < tol_progress {:.0e}) over the last {} iterations, all at feasible points, every step cut by the line search (α ≤ {:.1e})",
+            "no progress: the objective fell by {:.2e} (relative {:.2e} < tol_progress {:.0e}) over the last {} iterations, {points}, every step cut by the line search (α ≤ {:.1e})",
             self.decrease, self.relative, self.tol, self.iterations, self.largest_alpha
         )
     }
@@ -119,48 +134,72 @@ impl fmt::Display for NoProgress {
 mod tests {
     use super::*;
 
+    /// Records a feasible iterate.
+    fn feasible(p: &mut Progress, objective: f64, alpha: f64) {
+        p.record(objective, 0.0, true, alpha);
+    }
+
     #[test]
     fn fires_only_after_a_full_window_of_feasible_iterates_without_progress() {
         let mut p = Progress::new(Some(3), 1e-6);
-        p.record(10.0, true, 1.0);
+        feasible(&mut p, 10.0, 1.0);
         for _ in 0..2 {
-            p.record(10.0, true, 0.5);
+            feasible(&mut p, 10.0, 0.5);
             assert_eq!(p.stalled(), None, "fewer than 3 iterations so far");
         }
-        p.record(10.0 - 5e-6, true, 0.25);
+        feasible(&mut p, 10.0 - 5e-6, 0.25);
         let stall = p.stalled().expect("3 iterations, 5e-7 relative");
         assert_eq!(stall.iterations, 3);
         assert_eq!(stall.largest_alpha, 0.5);
+        assert_eq!(stall.violation, None);
         assert!((stall.decrease - 5e-6).abs() < 1e-15);
         assert!((stall.relative - 5e-7).abs() < 1e-12);
         // A real decrease in the window: no verdict.
-        p.record(9.0, true, 0.5);
+        feasible(&mut p, 9.0, 0.5);
         assert_eq!(p.stalled(), None);
-        // An infeasible iterate in the window (its first iterate included): no verdict until it
-        // has left the window.
+    }
+
+    #[test]
+    fn an_infeasible_window_stalls_only_when_its_violation_is_stuck_too() {
+        let mut p = Progress::new(Some(3), 1e-6);
+        p.record(9.0, 0.5, false, 1.0);
+        // The violation falls while the objective does not: progress.
+        for v in [0.4, 0.3, 0.2] {
+            p.record(9.0, v, false, 0.5);
+        }
+        assert_eq!(p.stalled(), None, "the violation fell from 0.5 to 0.2");
+        // Both stuck: no progress.
         for _ in 0..3 {
-            p.record(9.0, true, 0.5);
+            p.record(9.0, 0.2, false, 0.5);
         }
-        assert!(p.stalled().is_some());
-        p.record(9.0, false, 0.5);
-        for _ in 0..4 {
-            assert_eq!(p.stalled(), None);
-            p.record(9.0, true, 0.5);
-        }
-        assert!(p.stalled().is_some());
+        let stall = p
+            .stalled()
+            .expect("neither the objective nor the violation fell");
+        assert_eq!(stall.violation, Some((0.2, 0.2)));
+        // Reaching feasibility is progress.
+        p.record(9.0, 0.0, true, 0.5);
+        assert_eq!(p.stalled(), None, "the violation fell from 0.2 to 0");
+        // A fall of the violation by more than `tol` of its start is progress.
+        let mut q = Progress::new(Some(1), 1e-3);
+        q.record(1.0, 1e-2, false, 1.0);
+        q.record(1.0, 1e-2 - 2e-5, false, 0.5);
+        assert_eq!(q.stalled(), None, "2e-3 of the violation");
+        q.record(1.0, 1e-2 - 2.5e-5, false, 0.5);
+        let stall = q.stalled().expect("5e-4 of the violation");
+        assert_eq!(stall.violation, Some((1e-2 - 2e-5, 1e-2 - 2.5e-5)));
     }
 
     #[test]
     fn a_unit_step_in_the_window_is_progress_of_its_own() {
         let mut p = Progress::new(Some(3), 1e-6);
-        p.record(1.0, true, 1.0);
+        feasible(&mut p, 1.0, 1.0);
         for alpha in [0.1, 1.0, 0.1] {
-            p.record(1.0, true, alpha);
+            feasible(&mut p, 1.0, alpha);
         }
         assert_eq!(p.stalled(), None, "the model's full step was accepted");
-        p.record(1.0, true, 0.1);
+        feasible(&mut p, 1.0, 0.1);
         assert_eq!(p.stalled(), None, "the unit step is the window's first");
-        p.record(1.0, true, 0.1);
+        feasible(&mut p, 1.0, 0.1);
         assert!(
             p.stalled().is_some(),
             "it left the window (the iterate it reached starts it)"
@@ -170,12 +209,12 @@ mod tests {
     #[test]
     fn is_absolute_below_one_and_relative_above() {
         let mut small = Progress::new(Some(1), 1e-6);
-        small.record(1e-3, true, 1.0);
-        small.record(1e-3 - 2e-6, true, 0.5);
+        feasible(&mut small, 1e-3, 1.0);
+        feasible(&mut small, 1e-3 - 2e-6, 0.5);
         assert_eq!(small.stalled(), None, "2e-6 absolute at |f| < 1");
         let mut large = Progress::new(Some(1), 1e-6);
-        large.record(1e4, true, 1.0);
-        large.record(1e4 - 2e-3, true, 0.5);
+        feasible(&mut large, 1e4, 1.0);
+        feasible(&mut large, 1e4 - 2e-3, 0.5);
         assert!(large.stalled().is_some(), "2e-7 relative at |f| = 1e4");
     }
 
@@ -183,7 +222,7 @@ mod tests {
     fn off_never_fires() {
         let mut p = Progress::new(None, 1e-6);
         for _ in 0..100 {
-            p.record(1.0, true, 1e-3);
+            feasible(&mut p, 1.0, 1e-3);
         }
         assert_eq!(p.stalled(), None);
         assert!(p.recent.is_empty());
@@ -191,16 +230,22 @@ mod tests {
 
     #[test]
     fn message_states_the_measurement() {
-        let m = NoProgress {
+        let mut m = NoProgress {
             decrease: 3.21e-9,
             relative: 3.21e-9,
             iterations: 10,
             tol: 1e-6,
             largest_alpha: 1e-2,
+            violation: None,
         };
         assert_eq!(
             m.to_string(),
             "no progress: the objective fell by 3.21e-9 (relative 3.21e-9 < tol_progress 1e-6) over the last 10 iterations, all at feasible points, every step cut by the line search (α ≤ 1.0e-2)"
+        );
+        m.violation = Some((4.74e-3, 4.7399e-3));
+        assert_eq!(
+            m.to_string(),
+            "no progress: the objective fell by 3.21e-9 (relative 3.21e-9 < tol_progress 1e-6) over the last 10 iterations, the violation from 4.74e-3 to 4.74e-3, every step cut by the line search (α ≤ 1.0e-2)"
         );
     }
 }

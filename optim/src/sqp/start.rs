@@ -106,7 +106,12 @@ impl SqpSolver {
             ev.set_scaling(s.max_constraint_gradient, &mut pt, &mut dv);
         }
         let mut progress = Progress::new(s.progress_window, s.tol_progress);
-        progress.record(pt.objective(), pt.violation_inf() <= s.tol_feasibility, 1.0);
+        progress.record(
+            pt.objective(),
+            pt.violation_inf(),
+            pt.violation_inf() <= s.tol_feasibility,
+            1.0,
+        );
         Ok(State {
             penalty: vec![s.elastic_weight; ev.m + ev.q],
             iterations: 0,

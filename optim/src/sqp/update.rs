@@ -37,6 +37,7 @@ impl State {
         self.iterations += 1;
         self.progress.record(
             self.pt.objective(),
+            self.pt.violation_inf(),
             self.pt.violation_inf() <= tol_feasibility,
             alpha,
         );
