@@ -179,14 +179,23 @@ pub struct RowFacts {
     pub active_safety: Vec<String>,
     /// Other active groups (collider planes, robot limits).
     pub active_other: Vec<String>,
-    /// The most violated row and by how much (length units), when a row is violated.
+    /// The most violated row but the goal row and by how much (length units), when one is
+    /// violated.
     pub worst_violation: Option<(String, f64)>,
+    /// The largest violation of the rows but the goal row (0 when they hold): the task's rows,
+    /// on which a plan is judged.
+    pub task_violation: f64,
+    /// By how much the goal row ([`RowLabel::Goal`]) is violated (0 when it holds), when the
+    /// problem has one.
+    pub goal_shortfall: Option<f64>,
 }
 
 /// The constraint groups active at the solution: rows within `ACTIVE_FRACTION` (`src/outcome.rs`)
 /// of the task tolerance of their bound with a positive multiplier (rows alone where the solver
-/// returned no multipliers), as labels — safety groups first, then the others; and the most
-/// violated row, so a plan that misses its rows says which.
+/// returned no multipliers), as labels — safety groups first, then the others; the most
+/// violated row, so a plan that misses its rows says which; and the violations of the task's rows
+/// and of the goal row apart (the goal row is the route search's way to ask for the targets, not
+/// a limit of the task: a plan that misses it is a plan that misses its targets).
 pub fn row_facts(
     problem: &mut TrajectoryProblem<'_>,
     solution: &optim::Solution,
@@ -208,10 +217,20 @@ pub fn row_facts(
         values[r] <= threshold && (multipliers.len() != rows || multipliers[r] > ACTIVE_MULTIPLIER)
     };
     let labels = problem.row_labels();
+    let is_goal = |label: &RowLabel| matches!(label, RowLabel::Goal);
+    let shortfall = |goal: bool| {
+        values
+            .iter()
+            .zip(&labels)
+            .filter(|(_, label)| is_goal(label) == goal)
+            .fold(0.0, |worst: f64, (&v, _)| worst.max(-v))
+    };
+    let task_violation = shortfall(false);
+    let goal_shortfall = labels.iter().any(is_goal).then(|| shortfall(true));
     let worst_violation = values
         .iter()
         .zip(&labels)
-        .filter(|(v, _)| **v < 0.0)
+        .filter(|(v, label)| **v < 0.0 && !is_goal(label))
         .fold(
             None,
             |worst: Option<(f64, &RowLabel)>, (&v, label)| match worst {
@@ -302,6 +321,8 @@ pub fn row_facts(
         active_safety: safety,
         active_other: other,
         worst_violation,
+        task_violation,
+        goal_shortfall,
     })
 }
 

@@ -107,6 +107,39 @@ fn an_unreachable_goal_is_not_kept() {
         .any(|c| c.stage == "goal" && !c.kept));
 }
 
+#[test]
+fn a_plan_that_misses_only_its_goal_row_is_judged_on_the_task_rows() {
+    // Two iterations toward targets 0.6 m away cannot bring them within 1 mm: the goal row is
+    // violated, no row of the task is.
+    let scene = reluctant_scene(0.05);
+    let model = Model::from_scene(&scene).unwrap();
+    let start = initial_controls(&scene, &model).unwrap();
+    let mut options = PlanOptions::for_model(&model);
+    options.task.goal_radius = Some(1e-3);
+    options.iterations = 2;
+    let result = clothopt::plan::plan(&model, &scene, &start, &options, |_| {}).unwrap();
+    assert!(!result.task.achieved, "{:?}", result.task);
+    let missed = result
+        .warnings
+        .iter()
+        .find(|w| w.starts_with("the goal row"))
+        .unwrap_or_else(|| panic!("{:?}", result.warnings));
+    assert!(
+        missed.contains("judged on the task's other rows"),
+        "{missed}"
+    );
+    assert!(
+        result.constraint_violation <= options.tol_feasibility,
+        "{}",
+        result.constraint_violation
+    );
+    assert!(
+        result.is_feasible() && result.is_safe(),
+        "{}",
+        result.status
+    );
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(6))]
 

@@ -132,6 +132,9 @@ impl Reporter {
             }
             "cheap" => format!("cheap stage, {route} in parallel"),
             "polished" => format!("polishing, route: {route}"),
+            "restored" => {
+                format!("the goal stage's plan on without its goal row, route: {route}")
+            }
             "continued" => {
                 format!("no time for the cheap stage; the best plan goes on, route: {route}")
             }

@@ -113,6 +113,17 @@ pub fn plan(
     let tol = options.tol_feasibility;
     warnings.extend(physics_hint(model, &safety, &evaluation.metrics, tol));
     let rows = row_facts(&mut problem, &solution)?;
+    // A goal stage's plan is judged on the task's rows: one that ends short of its goal row is a
+    // plan that misses its targets, safe or not by the rows the task has.
+    if let (Some(shortfall), Some(radius)) = (rows.goal_shortfall, options.task.goal_radius) {
+        solution.constraint_violation = rows.task_violation;
+        if shortfall > tol {
+            warnings.push(format!(
+                "the goal row (every target within {radius:.4} at the last step) is missed by \
+                 {shortfall:.3e}; the plan is judged on the task's other rows"
+            ));
+        }
+    }
     warnings.extend(plan_warnings(
         model,
         options,

@@ -37,8 +37,10 @@ pub struct CandidateReport {
     pub route: String,
     /// `first` (the plan from the given start), `goal` (a safe plan that missed, planned again
     /// with its targets as a constraint), `goal_identity` (the same from the identity Hessian,
-    /// after a `goal` stage from the plan's own ended short), `cheap`, `polished` or `continued`
-    /// (the best plan planned on where the cheap stage could not finish in the time left).
+    /// after a `goal` stage from the plan's own ended short), `restored` (a goal stage's plan that
+    /// ended just outside the task's rows, planned on without the goal row), `cheap`, `polished`
+    /// or `continued` (the best plan planned on where the cheap stage could not finish in the
+    /// time left).
     pub stage: String,
     /// Solver status of that stage.
     pub status: String,

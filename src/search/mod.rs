@@ -15,8 +15,11 @@
 //!    the targets as a constraint ([`crate::problem::TaskOptions::goal_radius`]) rather than
 //!    only a cost: a plan that misses because `αT + βE` outweighs the last centimetres of `G`
 //!    reaches them here, on the same route, from that plan's quasi-Newton Hessian
-//!    ([`SearchOptions::goal_hessian`]; from the identity again if that falls short). With
-//!    `Auto`, success ends the search.
+//!    ([`SearchOptions::goal_hessian`]; from the identity again if that falls short). Its plan is
+//!    judged on the task's rows, the goal row aside (one that ends short of the goal row misses
+//!    its targets). One that ends just outside the task's rows (near safe, as in step 5) and
+//!    closer to the targets than the best plan is planned on without the goal row (stage
+//!    `restored`), as a cheap result is polished. With `Auto`, success ends the search.
 //! 3. Propose candidate routes from the scene's geometry ([`routes::propose`]).
 //! 4. *Cheap stage:* optimize every candidate at the warm-up sharpness `κ` (smooth, conservative
 //!    safety rows) with a small iteration budget, in parallel (rayon; results in candidate order,
@@ -59,7 +62,8 @@ use std::time::Instant;
 pub enum Progress<'a> {
     /// A stage after the first plan begins.
     Stage {
-        /// `"goal"`, `"cheap"`, `"polished"` or `"continued"`, as in [`CandidateReport::stage`].
+        /// `"goal"`, `"restored"`, `"cheap"`, `"polished"` or `"continued"`, as in
+        /// [`CandidateReport::stage`].
         stage: &'a str,
         /// The route it starts from; for the cheap stage, which runs every candidate in
         /// parallel and reports no iterations, how many candidates.
@@ -305,11 +309,13 @@ fn tally(route: &str, stage: &str, result: PlanResult, (best, best_report, repor
 /// [`GOAL_FRACTION`] of the tolerance) instead of only a cost (from that plan's quasi-Newton
 /// Hessian when it misses by at most `warm_within` tolerances, [`SearchOptions::goal_hessian`]),
 /// and keep the result if it ranks above. Where the targets cannot be reached safely the stage
-/// ends infeasible and is not kept.
+/// ends infeasible and is not kept; a result just outside the task's rows that ranks above by
+/// promise ([`polish_rank`]) is planned on without the goal row (stage `restored`). Under
+/// `shared`, each stage takes [`TIME_SHARE`] of the time left.
 fn goal_stage(
     model: &Model,
     scene: &Scene,
-    (options, warm_within): (&PlanOptions, Option<f64>),
+    (options, shared, warm_within): (&PlanOptions, bool, Option<f64>),
     route: &str,
     progress: &mut impl FnMut(Progress<'_>),
     (best, best_report, reports): Tally<'_>,
@@ -317,7 +323,8 @@ fn goal_stage(
     if !is_safe(best) || best.task.achieved || model.task.targets.rows() == 0 {
         return Ok(());
     }
-    let mut goal = options.clone();
+    let share = |o: &PlanOptions| if shared { time_share(o) } else { o.clone() };
+    let mut goal = share(options);
     goal.task.goal_radius = Some(GOAL_FRACTION * model.task.tolerance);
     goal.kappa_warmup = None;
     // The goal row aside, the problem is the one the best plan solved: the curvature model its
@@ -338,7 +345,7 @@ fn goal_stage(
             progress(Progress::Iteration(i))
         })
     };
-    let result = run("goal", &goal)?;
+    let mut result = run("goal", &goal)?;
     // A warm start held to a shorter budget that ends short of a safe, achieved plan, or at that
     // budget, is retried from the identity with the full budget. One that had the full budget
     // was the goal stage.
@@ -346,12 +353,44 @@ fn goal_stage(
         && goal.iterations < full_budget
         && (!(result.task.achieved && is_safe(&result)) || result.status == "iteration_limit")
         && !matches!(result.status.as_str(), "interrupted" | "time_limit");
-    tally(route, "goal", result, (best, best_report, reports));
     if retry {
+        tally(route, "goal", result, (best, best_report, reports));
         goal.initial_hessian = None;
         goal.iterations = full_budget;
-        let result = run("goal_identity", &goal)?;
-        tally(route, "goal_identity", result, (best, best_report, reports));
+        result = run("goal_identity", &goal)?;
+        tally(
+            route,
+            "goal_identity",
+            result.clone(),
+            (best, best_report, reports),
+        );
+    } else {
+        tally(route, "goal", result.clone(), (best, best_report, reports));
+    }
+    // A goal stage that ends just outside the task's rows (its own row aside) but closer to the
+    // targets than the best plan is planned on without the goal row: the task's rows restored,
+    // as a cheap result is polished.
+    let (delta, slack) = (
+        options.task.delta,
+        NEAR_SAFE_FRACTION * model.task.tolerance,
+    );
+    let out_of_time = options.deadline.is_some_and(|d| Instant::now() >= d);
+    if !is_safe(&result)
+        && !out_of_time
+        && result.status != "interrupted"
+        && polish_rank(&result, best, delta, slack) == Ordering::Less
+    {
+        let from = (
+            controls_from_nested(model, &result.controls)?,
+            result.hessian.take(),
+        );
+        plan_on(
+            (model, scene, &share(options)),
+            from,
+            (route, "restored"),
+            progress,
+            (best, best_report, reports),
+        )?;
     }
     Ok(())
 }
@@ -544,7 +583,7 @@ pub fn plan_with_search(
     goal_stage(
         model,
         scene,
-        (&time_share(options), search.warm_goal_within()),
+        (options, true, search.warm_goal_within()),
         &first_route,
         &mut progress,
         (&mut best, &mut best_report, &mut reports),
@@ -607,7 +646,7 @@ pub fn plan_with_search(
             goal_stage(
                 model,
                 scene,
-                (options, search.warm_goal_within()),
+                (options, false, search.warm_goal_within()),
                 &route,
                 &mut progress,
                 (&mut best, &mut best_report, &mut reports),
