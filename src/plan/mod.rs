@@ -30,7 +30,7 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 mod options;
-pub use options::{Optimizer, PlanOptions};
+pub use options::{Optimizer, PlanOptions, PLAN_TOL_PROGRESS};
 
 /// The scene's initial guess as a controls tensor.
 pub fn initial_controls(scene: &Scene, model: &Model) -> Result<Controls, cloth::ClothError> {

@@ -42,6 +42,7 @@
 
 mod carry;
 mod drape;
+mod goal;
 mod lay;
 mod limits;
 mod obstacles;
@@ -49,6 +50,7 @@ pub mod routes;
 
 use crate::plan::{plan, PlanOptions};
 use crate::result::{controls_from_nested, PlanResult};
+use goal::goal_stage;
 // The `search` section of a result, from `crate::result`: re-exported for this module's callers.
 pub use crate::result::{CandidateReport, SearchMode, SearchReport};
 use cloth::{Controls, Model, Scene};
@@ -229,9 +231,6 @@ type Tally<'r> = (
 /// status `time_limit`).
 const TIME_SHARE: f64 = 0.5;
 
-/// Radius of the goal stage's goal row, as a fraction of the task tolerance.
-const GOAL_FRACTION: f64 = 0.98;
-
 /// The first plan's start (its route's name, its controls, and the rollouts simulated to choose
 /// it): the initial guess `start`, or a carry route ([`routes::carried`]: the guess's or the
 /// straight path's, when the guess's rollout rests the cloth on a collider; the lay route, where
@@ -295,6 +294,11 @@ fn time_share(options: &PlanOptions) -> PlanOptions {
     }
 }
 
+/// Whether `options`' deadline, if any, has passed.
+fn out_of_time(options: &PlanOptions) -> bool {
+    options.deadline.is_some_and(|d| Instant::now() >= d)
+}
+
 /// Keeps `result` (reported as `route`, `stage`) when it ranks above the best plan so far.
 fn tally(route: &str, stage: &str, result: PlanResult, (best, best_report, reports): Tally<'_>) {
     reports.push(candidate_report(route, stage, &result));
@@ -302,97 +306,6 @@ fn tally(route: &str, stage: &str, result: PlanResult, (best, best_report, repor
         *best = result;
         *best_report = reports.len() - 1;
     }
-}
-
-/// The goal stage: when the best plan so far is safe but misses its targets, plan again from it
-/// with the targets as a constraint ([`crate::problem::TaskOptions::goal_radius`] at
-/// [`GOAL_FRACTION`] of the tolerance) instead of only a cost (from that plan's quasi-Newton
-/// Hessian when it misses by at most `warm_within` tolerances, [`SearchOptions::goal_hessian`]),
-/// and keep the result if it ranks above. Where the targets cannot be reached safely the stage
-/// ends infeasible and is not kept; a result just outside the task's rows that ranks above by
-/// promise ([`polish_rank`]) is planned on without the goal row (stage `restored`). Under
-/// `shared`, each stage takes [`TIME_SHARE`] of the time left.
-fn goal_stage(
-    model: &Model,
-    scene: &Scene,
-    (options, shared, warm_within): (&PlanOptions, bool, Option<f64>),
-    route: &str,
-    progress: &mut impl FnMut(Progress<'_>),
-    (best, best_report, reports): Tally<'_>,
-) -> crate::Result<()> {
-    if !is_safe(best) || best.task.achieved || model.task.targets.rows() == 0 {
-        return Ok(());
-    }
-    let share = |o: &PlanOptions| if shared { time_share(o) } else { o.clone() };
-    let mut goal = share(options);
-    goal.task.goal_radius = Some(GOAL_FRACTION * model.task.tolerance);
-    goal.kappa_warmup = None;
-    // The goal row aside, the problem is the one the best plan solved: the curvature model its
-    // last stage converged with carries over, for a local correction, with at most the
-    // iterations that plan took (a correction that costs more than the plan is not paying off).
-    let full_budget = goal.iterations;
-    let converged = best.stages.last().is_some_and(|s| s.status == "converged");
-    let narrow =
-        warm_within.is_some_and(|k| best.task.max_target_error <= k * model.task.tolerance);
-    if let (true, true, Some(b)) = (converged, narrow, &best.hessian) {
-        goal.initial_hessian = Some(b.clone());
-        goal.iterations = full_budget.min(best.iterations.max(1));
-    }
-    let start = controls_from_nested(model, &best.controls)?;
-    let mut run = |stage: &'static str, goal: &PlanOptions| {
-        progress(Progress::Stage { stage, route });
-        plan(model, scene, &start, goal, |i| {
-            progress(Progress::Iteration(i))
-        })
-    };
-    let mut result = run("goal", &goal)?;
-    // A warm start held to a shorter budget that ends short of a safe, achieved plan, or at that
-    // budget, is retried from the identity with the full budget. One that had the full budget
-    // was the goal stage.
-    let retry = goal.initial_hessian.is_some()
-        && goal.iterations < full_budget
-        && (!(result.task.achieved && is_safe(&result)) || result.status == "iteration_limit")
-        && !matches!(result.status.as_str(), "interrupted" | "time_limit");
-    if retry {
-        tally(route, "goal", result, (best, best_report, reports));
-        goal.initial_hessian = None;
-        goal.iterations = full_budget;
-        result = run("goal_identity", &goal)?;
-        tally(
-            route,
-            "goal_identity",
-            result.clone(),
-            (best, best_report, reports),
-        );
-    } else {
-        tally(route, "goal", result.clone(), (best, best_report, reports));
-    }
-    // A goal stage that ends just outside the task's rows (its own row aside) but closer to the
-    // targets than the best plan is planned on without the goal row: the task's rows restored,
-    // as a cheap result is polished.
-    let (delta, slack) = (
-        options.task.delta,
-        NEAR_SAFE_FRACTION * model.task.tolerance,
-    );
-    let out_of_time = options.deadline.is_some_and(|d| Instant::now() >= d);
-    if !is_safe(&result)
-        && !out_of_time
-        && result.status != "interrupted"
-        && polish_rank(&result, best, delta, slack) == Ordering::Less
-    {
-        let from = (
-            controls_from_nested(model, &result.controls)?,
-            result.hessian.take(),
-        );
-        plan_on(
-            (model, scene, &share(options)),
-            from,
-            (route, "restored"),
-            progress,
-            (best, best_report, reports),
-        )?;
-    }
-    Ok(())
 }
 
 /// The cheap stage over every candidate, then the polish of the best few (module docs, steps
@@ -552,8 +465,8 @@ pub fn plan_with_search(
     })?;
     first.evaluations += screened;
     // Stopped by the user's deadline or interrupt, not by the first plan's share of the time.
-    let out_of_time = || options.deadline.is_some_and(|d| Instant::now() >= d);
-    let stopped = first.status == "interrupted" || (first.status == "time_limit" && out_of_time());
+    let stopped =
+        first.status == "interrupted" || (first.status == "time_limit" && out_of_time(options));
     let run = !stopped
         && match search.mode {
             SearchMode::Off => false,
@@ -589,7 +502,10 @@ pub fn plan_with_search(
         (&mut best, &mut best_report, &mut reports),
     )?;
     let interrupted = best.status == "interrupted";
-    if !(best.task.achieved && search.mode == SearchMode::Auto || interrupted || out_of_time()) {
+    if !(best.task.achieved && search.mode == SearchMode::Auto
+        || interrupted
+        || out_of_time(options))
+    {
         let mut candidates = routes::propose(
             model,
             start,
