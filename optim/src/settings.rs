@@ -122,6 +122,14 @@ pub struct SqpSettings {
     /// over `progress_window` iterations below which a run counts as making no progress (see
     /// `progress_window`). Default 1e-6.
     pub tol_progress: f64,
+    /// Feasibility restoration at a run's end: a run that ends
+    /// [`NoProgress`](crate::Status::NoProgress) or [`Stalled`](crate::Status::Stalled) on an
+    /// infeasible iterate takes up to this many minimum-norm corrections onto its rows'
+    /// linearization, the objective ignored (each costs an evaluation, and a gradient before
+    /// the next one), and ends at the corrected point if that is feasible. Its objective and
+    /// noise are what kept the merit line search from restoring the rows. `0` turns it off.
+    /// Default 3.
+    pub restoration_steps: usize,
 }
 
 /// Default [`SqpSettings::tol_feasibility`]: the largest max-norm violation of the (unscaled)
@@ -143,6 +151,7 @@ impl Default for SqpSettings {
             armijo: 1e-4,
             min_step_length: 1e-10,
             second_order_correction: true,
+            restoration_steps: 3,
             bfgs_damping: 0.2,
             qp_tolerance: 1e-9,
             qp_max_iterations: 200,
@@ -243,6 +252,7 @@ settings_builder!(SqpSettings, SqpSettingsBuilder, {
     jacobian_reuse_margin: Option<f64>,
     progress_window: Option<usize>,
     tol_progress: f64,
+    restoration_steps: usize,
 });
 
 /// Settings of the L-BFGS solver ([`LbfgsSolver`](crate::LbfgsSolver)).

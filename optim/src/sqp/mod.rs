@@ -26,7 +26,9 @@
 //!
 //! A run whose feasible iterates stop lowering the objective (by less than `tol_progress`,
 //! relative, over `progress_window` iterations whose steps the line search all cut) ends
-//! `NoProgress` with the measured decrease ([`progress`]).
+//! `NoProgress` with the measured decrease ([`progress`]). A run that ends `NoProgress` or
+//! `Stalled` on an infeasible iterate is moved onto its rows by minimum-norm corrections when
+//! they reach a feasible point ([`restoration`]).
 //!
 //! Constraints whose gradient at `x₀` exceeds `max_constraint_gradient` are scaled down once (IPOPT's
 //! rule); violations, tolerances and multipliers in the results refer to the unscaled constraints.
@@ -35,14 +37,15 @@
 //! iterate), [`state`] (what the iteration carries from one iterate to the next),
 //! [`iteration`] (one iteration, step by step), [`step`] and [`steering`] (1 and 2), [`kkt`] (3),
 //! [`stopping`] (the status tests), [`merit`] (4), [`update`] (5), [`retry`] (repeating an
-//! iteration after a refresh of kept Jacobian rows or a Hessian reset) and [`progress`].
+//! iteration after a refresh of kept Jacobian rows or a Hessian reset), [`progress`] and
+//! [`restoration`] (after the last iteration).
 
 use crate::bfgs::DampedBfgs;
 use crate::error::OptimError;
 use crate::eval::Evaluator;
 use crate::problem::Problem;
 use crate::settings::SqpSettings;
-use crate::status::{IterationInfo, Solution};
+use crate::status::{IterationInfo, Solution, Status};
 use std::ops::ControlFlow;
 use std::time::Instant;
 
@@ -50,6 +53,7 @@ mod iteration;
 mod kkt;
 mod merit;
 mod progress;
+mod restoration;
 mod retry;
 mod start;
 mod state;
@@ -144,11 +148,16 @@ impl SqpSolver {
             Ok(state) => state,
             Err((message, x)) => return Ok(failed_start(&ev, message, x, start)),
         };
-        let (status, message) = loop {
+        let (status, mut message) = loop {
             if let Next::Stop(status, message) = self.iterate(&mut ev, &mut state, &mut callback) {
                 break (status, message);
             }
         };
+        if matches!(status, Status::NoProgress | Status::Stalled) {
+            if let Some(restored) = self.restore_feasibility(&mut ev, &mut state) {
+                message = format!("{message}; {restored}");
+            }
+        }
         Ok(state.into_solution(&ev, status, message, start))
     }
 }
