@@ -2,8 +2,11 @@
 //! a run on a rough objective that stops just outside an exact (linear) row ends on the row; a
 //! row whose own noise no correction can remove is left as it was; smooth problems never reach it.
 
-use optim::test_problems::{hock_schittkowski, Rosenbrock};
+mod rough;
+
+use optim::test_problems::{hock_schittkowski, rosenbrock_start};
 use optim::{EvalError, Jacobian, Problem, Solution, SqpSettings, SqpSolver, Status};
+use rough::{RoughEquality, RoughRosenbrock};
 
 fn solve<P: Problem>(p: &mut P, x0: &[f64], restoration_steps: usize) -> Solution {
     let settings = SqpSettings::builder()
@@ -13,26 +16,14 @@ fn solve<P: Problem>(p: &mut P, x0: &[f64], restoration_steps: usize) -> Solutio
     SqpSolver::new(settings).unwrap().solve(p, x0).unwrap()
 }
 
-/// Rosenbrock in two variables plus `ε·noise(x)` (constant on cells of width `h`, hashed to
-/// `[−1, 1]`) and a hidden slope `−s·x₀`, both ignored by the gradient, subject to the linear
-/// rows `x₀ + x₁ ≤ b` and `x₀ ≤ a`.
+/// The rough Rosenbrock function in two variables (its noise ignored by the gradient) plus a
+/// hidden slope `−s·x₀` the gradient ignores too, subject to the linear rows `x₀ + x₁ ≤ b` and
+/// `x₀ ≤ a`.
 struct RoughLinear {
-    eps: f64,
-    h: f64,
+    rough: RoughRosenbrock,
     a: f64,
     b: f64,
     s: f64,
-}
-
-impl RoughLinear {
-    fn noise(&self, x: &[f64]) -> f64 {
-        let mut hash: u64 = 0x9e37_79b9_7f4a_7c15;
-        for &v in x {
-            hash ^= ((v / self.h).floor() as i64) as u64;
-            hash = hash.wrapping_mul(0xbf58_476d_1ce4_e5b9).rotate_left(31);
-        }
-        (hash >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
 }
 
 impl Problem for RoughLinear {
@@ -43,10 +34,10 @@ impl Problem for RoughLinear {
         2
     }
     fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
-        Ok(Rosenbrock { n: 2 }.objective(x)? + self.eps * self.noise(x) - self.s * x[0])
+        Ok(self.rough.objective(x)? - self.s * x[0])
     }
     fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
-        Rosenbrock { n: 2 }.gradient(x, g)
+        self.rough.gradient(x, g)
     }
     fn inequalities(&mut self, x: &[f64], c: &mut [f64]) -> Result<(), EvalError> {
         c[0] = self.b - x[0] - x[1];
@@ -76,8 +67,12 @@ fn a_run_stalled_outside_an_exact_row_ends_on_it() {
     // step towards x₀ ≤ 0.5 by more than the merit's penalty weight lowers the violation: the
     // line search rejects them all, and the run stalls 0.26 outside the rows.
     let rough = || RoughLinear {
-        eps: 0.0,
-        h: 1e-9,
+        rough: RoughRosenbrock {
+            n: 2,
+            eps: 0.0,
+            h: 1e-9,
+            constrained: false,
+        },
         a: 0.5,
         b: 0.7,
         s: 100.0,
@@ -114,45 +109,17 @@ fn a_run_stalled_outside_an_exact_row_ends_on_it() {
     assert_eq!(on.function_evaluations, off.function_evaluations + 1);
 }
 
-/// `x₀ − 0.5 + ε·noise(x) = 0` under the Rosenbrock objective, the noise (of the objective too)
-/// ignored by the derivatives: no correction removes a violation at the noise level.
-struct RoughEquality(RoughLinear);
-
-impl Problem for RoughEquality {
-    fn num_variables(&self) -> usize {
-        2
-    }
-    fn num_equalities(&self) -> usize {
-        1
-    }
-    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
-        self.0.objective(x)
-    }
-    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
-        self.0.gradient(x, g)
-    }
-    fn equalities(&mut self, x: &[f64], h: &mut [f64]) -> Result<(), EvalError> {
-        h[0] = x[0] - 0.5 + self.0.eps * self.0.noise(&[x[1], x[0]]);
-        Ok(())
-    }
-    fn equality_jacobian(&mut self, _x: &[f64], j: &mut Jacobian) -> Result<(), EvalError> {
-        j.set(0, 0, 1.0);
-        Ok(())
-    }
-}
-
 #[test]
 fn a_row_whose_own_noise_no_correction_removes_is_left_as_it_was() {
     let rough = || {
-        RoughEquality(RoughLinear {
+        RoughEquality(RoughRosenbrock {
+            n: 2,
             eps: 1e-4,
             h: 1e-8,
-            a: 0.0,
-            b: 0.0,
-            s: 0.0,
+            constrained: false,
         })
     };
-    let x0 = [-1.2, 1.0];
+    let x0 = rosenbrock_start(2);
     let (off, on) = (solve(&mut rough(), &x0, 0), solve(&mut rough(), &x0, 3));
     assert_eq!(on.status, Status::NoProgress, "{}", on.message);
     assert!(
