@@ -20,9 +20,12 @@
 //! runs that scene's forward + ∇L once, prints its wall and the process's peak resident memory,
 //! and exits (for `perf record` / callgrind, and the memory of one rollout with its gradient).
 //! `TASKS_PREDICTOR=off` runs every scene without the Newton predictor (`physics.predictor`), the
-//! solver as it was before it, for a comparison in the same run.
+//! solver as it was before it, for a comparison in the same run. `TASKS_FRICTION_EPSILON=<m>` sets
+//! every scene's `physics.contact.friction_epsilon` (the smoothing slip of its friction), for the
+//! cost of friction's accuracy in the same run (docs/performance.md).
 
 use autodiff::Tensor;
+use cloth::scene::{ContactModel, ContactSpec};
 use cloth::{Model, Scene, Solver, StepStats};
 use criterion::{criterion_group, BenchmarkId, Criterion};
 use std::hint::black_box;
@@ -54,6 +57,15 @@ fn task(task: &str) -> (Scene, Model, Tensor) {
         .expect("the task scene");
     if std::env::var("TASKS_PREDICTOR").as_deref() == Ok("off") {
         scene.physics.predictor = Some(false);
+    }
+    if let Ok(eps) = std::env::var("TASKS_FRICTION_EPSILON") {
+        let contact = scene.physics.contact.get_or_insert_with(|| ContactSpec {
+            model: ContactModel::Smooth,
+            d_hat: None,
+            stiffness: None,
+            friction_epsilon: None,
+        });
+        contact.friction_epsilon = Some(eps.parse().expect("TASKS_FRICTION_EPSILON in metres"));
     }
     if let Some(n) = size {
         let before = (scene.cloth.rows * scene.cloth.cols) as f64;
