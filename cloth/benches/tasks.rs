@@ -59,7 +59,7 @@ fn task(task: &str) -> (Scene, Model, Tensor) {
         scene.physics.predictor = Some(false);
     }
     if let Ok(eps) = std::env::var("TASKS_FRICTION_EPSILON") {
-        let contact = scene.physics.contact.get_or_insert_with(|| ContactSpec {
+        let contact = scene.physics.contact.get_or_insert(ContactSpec {
             model: ContactModel::Smooth,
             d_hat: None,
             stiffness: None,
