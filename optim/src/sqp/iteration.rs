@@ -106,7 +106,7 @@ impl SqpSolver {
                 derivatives,
                 alpha,
             } => {
-                state.advance(*values, *derivatives, alpha, self.settings.tol_feasibility);
+                state.advance(*values, *derivatives, alpha);
                 Next::Continue
             }
             Search::Budget => Next::Stop(

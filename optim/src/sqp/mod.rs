@@ -24,9 +24,9 @@
 //! reduction use this model, the merit the true `‖r(x⁺)‖`, and the BFGS update leaves it out of `y`
 //! (the smooth part's Lagrangian gradient only), so `B` learns the curvature of the rest.
 //!
-//! A run whose feasible iterates stop lowering the objective (by less than `tol_progress`,
-//! relative, over `progress_window` iterations whose steps the line search all cut) ends
-//! `NoProgress` with the measured decrease ([`progress`]). A run that ends `NoProgress` or
+//! A run whose iterates stop lowering the objective and, where they are infeasible, the violation
+//! (by less than `tol_progress`, relative, over `progress_window` iterations whose steps the line
+//! search all cut) ends `NoProgress` with the measured decreases ([`progress`]). A run that ends `NoProgress` or
 //! `Stalled` on an infeasible iterate is moved onto its rows by minimum-norm corrections when
 //! they reach a feasible point ([`restoration`]).
 //!

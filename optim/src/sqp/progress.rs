@@ -20,7 +20,6 @@ struct Entry {
     objective: f64,
     /// Max-norm constraint violation.
     violation: f64,
-    feasible: bool,
     /// Line-search step length of the step that led here (1 for the starting point).
     alpha: f64,
 }
@@ -30,6 +29,8 @@ struct Entry {
 pub(super) struct Progress {
     window: Option<usize>,
     tol: f64,
+    /// An iterate whose violation is at most this is feasible.
+    tol_feasibility: f64,
     /// The last `window + 1` iterates, oldest first.
     recent: VecDeque<Entry>,
 }
@@ -53,26 +54,26 @@ pub(super) struct NoProgress {
 }
 
 impl Progress {
-    /// A test over `window` iterations (`None`: never fires) with relative tolerance `tol`.
-    pub fn new(window: Option<usize>, tol: f64) -> Self {
+    /// A test over `window` iterations (`None`: never fires) with relative tolerance `tol`, for
+    /// a run whose feasibility tolerance is `tol_feasibility`.
+    pub fn new(window: Option<usize>, tol: f64, tol_feasibility: f64) -> Self {
         Progress {
             window,
             tol,
+            tol_feasibility,
             recent: VecDeque::new(),
         }
     }
 
-    /// Records an iterate of max-norm violation `violation` (`feasible` when within the
-    /// feasibility tolerance): the starting point (`alpha` 1), then each accepted step's, with
-    /// the line search's step length `alpha`.
-    pub fn record(&mut self, objective: f64, violation: f64, feasible: bool, alpha: f64) {
+    /// Records an iterate of max-norm violation `violation`: the starting point (`alpha` 1), then
+    /// each accepted step's, with the line search's step length `alpha`.
+    pub fn record(&mut self, objective: f64, violation: f64, alpha: f64) {
         let Some(window) = self.window else {
             return;
         };
         self.recent.push_back(Entry {
             objective,
             violation,
-            feasible,
             alpha,
         });
         while self.recent.len() > window + 1 {
@@ -98,8 +99,9 @@ impl Progress {
         let (first, last) = (self.recent.front()?, self.recent.back()?);
         let decrease = first.objective - last.objective;
         let relative = decrease / last.objective.abs().max(1.0);
+        let feasible = |e: &Entry| e.violation <= self.tol_feasibility;
         let violation =
-            (!self.recent.iter().all(|e| e.feasible)).then_some((first.violation, last.violation));
+            (!self.recent.iter().all(feasible)).then_some((first.violation, last.violation));
         let violation_stuck = violation.is_none_or(|(start, end)| start - end < self.tol * start);
         (relative < self.tol && violation_stuck).then_some(NoProgress {
             decrease,
@@ -136,12 +138,12 @@ mod tests {
 
     /// Records a feasible iterate.
     fn feasible(p: &mut Progress, objective: f64, alpha: f64) {
-        p.record(objective, 0.0, true, alpha);
+        p.record(objective, 0.0, alpha);
     }
 
     #[test]
     fn fires_only_after_a_full_window_of_feasible_iterates_without_progress() {
-        let mut p = Progress::new(Some(3), 1e-6);
+        let mut p = Progress::new(Some(3), 1e-6, 1e-8);
         feasible(&mut p, 10.0, 1.0);
         for _ in 0..2 {
             feasible(&mut p, 10.0, 0.5);
@@ -161,37 +163,37 @@ mod tests {
 
     #[test]
     fn an_infeasible_window_stalls_only_when_its_violation_is_stuck_too() {
-        let mut p = Progress::new(Some(3), 1e-6);
-        p.record(9.0, 0.5, false, 1.0);
+        let mut p = Progress::new(Some(3), 1e-6, 1e-8);
+        p.record(9.0, 0.5, 1.0);
         // The violation falls while the objective does not: progress.
         for v in [0.4, 0.3, 0.2] {
-            p.record(9.0, v, false, 0.5);
+            p.record(9.0, v, 0.5);
         }
         assert_eq!(p.stalled(), None, "the violation fell from 0.5 to 0.2");
         // Both stuck: no progress.
         for _ in 0..3 {
-            p.record(9.0, 0.2, false, 0.5);
+            p.record(9.0, 0.2, 0.5);
         }
         let stall = p
             .stalled()
             .expect("neither the objective nor the violation fell");
         assert_eq!(stall.violation, Some((0.2, 0.2)));
         // Reaching feasibility is progress.
-        p.record(9.0, 0.0, true, 0.5);
+        p.record(9.0, 0.0, 0.5);
         assert_eq!(p.stalled(), None, "the violation fell from 0.2 to 0");
         // A fall of the violation by more than `tol` of its start is progress.
-        let mut q = Progress::new(Some(1), 1e-3);
-        q.record(1.0, 1e-2, false, 1.0);
-        q.record(1.0, 1e-2 - 2e-5, false, 0.5);
+        let mut q = Progress::new(Some(1), 1e-3, 1e-8);
+        q.record(1.0, 1e-2, 1.0);
+        q.record(1.0, 1e-2 - 2e-5, 0.5);
         assert_eq!(q.stalled(), None, "2e-3 of the violation");
-        q.record(1.0, 1e-2 - 2.5e-5, false, 0.5);
+        q.record(1.0, 1e-2 - 2.5e-5, 0.5);
         let stall = q.stalled().expect("5e-4 of the violation");
         assert_eq!(stall.violation, Some((1e-2 - 2e-5, 1e-2 - 2.5e-5)));
     }
 
     #[test]
     fn a_unit_step_in_the_window_is_progress_of_its_own() {
-        let mut p = Progress::new(Some(3), 1e-6);
+        let mut p = Progress::new(Some(3), 1e-6, 1e-8);
         feasible(&mut p, 1.0, 1.0);
         for alpha in [0.1, 1.0, 0.1] {
             feasible(&mut p, 1.0, alpha);
@@ -208,11 +210,11 @@ mod tests {
 
     #[test]
     fn is_absolute_below_one_and_relative_above() {
-        let mut small = Progress::new(Some(1), 1e-6);
+        let mut small = Progress::new(Some(1), 1e-6, 1e-8);
         feasible(&mut small, 1e-3, 1.0);
         feasible(&mut small, 1e-3 - 2e-6, 0.5);
         assert_eq!(small.stalled(), None, "2e-6 absolute at |f| < 1");
-        let mut large = Progress::new(Some(1), 1e-6);
+        let mut large = Progress::new(Some(1), 1e-6, 1e-8);
         feasible(&mut large, 1e4, 1.0);
         feasible(&mut large, 1e4 - 2e-3, 0.5);
         assert!(large.stalled().is_some(), "2e-7 relative at |f| = 1e4");
@@ -220,7 +222,7 @@ mod tests {
 
     #[test]
     fn off_never_fires() {
-        let mut p = Progress::new(None, 1e-6);
+        let mut p = Progress::new(None, 1e-6, 1e-8);
         for _ in 0..100 {
             feasible(&mut p, 1.0, 1e-3);
         }

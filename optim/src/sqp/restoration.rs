@@ -17,7 +17,7 @@
 //! corrected point only if that is feasible, with its own objective (reported, never hidden).
 
 use crate::eval::{Evaluator, PointDerivatives, PointValues};
-use crate::linalg::norm_inf;
+use crate::linalg::{norm_inf, DenseMatrix};
 use crate::problem::Problem;
 use crate::qp::{QpMode, QpSubproblem};
 
@@ -47,7 +47,7 @@ impl SqpSolver {
             return None;
         }
         let weights: Vec<f64> = state.penalty.iter().map(|w| w.max(MIN_WEIGHT)).collect();
-        let identity = identity(ev.n);
+        let identity = DenseMatrix::identity(ev.n);
         let zero_gradient = vec![0.0; ev.n];
         let mut pt = state.pt.clone();
         let mut dv = state.dv.clone();
@@ -55,8 +55,12 @@ impl SqpSolver {
             if k > 0 {
                 dv = ev.derivatives(&pt.x).ok()?;
             }
-            let corrected =
-                self.correction(ev, (&pt, &dv), (&identity, &zero_gradient), &weights)?;
+            let corrected = self.correction(
+                ev,
+                (&pt, &dv),
+                (identity.as_slice(), &zero_gradient),
+                &weights,
+            )?;
             if corrected.violation_inf() >= pt.violation_inf() {
                 return None;
             }
@@ -114,13 +118,4 @@ impl SqpSolver {
         ev.project(&mut x);
         ev.values(&x).ok()
     }
-}
-
-/// The `n × n` identity, row-major.
-fn identity(n: usize) -> Vec<f64> {
-    let mut m = vec![0.0; n * n];
-    for i in 0..n {
-        m[i * n + i] = 1.0;
-    }
-    m
 }

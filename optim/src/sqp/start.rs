@@ -105,13 +105,8 @@ impl SqpSolver {
         if s.max_constraint_gradient.is_finite() {
             ev.set_scaling(s.max_constraint_gradient, &mut pt, &mut dv);
         }
-        let mut progress = Progress::new(s.progress_window, s.tol_progress);
-        progress.record(
-            pt.objective(),
-            pt.violation_inf(),
-            pt.violation_inf() <= s.tol_feasibility,
-            1.0,
-        );
+        let mut progress = Progress::new(s.progress_window, s.tol_progress, s.tol_feasibility);
+        progress.record(pt.objective(), pt.violation_inf(), 1.0);
         Ok(State {
             penalty: vec![s.elastic_weight; ev.m + ev.q],
             iterations: 0,

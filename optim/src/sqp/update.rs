@@ -10,15 +10,9 @@ use super::state::State;
 impl State {
     /// Moves to the accepted point (`values`, `derivatives`, reached at step length `alpha`):
     /// updates the Hessian approximation with `s = x⁺ − x` and `y = ∇ₓL(x⁺, λ) − ∇ₓL(x, λ)`,
-    /// counts the step and records it for the progress test (feasible: violation within
-    /// `tol_feasibility`). The new iterate's multipliers and KKT residual come from its own QP.
-    pub fn advance(
-        &mut self,
-        values: PointValues,
-        derivatives: PointDerivatives,
-        alpha: f64,
-        tol_feasibility: f64,
-    ) {
+    /// counts the step and records it for the progress test. The new iterate's multipliers and
+    /// KKT residual come from its own QP.
+    pub fn advance(&mut self, values: PointValues, derivatives: PointDerivatives, alpha: f64) {
         let s_vec: Vec<f64> = values
             .x
             .iter()
@@ -35,12 +29,8 @@ impl State {
         self.pt = values;
         self.dv = derivatives;
         self.iterations += 1;
-        self.progress.record(
-            self.pt.objective(),
-            self.pt.violation_inf(),
-            self.pt.violation_inf() <= tol_feasibility,
-            alpha,
-        );
+        self.progress
+            .record(self.pt.objective(), self.pt.violation_inf(), alpha);
         // Multipliers/KKT of the new point come from its own QP next iteration.
         self.kkt = f64::INFINITY;
     }
