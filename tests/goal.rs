@@ -1,6 +1,7 @@
 //! The goal row (`TaskOptions::goal_radius`) and the search's goal stage: the row's Jacobian
 //! matches central differences; a plan that misses its targets only because the objective trades
-//! them against smoothness reaches them in the goal stage; an unreachable goal is never kept.
+//! them against smoothness reaches them in the goal stage; an unreachable goal is never kept; the
+//! problem's goal (for the SQP's progress test) is every target within tolerance on the evaluated rollout.
 
 mod common;
 
@@ -324,4 +325,24 @@ fn the_near_miss_bound_is_checked_and_widens_the_warm_start() {
     let first = stage("first").expect("the first plan");
     let warm = stage("goal").expect("the warm goal stage");
     assert!(warm.iterations <= first.iterations, "{warm:?} {first:?}");
+}
+
+#[test]
+fn the_goal_is_reached_where_the_evaluated_rollout_has_every_target_within_tolerance() {
+    // The guess leaves the bottom row about 0.6 m from its targets.
+    for (tolerance, reached) in [(0.05, false), (10.0, true)] {
+        let scene = reluctant_scene(tolerance);
+        let model = Model::from_scene(&scene).unwrap();
+        let mut p = TrajectoryProblem::new(&model, TaskOptions::for_model(&model));
+        let x = initial_controls(&scene, &model).unwrap().data().to_vec();
+        assert!(!p.goal_reached(&x), "judged only on an evaluated rollout");
+        p.objective(&x).unwrap();
+        assert_eq!(p.goal_reached(&x), reached, "tolerance {tolerance}");
+        let mut other = x.clone();
+        other[0] += 1e-3;
+        assert!(
+            !p.goal_reached(&other),
+            "another point's rollout is not evaluated"
+        );
+    }
 }

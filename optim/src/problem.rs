@@ -234,6 +234,15 @@ pub trait Problem {
         None
     }
 
+    /// Whether the iterate `x`, evaluated just before, meets a goal the problem has beyond
+    /// optimality, e.g. a planning task's targets within their tolerance (default: never). The
+    /// SQP's progress test ends a run whose whole steps no longer lower the objective or the KKT
+    /// residual only at such points: there the caller has what it asked for, and elsewhere a
+    /// slow descent may still be worth its iterations.
+    fn goal_reached(&mut self, _x: &[f64]) -> bool {
+        false
+    }
+
     /// The smooth objective `f(x)`.
     fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError>;
 

@@ -2,12 +2,14 @@
 //! never fires on the smooth test problems (Hock–Schittkowski, Rosenbrock), whose runs are the
 //! same with it on or off, and it stops a run on a rough objective — piecewise-constant noise
 //! below a quadratic whose gradient ignores the noise, as a simulator's gradient ignores a
-//! change of contact set — once its steps stop paying, instead of letting it creep on.
+//! change of contact set — once its steps stop paying, instead of letting it creep on; and it
+//! ends a run of whole but tiny steps at points that meet the problem's goal
+//! (`Problem::goal_reached`), never elsewhere.
 
 mod rough;
 
 use optim::test_problems::{hock_schittkowski, rosenbrock_start, Rosenbrock};
-use optim::{Problem, Solution, SqpSettings, SqpSolver, Status};
+use optim::{DenseMatrix, EvalError, Problem, Solution, SqpSettings, SqpSolver, Status};
 use rough::{RoughEquality, RoughRosenbrock};
 
 fn solve<P: Problem>(p: &mut P, x0: &[f64], window: Option<usize>) -> Solution {
@@ -164,4 +166,94 @@ fn stops_a_run_whose_violation_is_stuck_at_the_noise_level() {
     );
     assert_eq!(on.status, Status::Converged, "{}", on.message);
     assert!(same_run(&on, &off));
+}
+
+/// `½‖x − p‖²` whose initial Hessian is `stiffness` times the true one: the SQP's steps are
+/// whole but tiny, and its KKT residual stays, until damped BFGS has unlearnt the stiffness
+/// (at most five-fold an iteration). Its goal: `x` within `radius` of `p`.
+struct StiffStart {
+    p: Vec<f64>,
+    stiffness: f64,
+    radius: Option<f64>,
+}
+
+impl StiffStart {
+    fn distance(&self, x: &[f64]) -> f64 {
+        x.iter()
+            .zip(&self.p)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt()
+    }
+}
+
+impl Problem for StiffStart {
+    fn num_variables(&self) -> usize {
+        self.p.len()
+    }
+    fn initial_hessian(&self) -> Option<DenseMatrix> {
+        let n = self.p.len();
+        let data = (0..n * n)
+            .map(|k| {
+                if k % (n + 1) == 0 {
+                    self.stiffness
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        DenseMatrix::from_row_major(n, n, data)
+    }
+    fn goal_reached(&mut self, x: &[f64]) -> bool {
+        self.radius.is_some_and(|r| self.distance(x) <= r)
+    }
+    fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
+        Ok(0.5 * self.distance(x).powi(2))
+    }
+    fn gradient(&mut self, x: &[f64], g: &mut [f64]) -> Result<(), EvalError> {
+        for ((gi, xi), pi) in g.iter_mut().zip(x).zip(&self.p) {
+            *gi = xi - pi;
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn ends_whole_tiny_steps_only_where_the_goal_is_met() {
+    let stiff = |radius| StiffStart {
+        p: vec![1.0, -2.0, 0.5],
+        stiffness: 1e8,
+        radius,
+    };
+    let x0 = [1.1, -2.1, 0.4];
+    // The planner's tolerance: the crawl's first 10 steps lower f by 7e-4 of its 0.015.
+    let solve = |p: &mut StiffStart, window| {
+        let settings = SqpSettings::builder()
+            .progress_window(window)
+            .tol_progress(1e-3)
+            .build()
+            .expect("valid settings");
+        SqpSolver::new(settings).unwrap().solve(p, &x0).unwrap()
+    };
+    // No goal: the run unlearns the stiffness, five-fold an iteration, and converges (13
+    // iterations).
+    let free = solve(&mut stiff(None), Some(10));
+    assert_eq!(free.status, Status::Converged, "{}", free.message);
+    // A goal the crawl never meets (x₀ is 0.17 from p): the same run, bit for bit.
+    let unmet = solve(&mut stiff(Some(0.1)), Some(10));
+    assert!(same_run(&unmet, &free), "{}", unmet.message);
+    // A goal met from the start: the crawl ends after one window of whole steps.
+    let met = solve(&mut stiff(Some(0.5)), Some(10));
+    assert_eq!(met.status, Status::NoProgress, "{}", met.message);
+    assert!(
+        met.message.contains("whole steps among them"),
+        "{}",
+        met.message
+    );
+    assert_eq!(met.iterations, 10, "{}", met.message);
+    assert!(met.iterations < free.iterations);
+    assert!(stiff(None).distance(&met.x) <= 0.5);
+    // With the test off it runs as without a goal.
+    let off = solve(&mut stiff(Some(0.5)), None);
+    assert!(same_run(&off, &free), "{}", off.message);
 }

@@ -79,9 +79,11 @@ pub struct PlanOptions {
     /// counts as feasible. Default [`FEASIBILITY_TOLERANCE`] (1e-8).
     pub tol_feasibility: f64,
     /// The SQP's progress test, per stage ([`optim::SqpSettings::progress_window`]): a stage
-    /// whose last `progress_window` iterations, all with steps cut by the line search, lower the
-    /// objective by less than `tol_progress · max(1, |f|)` (and, where an iterate is infeasible,
-    /// the violation by less than `tol_progress` of its value) ends `no_progress`; a warm-up
+    /// whose last `progress_window` iterations lower the objective by less than
+    /// `tol_progress · max(1, |f|)` (and, where an iterate is infeasible, the violation by less
+    /// than `tol_progress` of its value) ends `no_progress` when all their steps were cut by the
+    /// line search, or when their iterates all reach every target within the task's tolerance
+    /// and their KKT residual stays (steps whole but going nowhere); a warm-up
     /// ending so with no safety row active is the plan (the sharp stage is not run, see
     /// [`super::sharp_stage_needed`]). `None` turns it off. Default the SQP's, `Some(10)`.
     pub progress_window: Option<usize>,

@@ -622,6 +622,20 @@ impl Problem for TrajectoryProblem<'_> {
         Ok(())
     }
 
+    /// Every target within the task's tolerance at the rollout's last state, judged on the
+    /// cached rollout of `x` (the solver asks at the iterate it just evaluated; anything else
+    /// counts as not reached rather than costing a rollout).
+    fn goal_reached(&mut self, x: &[f64]) -> bool {
+        let tolerance = self.model.task.tolerance;
+        let last = (self.forward.as_ref())
+            .filter(|f| f.x == x)
+            .and_then(|f| f.states.last());
+        last.is_some_and(|state| {
+            let errors = crate::result::target_errors(self.model, state);
+            !errors.is_empty() && errors.iter().all(|&e| e <= tolerance)
+        })
+    }
+
     fn objective(&mut self, x: &[f64]) -> Result<f64, EvalError> {
         Ok(self.ensure_forward(x, true)?.smooth)
     }

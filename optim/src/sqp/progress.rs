@@ -1,15 +1,19 @@
 //! The progress test ([`SqpSettings::progress_window`](crate::SqpSettings::progress_window)): a
 //! run whose iterates have stopped lowering the objective (and, where they are infeasible, the
-//! violation), while the line search keeps cutting the QP's steps, ends `NoProgress`, saying by
-//! how much each fell.
+//! violation) ends `NoProgress`, saying by how much each fell, when either
 //!
-//! Both conditions are needed. Near a minimizer of a smooth problem the objective also stops
-//! changing, but there the SQP takes unit steps (the second-order correction prevents the
-//! Maratos effect) and converges within a few iterations, so the test must not stop it (the
-//! `towel` scene's last 10 iterations change its objective by less than 1e-8 at α = 1). A
-//! window of shortened steps without progress means the quadratic model promises decreases the
-//! function does not deliver at any step length tried: noise, roughness, or a gradient that does
-//! not match the function.
+//! - the line search kept cutting the QP's steps: the quadratic model promises decreases the
+//!   function does not deliver at any step length tried (noise, roughness, or a gradient that
+//!   does not match the function); or
+//! - the steps were taken whole but the KKT residual did not fall at a linear rate of 0.8 an
+//!   iteration either (an order of magnitude over 10): the model's steps are too short to go anywhere (a quasi-Newton model whose
+//!   curvature was learnt from tiny cut steps on a rough function keeps them tiny).
+//!
+//! A condition beside the objective's is needed. Near a minimizer of a smooth problem the
+//! objective also stops changing, but there the SQP takes unit steps (the second-order correction
+//! prevents the Maratos effect) and its KKT residual falls by orders of magnitude within a few
+//! iterations, so the test must not stop it (the `towel` scene's last 10 iterations change its
+//! objective by less than 1e-8 at α = 1).
 
 use std::collections::VecDeque;
 use std::fmt;
@@ -22,7 +26,16 @@ struct Entry {
     violation: f64,
     /// Line-search step length of the step that led here (1 for the starting point).
     alpha: f64,
+    /// KKT residual, once the iterate's QP gave multipliers (infinite until then).
+    kkt: f64,
+    /// The iterate is feasible and meets the problem's goal.
+    goal: bool,
 }
+
+/// A window of whole steps is stuck when its smallest KKT residual is at least this rate to the
+/// power of its length times the residual at its start (0.107 over 10 iterations): a run
+/// converging linearly at a faster rate falls below it, a superlinear one by far.
+const KKT_RATE: f64 = 0.8;
 
 /// The objective, feasibility and step length of the most recent iterates, as many as the test
 /// looks back.
@@ -46,8 +59,11 @@ pub(super) struct NoProgress {
     pub iterations: usize,
     /// The tolerance it was held to.
     pub tol: f64,
-    /// The longest step length of the window's steps (all below 1).
+    /// The longest step length of the window's steps.
     pub largest_alpha: f64,
+    /// For a window with whole steps, the KKT residual at its start and the smallest one in it
+    /// (`None` when every step was cut).
+    pub kkt: Option<(f64, f64)>,
     /// For a window with infeasible iterates, the violation at its start and end (`None` when
     /// every iterate was feasible).
     pub violation: Option<(f64, f64)>,
@@ -75,28 +91,51 @@ impl Progress {
             objective,
             violation,
             alpha,
+            kkt: f64::INFINITY,
+            goal: false,
         });
         while self.recent.len() > window + 1 {
             self.recent.pop_front();
         }
     }
 
-    /// The measured decrease when the last `window` iterations all had their steps shortened by
-    /// the line search (`α < 1`) and together lowered the objective by less than
-    /// `tol · max(1, |f|)`, and, where an iterate of the window is infeasible, also lowered the
-    /// violation by less than `tol` times its value at the window's start; `None` otherwise (also
-    /// before `window` iterations have been taken).
+    /// Records what is known of the latest iterate once its QP gave multipliers: its KKT
+    /// residual, and whether it meets the problem's goal (`goal_reached`; only a feasible
+    /// iterate counts).
+    pub fn record_kkt(&mut self, kkt: f64, goal_reached: bool) {
+        let tol_feasibility = self.tol_feasibility;
+        if let Some(last) = self.recent.back_mut() {
+            last.kkt = kkt;
+            last.goal = goal_reached && last.violation <= tol_feasibility;
+        }
+    }
+
+    /// The measured decrease when the last `window` iterations together lowered the objective by
+    /// less than `tol · max(1, |f|)`, and, where an iterate of the window is infeasible, also
+    /// lowered the violation by less than `tol` times its value at the window's start, and
+    /// either every step was shortened by the line search (`α < 1`) or every iterate of the
+    /// window is feasible and meets the problem's goal and the smallest KKT residual of the
+    /// window's iterates is at least [`KKT_RATE`]`^window` of the one at its start; `None`
+    /// otherwise (also before `window` iterations have been taken).
     pub fn stalled(&self) -> Option<NoProgress> {
         let window = self.window?;
         if self.recent.len() < window + 1 {
             return None;
         }
-        let steps = self.recent.iter().skip(1);
-        let largest_alpha = steps.map(|e| e.alpha).fold(0.0, f64::max);
-        if largest_alpha >= 1.0 {
-            return None;
-        }
         let (first, last) = (self.recent.front()?, self.recent.back()?);
+        let steps = self.recent.iter().skip(1);
+        let largest_alpha = steps.clone().map(|e| e.alpha).fold(0.0, f64::max);
+        let kkt = if largest_alpha >= 1.0 {
+            let smallest = steps.map(|e| e.kkt).fold(f64::INFINITY, f64::min);
+            let floor = KKT_RATE.powi(i32::try_from(window).unwrap_or(i32::MAX)) * first.kkt;
+            let goal = self.recent.iter().all(|e| e.goal);
+            if !(goal && first.kkt.is_finite() && smallest >= floor) {
+                return None;
+            }
+            Some((first.kkt, smallest))
+        } else {
+            None
+        };
         let decrease = first.objective - last.objective;
         let relative = decrease / last.objective.abs().max(1.0);
         let feasible = |e: &Entry| e.violation <= self.tol_feasibility;
@@ -110,6 +149,7 @@ impl Progress {
             tol: self.tol,
             largest_alpha,
             violation,
+            kkt,
         })
     }
 }
@@ -124,10 +164,19 @@ impl fmt::Display for NoProgress {
             None => "all at feasible points".to_string(),
             Some((start, end)) => format!("the violation from {start:.2e} to {end:.2e}"),
         };
+        let steps = match self.kkt {
+            None => format!(
+                "every step cut by the line search (α ≤ {:.1e})",
+                self.largest_alpha
+            ),
+            Some((start, smallest)) => format!(
+                "whole steps among them, at iterates that all meet the goal, while the KKT residual fell slower than 0.8 an iteration ({start:.2e}, at least {smallest:.2e} since)"
+            ),
+        };
         write!(
             f,
-            "no progress: the objective fell by {:.2e} (relative {:.2e} < tol_progress {:.0e}) over the last {} iterations, {points}, every step cut by the line search (α ≤ {:.1e})",
-            self.decrease, self.relative, self.tol, self.iterations, self.largest_alpha
+            "no progress: the objective fell by {:.2e} (relative {:.2e} < tol_progress {:.0e}) over the last {} iterations, {points}, {steps}",
+            self.decrease, self.relative, self.tol, self.iterations
         )
     }
 }
@@ -208,6 +257,72 @@ mod tests {
         );
     }
 
+    /// Records a feasible iterate that meets the goal, reached by a whole step, with its KKT
+    /// residual.
+    fn whole(p: &mut Progress, objective: f64, kkt: f64) {
+        p.record(objective, 0.0, 1.0);
+        p.record_kkt(kkt, true);
+    }
+
+    #[test]
+    fn whole_steps_stall_only_while_the_kkt_residual_falls_slower_than_linearly() {
+        let mut p = Progress::new(Some(3), 1e-6, 1e-8);
+        whole(&mut p, 1.0, 0.3);
+        for kkt in [0.2, 0.35, 0.1] {
+            whole(&mut p, 1.0, kkt);
+        }
+        assert_eq!(p.stalled(), None, "0.1 is below 0.8³ of 0.3: converging");
+        for _ in 0..2 {
+            whole(&mut p, 1.0, 0.15);
+            assert_eq!(p.stalled(), None, "the window still holds 0.1");
+        }
+        whole(&mut p, 1.0, 0.15);
+        let stall = p.stalled().expect("from 0.1 the smallest is 0.15");
+        assert_eq!(stall.kkt, Some((0.1, 0.15)));
+        assert_eq!(stall.largest_alpha, 1.0);
+        assert!(stall.to_string().contains("whole steps among them"));
+        // The objective falling is progress whatever the residual does.
+        whole(&mut p, 0.5, 0.05);
+        assert_eq!(p.stalled(), None);
+    }
+
+    #[test]
+    fn whole_steps_stall_only_at_feasible_iterates_that_meet_the_goal() {
+        let mut p = Progress::new(Some(2), 1e-6, 1e-8);
+        whole(&mut p, 1.0, 0.5);
+        p.record(1.0, 0.0, 1.0);
+        p.record_kkt(0.5, false);
+        whole(&mut p, 1.0, 0.5);
+        assert_eq!(
+            p.stalled(),
+            None,
+            "an iterate of the window misses the goal"
+        );
+        p.record(1.0, 1e-3, 1.0);
+        p.record_kkt(0.5, true);
+        assert_eq!(p.stalled(), None, "an iterate of the window is infeasible");
+        whole(&mut p, 1.0, 0.5);
+        whole(&mut p, 1.0, 0.5);
+        assert!(
+            p.stalled().is_none(),
+            "the infeasible one still starts the window"
+        );
+        whole(&mut p, 1.0, 0.5);
+        assert!(p.stalled().is_some());
+    }
+
+    #[test]
+    fn whole_steps_from_an_iterate_without_a_kkt_residual_are_not_judged() {
+        let mut p = Progress::new(Some(2), 1e-6, 1e-8);
+        p.record(1.0, 0.0, 1.0);
+        for _ in 0..2 {
+            whole(&mut p, 1.0, 0.5);
+        }
+        assert_eq!(p.stalled(), None, "the window's start has no KKT residual");
+        whole(&mut p, 1.0, 0.5);
+        assert!(p.stalled().is_some());
+    }
+
     #[test]
     fn is_absolute_below_one_and_relative_above() {
         let mut small = Progress::new(Some(1), 1e-6, 1e-8);
@@ -239,6 +354,7 @@ mod tests {
             tol: 1e-6,
             largest_alpha: 1e-2,
             violation: None,
+            kkt: None,
         };
         assert_eq!(
             m.to_string(),
@@ -248,6 +364,13 @@ mod tests {
         assert_eq!(
             m.to_string(),
             "no progress: the objective fell by 3.21e-9 (relative 3.21e-9 < tol_progress 1e-6) over the last 10 iterations, the violation from 4.74e-3 to 4.74e-3, every step cut by the line search (α ≤ 1.0e-2)"
+        );
+        m.violation = None;
+        m.largest_alpha = 1.0;
+        m.kkt = Some((0.299, 0.133));
+        assert_eq!(
+            m.to_string(),
+            "no progress: the objective fell by 3.21e-9 (relative 3.21e-9 < tol_progress 1e-6) over the last 10 iterations, all at feasible points, whole steps among them, at iterates that all meet the goal, while the KKT residual fell slower than 0.8 an iteration (2.99e-1, at least 1.33e-1 since)"
         );
     }
 }

@@ -45,6 +45,8 @@ impl SqpSolver {
                 ),
             ));
         }
+        let goal = viol <= s.tol_feasibility && ev.problem.goal_reached(&state.pt.x);
+        state.progress.record_kkt(kkt, goal);
         if let Some(stall) = state.progress.stalled() {
             if let Some(next) = state.refresh_kept_rows(ev) {
                 return Some(next);
