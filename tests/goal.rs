@@ -1,7 +1,8 @@
 //! The goal row (`TaskOptions::goal_radius`) and the search's goal stage: the row's Jacobian
 //! matches central differences; a plan that misses its targets only because the objective trades
 //! them against smoothness reaches them in the goal stage; an unreachable goal is never kept; the
-//! problem's goal (for the SQP's progress test) is every target within tolerance on the evaluated rollout.
+//! problem's goal (for the SQP's progress test) is every target within tolerance on the evaluated
+//! rollout.
 
 mod common;
 
