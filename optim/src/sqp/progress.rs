@@ -6,8 +6,12 @@
 //!   function does not deliver at any step length tried (noise, roughness, or a gradient that
 //!   does not match the function); or
 //! - the steps were taken whole but the KKT residual did not fall at a linear rate of 0.8 an
-//!   iteration either (an order of magnitude over 10): the model's steps are too short to go anywhere (a quasi-Newton model whose
-//!   curvature was learnt from tiny cut steps on a rough function keeps them tiny).
+//!   iteration either (an order of magnitude over 10), at feasible iterates that all meet the
+//!   problem's own goal ([`Problem::goal_reached`](crate::Problem::goal_reached)): the model's
+//!   steps are too short to go anywhere (a quasi-Newton model whose curvature was learnt from a
+//!   step the line search cut a thousand-fold keeps them tiny), and the caller already has what
+//!   it asked for. Elsewhere such a window may be the slow stretch of a descent that still pays
+//!   (Table I's δ = 0.4 plan crawls so before it converges 0.025 lower), so it goes on.
 //!
 //! A condition beside the objective's is needed. Near a minimizer of a smooth problem the
 //! objective also stops changing, but there the SQP takes unit steps (the second-order correction
@@ -99,10 +103,10 @@ impl Progress {
         }
     }
 
-    /// Records what is known of the latest iterate once its QP gave multipliers: its KKT
-    /// residual, and whether it meets the problem's goal (`goal_reached`; only a feasible
+    /// Annotates the latest iterate with what is known of it once its QP gave multipliers: its
+    /// KKT residual, and whether it meets the problem's goal (`goal_reached`; only a feasible
     /// iterate counts).
-    pub fn record_kkt(&mut self, kkt: f64, goal_reached: bool) {
+    pub fn annotate_last(&mut self, kkt: f64, goal_reached: bool) {
         let tol_feasibility = self.tol_feasibility;
         if let Some(last) = self.recent.back_mut() {
             last.kkt = kkt;
@@ -157,7 +161,9 @@ impl Progress {
 impl fmt::Display for NoProgress {
     /// `no progress: the objective fell by 3.21e-9 (relative 3.21e-9 < tol_progress 1e-6) over
     /// the last 10 iterations, all at feasible points, every step cut by the line search (α ≤
-    /// 1.0e-2)`; with infeasible iterates, `… over the last 10 iterations, the violation from
+    /// 1.0e-2)`; a window of whole steps ends `…, whole steps among them, at iterates that all
+    /// meet the goal, while the KKT residual fell slower than 0.8 an iteration (…)`; with
+    /// infeasible iterates, `… over the last 10 iterations, the violation from
     /// 4.74e-3 to 4.74e-3, every step cut …`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let points = match self.violation {
@@ -261,7 +267,7 @@ mod tests {
     /// residual.
     fn whole(p: &mut Progress, objective: f64, kkt: f64) {
         p.record(objective, 0.0, 1.0);
-        p.record_kkt(kkt, true);
+        p.annotate_last(kkt, true);
     }
 
     #[test]
@@ -291,7 +297,7 @@ mod tests {
         let mut p = Progress::new(Some(2), 1e-6, 1e-8);
         whole(&mut p, 1.0, 0.5);
         p.record(1.0, 0.0, 1.0);
-        p.record_kkt(0.5, false);
+        p.annotate_last(0.5, false);
         whole(&mut p, 1.0, 0.5);
         assert_eq!(
             p.stalled(),
@@ -299,7 +305,7 @@ mod tests {
             "an iterate of the window misses the goal"
         );
         p.record(1.0, 1e-3, 1.0);
-        p.record_kkt(0.5, true);
+        p.annotate_last(0.5, true);
         assert_eq!(p.stalled(), None, "an iterate of the window is infeasible");
         whole(&mut p, 1.0, 0.5);
         whole(&mut p, 1.0, 0.5);
