@@ -26,9 +26,10 @@
 //!
 //! A run whose iterates stop lowering the objective and, where they are infeasible, the violation
 //! (by less than `tol_progress`, relative, over `progress_window` iterations whose steps the line
-//! search all cut) ends `NoProgress` with the measured decreases ([`progress`]). A run that ends `NoProgress` or
-//! `Stalled` on an infeasible iterate is moved onto its rows by minimum-norm corrections when
-//! they reach a feasible point ([`restoration`]).
+//! search all cut, or whose whole steps leave the KKT residual where it was at iterates that meet
+//! the problem's goal) ends `NoProgress` with the measured decreases ([`progress`]). A run that
+//! ends `NoProgress` or `Stalled` on an infeasible iterate is moved onto its rows by minimum-norm
+//! corrections when they reach a feasible point ([`restoration`]).
 //!
 //! Constraints whose gradient at `x₀` exceeds `max_constraint_gradient` are scaled down once (IPOPT's
 //! rule); violations, tolerances and multipliers in the results refer to the unscaled constraints.

@@ -45,7 +45,7 @@ impl SqpSolver {
                 ),
             ));
         }
-        let goal = viol <= s.tol_feasibility && ev.problem.goal_reached(&state.pt.x);
+        let goal = ev.problem.goal_reached(&state.pt.x);
         state.progress.annotate_last(kkt, goal);
         if let Some(stall) = state.progress.stalled() {
             if let Some(next) = state.refresh_kept_rows(ev) {
