@@ -141,6 +141,10 @@ pub enum ClothError {
     /// cannot be taken for this model.
     #[error("parameter derivatives: {0}")]
     ParameterDerivative(String),
+    /// The guesses a guided rollout starts its steps from ([`crate::Model::simulate_newton_guided`])
+    /// do not match the model.
+    #[error("guided rollout's guesses: {0}")]
+    Guesses(String),
     /// A counted rollout ([`crate::Model::simulate_counted`]) was asked to stop: its deadline
     /// passed or its stop flag was raised ([`crate::RolloutLimits`]).
     #[error("rollout stopped at step {step}: its deadline passed or it was interrupted")]

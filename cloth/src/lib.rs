@@ -41,6 +41,7 @@ pub use model::{ConstraintGroup, Model, StartReport, TaskSpec, DEFAULT_CHECKPOIN
 /// The `nalgebra` this crate is built with: constraints take `nalgebra::Vector3<R>` points.
 pub use nalgebra;
 pub use newton::continuation::{NewtonKept, NewtonRollout};
+pub use newton::control_tangents::ControlTangents;
 pub use newton::factor::FactorCounts;
 pub use newton::residual::Equilibrium;
 pub use newton::solve::StepStats;

@@ -88,7 +88,49 @@ impl Model {
         settings: &NewtonSettings,
         budget: usize,
     ) -> Result<NewtonRollout, ClothError> {
-        self.newton_rollout(controls, settings, budget, &RolloutLimits::default())
+        self.newton_rollout(controls, settings, budget, &RolloutLimits::default(), None)
+    }
+
+    /// [`Model::simulate_newton`] with each step's solve started from a guess: `from[t]` moved
+    /// by `moves[t]` (`T + 1` states and moves of all particles, the first unused), as far along
+    /// it as the barriers allow ([`Pattern::max_move`]: `from[t]` must be outside them, as an
+    /// earlier rollout's states are), so that the solve ends in the minimum of `Φ` whose basin
+    /// holds the guess. A planner's trial keeps to the branch of the rollout it moves from, with
+    /// the moves predicted by [`Model::newton_control_tangents`]. Where a guess cannot start a
+    /// solve or its solve does not converge, the step is solved as [`Model::simulate_newton`]
+    /// solves it. Returns the rollout and how many steps started from their guess.
+    ///
+    /// # Errors
+    /// As [`Model::simulate_newton`]; [`ClothError::Guesses`] when `from` or `moves` do not hold
+    /// `T + 1` states of the model's shape.
+    pub fn simulate_newton_guided(
+        &self,
+        controls: &Controls,
+        settings: &NewtonSettings,
+        from: &[Tensor],
+        moves: &[Tensor],
+    ) -> Result<(NewtonRollout, usize), ClothError> {
+        let (n, horizon) = (self.n_particles(), self.task.horizon);
+        for (what, states) in [("from", from), ("moves", moves)] {
+            if states.len() != horizon + 1 {
+                return Err(ClothError::Guesses(format!(
+                    "{what}: {} states for a horizon of {horizon} steps (expected {})",
+                    states.len(),
+                    horizon + 1
+                )));
+            }
+            if let Some((t, g)) = (states.iter().enumerate()).find(|(_, g)| g.shape() != (n, 3)) {
+                return Err(ClothError::Guesses(format!(
+                    "{what}: state {t} is {} × {}, expected {n} × 3",
+                    g.rows(),
+                    g.cols()
+                )));
+            }
+        }
+        let limits = RolloutLimits::default();
+        let r = self.newton_rollout(controls, settings, 0, &limits, Some((from, moves)))?;
+        let guided = r.stats.iter().filter(|s| s.from_guess).count();
+        Ok((r, guided))
     }
 
     /// [`Model::simulate`] that also counts the solver's work, each step's Newton iterations
@@ -108,7 +150,7 @@ impl Model {
     ) -> Result<(Vec<Tensor>, Vec<usize>), ClothError> {
         match &self.solver {
             crate::Solver::Newton(settings) => {
-                let r = self.newton_rollout(controls, settings, 0, limits)?;
+                let r = self.newton_rollout(controls, settings, 0, limits, None)?;
                 Ok((r.states, r.stats.iter().map(|s| s.iterations).collect()))
             }
             crate::Solver::Xpbd => {
@@ -121,13 +163,15 @@ impl Model {
     }
 
     /// [`Model::simulate_newton_keeping`], giving up past `limits`
-    /// ([`Model::simulate_counted`]).
+    /// ([`Model::simulate_counted`]), each step's solve started from its guess where `guides`
+    /// (states and moves) are given ([`Model::simulate_newton_guided`]).
     fn newton_rollout(
         &self,
         controls: &Controls,
         settings: &NewtonSettings,
         budget: usize,
         limits: &RolloutLimits,
+        guides: Option<(&[Tensor], &[Tensor])>,
     ) -> Result<NewtonRollout, ClothError> {
         self.check_controls(controls)?;
         let mut system = NewtonSystem::new(self)?;
@@ -144,7 +188,14 @@ impl Model {
                 return Err(ClothError::RolloutStopped { step: t + 1 });
             }
             let u = self.step_controls(controls, t);
-            let (x, s) = self.solve_step_newton(&mut system, &states[t], &u, t + 1, settings)?;
+            let guide = guides.map(|(from, moves)| (&from[t + 1], &moves[t + 1]));
+            let guided = guide.and_then(|g| {
+                self.solve_from_guess(&mut system, (&states[t], &u), g, t + 1, settings)
+            });
+            let (x, s) = match guided {
+                Some(solved) => solved?,
+                _ => self.solve_step_newton(&mut system, &states[t], &u, t + 1, settings)?,
+            };
             check_finite(&x, t + 1)?;
             // Every solve ends with the exact Hessian's factorization at the state it returns.
             let bytes = system.factor.kept_bytes();
@@ -260,6 +311,43 @@ impl Model {
             smallest = 1;
         }
         Ok((x, stats))
+    }
+}
+
+impl Model {
+    /// Step `step` from `x_prev` with control move `u`, solved from `from` moved by `delta` as
+    /// far as the barriers allow ([`Model::simulate_newton_guided`]): `None` where that cannot
+    /// start a solve or its solve does not converge (the step is then solved without it), else
+    /// the solve's state or the rollout limits' error.
+    fn solve_from_guess(
+        &self,
+        system: &mut NewtonSystem,
+        (x_prev, u): (&Tensor, &Tensor),
+        (from, delta): (&Tensor, &Tensor),
+        step: usize,
+        settings: &NewtonSettings,
+    ) -> Option<Result<(Tensor, StepStats), ClothError>> {
+        let xt = self.begin_step(x_prev, u);
+        system.begin_step(x_prev);
+        let a = system.pattern.max_move(from.data(), delta.data());
+        let mut guess = from.clone();
+        (guess.data_mut().iter_mut())
+            .zip(delta.data())
+            .for_each(|(g, d)| *g += a * d);
+        match system.solve_from(&guess, &xt, step, settings) {
+            Ok((x, s)) => Some(Ok((
+                x,
+                StepStats {
+                    loads: 1,
+                    from_guess: true,
+                    ..s
+                },
+            ))),
+            Err(e @ (ClothError::NewtonWorkExceeded { .. } | ClothError::RolloutStopped { .. })) => {
+                Some(Err(e))
+            }
+            Err(_) => None,
+        }
     }
 }
 

@@ -20,6 +20,8 @@
 //!   ([`NewtonSettings::load_halvings`]), each step's final factorization kept for the gradients;
 //! - [`curvature`]: leaving a saddle of `Φ` along the exact Hessian's unstable mode;
 //! - [`residual`]: how far any solver's states are from equilibrium, on Newton's scale;
+//! - `control_tangents`: how the converged states move with the controls (forward), to predict
+//!   a trial rollout's states;
 //! - `sensitivity`: how the converged states move with the physical parameters (forward);
 //! - `start_coupling`: smooth friction's coupling of a step's state to its start;
 //! - [`implicit`]: adjoints through `∂x_t/∂(x_{t−1}, u_t)`, one factorization per step for every
@@ -37,6 +39,7 @@ pub mod assembly;
 mod colliders;
 pub mod contact;
 pub mod continuation;
+pub mod control_tangents;
 pub mod curvature;
 mod edge_points;
 pub mod factor;

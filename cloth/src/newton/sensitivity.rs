@@ -158,7 +158,7 @@ impl Model {
     }
 
     /// `rhs += M ẋ_{t−1} − D_xy ẋ_{t−1}` on the free particles (`prev` full data).
-    fn add_previous_tangent(
+    pub(super) fn add_previous_tangent(
         &self,
         system: &NewtonSystem,
         x: &[f64],

@@ -56,6 +56,8 @@ pub struct StepStats {
     /// Self-contact: changes of the Hessian's pattern back to one of the last patterns left,
     /// whose symbolic analysis was kept.
     pub pattern_reuses: usize,
+    /// The solve started from a guess ([`crate::Model::simulate_newton_guided`]) and converged.
+    pub from_guess: bool,
 }
 
 impl StepStats {
