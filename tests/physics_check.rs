@@ -29,12 +29,23 @@ fn check_physics_parses_and_names_the_setting() {
         "newton:1e-8".parse::<CheckPhysics>().unwrap(),
         CheckPhysics::Newton { tolerance: 1e-8 }
     );
+    assert_eq!(
+        "newton-branch".parse::<CheckPhysics>().unwrap(),
+        CheckPhysics::NewtonBranch { halvings: 10 }
+    );
+    assert_eq!(
+        "newton-branch:4".parse::<CheckPhysics>().unwrap(),
+        CheckPhysics::NewtonBranch { halvings: 4 }
+    );
     for bad in [
         "xpbd",
         "xpbd:0",
         "xpbd:-3",
         "newton:2",
         "newton:nan",
+        "newton-branch:0",
+        "newton-branch:21",
+        "newton-branch:x",
         "pbd:10",
         "",
     ] {
@@ -154,6 +165,32 @@ fn a_plan_still_failing_its_check_is_no_safe_plan_and_says_under_which_physics()
     let json = serde_json::to_value(&result).unwrap();
     assert_eq!(json["check"]["physics"]["solver"], "newton");
     assert_eq!(json["check"]["rounds"].as_array().unwrap().len(), 1);
+}
+
+/// Branch following on `u_obstacle`'s cloth carried in free space by its initial guess (one
+/// equilibrium a step): the same final state as one Newton solve a step, to the solver's
+/// tolerance, and the setting named in the summary.
+#[test]
+fn branch_following_checks_a_plan_on_the_scenes_other_settings() {
+    let (scene, model) = small_scene();
+    let branch = CheckPhysics::NewtonBranch { halvings: 6 };
+    let checked = branch.apply(&scene);
+    assert_eq!(checked.physics.load_halvings, Some(6));
+    assert_eq!(checked.physics.tolerance, scene.physics.tolerance);
+    let controls = plan::initial_controls(&scene, &model).unwrap();
+    let mut one_solve = scene.clone();
+    one_solve.physics.load_halvings = Some(0);
+    let own = check_plan(&one_solve, NEWTON, &controls, 0.0, 0.0).unwrap();
+    let round = check_plan(&scene, branch, &controls, 0.0, 0.0).unwrap();
+    assert!(own.max_target_error > 0.01, "{own:?}");
+    assert!(
+        (own.max_target_error - round.max_target_error).abs() < 1e-6,
+        "{own:?} against {round:?}"
+    );
+    assert_eq!(
+        branch.to_string(),
+        "Newton with branch following (6 load halvings)"
+    );
 }
 
 #[test]

@@ -130,7 +130,10 @@ fn a_rollout_guided_by_its_own_states_is_itself() {
         let (guided, from_guess) = m
             .simulate_newton_guided(&u, &settings(&m), &states, &zero)
             .unwrap();
-        assert_eq!(from_guess, m.task.horizon, "{mu:?}: every step from its guess");
+        assert_eq!(
+            from_guess, m.task.horizon,
+            "{mu:?}: every step from its guess"
+        );
         let d = distance(&states, &guided.states);
         assert!(d < 1e-9, "{mu:?}: the guided rollout is {d:e} away");
     }
@@ -164,7 +167,10 @@ fn guided_by_the_tangents_prediction_a_trial_is_its_own_rollout() {
             .unwrap();
         assert_eq!(from_guess, m.task.horizon, "{mu:?}");
         let d = distance(&plain, &guided.states);
-        assert!(d < 1e-9, "{mu:?}: the guided trial is {d:e} from its plain rollout");
+        assert!(
+            d < 1e-9,
+            "{mu:?}: the guided trial is {d:e} from its plain rollout"
+        );
         // The prediction itself is first order: its error is second order in the move.
         let predicted = distance(&plain, &guesses);
         assert!(predicted < 1e-4, "{mu:?}: predicted {predicted:e} off");
@@ -182,7 +188,10 @@ fn guesses_that_do_not_match_the_model_are_named_errors() {
         .err()
         .expect("too few guesses");
     assert!(matches!(e, ClothError::Guesses(_)), "{e}");
-    assert!(e.to_string().contains("from: 3 states for a horizon of 3"), "{e}");
+    assert!(
+        e.to_string().contains("from: 3 states for a horizon of 3"),
+        "{e}"
+    );
     let mut wrong = zero.clone();
     wrong[2] = Tensor::zeros(4, 3);
     let e = m

@@ -396,8 +396,8 @@ impl Scene {
     /// `swept=True`, the old way to ask for that, is accepted; `swept=False` means
     /// `step_only=True`); `start` the starting controls
     /// `(T, K, 3)` (default the initial guess); `time_limit` in seconds; `timing=False` leaves the
-    /// wall-clock time out of the result (as `--no-timing`); `check` ("xpbd:N", "newton" or
-    /// "newton:TOL") re-simulates the plan under that physics and re-plans with a raised margin
+    /// wall-clock time out of the result (as `--no-timing`); `check` ("xpbd:N", "newton",
+    /// "newton:TOL" or "newton-branch[:H]") re-simulates the plan under that physics and re-plans with a raised margin
     /// up to `check_rounds` times where it is unsafe there (as `--check`); `target_model`
     /// "bfgs" or "gauss_newton" (as `--target-model`); `trial_work_factor` bounds a line-search
     /// trial's Newton rollout (as `--trial-work-factor`). Raises ValueError for a bad setting

@@ -120,8 +120,10 @@ pub struct OptimizeArgs {
     no_timing: bool,
     #[command(flatten)]
     physics: PhysicsArgs,
-    /// Check the plan under other physics: `xpbd:N` (XPBD at N iterations per step), `newton`
-    /// or `newton:TOL`. The plan must also be safe at δ there; where it is not, it is re-planned
+    /// Check the plan under other physics: `xpbd:N` (XPBD at N iterations per step), `newton`,
+    /// `newton:TOL`, or `newton-branch[:H]` (Newton with branch following, at most H load
+    /// halvings, default 10: whether the plan's end depends on which of a step's equilibria the
+    /// solver lands in). The plan must also be safe at δ there; where it is not, it is re-planned
     /// from itself with the margin raised by 1.25× the shortfall, up to `--check-rounds` times.
     #[arg(long)]
     check: Option<CheckPhysics>,

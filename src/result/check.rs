@@ -23,12 +23,28 @@ pub enum CheckPhysics {
         /// Relative `‖∇Φ‖` tolerance, in (0, 1).
         tolerance: f64,
     },
+    /// Newton with branch following ([`cloth::NewtonSettings::load_halvings`]) at the scene's
+    /// tolerance: each step's load applied in increments halved until each solve stays in the
+    /// convex neighbourhood of a minimizer, so that the cloth takes the equilibrium it reaches
+    /// continuously from the previous one. Where a step has several equilibria (a buckling
+    /// cloth, a towel lying down with friction), one solve from the predictor or the previous
+    /// state may end in another: a plan whose verdict changes under this check depends on
+    /// which equilibrium the solver's path lands in. Costs 5–60 rollouts of the default
+    /// physics (measured on the task suite, docs/experiments.md).
+    NewtonBranch {
+        /// Most halvings of a load increment, 1 to [`cloth::scene::MAX_LOAD_HALVINGS`].
+        halvings: usize,
+    },
 }
+
+/// `newton-branch`'s halvings when none are given.
+pub const BRANCH_HALVINGS: usize = 10;
 
 impl FromStr for CheckPhysics {
     type Err = Error;
 
-    /// `xpbd:N` (N iterations per step), `newton` (tolerance 1e-12) or `newton:TOL`.
+    /// `xpbd:N` (N iterations per step), `newton` (tolerance 1e-12), `newton:TOL`,
+    /// `newton-branch` ([`BRANCH_HALVINGS`] halvings) or `newton-branch:H`.
     fn from_str(s: &str) -> Result<Self> {
         let bad = |requirement: String| Error::InvalidSetting {
             name: "check".into(),
@@ -53,8 +69,19 @@ impl FromStr for CheckPhysics {
                     "needs Newton's tolerance in (0, 1) (`newton:1e-12`), got `{s}`"
                 ))),
             },
+            ("newton-branch", v) => match v.map_or(Ok(BRANCH_HALVINGS), str::parse::<usize>) {
+                Ok(halvings) if (1..=cloth::scene::MAX_LOAD_HALVINGS).contains(&halvings) => {
+                    Ok(CheckPhysics::NewtonBranch { halvings })
+                }
+                _ => Err(bad(format!(
+                    "needs the most load halvings as a count from 1 to {} \
+                     (`newton-branch:10`), got `{s}`",
+                    cloth::scene::MAX_LOAD_HALVINGS
+                ))),
+            },
             _ => Err(bad(format!(
-                "must be `xpbd:N`, `newton` or `newton:TOL`, got `{s}`"
+                "must be `xpbd:N`, `newton`, `newton:TOL`, `newton-branch` or \
+                 `newton-branch:H`, got `{s}`"
             ))),
         }
     }
@@ -65,6 +92,9 @@ impl fmt::Display for CheckPhysics {
         match self {
             CheckPhysics::Xpbd { iterations } => write!(f, "XPBD at {iterations} iterations"),
             CheckPhysics::Newton { tolerance } => write!(f, "Newton at tolerance {tolerance:e}"),
+            CheckPhysics::NewtonBranch { halvings } => {
+                write!(f, "Newton with branch following ({halvings} load halvings)")
+            }
         }
     }
 }
@@ -81,6 +111,10 @@ impl CheckPhysics {
             CheckPhysics::Newton { tolerance } => {
                 s.physics.solver = Some(SolverKind::Newton);
                 s.physics.tolerance = Some(tolerance);
+            }
+            CheckPhysics::NewtonBranch { halvings } => {
+                s.physics.solver = Some(SolverKind::Newton);
+                s.physics.load_halvings = Some(halvings);
             }
         }
         s

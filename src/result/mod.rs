@@ -21,7 +21,7 @@ pub mod search;
 pub mod strain;
 pub mod task;
 
-pub use check::{CheckPhysics, CheckRound, PhysicsCheck};
+pub use check::{CheckPhysics, CheckRound, PhysicsCheck, BRANCH_HALVINGS};
 pub use convert::{
     controls_from_nested, controls_to_nested, gripper_positions, mesh_triangles, state_points,
 };

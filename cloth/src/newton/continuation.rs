@@ -343,9 +343,9 @@ impl Model {
                     ..s
                 },
             ))),
-            Err(e @ (ClothError::NewtonWorkExceeded { .. } | ClothError::RolloutStopped { .. })) => {
-                Some(Err(e))
-            }
+            Err(
+                e @ (ClothError::NewtonWorkExceeded { .. } | ClothError::RolloutStopped { .. }),
+            ) => Some(Err(e)),
             Err(_) => None,
         }
     }

@@ -25,7 +25,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(Parser)]
-#[command(about = "Levenberg–Marquardt on a task's targets with trial rollouts kept on their branch")]
+#[command(
+    about = "Levenberg–Marquardt on a task's targets with trial rollouts kept on their branch"
+)]
 struct Args {
     /// A scene JSON file or a built-in scene's name (Newton physics).
     scene: String,
@@ -128,7 +130,10 @@ fn main() -> Result<()> {
     let scene = load_scene(&args.scene)?;
     let model = Model::from_scene(&scene).context("building the model")?;
     let Solver::Newton(settings) = model.solver else {
-        bail!("{}: the scene's physics is XPBD; this measures Newton rollouts", scene.name);
+        bail!(
+            "{}: the scene's physics is XPBD; this measures Newton rollouts",
+            scene.name
+        );
     };
     let mut u = match &args.controls {
         Some(path) => controls_from_file(path).map_err(anyhow::Error::msg)?,
@@ -142,7 +147,9 @@ fn main() -> Result<()> {
         "{}: start ½‖r‖² {cost:.6e}, largest target error {largest:.4} (tolerance {})",
         scene.name, model.task.tolerance
     );
-    println!("  it        mu  accepted   trial ½‖r‖²  largest   plain ½‖r‖²  largest  guided     s");
+    println!(
+        "  it        mu  accepted   trial ½‖r‖²  largest   plain ½‖r‖²  largest  guided     s"
+    );
     let mut mu = f64::NAN;
     let mut tangents: Option<ControlTangents> = None;
     let mut rows = Vec::new();
@@ -165,9 +172,15 @@ fn main() -> Result<()> {
             bail!("iteration {iteration}: the damped normal equations are not positive definite");
         };
         let mut trial = u.clone();
-        trial.data_mut().iter_mut().zip(&du).for_each(|(a, d)| *a += d);
+        trial
+            .data_mut()
+            .iter_mut()
+            .zip(&du)
+            .for_each(|(a, d)| *a += d);
         project_limits(&model, &mut trial);
-        let step: Vec<f64> = (trial.data().iter().zip(u.data())).map(|(a, b)| a - b).collect();
+        let step: Vec<f64> = (trial.data().iter().zip(u.data()))
+            .map(|(a, b)| a - b)
+            .collect();
         let rolled = if args.plain {
             model
                 .simulate_newton(&trial, &settings)

@@ -13,7 +13,9 @@
 //! measures (normalized coverage, mean particle distance), the counts (SQP iterations,
 //! simulations), the child's wall time, how far the plan's states are from equilibrium, and the
 //! converged re-simulation's largest target error and verdict (targets within tolerance, margin
-//! kept, nothing inside a collider). A solver the simulator rejects for a scene is a row
+//! kept, nothing inside a collider); with `--branch-check`, the same under branch following
+//! (`optimize --check newton-branch`'s physics: whether the plan's end depends on which of a
+//! step's equilibria one solve lands in). A solver the simulator rejects for a scene is a row
 //! `unsupported: <its error>`; a plan whose child fails is a row `error: <its error>`.
 
 use anyhow::{Context, Result};
@@ -21,7 +23,7 @@ use clap::{Parser, ValueEnum};
 use cloth::scene::SolverKind;
 use cloth::{Model, Scene};
 use clothopt::outcome::target_errors;
-use clothopt::result::{controls_from_nested, is_safe, PlanResult};
+use clothopt::result::{controls_from_nested, is_safe, CheckPhysics, PlanResult, BRANCH_HALVINGS};
 use experiments::plan_set::{self, PlanFlags, PlanSet};
 use experiments::report::fmt_opt;
 use experiments::scene_set::SceneFile;
@@ -44,6 +46,10 @@ struct Cli {
     /// Seconds each plan may take (`optimize --time-limit`).
     #[arg(long, default_value_t = 120.0, allow_negative_numbers = true)]
     time_limit: f64,
+    /// Also re-simulate each plan with branch following (`--check newton-branch`) and report
+    /// its largest target error and verdict (costs up to 60 rollouts a plan).
+    #[arg(long)]
+    branch_check: bool,
     #[command(flatten)]
     flags: PlanFlags,
 }
@@ -107,6 +113,14 @@ struct Plan {
     /// every target is within tolerance, the margin kept and no particle inside a collider.
     converged_max_target_error: Option<f64>,
     holds_converged: Option<bool>,
+    /// The same under branch following (`--branch-check`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    branch_max_target_error: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    holds_branch: Option<bool>,
+    /// Why the branch-following re-simulation failed, where it did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    branch_error: Option<String>,
     #[serde(skip_serializing_if = "Option::is_none")]
     result_file: Option<PathBuf>,
 }
@@ -119,19 +133,20 @@ fn main() -> Result<()> {
     let cli = Cli::parse();
     let set = PlanSet::new("suite", &cli.dir, &cli.scenes, cli.time_limit, &cli.flags)?;
     let rows = set.rows(&cli.physics, Physics::name, |scene, physics| {
-        run_one(&set, scene, physics)
+        run_one(&set, scene, physics, cli.branch_check)
     });
     print_table(&rows);
     let settings = serde_json::json!({
         "dir": cli.dir, "clothopt": set.clothopt, "time_limit_s": cli.time_limit,
-        "search": cli.flags.search, "physics": cli.physics,
+        "search": cli.flags.search, "physics": cli.physics, "branch_check": cli.branch_check,
     });
     plan_set::write_rows(cli.flags.out.as_deref(), &settings, &rows)
 }
 
 /// Plans `scene` under `physics` in a `clothopt optimize` child, then simulates the plan to
-/// convergence; or says why the physics is unsupported.
-fn run_one(set: &PlanSet, scene: &SceneFile, physics: Physics) -> Result<Outcome> {
+/// convergence (and under branch following with `branch`); or says why the physics is
+/// unsupported.
+fn run_one(set: &PlanSet, scene: &SceneFile, physics: Physics, branch: bool) -> Result<Outcome> {
     let base = scene.path.parent().unwrap_or(Path::new("."));
     let mut value: Value = serde_json::from_str(&scene.text)?;
     if let Some(solver) = physics.solver() {
@@ -143,7 +158,18 @@ fn run_one(set: &PlanSet, scene: &SceneFile, physics: Physics) -> Result<Outcome
         Err(message) => return Ok(Outcome::Unsupported { message }),
     };
     let (result, _, wall_s, result_file) = set.plan(scene, Some(value), physics.name())?;
-    let converged = converged_check(&loaded, &result).ok();
+    let mut newton = loaded.clone();
+    newton.physics.solver = Some(SolverKind::Newton);
+    newton.physics.tolerance = None;
+    let converged = resimulated(&newton, &result).ok();
+    let halvings = BRANCH_HALVINGS;
+    let branched = branch.then(|| {
+        resimulated(
+            &CheckPhysics::NewtonBranch { halvings }.apply(&loaded),
+            &result,
+        )
+        .map_err(|e| format!("{e:#}"))
+    });
     let p = result.physics.as_ref();
     Ok(Outcome::Planned(Box::new(Plan {
         physics: p.map_or("—".into(), |p| p.name()),
@@ -168,19 +194,19 @@ fn run_one(set: &PlanSet, scene: &SceneFile, physics: Physics) -> Result<Outcome
         equilibrium: p.and_then(|p| p.equilibrium.max_residual),
         converged_max_target_error: converged.map(|c| c.0),
         holds_converged: converged.map(|c| c.1),
+        branch_max_target_error: branched.as_ref().and_then(|b| b.as_ref().ok()).map(|c| c.0),
+        holds_branch: branched.as_ref().and_then(|b| b.as_ref().ok()).map(|c| c.1),
+        branch_error: branched.and_then(Result::err),
         result_file,
     })))
 }
 
-/// The plan of `result` simulated on `scene` by Newton at its default tolerance: the largest
+/// The plan of `result` simulated on `scene` (the plan's scene under other physics): the largest
 /// target error, and whether every target is within tolerance, the margin kept and no particle
-/// inside a collider (by more than the feasibility tolerance). An error where Newton cannot
+/// inside a collider (by more than the feasibility tolerance). An error where the physics cannot
 /// simulate the scene or the rollout fails.
-fn converged_check(scene: &Scene, result: &PlanResult) -> Result<(f64, bool)> {
-    let mut newton = scene.clone();
-    newton.physics.solver = Some(SolverKind::Newton);
-    newton.physics.tolerance = None;
-    let model = Model::from_scene(&newton)?;
+fn resimulated(scene: &Scene, result: &PlanResult) -> Result<(f64, bool)> {
+    let model = Model::from_scene(scene)?;
     let controls = controls_from_nested(&model, &result.controls)?;
     let ev = model.evaluate(&controls, result.delta, false)?;
     let errors = target_errors(&model, ev.states.last().context("an empty rollout")?);
@@ -221,10 +247,17 @@ fn print_table(rows: &[Row]) {
         let (scene, physics) = (r.scene.as_str(), r.variant.name());
         match &r.outcome {
             Outcome::Planned(p) => {
-                let converged = match (p.converged_max_target_error, p.holds_converged) {
+                let verdict = |e: Option<f64>, h: Option<bool>| match (e, h) {
                     (Some(e), Some(h)) => format!("{e:.4}, {}", if h { "yes" } else { "no" }),
                     _ => "—".into(),
                 };
+                let mut converged = verdict(p.converged_max_target_error, p.holds_converged);
+                if let Some(e) = &p.branch_error {
+                    converged = format!("{converged}; branch failed: {e}");
+                } else if p.branch_max_target_error.is_some() {
+                    let b = verdict(p.branch_max_target_error, p.holds_branch);
+                    converged = format!("{converged}; branch {b}");
+                }
                 let cells = [
                     p.physics.clone(),
                     p.verdict.clone(),
