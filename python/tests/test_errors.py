@@ -62,7 +62,7 @@ def test_non_finite_controls():
             {"target_model": "newton"},
             r"target_model: must be one of 'gauss_newton', 'bfgs', got 'newton'",
         ),
-        ({"check": "xpbd"}, r"check must be `xpbd:N`, `newton` or `newton:TOL`, got `xpbd`"),
+        ({"check": "xpbd"}, r"check must be `xpbd:N`, `newton`, `newton:TOL`, `newton-branch` or `newton-branch:H`, got `xpbd`"),
         ({"check": "newton:2"}, r"check needs Newton's tolerance in \(0, 1\)"),
     ],
 )
