@@ -228,7 +228,10 @@ impl Model {
     /// leaves the region where the exact Hessian is positive definite is abandoned and the
     /// increment halved (at most `load_halvings` times; at the smallest increment the solve
     /// takes whatever path it needs); after an accepted solve the increment doubles again, up to
-    /// `1/load_steps`. The iteration counts are summed, the residual is the last solve's.
+    /// `1/load_steps`. Under self-contact, an increment whose control move puts the cloth within
+    /// its thickness of itself is halved too, and at the smallest increment its grippers move in
+    /// filtered stages ([`NewtonSystem::solve_moving_controls`]). The iteration counts are
+    /// summed, the residual is the last solve's.
     fn solve_step_newton(
         &self,
         system: &mut NewtonSystem,
@@ -293,6 +296,12 @@ impl Model {
                     stats.rejected_loads += 1;
                     increment /= 2;
                     continue;
+                }
+                // At the finest increment the control move alone still does: the grippers move
+                // in filtered stages instead, as without branch following, the cloth making way.
+                Err(ClothError::SelfContactPenetration { .. }) => {
+                    let (xj, sj) = system.solve_moving_controls(&x, &xs, step, settings)?;
+                    (Some(xj), sj)
                 }
                 r => r?,
             };
