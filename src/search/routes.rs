@@ -5,8 +5,8 @@
 //! gripper to its particle's target (or, for a gripper without one, translates it by the
 //! targets' mean displacement) — as *carry routes* where a base's rollout rests the cloth on a
 //! collider (the grippers lifted on a half circle from the base's start to its end,
-//! [`super::carry`]), and as detours around the obstacles in the way that a base path's rollout
-//! runs into (the safety obstacles and the colliders no target lies on, [`super::obstacles`]):
+//! `super::carry`), and as detours around the obstacles in the way that a base path's rollout
+//! runs into (the safety obstacles and the colliders no target lies on, `super::obstacles`):
 //!
 //! 1. simulate the base path and mark the steps where the cloth (and, under the continuous check,
 //!    its straight motion from the step before) comes closer than `δ + clearance` to a safety
@@ -21,7 +21,7 @@
 //!    previous keypoint (the start, or the previous segment) and back to the end.
 //!
 //! Where the task hangs the cloth over a collider (targets on it above the grippers' ends), the
-//! drape route ([`super::drape`]) lifts the grippers over it and lowers them on the far side.
+//! drape route (`super::drape`) lifts the grippers over it and lowers them on the far side.
 //! Seeded random perturbations (a via-point at a random step with a random perpendicular offset
 //! up to the cloth's size) complete the set. Everything is deterministic.
 
@@ -132,7 +132,7 @@ pub fn propose(
 }
 
 /// When the rollout `states` of the controls `initial` rests the cloth on a collider, the carry
-/// routes ([`super::carry`]) of `initial` (`initial guess, carried`) and of the straight path
+/// routes (`super::carry`) of `initial` (`initial guess, carried`) and of the straight path
 /// (`straight, carried`; its end is the grippers' targets), each once; none otherwise. The lay
 /// route (`lay/`, `lay`) first, where the task has one. Also returns how many rollouts
 /// building them took (the lay route's corrections for the cloth's lag).

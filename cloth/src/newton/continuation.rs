@@ -93,8 +93,8 @@ impl Model {
 
     /// [`Model::simulate_newton`] with each step's solve started from a guess: `from[t]` moved
     /// by `moves[t]` (`T + 1` states and moves of all particles, the first unused), as far along
-    /// it as the barriers allow ([`Pattern::max_move`]: `from[t]` must be outside them, as an
-    /// earlier rollout's states are), so that the solve ends in the minimum of `Φ` whose basin
+    /// it as the barriers allow (the Newton predictor's filter: `from[t]` must be outside them,
+    /// as an earlier rollout's states are), so that the solve ends in the minimum of `Φ` whose basin
     /// holds the guess. A planner's trial keeps to the branch of the rollout it moves from, with
     /// the moves predicted by [`Model::newton_control_tangents`]. Where a guess cannot start a
     /// solve or its solve does not converge, the step is solved as [`Model::simulate_newton`]
@@ -194,7 +194,7 @@ impl Model {
             });
             let (x, s) = match guided {
                 Some(solved) => solved?,
-                _ => self.solve_step_newton(&mut system, &states[t], &u, t + 1, settings)?,
+                None => self.solve_step_newton(&mut system, &states[t], &u, t + 1, settings)?,
             };
             check_finite(&x, t + 1)?;
             // Every solve ends with the exact Hessian's factorization at the state it returns.

@@ -66,7 +66,7 @@ use crate::error::ClothError;
 use crate::model::Model;
 
 impl Model {
-    /// Whether Newton's method can solve this model ([`check_supported`]); the error names the
+    /// Whether Newton's method can solve this model (`check_supported`); the error names the
     /// first constraint group it cannot.
     ///
     /// # Errors

@@ -27,7 +27,7 @@ pub const DEFAULT_PCG_TOLERANCE: f64 = 1e-2;
 /// factorization at `u_obstacle` 40 × 40: criterion `newton_parts`, 0.64 against 10.3 ms), but
 /// the limit is seldom what ends an attempt: there (forward pass) 12 or 30 give 107 directions,
 /// 332 iterations and 63 fallbacks against 4's 102, 328 and 66, the same time within the noise;
-/// the attempts that fall back stall ([`super::pcg::STALL`]) or meet negative curvature first.
+/// the attempts that fall back stall (`super::pcg::STALL`) or meet negative curvature first.
 pub const DEFAULT_PCG_MAX_ITERATIONS: usize = 4;
 
 /// How Newton's linear systems are solved (`cloth/src/newton/pcg.rs`).
