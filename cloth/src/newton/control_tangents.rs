@@ -53,6 +53,9 @@ impl Model {
     /// [`ClothError::NewtonUnsupported`] for a model Newton cannot solve;
     /// [`ClothError::NewtonSaddle`] where a state's exact Hessian is not positive definite (not
     /// a minimizer: its tangent is not defined); a controls shape error.
+    ///
+    /// # Panics
+    /// If `states` holds fewer than `T + 1` states.
     pub fn newton_control_tangents(
         &self,
         states: &[Tensor],
@@ -66,16 +69,8 @@ impl Model {
         let mut steps = vec![Tensor::zeros(n_cols, 3 * n)];
         let mut coupling: Vec<(usize, usize, f64)> = Vec::new();
         for t in 1..=horizon {
-            let (prev, x) = (&states[t - 1], &states[t]);
-            let xt = self.begin_step(prev, &self.step_controls(controls, t - 1));
-            system.begin_step(prev);
-            system.fit_self_contact(x.data());
-            if !system.factorize_exact(x.data(), xt.data()) {
-                return Err(ClothError::NewtonSaddle {
-                    step: t,
-                    residual: f64::NAN,
-                });
-            }
+            let x = &states[t];
+            self.factorize_converged(&mut system, states, controls, t)?;
             coupling.clear();
             system
                 .pattern

@@ -36,16 +36,8 @@ impl Model {
         let mut tangents = vec![vec![Tensor::zeros(n, 3); k]];
         let mut rhs = vec![0.0; n_dof * k];
         for t in 1..=self.task.horizon {
-            let (prev, x) = (&states[t - 1], &states[t]);
-            let xt = self.begin_step(prev, &self.step_controls(controls, t - 1));
-            system.begin_step(prev);
-            system.fit_self_contact(x.data());
-            if !system.factorize_exact(x.data(), xt.data()) {
-                return Err(ClothError::NewtonSaddle {
-                    step: t,
-                    residual: f64::NAN,
-                });
-            }
+            let x = &states[t];
+            let xt = self.factorize_converged(&mut system, states, controls, t)?;
             for (j, p) in params.iter().enumerate() {
                 let col = &mut rhs[j * n_dof..(j + 1) * n_dof];
                 self.parameter_gradient(&system, p, x.data(), xt.data(), col);
@@ -76,6 +68,33 @@ impl Model {
             });
         }
         Ok(tangents)
+    }
+
+    /// Factorizes the exact Hessian of step `t`'s `Φ` (started from `states[t − 1]`) at its
+    /// converged state `states[t]`, the self-contact pattern fitted there; returns the step's
+    /// predicted state `x̃`.
+    ///
+    /// # Errors
+    /// [`ClothError::NewtonSaddle`] where that Hessian is not positive definite (not a
+    /// minimizer: the state's tangents are not defined).
+    pub(super) fn factorize_converged(
+        &self,
+        system: &mut NewtonSystem,
+        states: &[Tensor],
+        controls: &Controls,
+        t: usize,
+    ) -> Result<Tensor, ClothError> {
+        let (prev, x) = (&states[t - 1], &states[t]);
+        let xt = self.begin_step(prev, &self.step_controls(controls, t - 1));
+        system.begin_step(prev);
+        system.fit_self_contact(x.data());
+        if !system.factorize_exact(x.data(), xt.data()) {
+            return Err(ClothError::NewtonSaddle {
+                step: t,
+                residual: f64::NAN,
+            });
+        }
+        Ok(xt)
     }
 
     /// `∂(∇_f Φ)/∂ log θ` at `x` (full data; `xt` the step's predicted state) into `out` (degree
