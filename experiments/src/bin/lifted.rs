@@ -19,6 +19,7 @@ use anyhow::{bail, Context, Result};
 use autodiff::Tensor;
 use clap::Parser;
 use cloth::{controls_from_file, ControlTangents, Model, Solver};
+use clothopt::outcome::target_errors;
 use clothopt::request::load_scene;
 use experiments::report::write_json;
 use std::path::PathBuf;
@@ -58,13 +59,9 @@ fn residual(model: &Model, x: &Tensor) -> Vec<f64> {
 
 /// `½‖r‖²` and the largest target distance.
 fn score(model: &Model, x: &Tensor) -> (f64, f64) {
-    let r = residual(model, x);
-    let half = 0.5 * r.iter().map(|v| v * v).sum::<f64>();
-    let largest = r
-        .chunks_exact(3)
-        .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
-        .fold(0.0, f64::max);
-    (half, largest)
+    let errors = target_errors(model, x);
+    let half = 0.5 * errors.iter().map(|e| e * e).sum::<f64>();
+    (half, errors.iter().copied().fold(0.0, f64::max))
 }
 
 /// `u` moved onto the gripper limits: each step's displacement shortened to `max_step`, then the
