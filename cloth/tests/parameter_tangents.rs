@@ -2,7 +2,7 @@
 //! against central differences in the parameters' log-factors: stretch and bending stiffness, a
 //! custom constraint type's stiffness, mass, gravity and friction; under Newton in free space, on
 //! smooth contact with friction and with rigid contact rows; under XPBD in free space and on
-//! rigid contact with its friction rows.
+//! rigid contact with its friction rows. And with respect to the controls (module `controls`).
 
 mod common;
 
@@ -266,4 +266,205 @@ fn missing_parameters_are_named_errors() {
     assert!(err.contains("friction"), "{err}");
     let err = Parameter::parse("shear").value(&s).unwrap_err().to_string();
     assert!(err.contains("no parameter `shear`"), "{err}");
+}
+
+/// Derivatives with respect to the controls (`Model::newton_control_tangents`) against central
+/// differences, in free space and on smooth contact with friction; and rollouts whose steps start
+/// from guesses (`Model::simulate_newton_guided`): from their own states they are themselves,
+/// from the tangents' prediction for nearby controls they are those controls' rollout.
+mod controls {
+    use super::common::{behind, small_scene, BendKind, XorShift};
+    use autodiff::Tensor;
+    use cloth::scene::{ContactModel, ObstacleRole, SolverKind};
+    use cloth::{ClothError, Model, NewtonSettings, Scene, Solver};
+    use proptest::prelude::*;
+
+    /// A 5 × 5 cloth with distance bending, `T` 3, under Newton to 1e-12: hanging in free space, or
+    /// (`mu`) lying 0.01 above the plane z = 0 with smooth contact of friction `mu`.
+    fn model(mu: Option<f64>) -> Model {
+        let mut s: Scene = small_scene(5, 5, 3, 20, 2e3, BendKind::Distance(20.0));
+        s.physics.solver = Some(SolverKind::Newton);
+        if let Some(mu) = mu {
+            s.cloth.top_left = [-0.5, -0.5, 0.01];
+            s.cloth.down = [0.0, 1.0, 0.0];
+            let mut floor = behind("plane", ObstacleRole::Collider);
+            if let cloth::scene::Obstacle::Plane(p) = &mut floor {
+                p.friction = Some(mu);
+            }
+            s.obstacles = vec![floor];
+            s.physics.contact = super::common::contact_model(ContactModel::Smooth);
+        }
+        s.validate().unwrap();
+        let mut m = Model::from_scene(&s).unwrap();
+        m.solver = Solver::Newton(NewtonSettings {
+            tolerance: 1e-12,
+            ..NewtonSettings::default()
+        });
+        m
+    }
+
+    fn settings(m: &Model) -> NewtonSettings {
+        match m.solver {
+            Solver::Newton(s) => s,
+            Solver::Xpbd => unreachable!("the models here are Newton's"),
+        }
+    }
+
+    /// Both grippers moving by `motion` every step, the first 0.01 more along x.
+    fn controls(model: &Model, [dx, dy, dz]: [f64; 3]) -> Tensor {
+        let mut u = model.zero_controls();
+        for t in 0..model.task.horizon {
+            u.row_mut(t)
+                .copy_from_slice(&[dx + 0.01, dy, dz, dx, dy, dz]);
+        }
+        u
+    }
+
+    /// `u + s·du`.
+    fn moved(u: &Tensor, du: &[f64], s: f64) -> Tensor {
+        let mut v = u.clone();
+        v.data_mut()
+            .iter_mut()
+            .zip(du)
+            .for_each(|(a, d)| *a += s * d);
+        v
+    }
+
+    /// Every step's tangent along a random control direction against a central difference of step
+    /// 1e-6 (in metres per unit direction, the direction's largest entry 1).
+    fn check(m: &Model, u: &Tensor, seed: u64) -> Result<(), TestCaseError> {
+        let states = m.simulate(u).unwrap();
+        let tangents = m.newton_control_tangents(&states, u).unwrap();
+        let mut rng = XorShift::new(seed);
+        let du = rng.direction(u.data().len());
+        let largest = du.iter().fold(0.0f64, |a, d| a.max(d.abs()));
+        let du: Vec<f64> = du.iter().map(|d| d / largest).collect();
+        let h = 1e-6;
+        let plus = m.simulate(&moved(u, &du, h)).unwrap();
+        let minus = m.simulate(&moved(u, &du, -h)).unwrap();
+        for t in 1..=m.task.horizon {
+            let an = tangents.predict(t, &du);
+            let scale = an.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            prop_assert!(scale > 0.0, "step {t}: the tangent is zero");
+            for (i, a) in an.iter().enumerate() {
+                let fd = (plus[t].data()[i] - minus[t].data()[i]) / (2.0 * h);
+                prop_assert!(
+                    (fd - a).abs() <= 1e-5 * scale + 1e-7,
+                    "step {t}, coordinate {i}: tangent {a:e}, central difference {fd:e}"
+                );
+            }
+        }
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 4, ..ProptestConfig::default() })]
+
+        /// A hanging cloth swung in free space.
+        #[test]
+        fn free_space_control_tangents_match_central_differences(
+            dx in -0.1f64..0.1, dy in -0.1f64..0.1, dz in -0.05f64..0.05, seed in 1u64..1000,
+        ) {
+            let m = model(None);
+            check(&m, &controls(&m, [dx, dy, dz]), seed)?;
+        }
+
+        /// A flat cloth dragged over a floor with friction, under smooth contact.
+        #[test]
+        fn smooth_contact_control_tangents_match_central_differences(
+            mu in 0.2f64..1.5, dx in 0.01f64..0.08, dy in -0.05f64..0.05, seed in 1u64..1000,
+        ) {
+            let m = model(Some(mu));
+            check(&m, &controls(&m, [dx, dy, -0.02]), seed)?;
+        }
+    }
+
+    /// The largest coordinate difference between two rollouts.
+    fn distance(a: &[Tensor], b: &[Tensor]) -> f64 {
+        a.iter()
+            .zip(b)
+            .flat_map(|(x, y)| x.data().iter().zip(y.data()).map(|(p, q)| (p - q).abs()))
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn a_rollout_guided_by_its_own_states_is_itself() {
+        for mu in [None, Some(0.8)] {
+            let m = model(mu);
+            let u = controls(&m, [0.03, -0.02, -0.01]);
+            let (states, _) = m.simulate_newton(&u, &settings(&m)).unwrap();
+            let zero = vec![Tensor::zeros(m.n_particles(), 3); states.len()];
+            let (guided, from_guess) = m
+                .simulate_newton_guided(&u, &settings(&m), &states, &zero)
+                .unwrap();
+            assert_eq!(
+                from_guess, m.task.horizon,
+                "{mu:?}: every step from its guess"
+            );
+            let d = distance(&states, &guided.states);
+            assert!(d < 1e-9, "{mu:?}: the guided rollout is {d:e} away");
+        }
+    }
+
+    #[test]
+    fn guided_by_the_tangents_prediction_a_trial_is_its_own_rollout() {
+        for mu in [None, Some(0.8)] {
+            let m = model(mu);
+            let u = controls(&m, [0.03, -0.02, -0.01]);
+            let (states, _) = m.simulate_newton(&u, &settings(&m)).unwrap();
+            let tangents = m.newton_control_tangents(&states, &u).unwrap();
+            let du = XorShift::new(7).direction(u.data().len());
+            let trial = moved(&u, &du, 1e-3);
+            let moves: Vec<Tensor> = (0..=m.task.horizon)
+                .map(|t| {
+                    let dx = tangents.predict(t, &du);
+                    Tensor::new(m.n_particles(), 3, dx.iter().map(|d| 1e-3 * d).collect())
+                })
+                .collect();
+            let guesses: Vec<Tensor> = (states.iter().zip(&moves))
+                .map(|(x, d)| {
+                    let mut g = x.clone();
+                    g.add_assign(d);
+                    g
+                })
+                .collect();
+            let (plain, _) = m.simulate_newton(&trial, &settings(&m)).unwrap();
+            let (guided, from_guess) = m
+                .simulate_newton_guided(&trial, &settings(&m), &states, &moves)
+                .unwrap();
+            assert_eq!(from_guess, m.task.horizon, "{mu:?}");
+            let d = distance(&plain, &guided.states);
+            assert!(
+                d < 1e-9,
+                "{mu:?}: the guided trial is {d:e} from its plain rollout"
+            );
+            // The prediction itself is first order: its error is second order in the move.
+            let predicted = distance(&plain, &guesses);
+            assert!(predicted < 1e-4, "{mu:?}: predicted {predicted:e} off");
+        }
+    }
+
+    #[test]
+    fn guesses_that_do_not_match_the_model_are_named_errors() {
+        let m = model(None);
+        let u = controls(&m, [0.03, 0.0, 0.0]);
+        let (states, _) = m.simulate_newton(&u, &settings(&m)).unwrap();
+        let zero = vec![Tensor::zeros(m.n_particles(), 3); states.len()];
+        let e = m
+            .simulate_newton_guided(&u, &settings(&m), &states[1..], &zero)
+            .err()
+            .expect("too few guesses");
+        assert!(matches!(e, ClothError::Guesses(_)), "{e}");
+        assert!(
+            e.to_string().contains("from: 3 states for a horizon of 3"),
+            "{e}"
+        );
+        let mut wrong = zero.clone();
+        wrong[2] = Tensor::zeros(4, 3);
+        let e = m
+            .simulate_newton_guided(&u, &settings(&m), &states, &wrong)
+            .err()
+            .expect("a move of the wrong shape");
+        assert!(e.to_string().contains("moves: state 2 is 4 × 3"), "{e}");
+    }
 }
