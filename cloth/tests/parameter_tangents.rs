@@ -2,7 +2,7 @@
 //! against central differences in the parameters' log-factors: stretch and bending stiffness, a
 //! custom constraint type's stiffness, mass, gravity and friction; under Newton in free space, on
 //! smooth contact with friction and with rigid contact rows; under XPBD in free space and on
-//! rigid contact with its friction rows. And with respect to the controls (module `controls`).
+//! rigid contact with its friction rows. And with respect to the controls (module `control_tangents`).
 
 mod common;
 
@@ -272,35 +272,17 @@ fn missing_parameters_are_named_errors() {
 /// differences, in free space and on smooth contact with friction; and rollouts whose steps start
 /// from guesses (`Model::simulate_newton_guided`): from their own states they are themselves,
 /// from the tangents' prediction for nearby controls they are those controls' rollout.
-mod controls {
-    use super::common::{behind, small_scene, BendKind, XorShift};
+mod control_tangents {
+    use super::common::XorShift;
+    use super::controls;
     use autodiff::Tensor;
-    use cloth::scene::{ContactModel, ObstacleRole, SolverKind};
-    use cloth::{ClothError, Model, NewtonSettings, Scene, Solver};
+    use cloth::{ClothError, Model, NewtonSettings, Solver};
     use proptest::prelude::*;
 
-    /// A 5 × 5 cloth with distance bending, `T` 3, under Newton to 1e-12: hanging in free space, or
-    /// (`mu`) lying 0.01 above the plane z = 0 with smooth contact of friction `mu`.
+    /// The file's 5 × 5 cloth under Newton to 1e-12 ([`super::scene`]): hanging in free space,
+    /// or (`mu`) lying on the floor with smooth contact of friction `mu`.
     fn model(mu: Option<f64>) -> Model {
-        let mut s: Scene = small_scene(5, 5, 3, 20, 2e3, BendKind::Distance(20.0));
-        s.physics.solver = Some(SolverKind::Newton);
-        if let Some(mu) = mu {
-            s.cloth.top_left = [-0.5, -0.5, 0.01];
-            s.cloth.down = [0.0, 1.0, 0.0];
-            let mut floor = behind("plane", ObstacleRole::Collider);
-            if let cloth::scene::Obstacle::Plane(p) = &mut floor {
-                p.friction = Some(mu);
-            }
-            s.obstacles = vec![floor];
-            s.physics.contact = super::common::contact_model(ContactModel::Smooth);
-        }
-        s.validate().unwrap();
-        let mut m = Model::from_scene(&s).unwrap();
-        m.solver = Solver::Newton(NewtonSettings {
-            tolerance: 1e-12,
-            ..NewtonSettings::default()
-        });
-        m
+        super::model(&super::scene(mu), None)
     }
 
     fn settings(m: &Model) -> NewtonSettings {
@@ -308,16 +290,6 @@ mod controls {
             Solver::Newton(s) => s,
             Solver::Xpbd => unreachable!("the models here are Newton's"),
         }
-    }
-
-    /// Both grippers moving by `motion` every step, the first 0.01 more along x.
-    fn controls(model: &Model, [dx, dy, dz]: [f64; 3]) -> Tensor {
-        let mut u = model.zero_controls();
-        for t in 0..model.task.horizon {
-            u.row_mut(t)
-                .copy_from_slice(&[dx + 0.01, dy, dz, dx, dy, dz]);
-        }
-        u
     }
 
     /// `u + s·du`.

@@ -39,7 +39,7 @@ pub use options::{
 };
 pub use safety::start_inside_margin;
 pub use step_rows::{StepRow, HELD_MARGIN};
-pub use target::TargetModel;
+pub use target::{residual as target_residual, TargetModel};
 
 use crate::control_rows::{
     collider_rows, control_rows, gripper_collider_rows, workspace_rows, ControlRow, LinearRow,

@@ -45,7 +45,7 @@ pub(super) fn residual_len(model: &Model) -> usize {
 }
 
 /// `r = x_targets − p` at the final state `x` (`targets × 3`, row-major).
-pub(super) fn residual(model: &Model, x: &Tensor) -> Vec<f64> {
+pub fn residual(model: &Model, x: &Tensor) -> Vec<f64> {
     let task = &model.task;
     (0..task.targets.rows())
         .flat_map(|k| {

@@ -29,7 +29,7 @@ pub enum CheckPhysics {
     /// continuously from the previous one. Where a step has several equilibria (a buckling
     /// cloth, a towel lying down with friction), one solve from the predictor or the previous
     /// state may end in another: a plan whose verdict changes under this check depends on
-    /// which equilibrium the solver's path lands in. Costs 5–60 rollouts of the default
+    /// which equilibrium the solver's path lands in. Costs 23–70 rollouts of the default
     /// physics (measured on the task suite, docs/experiments.md).
     NewtonBranch {
         /// Most halvings of a load increment, 1 to [`cloth::scene::MAX_LOAD_HALVINGS`].

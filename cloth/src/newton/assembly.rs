@@ -349,6 +349,16 @@ impl Pattern {
         }
     }
 
+    /// Writes `z` (degree-of-freedom order) into the free coordinates of a full `N × 3` state
+    /// `out`, the inverse of [`Pattern::gather`]; the control particles' rows are left as they are.
+    pub fn scatter(&self, z: &[f64], out: &mut [f64]) {
+        for (p, &d) in self.dof_of.iter().enumerate() {
+            if d != NONE {
+                out[3 * p..3 * p + 3].copy_from_slice(&z[d as usize..d as usize + 3]);
+            }
+        }
+    }
+
     /// Copies the coordinates without a degree of freedom (the held control particles) of the
     /// full state `from` into `to`.
     pub fn hold_fixed(&self, from: &[f64], to: &mut [f64]) {

@@ -97,12 +97,7 @@ impl Model {
             }
             for (j, z) in rhs.chunks_exact_mut(n_dof.max(1)).take(live).enumerate() {
                 system.contacts.project_tangent(z);
-                let row = moved.row_mut(j);
-                for p in 0..n {
-                    if let Some(d) = system.pattern.dof(p) {
-                        row[3 * p..3 * p + 3].copy_from_slice(&z[d..d + 3]);
-                    }
-                }
+                system.pattern.scatter(z, moved.row_mut(j));
             }
             steps.push(moved);
         }

@@ -68,11 +68,7 @@ impl NewtonSystem {
         self.factor.solve_in_place(&mut rhs, 1);
         self.contacts.project_tangent(&mut rhs);
         let mut full = delta.to_vec();
-        for p in 0..full.len() / 3 {
-            if let Some(d) = self.pattern.dof(p) {
-                full[3 * p..3 * p + 3].copy_from_slice(&rhs[d..d + 3]);
-            }
-        }
+        self.pattern.scatter(&rhs, &mut full);
         let a = self.pattern.max_move(x.data(), &full);
         (a == 1.0 || a > alpha).then(|| {
             let mut start = x.clone();

@@ -53,11 +53,7 @@ impl Model {
                     let mut v = z.to_vec();
                     system.contacts.project_tangent(&mut v);
                     let mut full = Tensor::zeros(n, 3);
-                    for p in 0..n {
-                        if let Some(d) = system.pattern.dof(p) {
-                            full.row_mut(p).copy_from_slice(&v[d..d + 3]);
-                        }
-                    }
+                    system.pattern.scatter(&v, full.data_mut());
                     full
                 })
                 .collect();

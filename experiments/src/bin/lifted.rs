@@ -20,6 +20,7 @@ use autodiff::Tensor;
 use clap::Parser;
 use cloth::{controls_from_file, ControlTangents, Model, Solver};
 use clothopt::outcome::target_errors;
+use clothopt::problem::target_residual;
 use clothopt::request::load_scene;
 use experiments::report::write_json;
 use std::path::PathBuf;
@@ -44,17 +45,6 @@ struct Args {
     /// Write the last accepted controls (`{"controls": …}`) here.
     #[arg(long)]
     out: Option<PathBuf>,
-}
-
-/// The target term's residual `x_targets(T) − p`, flattened.
-fn residual(model: &Model, x: &Tensor) -> Vec<f64> {
-    let task = &model.task;
-    (0..task.targets.rows())
-        .flat_map(|k| {
-            let p = task.targets.row(k)[0];
-            (0..3).map(move |j| x.get(p, j) - task.target_positions.get(k, j))
-        })
-        .collect()
 }
 
 /// `½‖r‖²` and the largest target distance.
@@ -241,7 +231,7 @@ fn main() -> Result<()> {
 
 /// `∂r/∂U` (`3·targets × (T·3K)`, row-major) and `r` at the final state `x`.
 fn jacobian(model: &Model, s: &ControlTangents, x: &Tensor) -> (Vec<f64>, Vec<f64>) {
-    let r = residual(model, x);
+    let r = target_residual(model, x);
     let last = &s.steps[model.task.horizon];
     let n = last.rows();
     let task = &model.task;

@@ -47,7 +47,7 @@ struct Cli {
     #[arg(long, default_value_t = 120.0, allow_negative_numbers = true)]
     time_limit: f64,
     /// Also re-simulate each plan with branch following (`--check newton-branch`) and report
-    /// its largest target error and verdict (costs up to 60 rollouts a plan).
+    /// its largest target error and verdict (costs up to 70 rollouts a plan).
     #[arg(long)]
     branch_check: bool,
     #[command(flatten)]
